@@ -1,0 +1,78 @@
+//! Command-line interface: clap subcommands, one module each. Errors print their whole
+//! chain to stderr; exit codes: 0 ok, 1 a run finished but an accuracy gate failed,
+//! 2 usage, input or I/O error. A closed stdout (broken pipe) exits 0.
+
+mod export;
+mod inspect;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// fpkbench: simulate randomly excited nonlinear multi-mass systems, log their response
+/// as MCAP, and identify spring and damper characteristics back from the stationary
+/// density (Fokker–Planck–Kolmogorov method).
+#[derive(Parser)]
+#[command(name = "fpkbench", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Simulate(simulate::Args),
+    Inspect(inspect::Args),
+    Export(export::Args),
+}
+
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let result = match cli.command {
+        Command::Simulate(a) => simulate::run(a),
+        Command::Inspect(a) => inspect::run(a),
+        Command::Export(a) => export::run(a),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            if is_broken_pipe(&e) {
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("error: {e}");
+            for cause in e.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// `out/<scenario name>/<file>`.
+pub fn default_output(scenario: &str, file: &str) -> PathBuf {
+    PathBuf::from("out").join(scenario).join(file)
+}
+
+/// Print to stdout, turning a closed pipe into an error the caller maps to exit 0.
+pub fn emit(text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())?;
+    out.flush()?;
+    Ok(())
+}

@@ -1,0 +1,100 @@
+//! `fpkbench simulate`: scenario in, MCAP log out.
+
+use anyhow::Context;
+use fpkbench::io::log::LogWriter;
+use fpkbench::sim::simulate;
+use fpkbench::{Model, Scenario};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// Simulate a scenario and write its stationary response as an MCAP log.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario file (TOML), e.g. scenarios/duffing2dof.toml.
+    pub scenario: PathBuf,
+    /// Output log [default: out/<scenario name>/run.mcap].
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Print a JSON summary on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What a simulation wrote.
+pub struct Simulated {
+    pub log: PathBuf,
+    pub samples: u64,
+    pub bytes: u64,
+    pub seconds: f64,
+    pub steps: u64,
+}
+
+/// Simulate `scenario` into `output` with a progress bar on stderr.
+pub fn simulate_to(scenario: &Scenario, output: &Path) -> anyhow::Result<Simulated> {
+    let model = Model::new(scenario);
+    let sim = &scenario.simulation;
+    let total = (sim.trajectories * sim.samples_per_trajectory()) as u64;
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "simulating {bar:40} {percent:>3}% {human_pos}/{human_len} samples, eta {eta}",
+        )
+        .expect("valid template"),
+    );
+    let start = Instant::now();
+    let mut writer = LogWriter::create(output, scenario, &model)?;
+    let stats = simulate(&model, sim, &mut writer, &|n| bar.set_position(n))
+        .with_context(|| format!("simulating {}", scenario.name))?;
+    let summary = writer.finish()?;
+    bar.finish_and_clear();
+    Ok(Simulated {
+        log: summary.path,
+        samples: stats.samples,
+        bytes: summary.bytes,
+        seconds: start.elapsed().as_secs_f64(),
+        steps: stats.steps,
+    })
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let scenario = Scenario::from_file(&args.scenario)?;
+    let output = args
+        .output
+        .unwrap_or_else(|| super::default_output(&scenario.name, "run.mcap"));
+    let s = simulate_to(&scenario, &output)?;
+    let sim = &scenario.simulation;
+    let text = if args.json {
+        serde_json::json!({
+            "scenario": scenario.name,
+            "log": s.log,
+            "samples": s.samples,
+            "trajectories": sim.trajectories,
+            "record_length_s": sim.record_length,
+            "sample_interval_s": sim.sample_interval,
+            "bytes": s.bytes,
+            "bytes_per_sample": s.bytes as f64 / s.samples.max(1) as f64,
+            "integration_steps": s.steps,
+            "seconds": s.seconds,
+        })
+        .to_string()
+            + "\n"
+    } else {
+        format!(
+            "wrote {}\n  {} samples ({} trajectories x {} s, every {} s), {:.1} MB ({:.1} bytes/sample)\n  {:.3e} integration steps in {:.2} s ({:.3e} steps/s)\n",
+            s.log.display(),
+            s.samples,
+            sim.trajectories,
+            sim.record_length,
+            sim.sample_interval,
+            s.bytes as f64 / 1e6,
+            s.bytes as f64 / s.samples.max(1) as f64,
+            s.steps as f64,
+            s.seconds,
+            s.steps as f64 / s.seconds,
+        )
+    };
+    super::emit(&text)?;
+    Ok(ExitCode::SUCCESS)
+}

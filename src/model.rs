@@ -1,0 +1,276 @@
+//! The mechanical model compiled from a [`Scenario`] into flat arrays.
+//!
+//! One `Model` serves the simulator (forces on every mass, stepped in lanes) and the
+//! identifier (the drift and its derivative with respect to each link coefficient, the
+//! "features" `g_ir(y)` of DESIGN §2). Coefficients live in one contiguous array, dense
+//! by power, so evaluation needs no allocation. Depends only on `scenario`.
+
+use crate::scenario::{End, Process, Scenario};
+
+/// Marks a link end at the ground.
+pub const GROUND: usize = usize::MAX;
+
+/// Which characteristic of a link a coefficient belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Characteristic {
+    /// `K(u)`, `u` the relative displacement of the link's ends.
+    Stiffness,
+    /// `C(w)`, `w` the relative velocity of the link's ends.
+    Damping,
+}
+
+impl Characteristic {
+    pub fn symbol(self) -> char {
+        match self {
+            Characteristic::Stiffness => 'k',
+            Characteristic::Damping => 'c',
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Characteristic::Stiffness => "stiffness",
+            Characteristic::Damping => "damping",
+        }
+    }
+}
+
+/// One polynomial coefficient of one link: `k_p` or `c_q`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Coefficient {
+    pub link: usize,
+    pub kind: Characteristic,
+    pub power: u32,
+}
+
+/// A compiled excitation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompiledExcitation {
+    pub process: Process,
+    pub targets: Vec<usize>,
+    pub measured: bool,
+}
+
+/// The model in flat form.
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub mass_names: Vec<String>,
+    pub link_names: Vec<String>,
+    pub excitation_names: Vec<String>,
+    pub mass: Vec<f64>,
+    pub inv_mass: Vec<f64>,
+    /// First end of each link (a mass index).
+    pub link_a: Vec<usize>,
+    /// Second end of each link (a mass index or [`GROUND`]).
+    pub link_b: Vec<usize>,
+    /// Stiffness coefficients of link `l`: `coefs[k_start[l] + p − 1]` is `k_p`, `p = 1..=k_len[l]`.
+    pub k_start: Vec<usize>,
+    pub k_len: Vec<usize>,
+    pub c_start: Vec<usize>,
+    pub c_len: Vec<usize>,
+    pub coefs: Vec<f64>,
+    pub excitations: Vec<CompiledExcitation>,
+}
+
+/// Horner evaluation of `Σ_{p=1..len} coefs[p−1] z^p`.
+#[inline(always)]
+fn poly(coefs: &[f64], z: f64) -> f64 {
+    let mut acc = 0.0;
+    for &c in coefs.iter().rev() {
+        acc = acc * z + c;
+    }
+    acc * z
+}
+
+/// Derivative of [`poly`]: `Σ p coefs[p−1] z^(p−1)`.
+#[inline(always)]
+fn poly_derivative(coefs: &[f64], z: f64) -> f64 {
+    let mut acc = 0.0;
+    for (i, &c) in coefs.iter().enumerate().rev() {
+        acc = acc * z + (i + 1) as f64 * c;
+    }
+    acc
+}
+
+impl Model {
+    /// Compile a scenario's true system.
+    pub fn new(s: &Scenario) -> Model {
+        let mut m = Model {
+            mass_names: s.masses.iter().map(|m| m.name.clone()).collect(),
+            link_names: s.links.iter().map(|l| l.name.clone()).collect(),
+            excitation_names: s.excitations.iter().map(|e| e.name.clone()).collect(),
+            mass: s.masses.iter().map(|m| m.value).collect(),
+            inv_mass: s.masses.iter().map(|m| 1.0 / m.value).collect(),
+            link_a: Vec::new(),
+            link_b: Vec::new(),
+            k_start: Vec::new(),
+            k_len: Vec::new(),
+            c_start: Vec::new(),
+            c_len: Vec::new(),
+            coefs: Vec::new(),
+            excitations: s
+                .excitations
+                .iter()
+                .map(|e| CompiledExcitation {
+                    process: e.process,
+                    targets: e.acts_on.clone(),
+                    measured: e.measured,
+                })
+                .collect(),
+        };
+        for l in &s.links {
+            let idx = |e: End| match e {
+                End::Ground => GROUND,
+                End::Mass(i) => i,
+            };
+            // The scenario puts a ground end second, so `a` is always a mass.
+            m.link_a.push(idx(l.ends[0]));
+            m.link_b.push(idx(l.ends[1]));
+            for (poly, start, len) in [
+                (&l.stiffness, &mut m.k_start, &mut m.k_len),
+                (&l.damping, &mut m.c_start, &mut m.c_len),
+            ] {
+                let n = poly.max_power() as usize;
+                start.push(m.coefs.len());
+                len.push(n);
+                m.coefs.extend((1..=n as u32).map(|p| poly.coefficient(p)));
+            }
+        }
+        m
+    }
+
+    pub fn masses(&self) -> usize {
+        self.mass.len()
+    }
+    pub fn links(&self) -> usize {
+        self.link_a.len()
+    }
+
+    /// Stiffness coefficients of link `l`, dense from power 1.
+    pub fn stiffness(&self, l: usize) -> &[f64] {
+        &self.coefs[self.k_start[l]..self.k_start[l] + self.k_len[l]]
+    }
+    /// Damping coefficients of link `l`, dense from power 1.
+    pub fn damping(&self, l: usize) -> &[f64] {
+        &self.coefs[self.c_start[l]..self.c_start[l] + self.c_len[l]]
+    }
+
+    /// `+1` if mass `i` is the first end of link `l`, `−1` if the second, 0 otherwise.
+    pub fn sign(&self, l: usize, i: usize) -> f64 {
+        if self.link_a[l] == i {
+            1.0
+        } else if self.link_b[l] == i {
+            -1.0
+        } else {
+            0.0
+        }
+    }
+
+    /// Relative displacement `u = x_a − x_b` of link `l` (from positions `x`, or velocities).
+    #[inline]
+    pub fn relative(&self, l: usize, x: &[f64]) -> f64 {
+        let b = self.link_b[l];
+        x[self.link_a[l]] - if b == GROUND { 0.0 } else { x[b] }
+    }
+
+    /// The link force `F = K(u) + C(w)`.
+    #[inline]
+    pub fn link_force(&self, l: usize, u: f64, w: f64) -> f64 {
+        poly(self.stiffness(l), u) + poly(self.damping(l), w)
+    }
+
+    /// `K'(u)` and `C'(w)` of link `l`.
+    pub fn link_force_derivatives(&self, l: usize, u: f64, w: f64) -> (f64, f64) {
+        (
+            poly_derivative(self.stiffness(l), u),
+            poly_derivative(self.damping(l), w),
+        )
+    }
+
+    /// Net force on every mass from the links alone: `−Σ_ℓ s_iℓ F_ℓ` (no excitation).
+    pub fn link_forces(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|f| *f = 0.0);
+        for l in 0..self.links() {
+            let f = self.link_force(l, self.relative(l, x), self.relative(l, v));
+            out[self.link_a[l]] -= f;
+            if self.link_b[l] != GROUND {
+                out[self.link_b[l]] += f;
+            }
+        }
+    }
+
+    /// Whether a white-noise excitation acts on mass `i` (then its acceleration has no
+    /// value at an instant and is logged as `Δv ÷ interval`).
+    pub fn white_on(&self, i: usize) -> bool {
+        self.excitations
+            .iter()
+            .any(|e| matches!(e.process, Process::White { .. }) && e.targets.contains(&i))
+    }
+
+    /// Feature of one coefficient: the power of the relative displacement or velocity,
+    /// `u^p` or `w^q`. The drift of `v_i` changes by `−s_iℓ θ feature / m_i` per unit of
+    /// the coefficient `θ` (DESIGN §2: `g_ir = −s_iℓ z^p / m_i`).
+    #[inline]
+    pub fn feature(&self, c: Coefficient, x: &[f64], v: &[f64]) -> f64 {
+        let z = match c.kind {
+            Characteristic::Stiffness => self.relative(c.link, x),
+            Characteristic::Damping => self.relative(c.link, v),
+        };
+        z.powi(c.power as i32)
+    }
+
+    /// Drift of every velocity, `a_i(y) = (P_i − Σ s F)/m_i`, with the filtered forces
+    /// given in `ou` (one value per excitation; white ones are ignored, their mean is 0).
+    pub fn drift(&self, x: &[f64], v: &[f64], ou: &[f64], out: &mut [f64]) {
+        self.link_forces(x, v, out);
+        for (e, p) in self.excitations.iter().zip(ou) {
+            if let Process::Filtered { .. } = e.process {
+                for &i in &e.targets {
+                    out[i] += p;
+                }
+            }
+        }
+        for (o, im) in out.iter_mut().zip(&self.inv_mass) {
+            *o *= im;
+        }
+    }
+
+    /// Every coefficient the model has, with its true value, in link order.
+    pub fn coefficients(&self) -> Vec<(Coefficient, f64)> {
+        let mut out = Vec::new();
+        for l in 0..self.links() {
+            for (kind, cs) in [
+                (Characteristic::Stiffness, self.stiffness(l)),
+                (Characteristic::Damping, self.damping(l)),
+            ] {
+                for (i, &c) in cs.iter().enumerate() {
+                    if c != 0.0 {
+                        out.push((
+                            Coefficient {
+                                link: l,
+                                kind,
+                                power: i as u32 + 1,
+                            },
+                            c,
+                        ));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Human-readable name of a coefficient, e.g. `k3[ground-m1]`.
+    pub fn coefficient_name(&self, c: Coefficient) -> String {
+        format!(
+            "{}{}[{}]",
+            c.kind.symbol(),
+            c.power,
+            self.link_names[c.link]
+        )
+    }
+
+    /// Whether every link is linear (powers ≤ 1): then the stationary response is Gaussian.
+    pub fn is_linear(&self) -> bool {
+        self.k_len.iter().chain(&self.c_len).all(|&n| n <= 1)
+    }
+}

@@ -1,0 +1,550 @@
+//! Stochastic simulation of a [`Model`]: semi-implicit or explicit Euler–Maruyama steps,
+//! exact Ornstein–Uhlenbeck transitions, burn-in, sampling, parallel trajectories.
+//!
+//! Performance design: trajectories are stepped [`LANES`] at a time in struct-of-arrays
+//! lanes, so the CPU always has independent work while one lane waits on its state's
+//! dependency chain, and the per-link polynomial loop is amortised over the lanes. Each
+//! lane has its own `Xoshiro256PlusPlus`, seeded from `(seed, trajectory)`, so the output is
+//! bit-identical whatever the number of threads. Time advances in blocks of samples: in a
+//! block every lane group runs in parallel (rayon), then the block's samples are handed,
+//! in (time, trajectory) order, to a [`SampleSink`] — memory is bounded by one block.
+//!
+//! This module knows nothing of files: sinks (the MCAP writer, moment accumulators in
+//! tests) are supplied by the caller.
+
+use crate::model::{Model, GROUND};
+use crate::scenario::{Process, Scheme, Simulation};
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+
+/// Trajectories stepped together in one group.
+pub const LANES: usize = 8;
+type Lane = [f64; LANES];
+
+/// States whose magnitude passes this are taken as diverged.
+pub const DIVERGENCE_LIMIT: f64 = 1e10;
+
+/// Errors of a simulation run.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// The state became non-finite or exploded (usually `dt` too large for the stiffness).
+    #[error(
+        "simulation diverged in trajectory {trajectory} between t = {t_from:.6} s and t = {t_to:.6} s \
+         (time after burn-in; negative = during burn-in): state {}. Reduce dt (or raise substeps) \
+         or check the stiffness and damping signs",
+        .state.iter().map(|(n, v)| format!("{n} = {v:e}")).collect::<Vec<_>>().join(", ")
+    )]
+    Diverged {
+        trajectory: usize,
+        t_from: f64,
+        t_to: f64,
+        state: Vec<(String, f64)>,
+    },
+    /// The sink refused a batch (e.g. the log file could not be written).
+    #[error("writing samples failed")]
+    Sink(#[source] Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// Samples of one block, in (time, trajectory) order.
+#[derive(Debug, Clone, Default)]
+pub struct SampleBatch {
+    /// Values per sample (see [`columns`]).
+    pub columns: usize,
+    pub trajectory: Vec<u32>,
+    /// Time after burn-in, s.
+    pub time: Vec<f64>,
+    /// Row-major, `columns` values per sample.
+    pub values: Vec<f64>,
+}
+
+impl SampleBatch {
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
+    pub fn row(&self, i: usize) -> &[f64] {
+        &self.values[i * self.columns..(i + 1) * self.columns]
+    }
+}
+
+/// Where samples go.
+pub trait SampleSink {
+    fn write(&mut self, batch: SampleBatch)
+        -> Result<(), Box<dyn std::error::Error + Send + Sync>>;
+}
+
+/// Names of the logged values per sample: `x_<mass>`, `v_<mass>`, `a_<mass>` for every mass,
+/// then `P_<excitation>` for every excitation.
+pub fn columns(model: &Model) -> Vec<String> {
+    let mut c = Vec::new();
+    for m in &model.mass_names {
+        c.push(format!("x_{m}"));
+        c.push(format!("v_{m}"));
+        c.push(format!("a_{m}"));
+    }
+    for e in &model.excitation_names {
+        c.push(format!("P_{e}"));
+    }
+    c
+}
+
+/// What a finished run did.
+#[derive(Debug, Clone, Copy)]
+pub struct RunStats {
+    pub samples: u64,
+    /// Integration steps summed over trajectories (including burn-in and sub-steps).
+    pub steps: u64,
+}
+
+/// The seed of trajectory `j`'s generator: a SplitMix64 mix of the master seed and `j`.
+pub fn trajectory_seed(seed: u64, j: usize) -> u64 {
+    let mut z = seed
+        ^ (j as u64)
+            .wrapping_add(1)
+            .wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_133f_11eb);
+    z ^ (z >> 31)
+}
+
+/// Step constants shared by all groups.
+struct Stepping {
+    h: f64,
+    /// Per excitation: white `σ√h`, or OU exact-transition (decay, std).
+    white_scale: Vec<f64>,
+    ou_decay: Vec<f64>,
+    ou_std: Vec<f64>,
+    is_white: Vec<bool>,
+    semi_implicit: bool,
+}
+
+/// `LANES` trajectories in struct-of-arrays form.
+struct Group {
+    first: usize,
+    active: usize,
+    rng: Vec<Xoshiro256PlusPlus>,
+    x: Vec<Lane>,
+    v: Vec<Lane>,
+    /// Scratch: force on each mass.
+    f: Vec<Lane>,
+    /// Per excitation: OU force, or the white impulse accumulated since the last sample.
+    p: Vec<Lane>,
+    /// Velocities at the previous sample (for `Δv ÷ interval`).
+    v_mark: Vec<Lane>,
+    /// This block's samples: `[k][lane][column]`.
+    buf: Vec<f64>,
+}
+
+#[inline(always)]
+fn zero() -> Lane {
+    [0.0; LANES]
+}
+
+impl Group {
+    fn new(model: &Model, seed: u64, first: usize, active: usize) -> Group {
+        let n = model.masses();
+        let ne = model.excitations.len();
+        Group {
+            first,
+            active,
+            rng: (0..LANES)
+                .map(|l| Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l)))
+                .collect(),
+            x: vec![zero(); n],
+            v: vec![zero(); n],
+            f: vec![zero(); n],
+            p: vec![zero(); ne],
+            v_mark: vec![zero(); n],
+            buf: Vec::new(),
+        }
+    }
+
+    /// Link forces plus filtered excitation forces on every mass, into `self.f`.
+    #[inline(always)]
+    fn forces(&mut self, m: &Model, st: &Stepping) {
+        for f in self.f.iter_mut() {
+            *f = zero();
+        }
+        for l in 0..m.link_a.len() {
+            let a = m.link_a[l];
+            let b = m.link_b[l];
+            let (xa, va) = (self.x[a], self.v[a]);
+            let (xb, vb) = if b == GROUND {
+                (zero(), zero())
+            } else {
+                (self.x[b], self.v[b])
+            };
+            let k = &m.coefs[m.k_start[l]..m.k_start[l] + m.k_len[l]];
+            let c = &m.coefs[m.c_start[l]..m.c_start[l] + m.c_len[l]];
+            let mut force = zero();
+            let mut ku = zero();
+            let mut cw = zero();
+            for j in 0..LANES {
+                let u = xa[j] - xb[j];
+                let w = va[j] - vb[j];
+                let mut acc = 0.0;
+                for &kk in k.iter().rev() {
+                    acc = acc * u + kk;
+                }
+                ku[j] = acc * u;
+                let mut acc = 0.0;
+                for &cc in c.iter().rev() {
+                    acc = acc * w + cc;
+                }
+                cw[j] = acc * w;
+            }
+            for j in 0..LANES {
+                force[j] = ku[j] + cw[j];
+            }
+            for j in 0..LANES {
+                self.f[a][j] -= force[j];
+            }
+            if b != GROUND {
+                for j in 0..LANES {
+                    self.f[b][j] += force[j];
+                }
+            }
+        }
+        for (e, exc) in m.excitations.iter().enumerate() {
+            if !st.is_white[e] {
+                for &i in &exc.targets {
+                    for j in 0..LANES {
+                        self.f[i][j] += self.p[e][j];
+                    }
+                }
+            }
+        }
+    }
+
+    /// One integration step of length `st.h` for every lane.
+    #[inline(always)]
+    fn step(&mut self, m: &Model, st: &Stepping) {
+        self.forces(m, st);
+        let h = st.h;
+        if !st.semi_implicit {
+            for i in 0..self.x.len() {
+                for j in 0..LANES {
+                    self.x[i][j] += h * self.v[i][j];
+                }
+            }
+        }
+        // Deterministic (v, then excitation) update: drift, then white impulses.
+        for i in 0..self.v.len() {
+            let im = m.inv_mass[i];
+            for j in 0..LANES {
+                self.v[i][j] += h * im * self.f[i][j];
+            }
+        }
+        for (e, exc) in m.excitations.iter().enumerate() {
+            if st.is_white[e] {
+                let mut dp = zero();
+                for (j, r) in self.rng.iter_mut().enumerate() {
+                    let z: f64 = StandardNormal.sample(r);
+                    dp[j] = st.white_scale[e] * z;
+                }
+                for j in 0..LANES {
+                    self.p[e][j] += dp[j];
+                }
+                for &i in &exc.targets {
+                    let im = m.inv_mass[i];
+                    for j in 0..LANES {
+                        self.v[i][j] += im * dp[j];
+                    }
+                }
+            } else {
+                let (d, s) = (st.ou_decay[e], st.ou_std[e]);
+                for (j, r) in self.rng.iter_mut().enumerate() {
+                    let z: f64 = StandardNormal.sample(r);
+                    self.p[e][j] = self.p[e][j] * d + s * z;
+                }
+            }
+        }
+        if st.semi_implicit {
+            for i in 0..self.x.len() {
+                for j in 0..LANES {
+                    self.x[i][j] += h * self.v[i][j];
+                }
+            }
+        }
+    }
+
+    /// First lane (if any) whose state is non-finite or beyond [`DIVERGENCE_LIMIT`].
+    fn diverged_lane(&self) -> Option<usize> {
+        (0..self.active).find(|&j| {
+            self.x
+                .iter()
+                .chain(&self.v)
+                .chain(&self.p)
+                .any(|s| !(s[j].abs() < DIVERGENCE_LIMIT))
+        })
+    }
+
+    fn state_of(&self, m: &Model, j: usize) -> Vec<(String, f64)> {
+        let mut s = Vec::new();
+        for (i, n) in m.mass_names.iter().enumerate() {
+            s.push((format!("x_{n}"), self.x[i][j]));
+            s.push((format!("v_{n}"), self.v[i][j]));
+        }
+        for (e, n) in m.excitation_names.iter().enumerate() {
+            s.push((format!("P_{n}"), self.p[e][j]));
+        }
+        s
+    }
+
+    /// Advance `samples` sample intervals of `steps` steps each, recording into `buf`
+    /// (when `record`), checking divergence after every interval.
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &mut self,
+        m: &Model,
+        st: &Stepping,
+        steps: usize,
+        samples: usize,
+        interval: f64,
+        t0: f64,
+        record: bool,
+    ) -> Result<(), SimError> {
+        let n = m.masses();
+        let ne = m.excitations.len();
+        let cols = 3 * n + ne;
+        if record {
+            self.buf.clear();
+            self.buf.resize(samples * LANES * cols, 0.0);
+        }
+        let white_mass: Vec<bool> = (0..n).map(|i| m.white_on(i)).collect();
+        for k in 0..samples {
+            for _ in 0..steps {
+                self.step(m, st);
+            }
+            if let Some(j) = self.diverged_lane() {
+                return Err(SimError::Diverged {
+                    trajectory: self.first + j,
+                    t_from: t0 + k as f64 * interval,
+                    t_to: t0 + (k + 1) as f64 * interval,
+                    state: self.state_of(m, j),
+                });
+            }
+            if record {
+                // Instantaneous force balance for masses without white noise.
+                self.forces(m, st);
+                let row0 = k * LANES * cols;
+                for j in 0..LANES {
+                    let row = &mut self.buf[row0 + j * cols..row0 + (j + 1) * cols];
+                    for i in 0..n {
+                        row[3 * i] = self.x[i][j];
+                        row[3 * i + 1] = self.v[i][j];
+                        row[3 * i + 2] = if white_mass[i] {
+                            (self.v[i][j] - self.v_mark[i][j]) / interval
+                        } else {
+                            self.f[i][j] * m.inv_mass[i]
+                        };
+                    }
+                    for e in 0..ne {
+                        row[3 * n + e] = if st.is_white[e] {
+                            self.p[e][j] / interval
+                        } else {
+                            self.p[e][j]
+                        };
+                    }
+                }
+            }
+            self.v_mark.clone_from(&self.v);
+            for e in 0..ne {
+                if st.is_white[e] {
+                    self.p[e] = zero();
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn stepping(model: &Model, sim: &Simulation) -> Stepping {
+    let h = sim.dt / sim.substeps as f64;
+    let mut st = Stepping {
+        h,
+        white_scale: Vec::new(),
+        ou_decay: Vec::new(),
+        ou_std: Vec::new(),
+        is_white: Vec::new(),
+        semi_implicit: sim.scheme == Scheme::SemiImplicit,
+    };
+    for e in &model.excitations {
+        match e.process {
+            Process::White { sigma } => {
+                st.is_white.push(true);
+                st.white_scale.push(sigma * h.sqrt());
+                st.ou_decay.push(0.0);
+                st.ou_std.push(0.0);
+            }
+            Process::Filtered { a, b } => {
+                // Exact transition of dP = −B P dt + A dW over h.
+                let d = (-b * h).exp();
+                st.is_white.push(false);
+                st.white_scale.push(0.0);
+                st.ou_decay.push(d);
+                st.ou_std.push(a * ((1.0 - d * d) / (2.0 * b)).sqrt());
+            }
+        }
+    }
+    st
+}
+
+/// Samples per block so that a group's block is about `2e5` steps (bounded memory, cheap
+/// synchronisation).
+fn block_samples(steps_per_sample: usize, total: usize) -> usize {
+    (200_000 / steps_per_sample.max(1))
+        .clamp(1, 4096)
+        .min(total.max(1))
+}
+
+/// Simulate every trajectory of `sim` and hand the samples to `sink`, block by block, in
+/// (time, trajectory) order. `progress` is called with the number of samples written so far.
+pub fn simulate(
+    model: &Model,
+    sim: &Simulation,
+    sink: &mut dyn SampleSink,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RunStats, SimError> {
+    let st = stepping(model, sim);
+    let steps = sim.steps_per_sample() * sim.substeps;
+    let interval = sim.sample_interval;
+    let total = sim.samples_per_trajectory();
+    let cols = 3 * model.masses() + model.excitations.len();
+    let mut groups: Vec<Group> = (0..sim.trajectories.div_ceil(LANES))
+        .map(|g| {
+            Group::new(
+                model,
+                sim.seed,
+                g * LANES,
+                (sim.trajectories - g * LANES).min(LANES),
+            )
+        })
+        .collect();
+
+    // Burn-in, in whole sample intervals (plus the remainder) so divergence is caught early.
+    let burn_steps = sim.burn_in_steps() * sim.substeps;
+    let burn_intervals = burn_steps / steps;
+    let burn_rest = burn_steps % steps;
+    let t_burn = -(burn_steps as f64) * st.h;
+    groups.par_iter_mut().try_for_each(|g| {
+        g.run(model, &st, steps, burn_intervals, interval, t_burn, false)?;
+        g.run(
+            model,
+            &st,
+            burn_rest,
+            1,
+            burn_rest as f64 * st.h,
+            t_burn + burn_intervals as f64 * interval,
+            false,
+        )?;
+        // The first sample's Δv and impulse start here.
+        g.v_mark.clone_from(&g.v);
+        Ok::<(), SimError>(())
+    })?;
+
+    let block = block_samples(steps, total);
+    let mut done = 0usize;
+    while done < total {
+        let b = block.min(total - done);
+        let t0 = done as f64 * interval;
+        let results: Vec<Result<(), SimError>> = groups
+            .par_iter_mut()
+            .map(|g| g.run(model, &st, steps, b, interval, t0, true))
+            .collect();
+        // The first failing group in trajectory order, whatever the thread count.
+        results.into_iter().collect::<Result<Vec<()>, SimError>>()?;
+        let mut batch = SampleBatch {
+            columns: cols,
+            trajectory: Vec::with_capacity(b * sim.trajectories),
+            time: Vec::with_capacity(b * sim.trajectories),
+            values: Vec::with_capacity(b * sim.trajectories * cols),
+        };
+        for k in 0..b {
+            let t = (done + k + 1) as f64 * interval;
+            for g in &groups {
+                for j in 0..g.active {
+                    batch.trajectory.push((g.first + j) as u32);
+                    batch.time.push(t);
+                    let at = (k * LANES + j) * cols;
+                    batch.values.extend_from_slice(&g.buf[at..at + cols]);
+                }
+            }
+        }
+        sink.write(batch).map_err(SimError::Sink)?;
+        done += b;
+        progress((done * sim.trajectories) as u64);
+    }
+    let steps_total = (groups.len() * LANES) as u64 * (burn_steps + total * steps) as u64;
+    Ok(RunStats {
+        samples: (total * sim.trajectories) as u64,
+        steps: steps_total,
+    })
+}
+
+/// A sink that keeps every sample in memory (tests and small runs).
+#[derive(Debug, Default)]
+pub struct Collect {
+    pub batches: Vec<SampleBatch>,
+}
+
+impl SampleSink for Collect {
+    fn write(
+        &mut self,
+        batch: SampleBatch,
+    ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        self.batches.push(batch);
+        Ok(())
+    }
+}
+
+/// A sink that accumulates, per column, the sum and the matrix of cross products in
+/// constant memory: means and covariances of the stationary response.
+#[derive(Debug, Clone)]
+pub struct Moments {
+    pub count: u64,
+    pub sum: Vec<f64>,
+    /// Row-major `columns × columns`.
+    pub cross: Vec<f64>,
+}
+
+impl Moments {
+    pub fn new(columns: usize) -> Moments {
+        Moments {
+            count: 0,
+            sum: vec![0.0; columns],
+            cross: vec![0.0; columns * columns],
+        }
+    }
+    pub fn mean(&self, i: usize) -> f64 {
+        self.sum[i] / self.count as f64
+    }
+    pub fn covariance(&self, i: usize, j: usize) -> f64 {
+        let n = self.sum.len();
+        self.cross[i * n + j] / self.count as f64 - self.mean(i) * self.mean(j)
+    }
+}
+
+impl SampleSink for Moments {
+    fn write(
+        &mut self,
+        batch: SampleBatch,
+    ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        let n = self.sum.len();
+        for r in 0..batch.len() {
+            let row = batch.row(r);
+            for i in 0..n {
+                self.sum[i] += row[i];
+                for j in 0..n {
+                    self.cross[i * n + j] += row[i] * row[j];
+                }
+            }
+        }
+        self.count += batch.len() as u64;
+        Ok(())
+    }
+}

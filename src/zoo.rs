@@ -1,0 +1,155 @@
+//! Reference systems with known answers, shared by tests, benches and examples.
+//!
+//! - scenario texts for the reference systems (linear SDOF, Duffing SDOF, linear 2-DOF,
+//!   OU-driven SDOF);
+//! - the exact stationary covariance of any linear model under white and filtered noise
+//!   (continuous Lyapunov equation `AΣ + ΣAᵀ + GGᵀ = 0`);
+//! - the exact stationary covariance of the *discrete* semi-implicit and explicit
+//!   Euler–Maruyama recursions for a linear model under white noise (discrete Lyapunov
+//!   equation `Σ = ΦΣΦᵀ + ΓΓᵀ`), which quantifies each scheme's bias.
+//!
+//! State order everywhere here: `x_1..x_n, v_1..v_n`, then one entry per filtered force.
+
+use crate::model::{Model, GROUND};
+use crate::scenario::{Process, Scenario, Scheme};
+use nalgebra::{DMatrix, DVector};
+
+/// A linear SDOF `m ẍ + c ẋ + k x = σ ξ` scenario.
+pub fn linear_sdof(m: f64, k: f64, c: f64, sigma: f64, sim: &str) -> Scenario {
+    let src = format!(
+        "name = \"linear_sdof\"\n[[mass]]\nname = \"m1\"\nvalue = {m:?}\n\
+         [[link]]\nends = [\"ground\", \"m1\"]\nstiffness = {{ 1 = {k:?} }}\ndamping = {{ 1 = {c:?} }}\n\
+         [[excitation]]\nkind = \"white\"\nsigma = {sigma:?}\nacts_on = [\"m1\"]\n[simulation]\n{sim}\n"
+    );
+    Scenario::parse(&src, "zoo:linear_sdof", "linear_sdof").expect("zoo scenario is valid")
+}
+
+/// A linear 2-DOF chain ground–m1–m2–ground under white forces on both masses.
+pub fn linear_2dof(sim: &str) -> Scenario {
+    let src = format!(
+        "name = \"linear_2dof\"\n\
+         [[mass]]\nname = \"m1\"\nvalue = 1.0\n[[mass]]\nname = \"m2\"\nvalue = 2.0\n\
+         [[link]]\nends = [\"ground\", \"m1\"]\nstiffness = {{ 1 = 10.0 }}\ndamping = {{ 1 = 1.0 }}\n\
+         [[link]]\nends = [\"m1\", \"m2\"]\nstiffness = {{ 1 = 5.0 }}\ndamping = {{ 1 = 0.4 }}\n\
+         [[link]]\nends = [\"ground\", \"m2\"]\nstiffness = {{ 1 = 8.0 }}\ndamping = {{ 1 = 0.6 }}\n\
+         [[excitation]]\nkind = \"white\"\nsigma = 1.0\nacts_on = [\"m1\"]\n\
+         [[excitation]]\nkind = \"white\"\nsigma = 0.7\nacts_on = [\"m2\"]\n\
+         [simulation]\n{sim}\n"
+    );
+    Scenario::parse(&src, "zoo:linear_2dof", "linear_2dof").expect("zoo scenario is valid")
+}
+
+/// A linear SDOF driven by an Ornstein–Uhlenbeck force `dP = −B P dt + A dW`.
+pub fn filtered_sdof(m: f64, k: f64, c: f64, a: f64, b: f64, sim: &str) -> Scenario {
+    let src = format!(
+        "name = \"filtered_sdof\"\n[[mass]]\nname = \"m1\"\nvalue = {m:?}\n\
+         [[link]]\nends = [\"ground\", \"m1\"]\nstiffness = {{ 1 = {k:?} }}\ndamping = {{ 1 = {c:?} }}\n\
+         [[excitation]]\nkind = \"filtered\"\nA = {a:?}\nB = {b:?}\nacts_on = [\"m1\"]\n[simulation]\n{sim}\n"
+    );
+    Scenario::parse(&src, "zoo:filtered_sdof", "filtered_sdof").expect("zoo scenario is valid")
+}
+
+/// Exact stationary variances `(E[x²], E[v²])` of `m ẍ + c ẋ + k x = σ ξ`:
+/// `σ²/(2ck)` and `σ²/(2cm)`.
+pub fn linear_sdof_variances(m: f64, k: f64, c: f64, sigma: f64) -> (f64, f64) {
+    (sigma * sigma / (2.0 * c * k), sigma * sigma / (2.0 * c * m))
+}
+
+/// Drift matrix `A` and noise matrix `G` of a linear model (`dy = A y dt + G dW`), or
+/// `None` if some link is nonlinear.
+pub fn linear_system(model: &Model) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    if !model.is_linear() {
+        return None;
+    }
+    let n = model.masses();
+    let ou: Vec<usize> = (0..model.excitations.len())
+        .filter(|&e| matches!(model.excitations[e].process, Process::Filtered { .. }))
+        .collect();
+    let dim = 2 * n + ou.len();
+    let mut a = DMatrix::zeros(dim, dim);
+    let mut g = DMatrix::zeros(dim, model.excitations.len());
+    for i in 0..n {
+        a[(i, n + i)] = 1.0;
+    }
+    for l in 0..model.links() {
+        let k = model.stiffness(l).first().copied().unwrap_or(0.0);
+        let c = model.damping(l).first().copied().unwrap_or(0.0);
+        let ends = [model.link_a[l], model.link_b[l]];
+        for &i in ends.iter().filter(|&&i| i != GROUND) {
+            let si = model.sign(l, i);
+            for &j in ends.iter().filter(|&&j| j != GROUND) {
+                let sj = model.sign(l, j);
+                // u = Σ_j s_j x_j; force on i is −s_i (k u + c w).
+                a[(n + i, j)] -= si * sj * k / model.mass[i];
+                a[(n + i, n + j)] -= si * sj * c / model.mass[i];
+            }
+        }
+    }
+    for (e, exc) in model.excitations.iter().enumerate() {
+        match exc.process {
+            Process::White { sigma } => {
+                for &i in &exc.targets {
+                    g[(n + i, e)] = sigma / model.mass[i];
+                }
+            }
+            Process::Filtered { a: amp, b } => {
+                let r = 2 * n + ou.iter().position(|&o| o == e).unwrap();
+                a[(r, r)] = -b;
+                g[(r, e)] = amp;
+                for &i in &exc.targets {
+                    a[(n + i, r)] = 1.0 / model.mass[i];
+                }
+            }
+        }
+    }
+    Some((a, g))
+}
+
+/// Exact stationary covariance of a linear model, or `None` if it is nonlinear or has no
+/// stationary state.
+pub fn stationary_covariance(model: &Model) -> Option<DMatrix<f64>> {
+    let (a, g) = linear_system(model)?;
+    let dim = a.nrows();
+    let id = DMatrix::<f64>::identity(dim, dim);
+    // vec(AΣ + ΣAᵀ) = (I⊗A + A⊗I) vec(Σ), column-major vec.
+    let op = id.kronecker(&a) + a.kronecker(&id);
+    let q = &g * g.transpose();
+    let rhs = -DVector::from_column_slice(q.as_slice());
+    let sol = op.lu().solve(&rhs)?;
+    Some(DMatrix::from_column_slice(dim, dim, sol.as_slice()))
+}
+
+/// Exact stationary covariance of the discrete recursion that `scheme` applies to a linear
+/// model under white noise with step `h`. `None` if the model is nonlinear or has filtered
+/// excitations.
+pub fn discrete_stationary_covariance(
+    model: &Model,
+    scheme: Scheme,
+    h: f64,
+) -> Option<DMatrix<f64>> {
+    let (a, g) = linear_system(model)?;
+    let n = model.masses();
+    if a.nrows() != 2 * n {
+        return None;
+    }
+    let dim = 2 * n;
+    let id = DMatrix::<f64>::identity(dim, dim);
+    // Velocity rows: v' = v + h (A_vx x + A_vv v) + G_v ΔW.
+    let mut phi = &id + &a * h;
+    let mut gam = &g * h.sqrt();
+    if scheme == Scheme::SemiImplicit {
+        // x' = x + h v' : x rows become [I, 0] + h · (velocity rows).
+        for i in 0..n {
+            for j in 0..dim {
+                phi[(i, j)] = if i == j { 1.0 } else { 0.0 } + h * phi[(n + i, j)];
+            }
+            for e in 0..gam.ncols() {
+                gam[(i, e)] = h * gam[(n + i, e)];
+            }
+        }
+    }
+    let q = &gam * gam.transpose();
+    let big = DMatrix::<f64>::identity(dim * dim, dim * dim) - phi.kronecker(&phi);
+    let sol = big.lu().solve(&DVector::from_column_slice(q.as_slice()))?;
+    Some(DMatrix::from_column_slice(dim, dim, sol.as_slice()))
+}
