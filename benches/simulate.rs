@@ -1,1 +1,170 @@
-fn main() {}
+//! Simulator throughput against the random-number bound, parallel scaling, and the cost
+//! of logging. Run: `cargo bench --bench simulate` (add `-- --quick` for a cheap pass).
+//!
+//! After criterion's own figures, a summary prints the ratios the targets are stated in,
+//! all measured in this one run:
+//! - trajectory-steps/s per core ÷ (raw normal rate ÷ normals per step), target ≥ 0.8;
+//! - 2-thread ÷ 1-thread throughput, target ≥ 1.8;
+//! - time with an MCAP log every 10th step ÷ time without logging, target ≤ 1.25;
+//! - log bytes per sample.
+
+use criterion::{Criterion, Throughput};
+use fpkbench::io::log::LogWriter;
+use fpkbench::model::Model;
+use fpkbench::sim::{simulate, SampleBatch, SampleSink, LANES};
+use fpkbench::Scenario;
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+use std::hint::black_box;
+use std::time::Instant;
+
+struct Discard;
+impl SampleSink for Discard {
+    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        black_box(&b);
+        Ok(())
+    }
+}
+
+/// duffing2dof with `trajectories`, a record of `record` s, sampled every `every` steps.
+fn scenario(trajectories: usize, record: f64, every: usize) -> Scenario {
+    let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
+    let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+    s.simulation.trajectories = trajectories;
+    s.simulation.record_length = record;
+    s.simulation.burn_in = 0.0;
+    s.simulation.sample_interval = every as f64 * s.simulation.dt;
+    s
+}
+
+fn steps(s: &Scenario) -> u64 {
+    let sim = &s.simulation;
+    (sim.trajectories.div_ceil(LANES)
+        * LANES
+        * sim.samples_per_trajectory()
+        * sim.steps_per_sample()) as u64
+}
+
+/// Normals per second from one generator per lane, drawn as the simulator draws them.
+fn normals(n: usize) -> f64 {
+    let mut rng: Vec<Xoshiro256PlusPlus> = (0..LANES as u64)
+        .map(Xoshiro256PlusPlus::seed_from_u64)
+        .collect();
+    let mut acc = [0.0f64; LANES];
+    for _ in 0..n / LANES {
+        for (j, r) in rng.iter_mut().enumerate() {
+            let z: f64 = StandardNormal.sample(r);
+            acc[j] += z;
+        }
+    }
+    black_box(acc).iter().sum()
+}
+
+fn run(s: &Scenario, threads: usize, sink: &mut (dyn SampleSink + Send)) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let m = Model::new(s);
+    pool.install(|| simulate(&m, &s.simulation, sink, &|_| {}))
+        .unwrap();
+}
+
+fn time<F: FnMut()>(mut f: F, reps: usize) -> f64 {
+    f();
+    let mut best = f64::INFINITY;
+    for _ in 0..reps {
+        let t = Instant::now();
+        f();
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    best
+}
+
+fn main() {
+    let mut c = Criterion::default().sample_size(10).configure_from_args();
+    let mut g = c.benchmark_group("random-number bound");
+    g.throughput(Throughput::Elements(1 << 22));
+    g.bench_function("standard normals, 8 Xoshiro256++ lanes", |b| {
+        b.iter(|| normals(1 << 22))
+    });
+    g.finish();
+
+    // One lane group per thread (8 trajectories) for the per-core figure.
+    let one = scenario(8, 200.0, 100);
+    let two = scenario(16, 200.0, 100);
+    let mut g = c.benchmark_group("simulator duffing2dof");
+    g.throughput(Throughput::Elements(steps(&one)));
+    g.bench_function("1 thread, 8 trajectories", |b| {
+        b.iter(|| run(&one, 1, &mut Discard))
+    });
+    g.throughput(Throughput::Elements(steps(&two)));
+    g.bench_function("2 threads, 16 trajectories", |b| {
+        b.iter(|| run(&two, 2, &mut Discard))
+    });
+    g.finish();
+    c.final_summary();
+
+    // Ratios, one run.
+    let n = 1 << 24;
+    let normal_rate = n as f64
+        / time(
+            || {
+                black_box(normals(n));
+            },
+            3,
+        );
+    let normals_per_step = 2.0; // one per white excitation
+    let bound = normal_rate / normals_per_step;
+    let t1 = time(|| run(&one, 1, &mut Discard), 3);
+    let t2 = time(|| run(&two, 2, &mut Discard), 3);
+    let rate1 = steps(&one) as f64 / t1;
+    let rate2 = steps(&two) as f64 / t2;
+
+    let quiet = scenario(16, 200.0, 200_000); // one sample at the end: no logging to speak of
+    let logged = scenario(16, 200.0, 10);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bench.mcap");
+    let m = Model::new(&logged);
+    let t_quiet = time(|| run(&quiet, 2, &mut Discard), 3);
+    let mut bytes = 0;
+    let t_logged = time(
+        || {
+            let mut w = LogWriter::create(&path, &logged, &m).unwrap();
+            run(&logged, 2, &mut w);
+            bytes = w.finish().unwrap().bytes;
+        },
+        3,
+    );
+    let samples =
+        (logged.simulation.trajectories * logged.simulation.samples_per_trajectory()) as f64;
+
+    println!("\n== ratios measured in this run (duffing2dof, dt = 1e-3) ==");
+    println!(
+        "raw normals (8 lanes)           {:>10.3e} /s per core",
+        normal_rate
+    );
+    println!("random-number bound             {:>10.3e} steps/s per core ({normals_per_step} normals per step)", bound);
+    println!(
+        "simulator, 1 thread             {:>10.3e} steps/s  = {:.2} of the bound (target >= 0.8)",
+        rate1,
+        rate1 / bound
+    );
+    println!(
+        "simulator, 2 threads            {:>10.3e} steps/s  = {:.2}x one thread (target >= 1.8)",
+        rate2,
+        rate2 / rate1
+    );
+    println!(
+        "MCAP log every 10th step        {:>10.3} s vs {:.3} s unlogged = {:.2}x (target <= 1.25)",
+        t_logged,
+        t_quiet,
+        t_logged / t_quiet
+    );
+    println!(
+        "log size                        {:>10.1} bytes/sample ({} samples)",
+        bytes as f64 / samples,
+        samples
+    );
+}

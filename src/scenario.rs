@@ -434,21 +434,35 @@ fn finite_positive(
     }
 }
 
-fn check_name(loc: &Locator, s: &Spanned<String>, key: &str) -> Result<String, ScenarioError> {
+/// Check a name. Mass and excitation names become log field names (`x_<mass>`,
+/// `p_<excitation>`), which ROS 2 message definitions restrict to `[a-z][a-z0-9_]*` with no
+/// `__` and no trailing `_`; link names may also use `-`.
+fn check_name(
+    loc: &Locator,
+    s: &Spanned<String>,
+    key: &str,
+    field: bool,
+) -> Result<String, ScenarioError> {
     let n = s.get_ref();
-    let ok = !n.is_empty()
-        && n.chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-        && n.chars().next().is_some_and(|c| c.is_ascii_alphabetic());
+    let ok_char =
+        |c: char| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || (!field && c == '-');
+    let ok = n.chars().next().is_some_and(|c| c.is_ascii_lowercase())
+        && n.chars().all(ok_char)
+        && !n.contains("__")
+        && !n.ends_with('_')
+        && n.len() <= 40;
     if ok && n != "ground" {
         Ok(n.clone())
     } else {
+        let allowed = if field {
+            "lower-case letters, digits and single `_`"
+        } else {
+            "lower-case letters, digits, single `_` and `-`"
+        };
         Err(loc.at(
             s.span(),
             key,
-            format!(
-                "invalid name {n:?}: names start with a letter and use only letters, digits, `_` and `-`; `ground` is reserved"
-            ),
+            format!("invalid name {n:?}: names start with a lower-case letter and use only {allowed} (at most 40 characters, not ending in `_`); `ground` is reserved"),
         ))
     }
 }
@@ -560,7 +574,7 @@ impl Scenario {
         })?;
 
         let name = match &raw.name {
-            Some(n) => check_name(&loc, n, "name")?,
+            Some(n) => check_name(&loc, n, "name", false)?,
             None => default_name.to_string(),
         };
 
@@ -575,7 +589,7 @@ impl Scenario {
         let mut masses: Vec<Mass> = Vec::new();
         for (i, m) in raw.mass.iter().enumerate() {
             let key = format!("mass[{i}]");
-            let n = check_name(&loc, &m.name, &format!("{key}.name"))?;
+            let n = check_name(&loc, &m.name, &format!("{key}.name"), true)?;
             if masses.iter().any(|x| x.name == n) {
                 return Err(loc.at(
                     m.name.span(),
@@ -645,7 +659,7 @@ impl Scenario {
             };
             let default_name = format!("{}-{}", ends_raw[0].get_ref(), ends_raw[1].get_ref());
             let n = match &l.name {
-                Some(n) => check_name(&loc, n, &format!("{key}.name"))?,
+                Some(n) => check_name(&loc, n, &format!("{key}.name"), false)?,
                 None => default_name,
             };
             if links.iter().any(|x| x.name == n) {
@@ -753,7 +767,7 @@ impl Scenario {
                 .collect::<Vec<_>>()
                 .join("_");
             let n = match &e.name {
-                Some(n) => check_name(&loc, n, &format!("{key}.name"))?,
+                Some(n) => check_name(&loc, n, &format!("{key}.name"), true)?,
                 None => default_name,
             };
             if excitations.iter().any(|x| x.name == n) {

@@ -78,7 +78,7 @@ pub trait SampleSink {
 }
 
 /// Names of the logged values per sample: `x_<mass>`, `v_<mass>`, `a_<mass>` for every mass,
-/// then `P_<excitation>` for every excitation.
+/// then `p_<excitation>` for every excitation.
 pub fn columns(model: &Model) -> Vec<String> {
     let mut c = Vec::new();
     for m in &model.mass_names {
@@ -87,7 +87,7 @@ pub fn columns(model: &Model) -> Vec<String> {
         c.push(format!("a_{m}"));
     }
     for e in &model.excitation_names {
-        c.push(format!("P_{e}"));
+        c.push(format!("p_{e}"));
     }
     c
 }
@@ -180,25 +180,28 @@ impl Group {
             };
             let k = &m.coefs[m.k_start[l]..m.k_start[l] + m.k_len[l]];
             let c = &m.coefs[m.c_start[l]..m.c_start[l] + m.c_len[l]];
-            let mut force = zero();
-            let mut ku = zero();
-            let mut cw = zero();
+            // Horner per characteristic, coefficients outside, lanes inside (vectorises).
+            let mut u = zero();
+            let mut w = zero();
             for j in 0..LANES {
-                let u = xa[j] - xb[j];
-                let w = va[j] - vb[j];
-                let mut acc = 0.0;
-                for &kk in k.iter().rev() {
-                    acc = acc * u + kk;
-                }
-                ku[j] = acc * u;
-                let mut acc = 0.0;
-                for &cc in c.iter().rev() {
-                    acc = acc * w + cc;
-                }
-                cw[j] = acc * w;
+                u[j] = xa[j] - xb[j];
+                w[j] = va[j] - vb[j];
             }
+            let mut ku = zero();
+            for &kk in k.iter().rev() {
+                for j in 0..LANES {
+                    ku[j] = ku[j] * u[j] + kk;
+                }
+            }
+            let mut cw = zero();
+            for &cc in c.iter().rev() {
+                for j in 0..LANES {
+                    cw[j] = cw[j] * w[j] + cc;
+                }
+            }
+            let mut force = zero();
             for j in 0..LANES {
-                force[j] = ku[j] + cw[j];
+                force[j] = ku[j] * u[j] + cw[j] * w[j];
             }
             for j in 0..LANES {
                 self.f[a][j] -= force[j];
@@ -290,7 +293,7 @@ impl Group {
             s.push((format!("v_{n}"), self.v[i][j]));
         }
         for (e, n) in m.excitation_names.iter().enumerate() {
-            s.push((format!("P_{n}"), self.p[e][j]));
+            s.push((format!("p_{n}"), self.p[e][j]));
         }
         s
     }

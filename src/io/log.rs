@@ -125,7 +125,7 @@ fn channel_metadata(s: &Scenario, model: &Model, cols: &[String]) -> BTreeMap<St
         .excitations
         .iter()
         .filter(|e| !e.measured)
-        .map(|e| format!("P_{}", e.name))
+        .map(|e| format!("p_{}", e.name))
         .collect();
     m.insert("unmeasured".into(), unmeasured.join(","));
     let mut averaged = Vec::new();
@@ -136,7 +136,7 @@ fn channel_metadata(s: &Scenario, model: &Model, cols: &[String]) -> BTreeMap<St
     }
     for e in &s.excitations {
         if matches!(e.process, crate::scenario::Process::White { .. }) {
-            averaged.push(format!("P_{}", e.name));
+            averaged.push(format!("p_{}", e.name));
         }
     }
     m.insert("interval_averaged".into(), averaged.join(","));

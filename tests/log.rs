@@ -1,0 +1,233 @@
+//! MCAP log: exact round trip, self-description, truncation, and the CLI around it.
+
+use fpkbench::io::log::{read_info, read_samples, LogError, LogWriter};
+use fpkbench::model::Model;
+use fpkbench::sim::{simulate, Collect, SampleBatch, SampleSink};
+use fpkbench::Scenario;
+use std::path::Path;
+use std::process::Command;
+
+fn scenario(record_length: f64, trajectories: usize) -> Scenario {
+    let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
+    let src = src
+        .replace(
+            "record_length = 20000.0",
+            &format!("record_length = {record_length:?}"),
+        )
+        .replace(
+            "trajectories = 16",
+            &format!("trajectories = {trajectories}"),
+        );
+    Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap()
+}
+
+/// Writes to the log and keeps a copy in memory.
+struct Tee<'a>(&'a mut LogWriter, &'a mut Collect);
+impl SampleSink for Tee<'_> {
+    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        self.1.write(b.clone())?;
+        self.0.write(b)
+    }
+}
+
+fn write_log(s: &Scenario, path: &Path) -> Vec<(u32, f64, Vec<f64>)> {
+    let m = Model::new(s);
+    let mut w = LogWriter::create(path, s, &m).unwrap();
+    let mut c = Collect::default();
+    simulate(&m, &s.simulation, &mut Tee(&mut w, &mut c), &|_| {}).unwrap();
+    w.finish().unwrap();
+    c.batches
+        .iter()
+        .flat_map(|b| (0..b.len()).map(move |i| (b.trajectory[i], b.time[i], b.row(i).to_vec())))
+        .collect()
+}
+
+#[test]
+fn every_sample_scenario_and_truth_round_trip_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.mcap");
+    let s = scenario(200.0, 10);
+    let written = write_log(&s, &path);
+    assert!(!dir.path().join("run.mcap.partial").exists());
+    let info = read_info(&path).unwrap();
+    assert_eq!(info.scenario, s, "scenario recovered from the attachment");
+    assert_eq!(info.truth, s.truth());
+    assert!(info
+        .truth
+        .iter()
+        .any(|(k, v)| k == "k3[ground-m1]" && *v == 20.0));
+    assert_eq!(info.run["seed"], "2024");
+    assert_eq!(info.run["scheme"], "semi-implicit");
+    assert_eq!(
+        info.columns,
+        ["x_m1", "v_m1", "a_m1", "x_m2", "v_m2", "a_m2", "p_m1", "p_m2"]
+    );
+    assert_eq!(
+        info.channel_metadata["interval_averaged"],
+        "a_m1,a_m2,p_m1,p_m2"
+    );
+    let mut read = Vec::new();
+    let n = read_samples(&info, |traj, t, v| read.push((traj, t, v.to_vec()))).unwrap();
+    assert_eq!(n as usize, written.len());
+    assert_eq!(n, 10 * 2000);
+    for (a, b) in written.iter().zip(&read) {
+        assert_eq!(a.0, b.0);
+        assert_eq!(a.1.to_bits(), b.1.to_bits());
+        assert!(a
+            .2
+            .iter()
+            .zip(&b.2)
+            .all(|(x, y)| x.to_bits() == y.to_bits()));
+    }
+}
+
+#[test]
+fn truncated_log_says_how_many_samples_are_readable_and_yields_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.mcap");
+    let s = scenario(2000.0, 8);
+    let written = write_log(&s, &path);
+    let bytes = std::fs::read(&path).unwrap();
+    // Cut the file at 60 %: as if the writer had been killed mid-run.
+    let cut = dir.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
+    let info = read_info(&cut).expect("the description precedes the samples");
+    assert_eq!(info.scenario, s);
+    let mut got = Vec::new();
+    let err = read_samples(&info, |traj, t, v| got.push((traj, t, v.to_vec()))).unwrap_err();
+    match &err {
+        LogError::Truncated {
+            readable, expected, ..
+        } => {
+            assert_eq!(*readable as usize, got.len());
+            assert_eq!(*expected as usize, written.len());
+            assert!(
+                got.len() > written.len() / 3 && got.len() < written.len(),
+                "{} of {}",
+                got.len(),
+                written.len()
+            );
+        }
+        e => panic!("expected Truncated, got {e}"),
+    }
+    assert!(err.to_string().contains("samples are still readable"));
+    // What was read is exactly the start of what was written.
+    for (a, b) in written.iter().zip(&got) {
+        assert_eq!((a.0, a.1.to_bits()), (b.0, b.1.to_bits()));
+        assert_eq!(a.2, b.2);
+    }
+    // The CLI says so and exits 2; export leaves no file behind.
+    let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args(["inspect", cut.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("PROBLEM") && text.contains("truncated"),
+        "{text}"
+    );
+    let csv = dir.path().join("cut.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args([
+            "export",
+            cut.to_str().unwrap(),
+            "--format",
+            "csv",
+            "-o",
+            csv.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!csv.exists() && !dir.path().join("cut.csv.partial").exists());
+    // A file that is not MCAP at all.
+    std::fs::write(dir.path().join("junk.mcap"), b"not an mcap file").unwrap();
+    assert!(read_info(&dir.path().join("junk.mcap")).is_err());
+}
+
+#[test]
+fn simulate_inspect_export_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let sc = dir.path().join("small.toml");
+    let src = std::fs::read_to_string("scenarios/sdof_duffing.toml")
+        .unwrap()
+        .replace("record_length = 1250.0", "record_length = 30.0");
+    std::fs::write(&sc, src).unwrap();
+    let bin = env!("CARGO_BIN_EXE_fpkbench");
+    // Default output: out/<scenario name>/run.mcap relative to the working directory.
+    let out = Command::new(bin)
+        .current_dir(dir.path())
+        .args(["simulate", "small.toml", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["samples"], 8 * 300);
+    let log = dir.path().join("out/sdof_duffing/run.mcap");
+    assert!(log.exists());
+    let out = Command::new(bin)
+        .args(["inspect", log.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["samples"], 2400);
+    assert_eq!(v["truth"]["k3[ground-m1]"], 20.0);
+    assert_eq!(v["record_length_s"], 30.0);
+    let csv = dir.path().join("x.csv");
+    let out = Command::new(bin)
+        .args([
+            "export",
+            log.to_str().unwrap(),
+            "--format",
+            "csv",
+            "-o",
+            csv.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(
+        text.lines().next().unwrap(),
+        "trajectory,t,x_m1,v_m1,a_m1,p_m1"
+    );
+    assert_eq!(text.lines().count(), 2401);
+    let npy = dir.path().join("x.npy");
+    let out = Command::new(bin)
+        .args([
+            "export",
+            log.to_str().unwrap(),
+            "--format",
+            "npy",
+            "-o",
+            npy.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let bytes = std::fs::read(&npy).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY");
+    let hlen = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    assert_eq!((10 + hlen) % 64, 0);
+    assert!(
+        String::from_utf8_lossy(&bytes[10..10 + hlen]).contains("'shape': (                2400,)")
+    );
+    assert_eq!(bytes.len() - 10 - hlen, 2400 * (4 + 8 * 5));
+}
+
+#[test]
+fn an_abandoned_writer_leaves_nothing_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.mcap");
+    let s = scenario(10.0, 2);
+    let w = LogWriter::create(&path, &s, &Model::new(&s)).unwrap();
+    assert!(dir.path().join("run.mcap.partial").exists());
+    drop(w);
+    assert!(!path.exists() && !dir.path().join("run.mcap.partial").exists());
+}

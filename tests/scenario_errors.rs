@@ -1,0 +1,290 @@
+//! Bad scenarios, run through the real binary: each gives a message naming the file, line,
+//! column and key, exits 2, and writes nothing.
+
+use std::path::Path;
+use std::process::Command;
+
+const GOOD: &str = r#"name = "t"
+[[mass]]
+name = "m1"
+value = 1.0
+
+[[mass]]
+name = "m2"
+value = 2.0
+
+[[link]]
+ends = ["ground", "m1"]
+stiffness = { 1 = 10.0, 3 = 20.0 }
+damping = { 1 = 0.5 }
+
+[[link]]
+ends = ["m1", "m2"]
+stiffness = { 1 = 5.0 }
+
+[[excitation]]
+kind = "white"
+sigma = 1.0
+acts_on = ["m1"]
+
+[simulation]
+dt = 1e-3
+record_length = 1.0
+sample_interval = 0.1
+trajectories = 2
+"#;
+
+/// Replace `from` (which must occur) with `to` in the good scenario.
+fn bad(from: &str, to: &str) -> String {
+    assert!(
+        GOOD.contains(from),
+        "test setup: {from:?} not in the scenario"
+    );
+    GOOD.replacen(from, to, 1)
+}
+
+fn run_bad(name: &str, text: &str, line: usize, key: &str, allowed: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join(format!("{name}.toml"));
+    std::fs::write(&file, text).unwrap();
+    let out_file = dir.path().join("out").join("run.mcap");
+    let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args([
+            "simulate",
+            file.to_str().unwrap(),
+            "-o",
+            out_file.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{name}: exit code; stderr: {stderr}"
+    );
+    let located = format!("{}:{line}:", file.display());
+    assert!(
+        stderr.contains(&located),
+        "{name}: expected location {located} in: {stderr}"
+    );
+    assert!(
+        stderr.contains(key),
+        "{name}: expected key {key:?} in: {stderr}"
+    );
+    assert!(
+        stderr.contains(allowed),
+        "{name}: expected {allowed:?} in: {stderr}"
+    );
+    assert!(
+        !out_file.exists() && !Path::new(&format!("{}.partial", out_file.display())).exists(),
+        "{name}: output written"
+    );
+    assert!(out.stdout.is_empty(), "{name}: stdout not empty");
+}
+
+#[test]
+fn unknown_key_is_rejected_with_the_allowed_keys() {
+    run_bad(
+        "unknown_key",
+        &bad("trajectories = 2", "trajectories = 2\nthreads = 4"),
+        29,
+        "threads",
+        "expected one of",
+    );
+}
+
+#[test]
+fn negative_mass() {
+    run_bad(
+        "negative_mass",
+        &bad("value = 2.0", "value = -2.0"),
+        8,
+        "mass[1].value",
+        "> 0",
+    );
+}
+
+#[test]
+fn duplicate_mass_name() {
+    run_bad(
+        "duplicate_mass",
+        &bad("name = \"m2\"", "name = \"m1\""),
+        7,
+        "mass[1].name",
+        "duplicate",
+    );
+}
+
+#[test]
+fn link_to_unknown_mass() {
+    run_bad(
+        "unknown_mass",
+        &bad("ends = [\"m1\", \"m2\"]", "ends = [\"m1\", \"m3\"]"),
+        16,
+        "link[1].ends",
+        "allowed are `ground`, m1, m2",
+    );
+}
+
+#[test]
+fn link_with_equal_ends() {
+    run_bad(
+        "equal_ends",
+        &bad("ends = [\"m1\", \"m2\"]", "ends = [\"m2\", \"m2\"]"),
+        16,
+        "link[1].ends",
+        "must differ",
+    );
+}
+
+#[test]
+fn non_positive_dt() {
+    run_bad(
+        "zero_dt",
+        &bad("dt = 1e-3", "dt = 0.0"),
+        25,
+        "simulation.dt",
+        "> 0",
+    );
+}
+
+#[test]
+fn sample_interval_not_a_multiple_of_dt() {
+    run_bad(
+        "interval",
+        &bad("sample_interval = 0.1", "sample_interval = 0.10005"),
+        27,
+        "simulation.sample_interval",
+        "whole multiple of dt",
+    );
+}
+
+#[test]
+fn non_finite_coefficient() {
+    run_bad(
+        "nan_coef",
+        &bad("{ 1 = 10.0, 3 = 20.0 }", "{ 1 = 10.0, 3 = nan }"),
+        12,
+        "link[0].stiffness.3",
+        "finite",
+    );
+}
+
+#[test]
+fn power_that_is_not_a_positive_integer() {
+    run_bad(
+        "bad_power",
+        &bad("damping = { 1 = 0.5 }", "damping = { 0 = 0.5 }"),
+        13,
+        "link[0].damping.0",
+        "whole numbers 1..=15",
+    );
+}
+
+#[test]
+fn excitation_on_unknown_mass() {
+    run_bad(
+        "exc_target",
+        &bad("acts_on = [\"m1\"]", "acts_on = [\"m9\"]"),
+        22,
+        "excitation[0].acts_on",
+        "allowed are m1, m2",
+    );
+}
+
+#[test]
+fn white_noise_without_sigma() {
+    run_bad(
+        "no_sigma",
+        &bad("sigma = 1.0\n", ""),
+        20,
+        "excitation[0].sigma",
+        "needs `sigma`",
+    );
+}
+
+#[test]
+fn filtered_noise_given_sigma() {
+    run_bad(
+        "filtered_sigma",
+        &bad("kind = \"white\"", "kind = \"filtered\""),
+        21,
+        "excitation[0].sigma",
+        "`A` and `B`",
+    );
+}
+
+#[test]
+fn unknown_scheme_lists_the_schemes() {
+    run_bad(
+        "scheme",
+        &bad("trajectories = 2", "trajectories = 2\nscheme = \"rk4\""),
+        29,
+        "simulation.scheme",
+        "semi-implicit",
+    );
+}
+
+#[test]
+fn zero_trajectories() {
+    run_bad(
+        "zero_traj",
+        &bad("trajectories = 2", "trajectories = 0"),
+        28,
+        "simulation.trajectories",
+        "1..=",
+    );
+}
+
+#[test]
+fn wrong_type() {
+    run_bad(
+        "wrong_type",
+        &bad("record_length = 1.0", "record_length = \"long\""),
+        26,
+        "simulation.record_length",
+        "expected f64",
+    );
+}
+
+#[test]
+fn syntax_error() {
+    run_bad(
+        "syntax",
+        &bad("value = 1.0", "value = 1.0 ]"),
+        4,
+        "mass.value",
+        "",
+    );
+}
+
+#[test]
+fn identify_names_an_unknown_link() {
+    let text = format!(
+        "{GOOD}\n[identify]\nmethods = [\"weak\"]\nlinks.ground-m7 = {{ stiffness = [1, 3] }}\n"
+    );
+    run_bad(
+        "identify_link",
+        &text,
+        32,
+        "identify.links.ground-m7",
+        "links are ground-m1, m1-m2",
+    );
+}
+
+#[test]
+fn unknown_method_lists_the_methods() {
+    let text = format!("{GOOD}\n[identify]\nmethods = [\"neural\"]\n");
+    run_bad("method", &text, 31, "identify.methods", "weak");
+}
+
+#[test]
+fn missing_file_is_an_error_not_a_panic() {
+    let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args(["simulate", "/nonexistent/x.toml"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/x.toml"));
+}
