@@ -140,6 +140,27 @@ fn main() {
     let samples =
         (logged.simulation.trajectories * logged.simulation.samples_per_trajectory()) as f64;
 
+    // The writer alone, fed pre-made batches shaped like duffing2dof's.
+    let batch = SampleBatch {
+        columns: 8,
+        trajectory: (0..16 * 4096).map(|i| (i % 16) as u32).collect(),
+        time: (0..16 * 4096).map(|i| (i / 16) as f64 * 0.01).collect(),
+        values: (0..16 * 4096 * 8)
+            .map(|i| ((i as f64) * 0.618).sin())
+            .collect(),
+    };
+    let writer_secs = time(
+        || {
+            let mut w = LogWriter::create(&path, &logged, &m).unwrap();
+            for _ in 0..8 {
+                w.write(batch.clone()).unwrap();
+            }
+            w.finish().unwrap();
+        },
+        3,
+    );
+    let writer_rate = (8 * batch.len()) as f64 / writer_secs;
+
     println!("\n== ratios measured in this run (duffing2dof, dt = 1e-3) ==");
     println!(
         "raw normals (8 lanes)           {:>10.3e} /s per core",
@@ -161,6 +182,11 @@ fn main() {
         t_logged,
         t_quiet,
         t_logged / t_quiet
+    );
+    println!(
+        "MCAP writer alone               {:>10.3e} samples/s ({:.0} ns per sample)",
+        writer_rate,
+        1e9 / writer_rate
     );
     println!(
         "log size                        {:>10.1} bytes/sample ({} samples)",

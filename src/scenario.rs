@@ -713,7 +713,7 @@ impl Scenario {
                     if let Some(x) = e.a.as_ref().or(e.b.as_ref()) {
                         return Err(loc.at(
                             x.span(),
-                            format!("{key}"),
+                            key.to_string(),
                             "`A` and `B` belong to kind = \"filtered\"; white noise takes `sigma`",
                         ));
                     }

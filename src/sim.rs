@@ -12,6 +12,9 @@
 //! This module knows nothing of files: sinks (the MCAP writer, moment accumulators in
 //! tests) are supplied by the caller.
 
+// Lane loops index several same-length arrays by lane on purpose.
+#![allow(clippy::needless_range_loop)]
+
 use crate::model::{Model, GROUND};
 use crate::scenario::{Process, Scheme, Simulation};
 use rand::rngs::Xoshiro256PlusPlus;
@@ -111,28 +114,99 @@ pub fn trajectory_seed(seed: u64, j: usize) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Step constants shared by all groups.
-struct Stepping {
+/// The model compiled for lane stepping: every characteristic padded to degree `D` (a
+/// compile-time constant, so each link is one fused, vectorised lane loop with no branch),
+/// and the ground as a phantom mass `n` whose state stays 0.
+struct LaneModel<const D: usize> {
+    n: usize,
     h: f64,
-    /// Per excitation: white `σ√h`, or OU exact-transition (decay, std).
-    white_scale: Vec<f64>,
-    ou_decay: Vec<f64>,
-    ou_std: Vec<f64>,
-    is_white: Vec<bool>,
     semi_implicit: bool,
+    a: Vec<usize>,
+    b: Vec<usize>,
+    /// `k[l][p − 1]`, `c[l][p − 1]`.
+    k: Vec<[f64; D]>,
+    c: Vec<[f64; D]>,
+    /// `h / m_i`.
+    h_inv_mass: Vec<f64>,
+    inv_mass: Vec<f64>,
+    /// Per white excitation: its index and `σ√h`.
+    white: Vec<(usize, f64)>,
+    /// Per mass: (white-excitation slot, `1/m_i`) of the white forces acting on it.
+    white_on: Vec<Vec<(usize, f64)>>,
+    /// Per filtered excitation: index, exact-transition decay and standard deviation.
+    ou: Vec<(usize, f64, f64)>,
+    /// Per mass: the filtered excitations acting on it.
+    ou_on: Vec<Vec<usize>>,
+    /// Whether excitation `e` is white.
+    is_white: Vec<bool>,
+}
+
+impl<const D: usize> LaneModel<D> {
+    fn new(m: &Model, sim: &Simulation) -> Self {
+        let n = m.masses();
+        let h = sim.dt / sim.substeps as f64;
+        let pad = |cs: &[f64]| {
+            let mut out = [0.0; D];
+            out[..cs.len()].copy_from_slice(cs);
+            out
+        };
+        let mut lm = LaneModel {
+            n,
+            h,
+            semi_implicit: sim.scheme == Scheme::SemiImplicit,
+            a: m.link_a.clone(),
+            b: m.link_b
+                .iter()
+                .map(|&b| if b == GROUND { n } else { b })
+                .collect(),
+            k: (0..m.links()).map(|l| pad(m.stiffness(l))).collect(),
+            c: (0..m.links()).map(|l| pad(m.damping(l))).collect(),
+            h_inv_mass: m.inv_mass.iter().map(|im| h * im).collect(),
+            inv_mass: m.inv_mass.clone(),
+            white: Vec::new(),
+            white_on: vec![Vec::new(); n],
+            ou: Vec::new(),
+            ou_on: vec![Vec::new(); n],
+            is_white: Vec::new(),
+        };
+        for (e, exc) in m.excitations.iter().enumerate() {
+            match exc.process {
+                Process::White { sigma } => {
+                    for &i in &exc.targets {
+                        lm.white_on[i].push((lm.white.len(), m.inv_mass[i]));
+                    }
+                    lm.white.push((e, sigma * h.sqrt()));
+                    lm.is_white.push(true);
+                }
+                Process::Filtered { a, b } => {
+                    // Exact transition of dP = −B P dt + A dW over h.
+                    let d = (-b * h).exp();
+                    for &i in &exc.targets {
+                        lm.ou_on[i].push(e);
+                    }
+                    lm.ou.push((e, d, a * ((1.0 - d * d) / (2.0 * b)).sqrt()));
+                    lm.is_white.push(false);
+                }
+            }
+        }
+        lm
+    }
 }
 
 /// `LANES` trajectories in struct-of-arrays form.
 struct Group {
     first: usize,
     active: usize,
-    rng: Vec<Xoshiro256PlusPlus>,
+    rng: [Xoshiro256PlusPlus; LANES],
+    /// Positions and velocities of the `n` masses and the phantom ground (index `n`).
     x: Vec<Lane>,
     v: Vec<Lane>,
-    /// Scratch: force on each mass.
+    /// Scratch: force on each mass (and on the ground, ignored).
     f: Vec<Lane>,
     /// Per excitation: OU force, or the white impulse accumulated since the last sample.
     p: Vec<Lane>,
+    /// Scratch: this step's white-noise increments, per white excitation.
+    dw: Vec<Lane>,
     /// Velocities at the previous sample (for `Δv ÷ interval`).
     v_mark: Vec<Lane>,
     /// This block's samples: `[k][lane][column]`.
@@ -151,13 +225,14 @@ impl Group {
         Group {
             first,
             active,
-            rng: (0..LANES)
-                .map(|l| Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l)))
-                .collect(),
-            x: vec![zero(); n],
-            v: vec![zero(); n],
-            f: vec![zero(); n],
+            rng: std::array::from_fn(|l| {
+                Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l))
+            }),
+            x: vec![zero(); n + 1],
+            v: vec![zero(); n + 1],
+            f: vec![zero(); n + 1],
             p: vec![zero(); ne],
+            dw: vec![zero(); ne],
             v_mark: vec![zero(); n],
             buf: Vec::new(),
         }
@@ -165,113 +240,101 @@ impl Group {
 
     /// Link forces plus filtered excitation forces on every mass, into `self.f`.
     #[inline(always)]
-    fn forces(&mut self, m: &Model, st: &Stepping) {
+    fn forces<const D: usize>(&mut self, lm: &LaneModel<D>) {
         for f in self.f.iter_mut() {
             *f = zero();
         }
-        for l in 0..m.link_a.len() {
-            let a = m.link_a[l];
-            let b = m.link_b[l];
-            let (xa, va) = (self.x[a], self.v[a]);
-            let (xb, vb) = if b == GROUND {
-                (zero(), zero())
-            } else {
-                (self.x[b], self.v[b])
-            };
-            let k = &m.coefs[m.k_start[l]..m.k_start[l] + m.k_len[l]];
-            let c = &m.coefs[m.c_start[l]..m.c_start[l] + m.c_len[l]];
-            // Horner per characteristic, coefficients outside, lanes inside (vectorises).
+        let (x, v, f) = (&self.x, &self.v, &mut self.f);
+        for l in 0..lm.a.len() {
+            let (a, b) = (lm.a[l], lm.b[l]);
+            let (k, c) = (&lm.k[l], &lm.c[l]);
+            let (xa, xb, va, vb) = (&x[a], &x[b], &v[a], &v[b]);
             let mut u = zero();
             let mut w = zero();
             for j in 0..LANES {
                 u[j] = xa[j] - xb[j];
                 w[j] = va[j] - vb[j];
             }
-            let mut ku = zero();
-            for &kk in k.iter().rev() {
+            // Horner, whole lanes at a time; D is a constant so this unrolls completely.
+            let mut ku = [k[D - 1]; LANES];
+            let mut cw = [c[D - 1]; LANES];
+            for p in (0..D - 1).rev() {
                 for j in 0..LANES {
-                    ku[j] = ku[j] * u[j] + kk;
-                }
-            }
-            let mut cw = zero();
-            for &cc in c.iter().rev() {
-                for j in 0..LANES {
-                    cw[j] = cw[j] * w[j] + cc;
+                    ku[j] = ku[j] * u[j] + k[p];
+                    cw[j] = cw[j] * w[j] + c[p];
                 }
             }
             let mut force = zero();
             for j in 0..LANES {
                 force[j] = ku[j] * u[j] + cw[j] * w[j];
             }
+            let fa = &mut f[a];
             for j in 0..LANES {
-                self.f[a][j] -= force[j];
+                fa[j] -= force[j];
             }
-            if b != GROUND {
-                for j in 0..LANES {
-                    self.f[b][j] += force[j];
-                }
+            let fb = &mut f[b];
+            for j in 0..LANES {
+                fb[j] += force[j];
             }
         }
-        for (e, exc) in m.excitations.iter().enumerate() {
-            if !st.is_white[e] {
-                for &i in &exc.targets {
-                    for j in 0..LANES {
-                        self.f[i][j] += self.p[e][j];
-                    }
+        for i in 0..lm.n {
+            for &e in &lm.ou_on[i] {
+                let p = self.p[e];
+                for j in 0..LANES {
+                    self.f[i][j] += p[j];
                 }
             }
         }
     }
 
-    /// One integration step of length `st.h` for every lane.
+    /// One integration step of length `h` for every lane.
     #[inline(always)]
-    fn step(&mut self, m: &Model, st: &Stepping) {
-        self.forces(m, st);
-        let h = st.h;
-        if !st.semi_implicit {
-            for i in 0..self.x.len() {
-                for j in 0..LANES {
-                    self.x[i][j] += h * self.v[i][j];
-                }
-            }
-        }
-        // Deterministic (v, then excitation) update: drift, then white impulses.
-        for i in 0..self.v.len() {
-            let im = m.inv_mass[i];
+    fn step<const D: usize>(&mut self, lm: &LaneModel<D>) {
+        self.forces(lm);
+        let h = lm.h;
+        for (slot, &(e, scale)) in lm.white.iter().enumerate() {
+            let mut dw = zero();
             for j in 0..LANES {
-                self.v[i][j] += h * im * self.f[i][j];
+                let z: f64 = StandardNormal.sample(&mut self.rng[j]);
+                dw[j] = scale * z;
             }
+            for j in 0..LANES {
+                self.p[e][j] += dw[j];
+            }
+            self.dw[slot] = dw;
         }
-        for (e, exc) in m.excitations.iter().enumerate() {
-            if st.is_white[e] {
-                let mut dp = zero();
-                for (j, r) in self.rng.iter_mut().enumerate() {
-                    let z: f64 = StandardNormal.sample(r);
-                    dp[j] = st.white_scale[e] * z;
-                }
-                for j in 0..LANES {
-                    self.p[e][j] += dp[j];
-                }
-                for &i in &exc.targets {
-                    let im = m.inv_mass[i];
-                    for j in 0..LANES {
-                        self.v[i][j] += im * dp[j];
-                    }
-                }
-            } else {
-                let (d, s) = (st.ou_decay[e], st.ou_std[e]);
-                for (j, r) in self.rng.iter_mut().enumerate() {
-                    let z: f64 = StandardNormal.sample(r);
-                    self.p[e][j] = self.p[e][j] * d + s * z;
-                }
+        for &(e, d, s) in &lm.ou {
+            let mut pe = self.p[e];
+            for j in 0..LANES {
+                let z: f64 = StandardNormal.sample(&mut self.rng[j]);
+                pe[j] = pe[j] * d + s * z;
             }
+            self.p[e] = pe;
         }
-        if st.semi_implicit {
-            for i in 0..self.x.len() {
+        for i in 0..lm.n {
+            let (mut x, mut v, f) = (self.x[i], self.v[i], self.f[i]);
+            let him = lm.h_inv_mass[i];
+            if !lm.semi_implicit {
                 for j in 0..LANES {
-                    self.x[i][j] += h * self.v[i][j];
+                    x[j] += h * v[j];
                 }
             }
+            for j in 0..LANES {
+                v[j] += him * f[j];
+            }
+            for &(slot, im) in &lm.white_on[i] {
+                let dw = self.dw[slot];
+                for j in 0..LANES {
+                    v[j] += im * dw[j];
+                }
+            }
+            if lm.semi_implicit {
+                for j in 0..LANES {
+                    x[j] += h * v[j];
+                }
+            }
+            self.x[i] = x;
+            self.v[i] = v;
         }
     }
 
@@ -282,7 +345,7 @@ impl Group {
                 .iter()
                 .chain(&self.v)
                 .chain(&self.p)
-                .any(|s| !(s[j].abs() < DIVERGENCE_LIMIT))
+                .any(|s| s[j].is_nan() || s[j].abs() >= DIVERGENCE_LIMIT)
         })
     }
 
@@ -301,27 +364,26 @@ impl Group {
     /// Advance `samples` sample intervals of `steps` steps each, recording into `buf`
     /// (when `record`), checking divergence after every interval.
     #[allow(clippy::too_many_arguments)]
-    fn run(
+    fn run<const D: usize>(
         &mut self,
         m: &Model,
-        st: &Stepping,
+        lm: &LaneModel<D>,
         steps: usize,
         samples: usize,
         interval: f64,
         t0: f64,
         record: bool,
     ) -> Result<(), SimError> {
-        let n = m.masses();
-        let ne = m.excitations.len();
+        let n = lm.n;
+        let ne = lm.is_white.len();
         let cols = 3 * n + ne;
         if record {
             self.buf.clear();
             self.buf.resize(samples * LANES * cols, 0.0);
         }
-        let white_mass: Vec<bool> = (0..n).map(|i| m.white_on(i)).collect();
         for k in 0..samples {
             for _ in 0..steps {
-                self.step(m, st);
+                self.step(lm);
             }
             if let Some(j) = self.diverged_lane() {
                 return Err(SimError::Diverged {
@@ -333,21 +395,21 @@ impl Group {
             }
             if record {
                 // Instantaneous force balance for masses without white noise.
-                self.forces(m, st);
+                self.forces(lm);
                 let row0 = k * LANES * cols;
                 for j in 0..LANES {
                     let row = &mut self.buf[row0 + j * cols..row0 + (j + 1) * cols];
                     for i in 0..n {
                         row[3 * i] = self.x[i][j];
                         row[3 * i + 1] = self.v[i][j];
-                        row[3 * i + 2] = if white_mass[i] {
-                            (self.v[i][j] - self.v_mark[i][j]) / interval
+                        row[3 * i + 2] = if lm.white_on[i].is_empty() {
+                            self.f[i][j] * lm.inv_mass[i]
                         } else {
-                            self.f[i][j] * m.inv_mass[i]
+                            (self.v[i][j] - self.v_mark[i][j]) / interval
                         };
                     }
                     for e in 0..ne {
-                        row[3 * n + e] = if st.is_white[e] {
+                        row[3 * n + e] = if lm.is_white[e] {
                             self.p[e][j] / interval
                         } else {
                             self.p[e][j]
@@ -355,46 +417,15 @@ impl Group {
                     }
                 }
             }
-            self.v_mark.clone_from(&self.v);
+            self.v_mark.copy_from_slice(&self.v[..n]);
             for e in 0..ne {
-                if st.is_white[e] {
+                if lm.is_white[e] {
                     self.p[e] = zero();
                 }
             }
         }
         Ok(())
     }
-}
-
-fn stepping(model: &Model, sim: &Simulation) -> Stepping {
-    let h = sim.dt / sim.substeps as f64;
-    let mut st = Stepping {
-        h,
-        white_scale: Vec::new(),
-        ou_decay: Vec::new(),
-        ou_std: Vec::new(),
-        is_white: Vec::new(),
-        semi_implicit: sim.scheme == Scheme::SemiImplicit,
-    };
-    for e in &model.excitations {
-        match e.process {
-            Process::White { sigma } => {
-                st.is_white.push(true);
-                st.white_scale.push(sigma * h.sqrt());
-                st.ou_decay.push(0.0);
-                st.ou_std.push(0.0);
-            }
-            Process::Filtered { a, b } => {
-                // Exact transition of dP = −B P dt + A dW over h.
-                let d = (-b * h).exp();
-                st.is_white.push(false);
-                st.white_scale.push(0.0);
-                st.ou_decay.push(d);
-                st.ou_std.push(a * ((1.0 - d * d) / (2.0 * b)).sqrt());
-            }
-        }
-    }
-    st
 }
 
 /// Samples per block so that a group's block is about `2e5` steps (bounded memory, cheap
@@ -413,7 +444,28 @@ pub fn simulate(
     sink: &mut dyn SampleSink,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RunStats, SimError> {
-    let st = stepping(model, sim);
+    let degree = (0..model.links())
+        .map(|l| model.k_len[l].max(model.c_len[l]))
+        .max()
+        .unwrap_or(1);
+    // One monomorphised stepper per padded degree.
+    match degree {
+        0 | 1 => simulate_padded::<1>(model, sim, sink, progress),
+        2 => simulate_padded::<2>(model, sim, sink, progress),
+        3 => simulate_padded::<3>(model, sim, sink, progress),
+        4 | 5 => simulate_padded::<5>(model, sim, sink, progress),
+        6 | 7 => simulate_padded::<7>(model, sim, sink, progress),
+        _ => simulate_padded::<15>(model, sim, sink, progress),
+    }
+}
+
+fn simulate_padded<const D: usize>(
+    model: &Model,
+    sim: &Simulation,
+    sink: &mut dyn SampleSink,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RunStats, SimError> {
+    let lm = LaneModel::<D>::new(model, sim);
     let steps = sim.steps_per_sample() * sim.substeps;
     let interval = sim.sample_interval;
     let total = sim.samples_per_trajectory();
@@ -433,20 +485,26 @@ pub fn simulate(
     let burn_steps = sim.burn_in_steps() * sim.substeps;
     let burn_intervals = burn_steps / steps;
     let burn_rest = burn_steps % steps;
-    let t_burn = -(burn_steps as f64) * st.h;
+    let t_burn = -(burn_steps as f64) * lm.h;
     groups.par_iter_mut().try_for_each(|g| {
-        g.run(model, &st, steps, burn_intervals, interval, t_burn, false)?;
+        g.run(model, &lm, steps, burn_intervals, interval, t_burn, false)?;
+        let t_rest = t_burn + burn_intervals as f64 * interval;
         g.run(
             model,
-            &st,
+            &lm,
             burn_rest,
             1,
-            burn_rest as f64 * st.h,
-            t_burn + burn_intervals as f64 * interval,
+            burn_rest as f64 * lm.h,
+            t_rest,
             false,
         )?;
         // The first sample's Δv and impulse start here.
-        g.v_mark.clone_from(&g.v);
+        g.v_mark.copy_from_slice(&g.v[..model.masses()]);
+        for (e, p) in g.p.iter_mut().enumerate() {
+            if lm.is_white[e] {
+                *p = zero();
+            }
+        }
         Ok::<(), SimError>(())
     })?;
 
@@ -457,7 +515,7 @@ pub fn simulate(
         let t0 = done as f64 * interval;
         let results: Vec<Result<(), SimError>> = groups
             .par_iter_mut()
-            .map(|g| g.run(model, &st, steps, b, interval, t0, true))
+            .map(|g| g.run(model, &lm, steps, b, interval, t0, true))
             .collect();
         // The first failing group in trajectory order, whatever the thread count.
         results.into_iter().collect::<Result<Vec<()>, SimError>>()?;

@@ -190,6 +190,7 @@ impl LogWriter {
             .library(format!("fpkbench {}", env!("CARGO_PKG_VERSION")))
             .compression(Some(mcap::Compression::Zstd))
             .compression_threads(0)
+            .compression_level(1)
             .chunk_size(Some(1 << 20))
             .create(BufWriter::with_capacity(1 << 20, file))
             .map_err(mc)?;
@@ -520,7 +521,7 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
         Ok(()) if count == expected => Ok(count),
         Ok(()) => Err(LogError::Truncated {
             path: label,
-            reason: format!("it holds fewer samples than its run facts promise"),
+            reason: "it holds fewer samples than its run facts promise".to_string(),
             readable: count,
             expected,
         }),
