@@ -6,6 +6,7 @@
 //! Dependencies point one way: `io` → `sim` → `model` → `scenario`; the numerics never
 //! import file formats or the CLI (which lives in the binary).
 
+pub mod ident;
 pub mod io;
 pub mod model;
 pub mod scenario;

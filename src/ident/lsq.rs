@@ -1,0 +1,80 @@
+//! Least squares with diagnostics: columns scaled to unit norm, solved by SVD (never by
+//! inverting the normal matrix), with rank, condition number, singular values and the
+//! weakest direction reported in every result.
+
+use nalgebra::{DMatrix, DVector};
+
+/// Singular-value ratio below which columns count as linearly dependent (numerical rank).
+pub const RANK_TOL: f64 = 1e-9;
+
+/// Diagnostics of one least-squares solve.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Diagnostics {
+    /// Numerical rank of the column-scaled matrix.
+    pub rank: usize,
+    /// Number of unknowns.
+    pub cols: usize,
+    /// Equations used.
+    pub rows: usize,
+    /// Smallest over largest singular value of the column-scaled matrix.
+    pub sv_ratio: f64,
+    pub condition: f64,
+    /// Singular values, largest first.
+    pub singular_values: Vec<f64>,
+    /// Right singular vector of the smallest singular value, in the unknowns' own relative
+    /// units (each entry multiplied by the unknown's scale), normalised to max |entry| = 1.
+    pub weakest_direction: Vec<f64>,
+}
+
+/// Solve `min ‖A x − b‖` with columns scaled by `scale` (typical magnitudes of the
+/// unknowns; the weakest direction is reported relative to them). Returns `x` and the
+/// diagnostics; `x` is the minimum-norm solution in scaled units when rank-deficient.
+pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>, Diagnostics) {
+    let (rows, cols) = a.shape();
+    // Unknown-magnitude scaling first (so directions are relative), then unit columns.
+    let mut s = a.clone();
+    let mut colscale = vec![1.0; cols];
+    for j in 0..cols {
+        let sc = if scale[j].is_finite() && scale[j] != 0.0 { scale[j].abs() } else { 1.0 };
+        let mut col = s.column_mut(j);
+        col *= sc;
+        let norm = col.norm();
+        let n = if norm > 0.0 { norm } else { 1.0 };
+        col /= n;
+        colscale[j] = sc / n;
+    }
+    let svd = s.clone().svd(true, true);
+    let sv: Vec<f64> = svd.singular_values.iter().copied().collect();
+    let mut order: Vec<usize> = (0..sv.len()).collect();
+    order.sort_by(|&i, &j| sv[j].partial_cmp(&sv[i]).unwrap_or(std::cmp::Ordering::Equal));
+    let smax = sv.iter().copied().fold(0.0, f64::max);
+    let smin = if rows >= cols { sv.iter().copied().fold(f64::INFINITY, f64::min) } else { 0.0 };
+    let rank = sv.iter().filter(|&&x| x > RANK_TOL * smax).count();
+    let x_scaled = svd.solve(b, RANK_TOL * smax).unwrap_or_else(|_| DVector::zeros(cols));
+    let x = DVector::from_iterator(cols, (0..cols).map(|j| x_scaled[j] * colscale[j]));
+    let v_t = svd.v_t.as_ref().expect("computed");
+    let weakest = *order.last().unwrap_or(&0);
+    let mut dir: Vec<f64> = (0..cols)
+        .map(|j| {
+            let sc = if scale[j].is_finite() && scale[j] != 0.0 { scale[j].abs() } else { 1.0 };
+            // Back from unit-norm columns to units of the unknown's scale.
+            v_t[(weakest, j)] * colscale[j] / sc
+        })
+        .collect();
+    let m = dir.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
+    if m > 0.0 {
+        let sign = if dir.iter().find(|v| v.abs() > 1e-6 * m).copied().unwrap_or(1.0) < 0.0 { -1.0 } else { 1.0 };
+        dir.iter_mut().for_each(|v| *v *= sign / m);
+    }
+    let sv_ratio = if smax > 0.0 { smin / smax } else { 0.0 };
+    let diag = Diagnostics {
+        rank,
+        cols,
+        rows,
+        sv_ratio,
+        condition: if sv_ratio > 0.0 { 1.0 / sv_ratio } else { f64::INFINITY },
+        singular_values: order.iter().map(|&i| sv[i]).collect(),
+        weakest_direction: dir,
+    };
+    (x, diag)
+}

@@ -1,0 +1,399 @@
+//! Identification: from stationary samples back to spring and damper characteristics.
+//!
+//! Three swappable parts (DESIGN §2, §5):
+//! - the **term library** ([`Problem`]): which coefficients, masses and intensities are
+//!   unknown, the drift split into a known part and unknown features, human-readable names;
+//! - an **estimator** that turns data into the pieces of a residual that is linear in the
+//!   coefficients — the weak form ([`weak`], from raw moments) or the paper's strong form
+//!   ([`strong`], from a density grid);
+//! - **least squares with diagnostics** ([`lsq`]) and Gauss–Newton for unknown masses and
+//!   intensities, with identifiability measured, never assumed.
+//!
+//! White-noise state: `y = (x_1, v_1, …, x_n, v_n)` (the paper's ordering). For every
+//! test function or grid cell `k` the stationary FPK / generator identity reads
+//!
+//! `r_k = t0_k + Σ_i μ_i (a_ki + Σ_r θ_r b_kir) + ½ Σ_ij Q_ij c_kij = 0`,
+//!
+//! with `μ_i = 1/m_i`, `Q_ij = Σ_e σ_e² [i,j ∈ e] μ_i μ_j` (velocity noise covariance) and
+//! `θ` the unknown coefficients. Depends on `model` and `scenario` only.
+
+pub mod lsq;
+pub mod moments;
+pub mod poly;
+pub mod strong;
+pub mod weak;
+
+use crate::model::{Characteristic, Coefficient, Model, GROUND};
+use crate::scenario::{Process, Scenario};
+use nalgebra::{DMatrix, DVector};
+use poly::{var, Poly};
+
+/// One unknown of the identification.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Unknown {
+    Coefficient(Coefficient),
+    /// Mass `i`.
+    Mass(usize),
+    /// Intensity `σ` of (white) excitation `e`.
+    Intensity(usize),
+}
+
+/// Errors of identification.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentError {
+    /// The requested unknowns cannot be separated by the stationary density.
+    #[error(
+        "the unknowns cannot be separated by the stationary density: {} move together along \
+         the direction [{}] (singular values {}; smallest/largest = {:.2e}, rank {} of {}). \
+         Declare some of them known (DESIGN §6: the excitation intensity and the masses must be known)",
+        .names.join(", "),
+        .direction.iter().map(|(n, d)| format!("{n}: {d:+.3}")).collect::<Vec<_>>().join(", "),
+        .singular_values.iter().map(|s| format!("{s:.3e}")).collect::<Vec<_>>().join(" "),
+        .sv_ratio, .rank, .cols
+    )]
+    NotIdentifiable {
+        names: Vec<String>,
+        direction: Vec<(String, f64)>,
+        singular_values: Vec<f64>,
+        sv_ratio: f64,
+        rank: usize,
+        cols: usize,
+        /// What decided it: numerical rank or the spread over data batches.
+        reason: String,
+    },
+    #[error("too little data: {0}")]
+    TooLittleData(String),
+    #[error("the scenario has no unknowns to identify (see [identify] in the scenario)")]
+    NothingToIdentify,
+    #[error("{0}")]
+    Unsupported(String),
+}
+
+/// The identification problem for a white-noise-driven system.
+#[derive(Debug, Clone)]
+pub struct Problem {
+    pub model: Model,
+    pub unknowns: Vec<Unknown>,
+    pub names: Vec<String>,
+    /// True value of each unknown (0 for a power the truth does not have).
+    pub truth: Vec<f64>,
+    /// Value each unknown starts Gauss–Newton from: the log's nominal mass or intensity;
+    /// 0 for coefficients (they enter linearly, so their start does not matter).
+    pub start: Vec<f64>,
+    /// Masses.
+    pub n: usize,
+    /// Highest power in the drift (known and unknown parts).
+    pub pmax: u32,
+    /// Per mass: the known part of the force, a polynomial in `y`.
+    pub known_force: Vec<Poly>,
+    /// Per unknown coefficient (in order of `unknowns`' coefficients): per mass, the force
+    /// per unit of the coefficient, `−s_iℓ z^p`.
+    pub unit_force: Vec<Vec<Poly>>,
+    /// Measured white excitations: targets, nominal σ, and the index of its unknown (if any).
+    pub white: Vec<(Vec<usize>, f64, Option<usize>)>,
+    /// Log column of each state variable.
+    pub columns: Vec<usize>,
+    pub state_names: Vec<String>,
+    /// Per link: the log columns of its ends' displacement (a, b or none) for ranges.
+    pub link_ends: Vec<(usize, Option<usize>)>,
+}
+
+/// State variable index of `x_i` and `v_i`.
+pub fn xi(i: usize) -> usize {
+    2 * i
+}
+pub fn vi(i: usize) -> usize {
+    2 * i + 1
+}
+
+impl Problem {
+    /// Build the problem from a scenario's `[identify]` section and true system.
+    pub fn new(s: &Scenario) -> Result<Problem, IdentError> {
+        if s.excitations.iter().any(|e| matches!(e.process, Process::Filtered { .. })) {
+            return Err(IdentError::Unsupported(
+                "filtered (Ornstein–Uhlenbeck) excitation needs the acceleration-augmented state, which this version does not identify yet".into(),
+            ));
+        }
+        let model = Model::new(s);
+        let n = model.masses();
+        let id = &s.identify;
+        let mut unknowns = Vec::new();
+        // Known parts: characteristics not listed stay at their true values.
+        let mut known = model.clone();
+        for il in &id.links {
+            let l = il.link;
+            for (kind, powers) in [(Characteristic::Stiffness, &il.stiffness), (Characteristic::Damping, &il.damping)] {
+                if let Some(ps) = powers {
+                    let (start, len) = match kind {
+                        Characteristic::Stiffness => (known.k_start[l], known.k_len[l]),
+                        Characteristic::Damping => (known.c_start[l], known.c_len[l]),
+                    };
+                    known.coefs[start..start + len].iter_mut().for_each(|c| *c = 0.0);
+                    for &p in ps {
+                        unknowns.push(Unknown::Coefficient(Coefficient { link: l, kind, power: p }));
+                    }
+                }
+            }
+        }
+        for &i in &id.unknown_masses {
+            unknowns.push(Unknown::Mass(i));
+        }
+        for &e in &id.unknown_intensities {
+            unknowns.push(Unknown::Intensity(e));
+        }
+        if unknowns.is_empty() {
+            return Err(IdentError::NothingToIdentify);
+        }
+
+        let rel = |l: usize, base: fn(usize) -> usize| -> Poly {
+            let (a, b) = (model.link_a[l], model.link_b[l]);
+            let mut p = vec![(base(a), 1.0)];
+            if b != GROUND {
+                p.push((base(b), -1.0));
+            }
+            Poly::linear(&p)
+        };
+        let mut known_force = vec![Poly::zero(); n];
+        let mut pmax = 1;
+        for l in 0..model.links() {
+            let (u, w) = (rel(l, xi), rel(l, vi));
+            let mut f = Poly::zero();
+            for (p, &c) in known.stiffness(l).iter().enumerate() {
+                if c != 0.0 {
+                    f.add(&u.pow(p as u32 + 1), c);
+                    pmax = pmax.max(p as u32 + 1);
+                }
+            }
+            for (p, &c) in known.damping(l).iter().enumerate() {
+                if c != 0.0 {
+                    f.add(&w.pow(p as u32 + 1), c);
+                    pmax = pmax.max(p as u32 + 1);
+                }
+            }
+            for (i, kf) in known_force.iter_mut().enumerate() {
+                let s = model.sign(l, i);
+                if s != 0.0 {
+                    kf.add(&f, -s);
+                }
+            }
+        }
+        let mut unit_force = Vec::new();
+        let mut names = Vec::new();
+        let mut truth = Vec::new();
+        let mut start = Vec::new();
+        for u in &unknowns {
+            match *u {
+                Unknown::Coefficient(c) => {
+                    let z = match c.kind {
+                        Characteristic::Stiffness => rel(c.link, xi),
+                        Characteristic::Damping => rel(c.link, vi),
+                    };
+                    let zp = z.pow(c.power);
+                    pmax = pmax.max(c.power);
+                    unit_force.push((0..n).map(|i| {
+                        let mut p = Poly::zero();
+                        p.add(&zp, -model.sign(c.link, i));
+                        p
+                    }).collect());
+                    names.push(model.coefficient_name(c));
+                    let t = match c.kind {
+                        Characteristic::Stiffness => s.links[c.link].stiffness.coefficient(c.power),
+                        Characteristic::Damping => s.links[c.link].damping.coefficient(c.power),
+                    };
+                    truth.push(t);
+                    start.push(0.0);
+                }
+                Unknown::Mass(i) => {
+                    names.push(format!("m[{}]", model.mass_names[i]));
+                    truth.push(model.mass[i]);
+                    start.push(model.mass[i]);
+                }
+                Unknown::Intensity(e) => {
+                    names.push(format!("sigma[{}]", model.excitation_names[e]));
+                    let Process::White { sigma } = model.excitations[e].process else { unreachable!() };
+                    truth.push(sigma);
+                    start.push(sigma);
+                }
+            }
+        }
+        let mut white = Vec::new();
+        for (e, exc) in model.excitations.iter().enumerate() {
+            if let Process::White { sigma } = exc.process {
+                if exc.measured {
+                    let idx = unknowns.iter().position(|u| *u == Unknown::Intensity(e));
+                    white.push((exc.targets.clone(), sigma, idx));
+                } else if unknowns.contains(&Unknown::Intensity(e)) {
+                    return Err(IdentError::Unsupported(format!(
+                        "excitation {} is unmeasured: its intensity cannot be an unknown here",
+                        model.excitation_names[e]
+                    )));
+                }
+            }
+        }
+        let columns = (0..2 * n).map(|j| 3 * (j / 2) + j % 2).collect();
+        let state_names = (0..n).flat_map(|i| [format!("x_{}", model.mass_names[i]), format!("v_{}", model.mass_names[i])]).collect();
+        let link_ends = (0..model.links())
+            .map(|l| (model.link_a[l], (model.link_b[l] != GROUND).then_some(model.link_b[l])))
+            .collect();
+        Ok(Problem { model, unknowns, names, truth, start, n, pmax, known_force, unit_force, white, columns, state_names, link_ends })
+    }
+
+    /// Number of state variables.
+    pub fn dim(&self) -> usize {
+        2 * self.n
+    }
+
+    /// Number of unknown coefficients (they come first in `unknowns`).
+    pub fn coefficient_count(&self) -> usize {
+        self.unknowns.iter().filter(|u| matches!(u, Unknown::Coefficient(_))).count()
+    }
+
+    /// `μ_i = 1/m_i` and the velocity noise covariance `Q` for parameter values `p`.
+    fn mu_q(&self, p: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n;
+        let mut mu: Vec<f64> = self.model.mass.iter().map(|m| 1.0 / m).collect();
+        for (k, u) in self.unknowns.iter().enumerate() {
+            if let Unknown::Mass(i) = u {
+                mu[*i] = 1.0 / p[k];
+            }
+        }
+        let mut q = vec![0.0; n * n];
+        for (targets, sigma, idx) in &self.white {
+            let s = idx.map_or(*sigma, |k| p[k]);
+            for &i in targets {
+                for &j in targets {
+                    q[i * n + j] += s * s * mu[i] * mu[j];
+                }
+            }
+        }
+        (mu, q)
+    }
+
+    /// Residual `r(p)` and Jacobian `∂r/∂p` of the pieces at parameters `p`.
+    pub fn residual(&self, pc: &Pieces, p: &[f64]) -> (DVector<f64>, DMatrix<f64>) {
+        let (n, rc, nu) = (self.n, self.coefficient_count(), self.unknowns.len());
+        let (mu, q) = self.mu_q(p);
+        let mut r = DVector::zeros(pc.rows);
+        let mut jac = DMatrix::zeros(pc.rows, nu);
+        for k in 0..pc.rows {
+            let mut rk = pc.t0[k];
+            // Force part per mass: F_ik = a_ki + Σ θ b_kir.
+            for i in 0..n {
+                let mut f = pc.a[k * n + i];
+                for r_ in 0..rc {
+                    let b = pc.b[(k * n + i) * rc + r_];
+                    f += p[r_] * b;
+                    jac[(k, r_)] += mu[i] * b;
+                }
+                rk += mu[i] * f;
+                for (u_, unk) in self.unknowns.iter().enumerate() {
+                    if *unk == Unknown::Mass(i) {
+                        // d(μ_i F)/dm_i = −μ_i² F
+                        jac[(k, u_)] += -mu[i] * mu[i] * f;
+                    }
+                }
+            }
+            for i in 0..n {
+                for j in 0..n {
+                    rk += 0.5 * q[i * n + j] * pc.c[(k * n + i) * n + j];
+                }
+            }
+            // Noise part derivatives.
+            for (targets, sigma, idx) in &self.white {
+                let s = idx.map_or(*sigma, |kk| p[kk]);
+                for &i in targets {
+                    for &j in targets {
+                        let c = 0.5 * pc.c[(k * n + i) * n + j];
+                        if let Some(kk) = idx {
+                            jac[(k, *kk)] += c * 2.0 * s * mu[i] * mu[j];
+                        }
+                        for (u_, unk) in self.unknowns.iter().enumerate() {
+                            if let Unknown::Mass(m) = *unk {
+                                // d(s² μ_i μ_j)/dm = −s² μ_i μ_j (1/m)([i=m] + [j=m])
+                                let cnt = (i == m) as u8 as f64 + (j == m) as u8 as f64;
+                                if cnt > 0.0 {
+                                    jac[(k, u_)] += -c * s * s * mu[i] * mu[j] * cnt * mu[m];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            r[k] = rk;
+        }
+        (r, jac)
+    }
+
+    /// Solve the pieces for all unknowns: Gauss–Newton from `start` (one exact step when
+    /// only coefficients are unknown). `typical` gives each unknown's data-based magnitude,
+    /// used for column scaling; the diagnostics at the solution use the estimates
+    /// themselves, so the weakest direction is in relative changes of the unknowns.
+    pub fn solve(&self, pc: &Pieces, typical: &[f64]) -> (Vec<f64>, lsq::Diagnostics) {
+        let mut p = self.start.clone();
+        let linear = self.coefficient_count() == self.unknowns.len();
+        for _ in 0..if linear { 1 } else { 100 } {
+            let (r, j) = self.residual(pc, &p);
+            let (dx, _) = lsq::solve(&j, &(-r), typical);
+            let mut change: f64 = 0.0;
+            for (k, v) in p.iter_mut().enumerate() {
+                *v += dx[k];
+                change = change.max((dx[k] / typical[k]).abs());
+            }
+            if change < 1e-13 {
+                break;
+            }
+        }
+        let (_, j) = self.residual(pc, &p);
+        let scale: Vec<f64> = p.iter().zip(typical).map(|(&v, &t)| if v.abs() > 1e-6 * t.abs() { v } else { t }).collect();
+        let (_, d) = lsq::solve(&j, &DVector::zeros(pc.rows), &scale);
+        (p, d)
+    }
+
+    /// Data-based typical magnitude of each unknown: for a coefficient of `z^p`,
+    /// `1/E[z²]^(p/2)` (a unit force at a typical amplitude); the nominal value for masses
+    /// and intensities.
+    pub fn typical(&self, mom: &moments::RawMoments) -> Vec<f64> {
+        self.unknowns
+            .iter()
+            .zip(&self.start)
+            .map(|(u, &s)| match *u {
+                Unknown::Coefficient(c) => {
+                    let base = match c.kind {
+                        Characteristic::Stiffness => xi,
+                        Characteristic::Damping => vi,
+                    };
+                    let (a, b) = (self.model.link_a[c.link], self.model.link_b[c.link]);
+                    let mut z = Poly::monomial(var(base(a)), 1.0);
+                    if b != GROUND {
+                        z.add_term(var(base(b)), -1.0);
+                    }
+                    let ez2 = z.mul(&z).expectation(|e| mom.moment(e));
+                    if ez2 > 0.0 { ez2.powf(-(c.power as f64) / 2.0) } else { 1.0 }
+                }
+                _ => s.abs(),
+            })
+            .collect()
+    }
+}
+
+/// The residual's pieces for `rows` equations (test functions or grid cells):
+/// `t0[k]`, `a[k][i]`, `b[k][i][r]`, `c[k][i][j]` (see the module docs).
+#[derive(Debug, Clone)]
+pub struct Pieces {
+    pub rows: usize,
+    pub t0: Vec<f64>,
+    pub a: Vec<f64>,
+    pub b: Vec<f64>,
+    pub c: Vec<f64>,
+}
+
+impl Pieces {
+    pub fn new(rows: usize, n: usize, r: usize) -> Pieces {
+        Pieces { rows, t0: vec![0.0; rows], a: vec![0.0; rows * n], b: vec![0.0; rows * n * r], c: vec![0.0; rows * n * n] }
+    }
+}
+
+/// Convenience: the monomial `y_j`.
+pub fn y(j: usize) -> Poly {
+    Poly::monomial(var(j), 1.0)
+}

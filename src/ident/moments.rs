@@ -1,0 +1,149 @@
+//! Raw moments `E[Y^β]` of the state up to a given degree, accumulated in one streaming
+//! pass in constant memory — all the weak form needs.
+//!
+//! Samples arrive in blocks; each block is split into fixed-size chunks summed in parallel
+//! and merged in chunk order, so the result does not depend on the number of threads. Each
+//! monomial is its parent monomial times one variable, evaluated for [`CHUNK_LANES`]
+//! samples at a time so the inner loop vectorises.
+
+use super::poly::{exponent, monomials, var, Exponents};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Samples per parallel chunk (fixed, so sums do not depend on the thread count).
+const CHUNK: usize = 4096;
+/// Samples evaluated side by side in the monomial recursion.
+const CHUNK_LANES: usize = 8;
+
+/// Accumulated raw moments.
+#[derive(Debug, Clone)]
+pub struct RawMoments {
+    pub vars: usize,
+    pub max_degree: u32,
+    /// Monomials in evaluation order (degree 1 first); index 0 is the constant 1.
+    pub monomials: Vec<Exponents>,
+    /// For monomial `k ≥ 1`: the monomial it is `parent × y_var` of.
+    parent: Vec<usize>,
+    var: Vec<usize>,
+    index: HashMap<Exponents, usize>,
+    pub sums: Vec<f64>,
+    pub count: u64,
+    /// Per variable: smallest and largest value seen.
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+}
+
+impl RawMoments {
+    pub fn new(vars: usize, max_degree: u32) -> RawMoments {
+        let mut mons = vec![0u64];
+        mons.extend(monomials(vars, max_degree));
+        let index: HashMap<Exponents, usize> = mons.iter().enumerate().map(|(i, &e)| (e, i)).collect();
+        let mut parent = vec![0; mons.len()];
+        let mut vr = vec![0; mons.len()];
+        for (k, &e) in mons.iter().enumerate().skip(1) {
+            let j = (0..vars).rev().find(|&j| exponent(e, j) > 0).unwrap();
+            parent[k] = index[&(e - var(j))];
+            vr[k] = j;
+        }
+        RawMoments {
+            vars,
+            max_degree,
+            sums: vec![0.0; mons.len()],
+            monomials: mons,
+            parent,
+            var: vr,
+            index,
+            count: 0,
+            min: vec![f64::INFINITY; vars],
+            max: vec![f64::NEG_INFINITY; vars],
+        }
+    }
+
+    /// Moments given exactly by `moment(β)` (reference tests with known densities).
+    pub fn exact(vars: usize, max_degree: u32, moment: impl Fn(Exponents) -> f64) -> RawMoments {
+        let mut m = RawMoments::new(vars, max_degree);
+        m.sums = m.monomials.iter().map(|&e| if e == 0 { 1.0 } else { moment(e) }).collect();
+        m.count = 1;
+        m
+    }
+
+    /// `E[Y^β]`; panics if `β` is beyond the accumulated degree.
+    pub fn moment(&self, e: Exponents) -> f64 {
+        let k = *self.index.get(&e).unwrap_or_else(|| panic!("moment of degree {} not accumulated", super::poly::degree(e)));
+        self.sums[k] / self.count as f64
+    }
+
+    pub fn has(&self, e: Exponents) -> bool {
+        self.index.contains_key(&e)
+    }
+
+    pub fn mean(&self, j: usize) -> f64 {
+        self.moment(var(j))
+    }
+
+    pub fn std(&self, j: usize) -> f64 {
+        (self.moment(2 * var(j)) - self.mean(j).powi(2)).max(0.0).sqrt()
+    }
+
+    /// Add a block of samples: `rows` is row-major with `self.vars` values per sample.
+    pub fn add_block(&mut self, rows: &[f64]) {
+        let d = self.vars;
+        let n = rows.len() / d;
+        let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> =
+            rows.par_chunks(CHUNK * d).map(|c| self.chunk_sums(c)).collect();
+        for (s, lo, hi) in parts {
+            for (a, b) in self.sums.iter_mut().zip(&s) {
+                *a += b;
+            }
+            for j in 0..d {
+                self.min[j] = self.min[j].min(lo[j]);
+                self.max[j] = self.max[j].max(hi[j]);
+            }
+        }
+        self.count += n as u64;
+    }
+
+    fn chunk_sums(&self, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let d = self.vars;
+        let m = self.monomials.len();
+        let mut sums = vec![0.0; m];
+        let mut lo = vec![f64::INFINITY; d];
+        let mut hi = vec![f64::NEG_INFINITY; d];
+        // vals[k][lane]
+        let mut vals = vec![[0.0f64; CHUNK_LANES]; m];
+        let mut y = vec![[0.0f64; CHUNK_LANES]; d];
+        let n = rows.len() / d;
+        let mut start = 0;
+        while start < n {
+            let lanes = (n - start).min(CHUNK_LANES);
+            for j in 0..d {
+                for l in 0..CHUNK_LANES {
+                    y[j][l] = if l < lanes { rows[(start + l) * d + j] } else { 0.0 };
+                }
+                for l in 0..lanes {
+                    lo[j] = lo[j].min(y[j][l]);
+                    hi[j] = hi[j].max(y[j][l]);
+                }
+            }
+            vals[0] = [1.0; CHUNK_LANES];
+            for l in lanes..CHUNK_LANES {
+                vals[0][l] = 0.0;
+            }
+            for k in 1..m {
+                let (p, j) = (self.parent[k], self.var[k]);
+                let pv = vals[p];
+                let yj = y[j];
+                let mut out = [0.0; CHUNK_LANES];
+                for l in 0..CHUNK_LANES {
+                    out[l] = pv[l] * yj[l];
+                }
+                vals[k] = out;
+            }
+            for k in 0..m {
+                sums[k] += vals[k].iter().sum::<f64>();
+            }
+            start += lanes;
+        }
+        (sums, lo, hi)
+    }
+}

@@ -1,0 +1,60 @@
+//! Weak form (DESIGN §5): for every test function `ψ`, stationarity gives `E[𝒜ψ(Y)] = 0`
+//! with `𝒜ψ = Σ v_i ∂ψ/∂x_i + Σ a_i(y) ∂ψ/∂v_i + ½ Σ Q_ij ∂²ψ/∂v_i∂v_j`, linear in the
+//! unknown coefficients and needing only sample means — here raw moments accumulated in
+//! one pass ([`RawMoments`]), so no density, no differentiated data, constant memory.
+//!
+//! Test functions: every monomial of the state of degree 1..=`p_max + 1` (degree ≤ 3
+//! cannot separate `k1` from `k3` when cubic terms are present). Each is written in the
+//! standardised variables `y_j / s_j` — a fixed, data-derived weighting by natural scale;
+//! equations are never normalised by their own norm (rows that vanish by symmetry would
+//! otherwise get full weight).
+
+use super::moments::RawMoments;
+use super::poly::{degree, exponent, monomials, Poly};
+use super::{vi, xi, Pieces, Problem};
+
+/// Degree of moments the weak form needs for `problem`.
+pub fn moment_degree(problem: &Problem) -> u32 {
+    2 * problem.pmax
+}
+
+/// Test-function degree for `problem`.
+pub fn test_degree(problem: &Problem) -> u32 {
+    problem.pmax + 1
+}
+
+/// Assemble the weak-form pieces from raw moments of the state.
+pub fn pieces(problem: &Problem, mom: &RawMoments) -> Pieces {
+    let n = problem.n;
+    let d = problem.dim();
+    let rc = problem.coefficient_count();
+    let tests = monomials(d, test_degree(problem));
+    let scale: Vec<f64> = (0..d).map(|j| mom.moment(2 * super::poly::var(j)).sqrt().max(1e-300)).collect();
+    let mut pc = Pieces::new(tests.len(), n, rc);
+    let ex = |p: &Poly| p.expectation(|e| mom.moment(e));
+    for (k, &alpha) in tests.iter().enumerate() {
+        // ψ = Π (y_j / s_j)^α_j
+        let w: f64 = (0..d).map(|j| scale[j].powi(-(exponent(alpha, j) as i32))).product();
+        let psi = Poly::monomial(alpha, w);
+        let mut t0 = Poly::zero();
+        for i in 0..n {
+            t0.add(&super::y(vi(i)).mul(&psi.derivative(xi(i))), 1.0);
+        }
+        pc.t0[k] = ex(&t0);
+        for i in 0..n {
+            let dpsi = psi.derivative(vi(i));
+            if dpsi.terms.is_empty() {
+                continue;
+            }
+            pc.a[k * n + i] = ex(&problem.known_force[i].mul(&dpsi));
+            for r in 0..rc {
+                pc.b[(k * n + i) * rc + r] = ex(&problem.unit_force[r][i].mul(&dpsi));
+            }
+            for j in 0..n {
+                pc.c[(k * n + i) * n + j] = ex(&dpsi.derivative(vi(j)));
+            }
+        }
+        debug_assert!(degree(alpha) <= test_degree(problem));
+    }
+    pc
+}
