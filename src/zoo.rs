@@ -162,7 +162,9 @@ pub fn gaussian_moment(cov: &DMatrix<f64>, e: crate::ident::poly::Exponents) -> 
         return 1.0;
     }
     let d = cov.nrows();
-    let j = (0..d).find(|&j| exponent(e, j) > 0).expect("nonzero exponent");
+    let j = (0..d)
+        .find(|&j| exponent(e, j) > 0)
+        .expect("nonzero exponent");
     let gamma = e - var(j);
     (0..d)
         .filter(|&k| exponent(gamma, k) > 0)

@@ -19,8 +19,16 @@ fn sdof_duffing(identify: &str) -> Scenario {
 fn sdof_exact(deg: u32) -> RawMoments {
     let mx = zoo::duffing_displacement_moments(10.0, 20.0, 0.5, 1.0, deg);
     let var_v: f64 = 1.0 / (2.0 * 0.5 * 1.0);
-    let gauss = |b: u32| if b % 2 == 1 { 0.0 } else { (1..b).step_by(2).map(|k| k as f64).product::<f64>() * var_v.powi(b as i32 / 2) };
-    RawMoments::exact(2, deg, |e| mx[exponent(e, 0) as usize] * gauss(exponent(e, 1)))
+    let gauss = |b: u32| {
+        if b % 2 == 1 {
+            0.0
+        } else {
+            (1..b).step_by(2).map(|k| k as f64).product::<f64>() * var_v.powi(b as i32 / 2)
+        }
+    };
+    RawMoments::exact(2, deg, |e| {
+        mx[exponent(e, 0) as usize] * gauss(exponent(e, 1))
+    })
 }
 
 #[test]
@@ -45,10 +53,15 @@ fn weak_form_with_exact_gaussian_moments_recovers_linear_2dof() {
     // Lyapunov order x1 x2 v1 v2 → problem order x1 v1 x2 v2.
     let perm = [0usize, 2, 1, 3];
     let cov = nalgebra::DMatrix::from_fn(4, 4, |i, j| cov4[(perm[i], perm[j])]);
-    let mom = RawMoments::exact(4, weak::moment_degree(&p), |e| zoo::gaussian_moment(&cov, e));
+    let mom = RawMoments::exact(4, weak::moment_degree(&p), |e| {
+        zoo::gaussian_moment(&cov, e)
+    });
     let pc = weak::pieces(&p, &mom);
     let (est, _) = p.solve(&pc, &p.typical(&mom));
     for ((e, t), n) in est.iter().zip(&p.truth).zip(&p.names) {
-        assert!(((e - t) / t).abs() < 1e-10, "{n}: estimate {e} vs truth {t}");
+        assert!(
+            ((e - t) / t).abs() < 1e-10,
+            "{n}: estimate {e} vs truth {t}"
+        );
     }
 }

@@ -35,7 +35,11 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
     let mut s = a.clone();
     let mut colscale = vec![1.0; cols];
     for j in 0..cols {
-        let sc = if scale[j].is_finite() && scale[j] != 0.0 { scale[j].abs() } else { 1.0 };
+        let sc = if scale[j].is_finite() && scale[j] != 0.0 {
+            scale[j].abs()
+        } else {
+            1.0
+        };
         let mut col = s.column_mut(j);
         col *= sc;
         let norm = col.norm();
@@ -46,24 +50,48 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
     let svd = s.clone().svd(true, true);
     let sv: Vec<f64> = svd.singular_values.iter().copied().collect();
     let mut order: Vec<usize> = (0..sv.len()).collect();
-    order.sort_by(|&i, &j| sv[j].partial_cmp(&sv[i]).unwrap_or(std::cmp::Ordering::Equal));
+    order.sort_by(|&i, &j| {
+        sv[j]
+            .partial_cmp(&sv[i])
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
     let smax = sv.iter().copied().fold(0.0, f64::max);
-    let smin = if rows >= cols { sv.iter().copied().fold(f64::INFINITY, f64::min) } else { 0.0 };
+    let smin = if rows >= cols {
+        sv.iter().copied().fold(f64::INFINITY, f64::min)
+    } else {
+        0.0
+    };
     let rank = sv.iter().filter(|&&x| x > RANK_TOL * smax).count();
-    let x_scaled = svd.solve(b, RANK_TOL * smax).unwrap_or_else(|_| DVector::zeros(cols));
+    let x_scaled = svd
+        .solve(b, RANK_TOL * smax)
+        .unwrap_or_else(|_| DVector::zeros(cols));
     let x = DVector::from_iterator(cols, (0..cols).map(|j| x_scaled[j] * colscale[j]));
     let v_t = svd.v_t.as_ref().expect("computed");
     let weakest = *order.last().unwrap_or(&0);
     let mut dir: Vec<f64> = (0..cols)
         .map(|j| {
-            let sc = if scale[j].is_finite() && scale[j] != 0.0 { scale[j].abs() } else { 1.0 };
+            let sc = if scale[j].is_finite() && scale[j] != 0.0 {
+                scale[j].abs()
+            } else {
+                1.0
+            };
             // Back from unit-norm columns to units of the unknown's scale.
             v_t[(weakest, j)] * colscale[j] / sc
         })
         .collect();
     let m = dir.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
     if m > 0.0 {
-        let sign = if dir.iter().find(|v| v.abs() > 1e-6 * m).copied().unwrap_or(1.0) < 0.0 { -1.0 } else { 1.0 };
+        let sign = if dir
+            .iter()
+            .find(|v| v.abs() > 1e-6 * m)
+            .copied()
+            .unwrap_or(1.0)
+            < 0.0
+        {
+            -1.0
+        } else {
+            1.0
+        };
         dir.iter_mut().for_each(|v| *v *= sign / m);
     }
     let sv_ratio = if smax > 0.0 { smin / smax } else { 0.0 };
@@ -72,7 +100,11 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
         cols,
         rows,
         sv_ratio,
-        condition: if sv_ratio > 0.0 { 1.0 / sv_ratio } else { f64::INFINITY },
+        condition: if sv_ratio > 0.0 {
+            1.0 / sv_ratio
+        } else {
+            f64::INFINITY
+        },
         singular_values: order.iter().map(|&i| sv[i]).collect(),
         weakest_direction: dir,
     };

@@ -17,6 +17,7 @@
 //! with `μ_i = 1/m_i`, `Q_ij = Σ_e σ_e² [i,j ∈ e] μ_i μ_j` (velocity noise covariance) and
 //! `θ` the unknown coefficients. Depends on `model` and `scenario` only.
 
+pub mod data;
 pub mod lsq;
 pub mod moments;
 pub mod poly;
@@ -109,7 +110,10 @@ pub fn vi(i: usize) -> usize {
 impl Problem {
     /// Build the problem from a scenario's `[identify]` section and true system.
     pub fn new(s: &Scenario) -> Result<Problem, IdentError> {
-        if s.excitations.iter().any(|e| matches!(e.process, Process::Filtered { .. })) {
+        if s.excitations
+            .iter()
+            .any(|e| matches!(e.process, Process::Filtered { .. }))
+        {
             return Err(IdentError::Unsupported(
                 "filtered (Ornstein–Uhlenbeck) excitation needs the acceleration-augmented state, which this version does not identify yet".into(),
             ));
@@ -122,15 +126,24 @@ impl Problem {
         let mut known = model.clone();
         for il in &id.links {
             let l = il.link;
-            for (kind, powers) in [(Characteristic::Stiffness, &il.stiffness), (Characteristic::Damping, &il.damping)] {
+            for (kind, powers) in [
+                (Characteristic::Stiffness, &il.stiffness),
+                (Characteristic::Damping, &il.damping),
+            ] {
                 if let Some(ps) = powers {
                     let (start, len) = match kind {
                         Characteristic::Stiffness => (known.k_start[l], known.k_len[l]),
                         Characteristic::Damping => (known.c_start[l], known.c_len[l]),
                     };
-                    known.coefs[start..start + len].iter_mut().for_each(|c| *c = 0.0);
+                    known.coefs[start..start + len]
+                        .iter_mut()
+                        .for_each(|c| *c = 0.0);
                     for &p in ps {
-                        unknowns.push(Unknown::Coefficient(Coefficient { link: l, kind, power: p }));
+                        unknowns.push(Unknown::Coefficient(Coefficient {
+                            link: l,
+                            kind,
+                            power: p,
+                        }));
                     }
                 }
             }
@@ -190,11 +203,15 @@ impl Problem {
                     };
                     let zp = z.pow(c.power);
                     pmax = pmax.max(c.power);
-                    unit_force.push((0..n).map(|i| {
-                        let mut p = Poly::zero();
-                        p.add(&zp, -model.sign(c.link, i));
-                        p
-                    }).collect());
+                    unit_force.push(
+                        (0..n)
+                            .map(|i| {
+                                let mut p = Poly::zero();
+                                p.add(&zp, -model.sign(c.link, i));
+                                p
+                            })
+                            .collect(),
+                    );
                     names.push(model.coefficient_name(c));
                     let t = match c.kind {
                         Characteristic::Stiffness => s.links[c.link].stiffness.coefficient(c.power),
@@ -210,7 +227,9 @@ impl Problem {
                 }
                 Unknown::Intensity(e) => {
                     names.push(format!("sigma[{}]", model.excitation_names[e]));
-                    let Process::White { sigma } = model.excitations[e].process else { unreachable!() };
+                    let Process::White { sigma } = model.excitations[e].process else {
+                        unreachable!()
+                    };
                     truth.push(sigma);
                     start.push(sigma);
                 }
@@ -231,11 +250,37 @@ impl Problem {
             }
         }
         let columns = (0..2 * n).map(|j| 3 * (j / 2) + j % 2).collect();
-        let state_names = (0..n).flat_map(|i| [format!("x_{}", model.mass_names[i]), format!("v_{}", model.mass_names[i])]).collect();
-        let link_ends = (0..model.links())
-            .map(|l| (model.link_a[l], (model.link_b[l] != GROUND).then_some(model.link_b[l])))
+        let state_names = (0..n)
+            .flat_map(|i| {
+                [
+                    format!("x_{}", model.mass_names[i]),
+                    format!("v_{}", model.mass_names[i]),
+                ]
+            })
             .collect();
-        Ok(Problem { model, unknowns, names, truth, start, n, pmax, known_force, unit_force, white, columns, state_names, link_ends })
+        let link_ends = (0..model.links())
+            .map(|l| {
+                (
+                    model.link_a[l],
+                    (model.link_b[l] != GROUND).then_some(model.link_b[l]),
+                )
+            })
+            .collect();
+        Ok(Problem {
+            model,
+            unknowns,
+            names,
+            truth,
+            start,
+            n,
+            pmax,
+            known_force,
+            unit_force,
+            white,
+            columns,
+            state_names,
+            link_ends,
+        })
     }
 
     /// Number of state variables.
@@ -245,7 +290,10 @@ impl Problem {
 
     /// Number of unknown coefficients (they come first in `unknowns`).
     pub fn coefficient_count(&self) -> usize {
-        self.unknowns.iter().filter(|u| matches!(u, Unknown::Coefficient(_))).count()
+        self.unknowns
+            .iter()
+            .filter(|u| matches!(u, Unknown::Coefficient(_)))
+            .count()
     }
 
     /// `μ_i = 1/m_i` and the velocity noise covariance `Q` for parameter values `p`.
@@ -344,7 +392,11 @@ impl Problem {
             }
         }
         let (_, j) = self.residual(pc, &p);
-        let scale: Vec<f64> = p.iter().zip(typical).map(|(&v, &t)| if v.abs() > 1e-6 * t.abs() { v } else { t }).collect();
+        let scale: Vec<f64> = p
+            .iter()
+            .zip(typical)
+            .map(|(&v, &t)| if v.abs() > 1e-6 * t.abs() { v } else { t })
+            .collect();
         let (_, d) = lsq::solve(&j, &DVector::zeros(pc.rows), &scale);
         (p, d)
     }
@@ -368,7 +420,11 @@ impl Problem {
                         z.add_term(var(base(b)), -1.0);
                     }
                     let ez2 = z.mul(&z).expectation(|e| mom.moment(e));
-                    if ez2 > 0.0 { ez2.powf(-(c.power as f64) / 2.0) } else { 1.0 }
+                    if ez2 > 0.0 {
+                        ez2.powf(-(c.power as f64) / 2.0)
+                    } else {
+                        1.0
+                    }
                 }
                 _ => s.abs(),
             })
@@ -389,11 +445,153 @@ pub struct Pieces {
 
 impl Pieces {
     pub fn new(rows: usize, n: usize, r: usize) -> Pieces {
-        Pieces { rows, t0: vec![0.0; rows], a: vec![0.0; rows * n], b: vec![0.0; rows * n * r], c: vec![0.0; rows * n * n] }
+        Pieces {
+            rows,
+            t0: vec![0.0; rows],
+            a: vec![0.0; rows * n],
+            b: vec![0.0; rows * n * r],
+            c: vec![0.0; rows * n * n],
+        }
     }
 }
 
 /// Convenience: the monomial `y_j`.
 pub fn y(j: usize) -> Poly {
     Poly::monomial(var(j), 1.0)
+}
+
+/// Singular-value ratio below which unknowns count as inseparable outright.
+pub const INSEPARABLE_RATIO: f64 = 1e-8;
+/// Below this ratio the estimates are weakly determined (a warning), and the batch spread
+/// decides whether the data can separate them at all.
+pub const WEAK_RATIO: f64 = 1e-3;
+
+/// One method's estimate of the unknowns.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Estimate {
+    pub method: &'static str,
+    pub names: Vec<String>,
+    pub values: Vec<f64>,
+    /// Standard errors from batch means (independent time windows); NaN with one batch.
+    pub std_error: Vec<f64>,
+    pub diagnostics: lsq::Diagnostics,
+    /// `sv_ratio` below [`WEAK_RATIO`]: the estimates are weakly determined.
+    pub weakly_determined: bool,
+    /// Method-specific facts (grid size, occupied cells, test functions, …).
+    pub facts: Vec<(String, String)>,
+}
+
+/// Solve `pieces` built from all data and from each batch; decide identifiability.
+pub fn estimate(
+    problem: &Problem,
+    method: &'static str,
+    total: &Pieces,
+    batches: &[Pieces],
+    typical: &[f64],
+    facts: Vec<(String, String)>,
+) -> Result<Estimate, IdentError> {
+    let (values, diag) = problem.solve(total, typical);
+    let per_batch: Vec<Vec<f64>> = batches
+        .iter()
+        .map(|b| problem.solve(b, typical).0)
+        .collect();
+    let nu = values.len();
+    let std_error: Vec<f64> = (0..nu)
+        .map(|k| {
+            let nb = per_batch.len() as f64;
+            if per_batch.len() < 2 {
+                return f64::NAN;
+            }
+            let mean = per_batch.iter().map(|b| b[k]).sum::<f64>() / nb;
+            let var = per_batch.iter().map(|b| (b[k] - mean).powi(2)).sum::<f64>() / (nb - 1.0);
+            (var / nb).sqrt()
+        })
+        .collect();
+    let involved: Vec<usize> = (0..nu)
+        .filter(|&k| diag.weakest_direction[k].abs() >= 0.1)
+        .collect();
+    let inseparable = |reason: String| IdentError::NotIdentifiable {
+        names: involved.iter().map(|&k| problem.names[k].clone()).collect(),
+        direction: involved
+            .iter()
+            .map(|&k| (problem.names[k].clone(), diag.weakest_direction[k]))
+            .collect(),
+        singular_values: diag.singular_values.clone(),
+        sv_ratio: diag.sv_ratio,
+        rank: diag.rank,
+        cols: diag.cols,
+        reason,
+    };
+    if diag.rank < diag.cols || diag.sv_ratio < INSEPARABLE_RATIO {
+        return Err(inseparable(format!(
+            "numerical rank {} < {} unknowns",
+            diag.rank, diag.cols
+        )));
+    }
+    if diag.sv_ratio < WEAK_RATIO && per_batch.len() >= 2 {
+        // Per-batch scatter of the unknowns along the weakest direction, relative to them.
+        let nb = per_batch.len() as f64;
+        let worst = involved
+            .iter()
+            .map(|&k| std_error[k] * nb.sqrt() / values[k].abs().max(1e-300))
+            .fold(0.0f64, f64::max);
+        if worst > 0.5 {
+            return Err(inseparable(format!(
+                "batch estimates along the weakest direction scatter by {:.0} % of their value",
+                100.0 * worst
+            )));
+        }
+    }
+    Ok(Estimate {
+        method,
+        names: problem.names.clone(),
+        values,
+        std_error,
+        weakly_determined: diag.sv_ratio < WEAK_RATIO,
+        diagnostics: diag,
+        facts,
+    })
+}
+
+/// The weak-form estimate from streamed data.
+pub fn identify_weak(
+    problem: &Problem,
+    data: &data::StationaryData,
+) -> Result<Estimate, IdentError> {
+    let total = data.total();
+    if total.count < 10 * problem.unknowns.len() as u64 {
+        return Err(IdentError::TooLittleData(format!(
+            "{} samples for {} unknowns",
+            total.count,
+            problem.unknowns.len()
+        )));
+    }
+    let typical = problem.typical(&total);
+    let pc = weak::pieces(problem, &total);
+    let batches: Vec<Pieces> = data
+        .batches
+        .iter()
+        .filter(|b| b.count > 0)
+        .map(|b| weak::pieces(problem, b))
+        .collect();
+    let facts = vec![
+        (
+            "test functions".into(),
+            format!(
+                "{} monomials of degree 1..={}",
+                pc.rows,
+                weak::test_degree(problem)
+            ),
+        ),
+        (
+            "moments".into(),
+            format!(
+                "{} raw moments of degree <= {}",
+                total.monomials.len() - 1,
+                weak::moment_degree(problem)
+            ),
+        ),
+        ("batches".into(), batches.len().to_string()),
+    ];
+    estimate(problem, "weak", &pc, &batches, &typical, facts)
 }

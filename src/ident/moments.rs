@@ -37,7 +37,8 @@ impl RawMoments {
     pub fn new(vars: usize, max_degree: u32) -> RawMoments {
         let mut mons = vec![0u64];
         mons.extend(monomials(vars, max_degree));
-        let index: HashMap<Exponents, usize> = mons.iter().enumerate().map(|(i, &e)| (e, i)).collect();
+        let index: HashMap<Exponents, usize> =
+            mons.iter().enumerate().map(|(i, &e)| (e, i)).collect();
         let mut parent = vec![0; mons.len()];
         let mut vr = vec![0; mons.len()];
         for (k, &e) in mons.iter().enumerate().skip(1) {
@@ -62,14 +63,23 @@ impl RawMoments {
     /// Moments given exactly by `moment(β)` (reference tests with known densities).
     pub fn exact(vars: usize, max_degree: u32, moment: impl Fn(Exponents) -> f64) -> RawMoments {
         let mut m = RawMoments::new(vars, max_degree);
-        m.sums = m.monomials.iter().map(|&e| if e == 0 { 1.0 } else { moment(e) }).collect();
+        m.sums = m
+            .monomials
+            .iter()
+            .map(|&e| if e == 0 { 1.0 } else { moment(e) })
+            .collect();
         m.count = 1;
         m
     }
 
     /// `E[Y^β]`; panics if `β` is beyond the accumulated degree.
     pub fn moment(&self, e: Exponents) -> f64 {
-        let k = *self.index.get(&e).unwrap_or_else(|| panic!("moment of degree {} not accumulated", super::poly::degree(e)));
+        let k = *self.index.get(&e).unwrap_or_else(|| {
+            panic!(
+                "moment of degree {} not accumulated",
+                super::poly::degree(e)
+            )
+        });
         self.sums[k] / self.count as f64
     }
 
@@ -82,15 +92,19 @@ impl RawMoments {
     }
 
     pub fn std(&self, j: usize) -> f64 {
-        (self.moment(2 * var(j)) - self.mean(j).powi(2)).max(0.0).sqrt()
+        (self.moment(2 * var(j)) - self.mean(j).powi(2))
+            .max(0.0)
+            .sqrt()
     }
 
     /// Add a block of samples: `rows` is row-major with `self.vars` values per sample.
     pub fn add_block(&mut self, rows: &[f64]) {
         let d = self.vars;
         let n = rows.len() / d;
-        let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> =
-            rows.par_chunks(CHUNK * d).map(|c| self.chunk_sums(c)).collect();
+        let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = rows
+            .par_chunks(CHUNK * d)
+            .map(|c| self.chunk_sums(c))
+            .collect();
         for (s, lo, hi) in parts {
             for (a, b) in self.sums.iter_mut().zip(&s) {
                 *a += b;
@@ -118,7 +132,11 @@ impl RawMoments {
             let lanes = (n - start).min(CHUNK_LANES);
             for j in 0..d {
                 for l in 0..CHUNK_LANES {
-                    y[j][l] = if l < lanes { rows[(start + l) * d + j] } else { 0.0 };
+                    y[j][l] = if l < lanes {
+                        rows[(start + l) * d + j]
+                    } else {
+                        0.0
+                    };
                 }
                 for l in 0..lanes {
                     lo[j] = lo[j].min(y[j][l]);

@@ -29,12 +29,16 @@ pub fn pieces(problem: &Problem, mom: &RawMoments) -> Pieces {
     let d = problem.dim();
     let rc = problem.coefficient_count();
     let tests = monomials(d, test_degree(problem));
-    let scale: Vec<f64> = (0..d).map(|j| mom.moment(2 * super::poly::var(j)).sqrt().max(1e-300)).collect();
+    let scale: Vec<f64> = (0..d)
+        .map(|j| mom.moment(2 * super::poly::var(j)).sqrt().max(1e-300))
+        .collect();
     let mut pc = Pieces::new(tests.len(), n, rc);
     let ex = |p: &Poly| p.expectation(|e| mom.moment(e));
     for (k, &alpha) in tests.iter().enumerate() {
         // ψ = Π (y_j / s_j)^α_j
-        let w: f64 = (0..d).map(|j| scale[j].powi(-(exponent(alpha, j) as i32))).product();
+        let w: f64 = (0..d)
+            .map(|j| scale[j].powi(-(exponent(alpha, j) as i32)))
+            .product();
         let psi = Poly::monomial(alpha, w);
         let mut t0 = Poly::zero();
         for i in 0..n {
