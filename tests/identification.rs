@@ -65,3 +65,143 @@ fn weak_form_with_exact_gaussian_moments_recovers_linear_2dof() {
         );
     }
 }
+
+/// Exact SDOF Duffing density (linear damping) on a grid of `bins²` cells over ±4.5 std.
+fn sdof_strong_errors(bins: usize) -> Vec<f64> {
+    use fpkbench::ident::strong::DensityGrid;
+    let p = Problem::new(&sdof_duffing("")).unwrap();
+    let (k1, k3, c, sigma, m) = (10.0, 20.0, 0.5, 1.0, 1.0);
+    let beta = 2.0 * c / (sigma * sigma);
+    let mom = sdof_exact(6);
+    let (sx, sv) = (mom.std(0), mom.std(1));
+    let lo = vec![-4.5 * sx, -4.5 * sv];
+    let h = vec![9.0 * sx / bins as f64, 9.0 * sv / bins as f64];
+    let f = |y: &[f64]| {
+        (-beta * (m * y[1] * y[1] / 2.0 + k1 * y[0] * y[0] / 2.0 + k3 * y[0].powi(4) / 4.0)).exp()
+    };
+    let grid = DensityGrid::from_density(&p, lo, h, bins, f);
+    let e = fpkbench::ident::identify_strong(&p, &grid, false, &p.typical(&mom)).unwrap();
+    e.values
+        .iter()
+        .zip(&p.truth)
+        .map(|(v, t)| ((v - t) / t).abs())
+        .collect()
+}
+
+#[test]
+fn strong_form_on_the_exact_density_converges_like_h_squared() {
+    // Halving the cell size must cut every error by ≈ 4 (second-order differences).
+    let coarse = sdof_strong_errors(50);
+    let mid = sdof_strong_errors(100);
+    let fine = sdof_strong_errors(200);
+    for k in 0..3 {
+        let (r1, r2) = (coarse[k] / mid[k], mid[k] / fine[k]);
+        assert!(
+            (3.0..5.5).contains(&r1) && (3.0..5.5).contains(&r2),
+            "unknown {k}: errors {} {} {}",
+            coarse[k],
+            mid[k],
+            fine[k]
+        );
+    }
+    assert!(fine.iter().all(|&e| e < 5e-3), "200² cells: {fine:?}");
+    eprintln!(
+        "strong form, exact density, 200² cells: relative errors k1 {:.1e}, k3 {:.1e}, c1 {:.1e}",
+        fine[0], fine[1], fine[2]
+    );
+}
+
+fn inseparable(identify: &str) -> (Vec<String>, Vec<(String, f64)>, f64) {
+    let p = Problem::new(&sdof_duffing(identify)).unwrap();
+    let mom = sdof_exact(weak::moment_degree(&p));
+    let pc = weak::pieces(&p, &mom);
+    match fpkbench::ident::estimate(&p, "weak", &pc, &[], &p.typical(&mom), vec![]) {
+        Err(fpkbench::ident::IdentError::NotIdentifiable {
+            names,
+            direction,
+            sv_ratio,
+            ..
+        }) => (names, direction, sv_ratio),
+        Ok(e) => panic!(
+            "expected not identifiable, got estimates {:?} (sv ratio {:e})",
+            e.values, e.diagnostics.sv_ratio
+        ),
+        Err(e) => panic!("unexpected error {e}"),
+    }
+}
+
+fn dir(d: &[(String, f64)], name: &str) -> f64 {
+    d.iter().find(|x| x.0 == name).map_or(0.0, |x| x.1)
+}
+
+#[test]
+fn damping_with_intensity_unknown_is_flagged_with_its_null_direction() {
+    // f ∝ exp(−(2c/σ²)(m v²/2 + U)) depends on c/σ² only: c → (1+ε)c, σ → (1+ε/2)σ.
+    let (names, d, ratio) = inseparable("[identify]\nunknown_intensities = [\"m1\"]\n");
+    assert!(ratio < 1e-8, "sv ratio {ratio:e}");
+    assert_eq!(names, ["c1[ground-m1]", "sigma[m1]"]);
+    assert!(
+        (dir(&d, "c1[ground-m1]") - 1.0).abs() < 1e-6 && (dir(&d, "sigma[m1]") - 0.5).abs() < 1e-6,
+        "{d:?}"
+    );
+}
+
+#[test]
+fn mass_unknown_is_flagged_with_its_null_direction() {
+    // Invariants c·m/σ² and c·k/σ²: m, k1, k3 → (1+ε)·, c → (1−ε)·.
+    let (names, d, ratio) = inseparable("[identify]\nunknown_masses = [\"m1\"]\n");
+    assert!(ratio < 1e-8, "sv ratio {ratio:e}");
+    assert_eq!(names.len(), 4);
+    let m = dir(&d, "m[m1]");
+    for (n, s) in [
+        ("k1[ground-m1]", 1.0),
+        ("k3[ground-m1]", 1.0),
+        ("c1[ground-m1]", -1.0),
+    ] {
+        assert!((dir(&d, n) - s * m).abs() < 1e-6, "{n}: {d:?}");
+    }
+    assert!((m.abs() - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn coefficients_alone_are_identifiable() {
+    let p = Problem::new(&sdof_duffing("")).unwrap();
+    let mom = sdof_exact(weak::moment_degree(&p));
+    let e = fpkbench::ident::estimate(
+        &p,
+        "weak",
+        &weak::pieces(&p, &mom),
+        &[],
+        &p.typical(&mom),
+        vec![],
+    )
+    .unwrap();
+    assert!(
+        e.diagnostics.sv_ratio > 1e-2 && !e.weakly_determined,
+        "{:?}",
+        e.diagnostics
+    );
+}
+
+#[test]
+fn extra_power_in_the_model_comes_out_near_zero() {
+    // Identify {1, 2, 3} on a {1, 3} truth, exact expectations: k2 ≈ 0.
+    let p = Problem::new(&sdof_duffing(
+        "[identify]\nlinks.ground-m1 = { stiffness = [1, 2, 3], damping = [1] }\n",
+    ))
+    .unwrap();
+    assert_eq!(
+        p.names,
+        [
+            "k1[ground-m1]",
+            "k2[ground-m1]",
+            "k3[ground-m1]",
+            "c1[ground-m1]"
+        ]
+    );
+    assert_eq!(p.truth[1], 0.0);
+    let mom = sdof_exact(weak::moment_degree(&p));
+    let (est, _) = p.solve(&weak::pieces(&p, &mom), &p.typical(&mom));
+    assert!(est[1].abs() < 1e-6, "k2 = {}", est[1]);
+    assert!(((est[2] - 20.0) / 20.0).abs() < 1e-6);
+}

@@ -595,3 +595,69 @@ pub fn identify_weak(
     ];
     estimate(problem, "weak", &pc, &batches, &typical, facts)
 }
+
+/// The strong-form estimate (the paper's procedure) from a filled density grid; with
+/// `marginals`, from the product of its marginals (3.21).
+pub fn identify_strong(
+    problem: &Problem,
+    grid: &strong::DensityGrid,
+    marginals: bool,
+    typical: &[f64],
+) -> Result<Estimate, IdentError> {
+    let (pc, usable) = grid.pieces(problem, marginals);
+    if usable < 2 * problem.unknowns.len() {
+        return Err(IdentError::TooLittleData(format!(
+            "only {usable} usable grid cells for {} unknowns (grid {} bins per dimension, minimum count {}); use more samples, fewer bins or the weak form",
+            problem.unknowns.len(), grid.options.bins, grid.options.min_count
+        )));
+    }
+    let cells = grid.counts.len();
+    let facts = vec![
+        (
+            "grid".into(),
+            format!(
+                "{} bins^{} = {} cells over mean ± {} std",
+                grid.options.bins, grid.dim, cells, grid.options.span_std
+            ),
+        ),
+        (
+            "occupied cells".into(),
+            format!(
+                "{} ({:.1} %)",
+                grid.occupied(),
+                100.0 * grid.occupied() as f64 / cells as f64
+            ),
+        ),
+        (
+            "usable cells".into(),
+            format!(
+                "{usable} (minimum count {} in every stencil cell)",
+                grid.options.min_count
+            ),
+        ),
+        (
+            "samples in box".into(),
+            format!("{} of {}", grid.inside, grid.total),
+        ),
+        (
+            "density".into(),
+            if marginals {
+                "product of 1-D marginals (3.21)".into()
+            } else {
+                "joint histogram".to_string()
+            },
+        ),
+    ];
+    estimate(
+        problem,
+        if marginals {
+            "strong-marginals"
+        } else {
+            "strong"
+        },
+        &pc,
+        &[],
+        typical,
+        facts,
+    )
+}
