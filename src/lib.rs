@@ -6,11 +6,14 @@
 //! Dependencies point one way: `io` → `sim` → `model` → `scenario`; the numerics never
 //! import file formats or the CLI (which lives in the binary).
 
+pub mod bench;
 pub mod ident;
 pub mod io;
 pub mod model;
+pub mod report;
 pub mod scenario;
 pub mod sim;
+pub mod stats;
 pub mod zoo;
 
 pub use model::Model;

@@ -3,7 +3,9 @@
 //! 2 usage, input or I/O error. A closed stdout (broken pipe) exits 0.
 
 mod export;
+mod identify;
 mod inspect;
+mod run;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -22,6 +24,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    Run(run::Args),
+    Identify(identify::Args),
     Simulate(simulate::Args),
     Inspect(inspect::Args),
     Export(export::Args),
@@ -37,6 +41,8 @@ pub fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
+        Command::Run(a) => run::run(a),
+        Command::Identify(a) => identify::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Inspect(a) => inspect::run(a),
         Command::Export(a) => export::run(a),

@@ -1,0 +1,629 @@
+//! The bench's main job: identify the unknowns of a run log with the requested methods,
+//! measure the accuracy against the truth stored in the log, check dissipativity, and
+//! validate by re-simulating the identified model (DESIGN §7).
+//!
+//! Two streaming passes over the log, constant memory: pass 1 accumulates raw moments per
+//! time batch and the links' observed ranges (weak form); pass 2 fills the density grid
+//! (strong forms) and the histograms behind the plots.
+
+use crate::ident::data::StationaryData;
+use crate::ident::strong::{DensityGrid, GridOptions};
+use crate::ident::{self, lsq::Diagnostics, weak, IdentError, Problem, Unknown};
+use crate::io::log::{read_info, read_samples, LogError, LogInfo};
+use crate::model::{Characteristic, Coefficient, Model};
+use crate::scenario::{Method, Polynomial, Scenario};
+use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
+use crate::stats;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+/// Errors of the bench pipeline.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error(transparent)]
+    Log(#[from] LogError),
+    #[error(transparent)]
+    Ident(#[from] IdentError),
+    #[error(transparent)]
+    Sim(#[from] SimError),
+}
+
+/// Settings of an identification.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Methods to run; empty: the scenario's `[identify] methods`.
+    pub methods: Vec<Method>,
+    /// Strong-form grid; `None`: automatic.
+    pub grid: Option<GridOptions>,
+    /// Time batches for standard errors and the identifiability spread.
+    pub batches: usize,
+    /// Re-simulate the identified model for the validation table.
+    pub validate: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            methods: Vec::new(),
+            grid: None,
+            batches: 8,
+            validate: true,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Parameter {
+    pub name: String,
+    pub true_value: f64,
+    pub estimate: f64,
+    pub std_error: f64,
+    pub rel_error: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Curve {
+    pub link: String,
+    pub kind: &'static str,
+    pub rel_l2_error: f64,
+    /// Observed range of the relative displacement or velocity.
+    pub range: [f64; 2],
+    /// `(power, coefficient)` of the identified characteristic.
+    pub identified: Vec<(u32, f64)>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct MethodReport {
+    pub method: &'static str,
+    pub parameters: Vec<Parameter>,
+    pub curves: Vec<Curve>,
+    pub worst_rel_error: f64,
+    pub threshold: f64,
+    pub passed: bool,
+    pub diagnostics: Option<Diagnostics>,
+    pub weakly_determined: bool,
+    pub facts: BTreeMap<String, String>,
+    pub dissipativity: Vec<stats::Dissipativity>,
+    /// Why the method gave no estimate (then `passed` is false).
+    pub error: Option<String>,
+    pub seconds: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ValidationRow {
+    pub variable: String,
+    pub data_std: f64,
+    pub model_std: f64,
+    pub data_kurtosis: f64,
+    pub model_kurtosis: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Validation {
+    /// The method whose model was re-simulated.
+    pub method: &'static str,
+    pub record_length_s: f64,
+    pub trajectories: usize,
+    pub seed: u64,
+    pub rows: Vec<ValidationRow>,
+    /// Set when the identified model could not be simulated (e.g. not dissipative).
+    pub error: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Timings {
+    pub simulate: f64,
+    pub identify: f64,
+    pub total: f64,
+}
+
+/// Histogram over `[lo, hi]`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Histogram {
+    pub lo: f64,
+    pub hi: f64,
+    pub counts: Vec<f64>,
+}
+
+impl Histogram {
+    pub fn new(lo: f64, hi: f64, bins: usize) -> Histogram {
+        let (lo, hi) = if hi > lo {
+            (lo, hi)
+        } else {
+            (lo - 0.5, lo + 0.5)
+        };
+        Histogram {
+            lo,
+            hi,
+            counts: vec![0.0; bins],
+        }
+    }
+    pub fn push(&mut self, z: f64) {
+        let b = ((z - self.lo) / (self.hi - self.lo) * self.counts.len() as f64).floor();
+        if b >= 0.0 && (b as usize) < self.counts.len() {
+            self.counts[b as usize] += 1.0;
+        }
+    }
+    /// Probability density per bin (normalised by the count given).
+    pub fn density(&self, total: f64) -> Vec<f64> {
+        let w = (self.hi - self.lo) / self.counts.len() as f64;
+        self.counts.iter().map(|c| c / (total * w)).collect()
+    }
+}
+
+/// What the plots need beyond the report.
+#[derive(Debug, Clone, Default)]
+pub struct PlotData {
+    /// Per link: histograms of `u` and `w`.
+    pub link_hist: Vec<(Histogram, Histogram)>,
+    /// Per state variable: (name, unit, data histogram, re-simulated model histogram).
+    pub marginals: Vec<(String, String, Histogram, Option<Histogram>)>,
+    pub samples: f64,
+    pub model_samples: f64,
+}
+
+/// The result of identifying one log.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub scenario: String,
+    pub log: String,
+    pub record_length_s: f64,
+    pub total_record_s: f64,
+    pub samples: u64,
+    pub sample_interval_s: f64,
+    pub trajectories: usize,
+    pub seed: u64,
+    pub scheme: String,
+    pub dt_s: f64,
+    pub timings_s: Timings,
+    pub methods: Vec<MethodReport>,
+    pub validation: Option<Validation>,
+    pub passed: bool,
+    #[serde(skip)]
+    pub plot: PlotData,
+    #[serde(skip)]
+    pub scenario_def: Option<Scenario>,
+}
+
+/// Per-variable sums for std and kurtosis plus a histogram, from any sample source.
+struct Marginals {
+    cols: Vec<usize>,
+    s1: Vec<f64>,
+    s2: Vec<f64>,
+    s3: Vec<f64>,
+    s4: Vec<f64>,
+    n: f64,
+    hist: Vec<Histogram>,
+}
+
+impl Marginals {
+    fn new(cols: Vec<usize>, hist: Vec<Histogram>) -> Marginals {
+        let d = cols.len();
+        Marginals {
+            cols,
+            s1: vec![0.0; d],
+            s2: vec![0.0; d],
+            s3: vec![0.0; d],
+            s4: vec![0.0; d],
+            n: 0.0,
+            hist,
+        }
+    }
+    fn push(&mut self, row: &[f64]) {
+        for (j, &c) in self.cols.iter().enumerate() {
+            let z = row[c];
+            self.s1[j] += z;
+            self.s2[j] += z * z;
+            self.s3[j] += z * z * z;
+            self.s4[j] += z * z * z * z;
+            self.hist[j].push(z);
+        }
+        self.n += 1.0;
+    }
+    /// (std, kurtosis) of variable `j`.
+    fn std_kurtosis(&self, j: usize) -> (f64, f64) {
+        let n = self.n;
+        let m = self.s1[j] / n;
+        let m2 = self.s2[j] / n;
+        let m3 = self.s3[j] / n;
+        let m4 = self.s4[j] / n;
+        let var = m2 - m * m;
+        let c4 = m4 - 4.0 * m * m3 + 6.0 * m * m * m2 - 3.0 * m.powi(4);
+        (var.max(0.0).sqrt(), c4 / (var * var))
+    }
+}
+
+impl SampleSink for Marginals {
+    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        for i in 0..b.len() {
+            self.push(b.row(i));
+        }
+        Ok(())
+    }
+}
+
+const HIST_BINS: usize = 80;
+
+/// Identify the log at `path`.
+pub fn identify_log(path: &Path, options: &Options) -> Result<Report, BenchError> {
+    let start = Instant::now();
+    let info = read_info(path)?;
+    identify_info(&info, options, start)
+}
+
+fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, BenchError> {
+    let s = &info.scenario;
+    let sim = &s.simulation;
+    let problem = Problem::new(s)?;
+    let methods = if options.methods.is_empty() {
+        s.identify.methods.clone()
+    } else {
+        options.methods.clone()
+    };
+
+    // Pass 1: moments per batch, link ranges.
+    let mut data = StationaryData::new(
+        &problem,
+        weak::moment_degree(&problem),
+        sim.record_length,
+        options.batches,
+    );
+    read_samples(info, |_, t, row| data.push(t, row))?;
+    data.finish();
+    let total = data.total();
+    let typical = problem.typical(&total);
+
+    // Pass 2: grid and histograms.
+    let want_grid = methods
+        .iter()
+        .any(|m| matches!(m, Method::Strong | Method::StrongMarginals));
+    let mut grid = if want_grid {
+        Some(DensityGrid::new(
+            &problem,
+            &total,
+            options
+                .grid
+                .unwrap_or_else(|| GridOptions::auto(problem.dim())),
+        )?)
+    } else {
+        None
+    };
+    let n = problem.n;
+    let mut link_hist: Vec<(Histogram, Histogram)> = data
+        .link_ranges
+        .iter()
+        .map(|r| {
+            (
+                Histogram::new(r[0], r[1], HIST_BINS),
+                Histogram::new(r[2], r[3], HIST_BINS),
+            )
+        })
+        .collect();
+    let state_hist: Vec<Histogram> = (0..problem.dim())
+        .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
+        .collect();
+    let mut marg = Marginals::new(problem.columns.clone(), state_hist.clone());
+    let model = &problem.model;
+    let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+    read_samples(info, |_, _, row| {
+        if let Some(g) = grid.as_mut() {
+            g.push(row);
+        }
+        for i in 0..n {
+            xs[i] = row[3 * i];
+            vs[i] = row[3 * i + 1];
+        }
+        for (l, h) in link_hist.iter_mut().enumerate() {
+            h.0.push(model.relative(l, &xs));
+            h.1.push(model.relative(l, &vs));
+        }
+        marg.push(row);
+    })?;
+
+    // Methods.
+    let coef_of: Vec<Option<Coefficient>> = problem
+        .unknowns
+        .iter()
+        .map(|u| {
+            if let Unknown::Coefficient(c) = u {
+                Some(*c)
+            } else {
+                None
+            }
+        })
+        .collect();
+    let mut reports = Vec::new();
+    let mut first_ok: Option<Vec<f64>> = None;
+    let mut first_method = "";
+    for m in &methods {
+        let t = Instant::now();
+        let est = match m {
+            Method::Weak => ident::identify_weak(&problem, &data),
+            Method::Strong => {
+                ident::identify_strong(&problem, grid.as_ref().expect("grid"), false, &typical)
+            }
+            Method::StrongMarginals => {
+                ident::identify_strong(&problem, grid.as_ref().expect("grid"), true, &typical)
+            }
+        };
+        let threshold = s.accept.threshold(*m);
+        let mut rep = MethodReport {
+            method: m.name(),
+            parameters: Vec::new(),
+            curves: Vec::new(),
+            worst_rel_error: f64::NAN,
+            threshold,
+            passed: false,
+            diagnostics: None,
+            weakly_determined: false,
+            facts: BTreeMap::new(),
+            dissipativity: Vec::new(),
+            error: None,
+            seconds: 0.0,
+        };
+        match est {
+            Err(e @ IdentError::NotIdentifiable { .. }) => return Err(e.into()),
+            Err(e) => rep.error = Some(e.to_string()),
+            Ok(e) => {
+                fill_accuracy(
+                    &mut rep,
+                    s,
+                    &problem,
+                    &coef_of,
+                    &e.values,
+                    &e.std_error,
+                    &data.link_ranges,
+                );
+                rep.diagnostics = Some(e.diagnostics.clone());
+                rep.weakly_determined = e.weakly_determined;
+                rep.facts = e.facts.into_iter().collect();
+                if first_ok.is_none() {
+                    first_ok = Some(e.values.clone());
+                    first_method = m.name();
+                }
+            }
+        }
+        rep.seconds = t.elapsed().as_secs_f64();
+        reports.push(rep);
+    }
+
+    // Validation by re-simulation of the first identified model.
+    let mut marginals: Vec<(String, String, Histogram, Option<Histogram>)> = (0..problem.dim())
+        .map(|j| {
+            let unit = if j % 2 == 0 {
+                s.motion.units()[0]
+            } else {
+                s.motion.units()[1]
+            };
+            (
+                problem.state_names[j].clone(),
+                unit.to_string(),
+                marg.hist[j].clone(),
+                None,
+            )
+        })
+        .collect();
+    let mut model_samples = 0.0;
+    let validation = match (&first_ok, options.validate) {
+        (Some(values), true) => {
+            let v = validate(
+                s,
+                &problem,
+                &coef_of,
+                values,
+                first_method,
+                &marg,
+                &state_hist,
+            );
+            if let Ok((_, m)) = &v {
+                for (j, h) in m.hist.iter().enumerate() {
+                    marginals[j].3 = Some(h.clone());
+                }
+                model_samples = m.n;
+            }
+            Some(match v {
+                Ok((val, _)) => val,
+                Err(e) => Validation {
+                    method: first_method,
+                    record_length_s: 0.0,
+                    trajectories: 0,
+                    seed: 0,
+                    rows: Vec::new(),
+                    error: Some(format!("the identified model could not be simulated: {e}")),
+                },
+            })
+        }
+        _ => None,
+    };
+
+    let passed = !reports.is_empty() && reports.iter().all(|r| r.passed);
+    let identify_s = start.elapsed().as_secs_f64();
+    Ok(Report {
+        scenario: s.name.clone(),
+        log: info.path.display().to_string(),
+        record_length_s: sim.record_length,
+        total_record_s: sim.record_length * sim.trajectories as f64,
+        samples: data.samples(),
+        sample_interval_s: sim.sample_interval,
+        trajectories: sim.trajectories,
+        seed: sim.seed,
+        scheme: sim.scheme.name().to_string(),
+        dt_s: sim.dt,
+        timings_s: Timings {
+            simulate: 0.0,
+            identify: identify_s,
+            total: identify_s,
+        },
+        methods: reports,
+        validation,
+        passed,
+        plot: PlotData {
+            link_hist,
+            marginals,
+            samples: marg.n,
+            model_samples,
+        },
+        scenario_def: Some(s.clone()),
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn fill_accuracy(
+    rep: &mut MethodReport,
+    s: &Scenario,
+    problem: &Problem,
+    coef_of: &[Option<Coefficient>],
+    values: &[f64],
+    std_error: &[f64],
+    ranges: &[[f64; 4]],
+) {
+    let range = |c: Coefficient| match c.kind {
+        Characteristic::Stiffness => (ranges[c.link][0], ranges[c.link][1]),
+        Characteristic::Damping => (ranges[c.link][2], ranges[c.link][3]),
+    };
+    let mut worst: f64 = 0.0;
+    for (k, name) in problem.names.iter().enumerate() {
+        let t = problem.truth[k];
+        let rel = match coef_of[k] {
+            Some(c) => {
+                let (lo, hi) = range(c);
+                stats::coefficient_error(
+                    values[k],
+                    t,
+                    c.power,
+                    &stats::true_characteristic(s, c.link, c.kind),
+                    lo,
+                    hi,
+                )
+            }
+            None => ((values[k] - t) / t).abs(),
+        };
+        worst = worst.max(rel);
+        rep.parameters.push(Parameter {
+            name: name.clone(),
+            true_value: t,
+            estimate: values[k],
+            std_error: std_error[k],
+            rel_error: rel,
+        });
+    }
+    for l in 0..s.links.len() {
+        for kind in [Characteristic::Stiffness, Characteristic::Damping] {
+            let (est, unknown) = stats::estimated_characteristic(s, coef_of, values, l, kind);
+            if !unknown {
+                continue;
+            }
+            let truth = stats::true_characteristic(s, l, kind);
+            let (lo, hi) = range(Coefficient {
+                link: l,
+                kind,
+                power: 1,
+            });
+            let e = stats::rel_l2(&est, &truth, lo, hi);
+            worst = worst.max(e);
+            rep.curves.push(Curve {
+                link: s.links[l].name.clone(),
+                kind: kind.name(),
+                rel_l2_error: e,
+                range: [lo, hi],
+                identified: est.terms.clone(),
+            });
+            rep.dissipativity
+                .push(stats::dissipativity(&s.links[l].name, kind, &est, lo, hi));
+        }
+    }
+    rep.worst_rel_error = worst;
+    rep.passed = worst <= rep.threshold;
+}
+
+/// The scenario with the identified values in place of the unknowns.
+pub fn identified_scenario(
+    s: &Scenario,
+    problem: &Problem,
+    coef_of: &[Option<Coefficient>],
+    values: &[f64],
+) -> Scenario {
+    let mut out = s.clone();
+    for l in 0..s.links.len() {
+        for kind in [Characteristic::Stiffness, Characteristic::Damping] {
+            let (est, unknown) = stats::estimated_characteristic(s, coef_of, values, l, kind);
+            if unknown {
+                let est = Polynomial {
+                    terms: est.terms.into_iter().filter(|t| t.1 != 0.0).collect(),
+                };
+                match kind {
+                    Characteristic::Stiffness => out.links[l].stiffness = est,
+                    Characteristic::Damping => out.links[l].damping = est,
+                }
+            }
+        }
+    }
+    for (k, u) in problem.unknowns.iter().enumerate() {
+        match *u {
+            Unknown::Mass(i) => out.masses[i].value = values[k],
+            Unknown::Intensity(e) => {
+                if let crate::scenario::Process::White { sigma } = &mut out.excitations[e].process {
+                    *sigma = values[k];
+                }
+            }
+            Unknown::Coefficient(_) => {}
+        }
+    }
+    out
+}
+
+/// Re-simulate the identified model with the same excitation (another seed) and compare
+/// std and kurtosis of every response with the data's.
+fn validate(
+    s: &Scenario,
+    problem: &Problem,
+    coef_of: &[Option<Coefficient>],
+    values: &[f64],
+    method: &'static str,
+    data: &Marginals,
+    hist: &[Histogram],
+) -> Result<(Validation, Marginals), SimError> {
+    let mut sc = identified_scenario(s, problem, coef_of, values);
+    // At most 1e5 s of trajectory time: enough for std and kurtosis to a few per cent.
+    let traj = sc.simulation.trajectories;
+    sc.simulation.record_length = sc
+        .simulation
+        .record_length
+        .min(1e5 / traj as f64)
+        .max(sc.simulation.sample_interval);
+    sc.simulation.seed = sc.simulation.seed.wrapping_add(1_000_003);
+    let model = Model::new(&sc);
+    let mut m = Marginals::new(
+        problem.columns.clone(),
+        hist.iter()
+            .map(|h| Histogram::new(h.lo, h.hi, h.counts.len()))
+            .collect(),
+    );
+    simulate(&model, &sc.simulation, &mut m, &|_| {})?;
+    let rows = (0..problem.dim())
+        .map(|j| {
+            let (ds, dk) = data.std_kurtosis(j);
+            let (ms, mk) = m.std_kurtosis(j);
+            ValidationRow {
+                variable: problem.state_names[j].clone(),
+                data_std: ds,
+                model_std: ms,
+                data_kurtosis: dk,
+                model_kurtosis: mk,
+            }
+        })
+        .collect();
+    Ok((
+        Validation {
+            method,
+            record_length_s: sc.simulation.record_length,
+            trajectories: traj,
+            seed: sc.simulation.seed,
+            rows,
+            error: None,
+        },
+        m,
+    ))
+}

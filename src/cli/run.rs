@@ -1,0 +1,45 @@
+//! `fpkbench run`: simulate, log, identify, report — the bench's main job.
+
+use super::identify::{finish, IdentifyArgs};
+use fpkbench::bench::identify_log;
+use fpkbench::Scenario;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// Simulate a scenario, write its log, identify the unknowns back from the log, and report
+/// the accuracy against the truth with plots (all under out/<scenario>/).
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario file (TOML), e.g. scenarios/duffing2dof.toml.
+    pub scenario: PathBuf,
+    #[command(flatten)]
+    pub identify: IdentifyArgs,
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let start = Instant::now();
+    let scenario = Scenario::from_file(&args.scenario)?;
+    let dir = args
+        .identify
+        .out
+        .clone()
+        .unwrap_or_else(|| super::default_output(&scenario.name, ""));
+    let log = dir.join("run.mcap");
+    let sim = super::simulate::simulate_to(&scenario, &log)?;
+    if !args.identify.json {
+        eprintln!(
+            "simulated {} samples in {:.2} s -> {} ({:.1} MB)",
+            sim.samples,
+            sim.seconds,
+            log.display(),
+            sim.bytes as f64 / 1e6
+        );
+    }
+    let mut report = identify_log(&log, &args.identify.options(scenario.masses.len() * 2))?;
+    report.timings_s.simulate = sim.seconds;
+    report.timings_s.total = start.elapsed().as_secs_f64();
+    let mut a = args.identify.clone();
+    a.out = Some(dir);
+    finish(&report, &a)
+}

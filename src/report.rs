@@ -1,0 +1,442 @@
+//! Reports of an identification: the printed table, `report.json`, `report.md`, and SVG
+//! plots (plotters' SVG backend, no system fonts). Every file is written to a temporary
+//! name and renamed when complete.
+
+use crate::bench::{Histogram, Report};
+use crate::io::partial_path;
+use crate::model::Characteristic;
+use crate::stats;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// Write `text` to `path` atomically.
+pub fn write_atomic(path: &Path, text: &[u8]) -> std::io::Result<()> {
+    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d)?;
+    }
+    let tmp = partial_path(path);
+    std::fs::write(&tmp, text)?;
+    std::fs::rename(&tmp, path)
+}
+
+fn fmt_err(e: f64) -> String {
+    if e.is_nan() {
+        "—".into()
+    } else if e < 1e-3 {
+        format!("{e:.1e}")
+    } else {
+        format!("{:.2} %", 100.0 * e)
+    }
+}
+
+/// The human summary (also the body of `report.md`).
+pub fn summary(r: &Report) -> String {
+    let mut s = String::new();
+    s += &format!(
+        "scenario {}: {} samples every {} s, {} trajectories x {} s = {} s of record ({}; dt {} s, seed {})\n",
+        r.scenario, r.samples, r.sample_interval_s, r.trajectories, r.record_length_s, r.total_record_s, r.scheme, r.dt_s, r.seed
+    );
+    s += &format!(
+        "time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n\n",
+        r.timings_s.simulate, r.timings_s.identify, r.timings_s.total
+    );
+    let methods: Vec<_> = r.methods.iter().collect();
+    // Parameter table: one column per method.
+    s += &format!("| {:<18} | {:>10} |", "parameter", "true");
+    for m in &methods {
+        s += &format!(" {:>12} {:>9} |", m.method, "error");
+    }
+    s += "\n|";
+    s += &"-".repeat(20);
+    s += "|";
+    s += &"-".repeat(12);
+    s += "|";
+    for _ in &methods {
+        s += &"-".repeat(24);
+        s += "|";
+    }
+    s += "\n";
+    let names: Vec<String> = methods
+        .iter()
+        .find(|m| !m.parameters.is_empty())
+        .map(|m| m.parameters.iter().map(|p| p.name.clone()).collect())
+        .unwrap_or_default();
+    for (k, name) in names.iter().enumerate() {
+        let t = methods
+            .iter()
+            .find_map(|m| m.parameters.get(k))
+            .map(|p| p.true_value)
+            .unwrap_or(f64::NAN);
+        s += &format!("| {name:<18} | {t:>10.4} |");
+        for m in &methods {
+            match m.parameters.get(k) {
+                Some(p) => s += &format!(" {:>12.5} {:>9} |", p.estimate, fmt_err(p.rel_error)),
+                None => s += &format!(" {:>12} {:>9} |", "—", "—"),
+            }
+        }
+        s += "\n";
+    }
+    s += "\n";
+    for m in &methods {
+        s += &format!("{}: ", m.method);
+        if let Some(e) = &m.error {
+            s += &format!("FAILED: {e}\n");
+            continue;
+        }
+        s += &format!(
+            "worst error {} (threshold {}) {}",
+            fmt_err(m.worst_rel_error),
+            fmt_err(m.threshold),
+            if m.passed { "PASS" } else { "FAIL" }
+        );
+        if let Some(d) = &m.diagnostics {
+            s += &format!("; rank {}/{}, sv ratio {:.2e}", d.rank, d.cols, d.sv_ratio);
+        }
+        s += &format!("; {:.2} s\n", m.seconds);
+        if m.weakly_determined {
+            s += "  WARNING: smallest/largest singular value below 1e-3: the estimates are weakly determined\n";
+        }
+        for c in &m.curves {
+            s += &format!(
+                "  curve {} {}: relative L2 error {} over [{:.4}, {:.4}]\n",
+                c.link,
+                c.kind,
+                fmt_err(c.rel_l2_error),
+                c.range[0],
+                c.range[1]
+            );
+        }
+        for (k, v) in &m.facts {
+            s += &format!("  {k}: {v}\n");
+        }
+        for d in m.dissipativity.iter().filter(|d| !d.holds) {
+            s += &format!("  DISSIPATIVITY: {} {}: {}\n", d.link, d.kind, d.message);
+        }
+        if m.dissipativity.iter().all(|d| d.holds) && !m.dissipativity.is_empty() {
+            s += "  dissipativity (3.4): K(u)·u > 0 and C(w)·w > 0 hold over the observed ranges\n";
+        }
+    }
+    if let Some(v) = &r.validation {
+        s += &format!(
+            "\nvalidation: the {} model re-simulated ({} trajectories x {:.0} s, seed {})\n",
+            v.method, v.trajectories, v.record_length_s, v.seed
+        );
+        if let Some(e) = &v.error {
+            s += &format!("  {e}\n");
+        } else {
+            s += &format!(
+                "| {:<10} | {:>10} | {:>10} | {:>9} | {:>10} | {:>10} |\n",
+                "response", "data std", "model std", "diff", "data kurt", "model kurt"
+            );
+            s += "|------------|------------|------------|-----------|------------|------------|\n";
+            for row in &v.rows {
+                s += &format!(
+                    "| {:<10} | {:>10.5} | {:>10.5} | {:>8.2}% | {:>10.3} | {:>10.3} |\n",
+                    row.variable,
+                    row.data_std,
+                    row.model_std,
+                    100.0 * (row.model_std / row.data_std - 1.0),
+                    row.data_kurtosis,
+                    row.model_kurtosis
+                );
+            }
+        }
+    }
+    s += &format!(
+        "\nresult: {}\n",
+        if r.passed {
+            "every acceptance gate passed"
+        } else {
+            "an acceptance gate FAILED"
+        }
+    );
+    s
+}
+
+/// Write `report.json`, `report.md` and the plots into `dir`; returns the files written.
+pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    let json = serde_json::to_string_pretty(r).map_err(std::io::Error::other)?;
+    let p = dir.join("report.json");
+    write_atomic(&p, json.as_bytes())?;
+    files.push(p);
+    let md = format!(
+        "# fpkbench report: {}\n\n```\n{}```\n\nPlots: `characteristics.svg` (identified vs true characteristics over the observed range, data distribution beneath), `densities.svg` (marginal densities, data vs re-simulated model).\n",
+        r.scenario,
+        summary(r)
+    );
+    let p = dir.join("report.md");
+    write_atomic(&p, md.as_bytes())?;
+    files.push(p);
+    let p = dir.join("characteristics.svg");
+    plot_characteristics(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
+    files.push(p);
+    if r.plot.marginals.iter().any(|m| m.3.is_some()) || !r.plot.marginals.is_empty() {
+        let p = dir.join("densities.svg");
+        plot_densities(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
+        files.push(p);
+    }
+    Ok(files)
+}
+
+const COLORS: [RGBColor; 4] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+];
+
+type PlotResult = Result<(), Box<dyn std::error::Error>>;
+
+fn svg_to_file(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(DrawingArea<SVGBackend, plotters::coord::Shift>) -> PlotResult,
+) -> PlotResult {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE)?;
+        draw(root.clone())?;
+        root.present()?;
+    }
+    write_atomic(path, svg.as_bytes())?;
+    Ok(())
+}
+
+fn draw_histogram_strip(
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    h: &Histogram,
+    xlabel: &str,
+) -> PlotResult {
+    let max = h.counts.iter().copied().fold(0.0, f64::max).max(1.0);
+    let mut chart = ChartBuilder::on(area)
+        .margin_left(10)
+        .margin_right(15)
+        .x_label_area_size(32)
+        .y_label_area_size(60)
+        .build_cartesian_2d(h.lo..h.hi, 0.0..1.05)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .y_labels(2)
+        .y_desc("data")
+        .x_desc(xlabel)
+        .draw()?;
+    let w = (h.hi - h.lo) / h.counts.len() as f64;
+    chart.draw_series(h.counts.iter().enumerate().map(|(i, &c)| {
+        let x0 = h.lo + i as f64 * w;
+        Rectangle::new(
+            [(x0, 0.0), (x0 + w, c / max)],
+            RGBColor(160, 160, 160).filled(),
+        )
+    }))?;
+    Ok(())
+}
+
+/// For every link and characteristic: truth and each method's estimate over the observed
+/// range, with the data's distribution beneath.
+pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
+    let s = r.scenario_def.as_ref().expect("scenario");
+    let [ux, uv, _, uf, _] = s.motion.units();
+    let mut panels = Vec::new();
+    for (l, link) in s.links.iter().enumerate() {
+        for kind in [Characteristic::Stiffness, Characteristic::Damping] {
+            let truth = stats::true_characteristic(s, l, kind);
+            let identified = r.methods.iter().any(|m| {
+                m.curves
+                    .iter()
+                    .any(|c| c.link == link.name && c.kind == kind.name())
+            });
+            if truth.is_empty() && !identified {
+                continue;
+            }
+            panels.push((l, kind));
+        }
+    }
+    let cols = 2usize;
+    let rows = panels.len().div_ceil(cols).max(1);
+    svg_to_file(path, (1100, 420 * rows as u32), |root| {
+        let areas = root.split_evenly((rows, cols));
+        for ((l, kind), area) in panels.iter().zip(areas) {
+            let link = &s.links[*l];
+            let (hist, var, unit) = match kind {
+                Characteristic::Stiffness => (&r.plot.link_hist[*l].0, "u", ux),
+                Characteristic::Damping => (&r.plot.link_hist[*l].1, "w", uv),
+            };
+            let (top, bottom) = area.split_vertically((area.dim_in_pixel().1 as f64 * 0.74) as u32);
+            let truth = stats::true_characteristic(s, *l, *kind);
+            let (lo, hi) = (hist.lo, hist.hi);
+            let xs: Vec<f64> = (0..=200)
+                .map(|k| lo + (hi - lo) * k as f64 / 200.0)
+                .collect();
+            let mut curves: Vec<(String, Vec<f64>, RGBColor, bool)> = vec![(
+                "true".into(),
+                xs.iter().map(|&z| truth.eval(z)).collect(),
+                RGBColor(0, 0, 0),
+                false,
+            )];
+            for (mi, m) in r.methods.iter().enumerate() {
+                if let Some(c) = m
+                    .curves
+                    .iter()
+                    .find(|c| c.link == link.name && c.kind == kind.name())
+                {
+                    let p = stats::characteristic(&c.identified);
+                    curves.push((
+                        format!("{} ({} error)", m.method, fmt_err(c.rel_l2_error)),
+                        xs.iter().map(|&z| p.eval(z)).collect(),
+                        COLORS[mi % COLORS.len()],
+                        true,
+                    ));
+                }
+            }
+            let ymin = curves
+                .iter()
+                .flat_map(|c| c.1.iter())
+                .copied()
+                .fold(f64::INFINITY, f64::min);
+            let ymax = curves
+                .iter()
+                .flat_map(|c| c.1.iter())
+                .copied()
+                .fold(f64::NEG_INFINITY, f64::max);
+            let pad = 0.05 * (ymax - ymin).max(1e-12);
+            let title = format!(
+                "{} {}: {} force vs {var} ({})",
+                link.name,
+                kind.name(),
+                if *kind == Characteristic::Stiffness {
+                    "spring"
+                } else {
+                    "damper"
+                },
+                if *kind == Characteristic::Stiffness {
+                    "relative displacement"
+                } else {
+                    "relative velocity"
+                }
+            );
+            let mut chart = ChartBuilder::on(&top)
+                .caption(title, ("sans-serif", 16))
+                .margin_left(10)
+                .margin_right(15)
+                .margin_top(5)
+                .x_label_area_size(20)
+                .y_label_area_size(60)
+                .build_cartesian_2d(lo..hi, (ymin - pad)..(ymax + pad))?;
+            chart
+                .configure_mesh()
+                .y_desc(format!(
+                    "{} ({uf})",
+                    if *kind == Characteristic::Stiffness {
+                        "K(u)"
+                    } else {
+                        "C(w)"
+                    }
+                ))
+                .x_label_formatter(&|_| String::new())
+                .draw()?;
+            for (name, ys, color, dashed) in &curves {
+                let pts: Vec<(f64, f64)> = xs.iter().copied().zip(ys.iter().copied()).collect();
+                let style = ShapeStyle {
+                    color: color.to_rgba(),
+                    filled: false,
+                    stroke_width: if *dashed { 2 } else { 3 },
+                };
+                if *dashed {
+                    chart
+                        .draw_series(DashedLineSeries::new(pts, 8, 5, style))?
+                        .label(name.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                } else {
+                    chart
+                        .draw_series(LineSeries::new(pts, style))?
+                        .label(name.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                }
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()?;
+            draw_histogram_strip(
+                &bottom,
+                hist,
+                &format!("{var} ({unit}) — observed range; grey: distribution of the data"),
+            )?;
+        }
+        Ok(())
+    })
+}
+
+/// Marginal density of every response: data against the re-simulated identified model.
+pub fn plot_densities(r: &Report, path: &Path) -> PlotResult {
+    let m = &r.plot.marginals;
+    let cols = 2usize;
+    let rows = m.len().div_ceil(cols).max(1);
+    let model_name = r.validation.as_ref().map(|v| v.method).unwrap_or("model");
+    svg_to_file(path, (1000, 340 * rows as u32), |root| {
+        for ((name, unit, data, model), area) in m.iter().zip(root.split_evenly((rows, cols))) {
+            let dd = data.density(r.plot.samples.max(1.0));
+            let md = model
+                .as_ref()
+                .map(|h| h.density(r.plot.model_samples.max(1.0)));
+            let ymax = dd
+                .iter()
+                .chain(md.iter().flatten())
+                .copied()
+                .fold(0.0, f64::max)
+                * 1.08;
+            let w = (data.hi - data.lo) / data.counts.len() as f64;
+            let mut chart = ChartBuilder::on(&area)
+                .caption(format!("marginal density of {name}"), ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(35)
+                .y_label_area_size(55)
+                .build_cartesian_2d(data.lo..data.hi, 0.0..ymax.max(1e-12))?;
+            chart
+                .configure_mesh()
+                .x_desc(format!("{name} ({unit})"))
+                .y_desc(format!("density (1/{unit})"))
+                .draw()?;
+            chart
+                .draw_series(dd.iter().enumerate().map(|(i, &d)| {
+                    let x0 = data.lo + i as f64 * w;
+                    Rectangle::new([(x0, 0.0), (x0 + w, d)], RGBColor(170, 170, 170).filled())
+                }))?
+                .label("data (histogram)")
+                .legend(|(x, y)| {
+                    Rectangle::new(
+                        [(x, y - 5), (x + 18, y + 5)],
+                        RGBColor(170, 170, 170).filled(),
+                    )
+                });
+            if let Some(md) = md {
+                let pts: Vec<(f64, f64)> = md
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &d)| (data.lo + (i as f64 + 0.5) * w, d))
+                    .collect();
+                let style = ShapeStyle {
+                    color: COLORS[0].to_rgba(),
+                    filled: false,
+                    stroke_width: 2,
+                };
+                chart
+                    .draw_series(LineSeries::new(pts, style))?
+                    .label(format!("re-simulated {model_name} model"))
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()?;
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,158 @@
+//! Accuracy metrics (DESIGN §7): per-parameter relative errors, per-characteristic
+//! relative L2 errors over the observed range, and the dissipativity check (3.4) of
+//! identified characteristics over the observed ranges (3.16)–(3.17).
+
+use crate::model::{Characteristic, Coefficient};
+use crate::scenario::{Polynomial, Scenario};
+
+/// A polynomial characteristic from `(power, coefficient)` terms.
+pub fn characteristic(terms: &[(u32, f64)]) -> Polynomial {
+    let mut t = terms.to_vec();
+    t.sort_by_key(|x| x.0);
+    Polynomial { terms: t }
+}
+
+/// Points used for curve norms over a range.
+const POINTS: usize = 401;
+
+/// RMS of `p` over `[lo, hi]`.
+pub fn rms(p: &Polynomial, lo: f64, hi: f64) -> f64 {
+    let s: f64 = (0..POINTS)
+        .map(|k| {
+            let z = lo + (hi - lo) * k as f64 / (POINTS - 1) as f64;
+            p.eval(z).powi(2)
+        })
+        .sum();
+    (s / POINTS as f64).sqrt()
+}
+
+/// Relative L2 error `‖p̂ − p‖ / ‖p‖` over `[lo, hi]`.
+pub fn rel_l2(estimate: &Polynomial, truth: &Polynomial, lo: f64, hi: f64) -> f64 {
+    let mut diff = estimate.clone();
+    for &(p, c) in &truth.terms {
+        match diff.terms.iter_mut().find(|t| t.0 == p) {
+            Some(t) => t.1 -= c,
+            None => diff.terms.push((p, -c)),
+        }
+    }
+    let n = rms(truth, lo, hi);
+    if n > 0.0 {
+        rms(&diff, lo, hi) / n
+    } else {
+        rms(&diff, lo, hi)
+    }
+}
+
+/// Relative error of one coefficient estimate. A coefficient whose true value is 0 is
+/// measured against the scale of its characteristic over the observed range: the RMS of
+/// `ĉ z^p` divided by the RMS of the true characteristic.
+pub fn coefficient_error(
+    estimate: f64,
+    truth: f64,
+    power: u32,
+    true_curve: &Polynomial,
+    lo: f64,
+    hi: f64,
+) -> f64 {
+    if truth != 0.0 {
+        ((estimate - truth) / truth).abs()
+    } else {
+        let term = Polynomial {
+            terms: vec![(power, estimate)],
+        };
+        let scale = rms(true_curve, lo, hi);
+        if scale > 0.0 {
+            rms(&term, lo, hi) / scale
+        } else {
+            estimate.abs()
+        }
+    }
+}
+
+/// Outcome of the dissipativity check for one characteristic.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Dissipativity {
+    pub link: String,
+    pub kind: &'static str,
+    pub holds: bool,
+    /// Where it fails (the first observed point with `K(u)·u ≤ 0` or `C(w)·w ≤ 0`).
+    pub fails_at: Option<f64>,
+    pub message: String,
+}
+
+/// Check `K(u)·u > 0` (or `C(w)·w > 0`) over the observed `[lo, hi]` (3.4), (3.16)–(3.17).
+pub fn dissipativity(
+    link: &str,
+    kind: Characteristic,
+    p: &Polynomial,
+    lo: f64,
+    hi: f64,
+) -> Dissipativity {
+    let mut fails_at = None;
+    for k in 0..POINTS {
+        let z = lo + (hi - lo) * k as f64 / (POINTS - 1) as f64;
+        if z.abs() < 1e-12 * (hi - lo).abs().max(1e-300) {
+            continue;
+        }
+        if p.eval(z) * z <= 0.0 {
+            fails_at = Some(z);
+            break;
+        }
+    }
+    let (f, v) = match kind {
+        Characteristic::Stiffness => ("K(u)·u", "u"),
+        Characteristic::Damping => ("C(w)·w", "w"),
+    };
+    let message = match fails_at {
+        None => format!("{f} > 0 over the observed {v} in [{lo:.4}, {hi:.4}]"),
+        Some(z) => {
+            let maxp = p.max_power();
+            format!(
+                "{f} <= 0 at {v} = {z:.4} within the observed range: the identified {} is not dissipative there; \
+                 try another polynomial degree (e.g. powers up to {} or {}) as the paper suggests",
+                kind.name(),
+                maxp.saturating_sub(2).max(1),
+                maxp + 2
+            )
+        }
+    };
+    Dissipativity {
+        link: link.to_string(),
+        kind: kind.name(),
+        holds: fails_at.is_none(),
+        fails_at,
+        message,
+    }
+}
+
+/// The true characteristic of `(link, kind)` in a scenario.
+pub fn true_characteristic(s: &Scenario, link: usize, kind: Characteristic) -> Polynomial {
+    match kind {
+        Characteristic::Stiffness => s.links[link].stiffness.clone(),
+        Characteristic::Damping => s.links[link].damping.clone(),
+    }
+}
+
+/// The estimated characteristic of `(link, kind)`: the identified coefficients if this
+/// characteristic was unknown, else the true (known) one.
+pub fn estimated_characteristic(
+    s: &Scenario,
+    unknowns: &[Option<Coefficient>],
+    values: &[f64],
+    link: usize,
+    kind: Characteristic,
+) -> (Polynomial, bool) {
+    let terms: Vec<(u32, f64)> = unknowns
+        .iter()
+        .zip(values)
+        .filter_map(|(u, &v)| {
+            u.filter(|c| c.link == link && c.kind == kind)
+                .map(|c| (c.power, v))
+        })
+        .collect();
+    if terms.is_empty() {
+        (true_characteristic(s, link, kind), false)
+    } else {
+        (characteristic(&terms), true)
+    }
+}
