@@ -456,13 +456,17 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
         .get("scenario")
         .cloned()
         .unwrap_or_else(|| "scenario".into());
-    let scenario =
+    let mut scenario =
         Scenario::parse(&src, &format!("{label}#scenario.toml"), &name).map_err(|source| {
             LogError::Scenario {
                 path: label.clone(),
                 source,
             }
         })?;
+    apply_run_facts(&mut scenario, &run).map_err(|reason| LogError::Invalid {
+        path: label.clone(),
+        reason,
+    })?;
     let columns: Vec<String> = channel_metadata
         .get("columns")
         .map(|c| c.split(',').map(str::to_string).collect())
@@ -479,6 +483,51 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
         channel_metadata,
         library,
     })
+}
+
+/// The run facts describe what was simulated; they override the attached scenario's
+/// `[simulation]` (a run may have been made with settings changed from the file's).
+fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(), String> {
+    fn get<T: std::str::FromStr>(
+        run: &BTreeMap<String, String>,
+        key: &str,
+    ) -> Result<Option<T>, String> {
+        run.get(key)
+            .map(|v| {
+                v.parse::<T>()
+                    .map_err(|_| format!("run fact {key} = {v:?} is not a valid value"))
+            })
+            .transpose()
+    }
+    let sim = &mut s.simulation;
+    if let Some(v) = get(run, "seed")? {
+        sim.seed = v;
+    }
+    if let Some(v) = get(run, "dt_s")? {
+        sim.dt = v;
+    }
+    if let Some(v) = get(run, "substeps")? {
+        sim.substeps = v;
+    }
+    if let Some(v) = get(run, "sample_interval_s")? {
+        sim.sample_interval = v;
+    }
+    if let Some(v) = get(run, "record_length_s")? {
+        sim.record_length = v;
+    }
+    if let Some(v) = get(run, "burn_in_s")? {
+        sim.burn_in = v;
+    }
+    if let Some(v) = get(run, "trajectories")? {
+        sim.trajectories = v;
+    }
+    match run.get("scheme").map(String::as_str) {
+        Some("semi-implicit") => sim.scheme = crate::scenario::Scheme::SemiImplicit,
+        Some("euler-maruyama") => sim.scheme = crate::scenario::Scheme::EulerMaruyama,
+        Some(other) => return Err(format!("run fact scheme = {other:?} is not a known scheme")),
+        None => {}
+    }
+    Ok(())
 }
 
 /// Stream every sample to `f(trajectory, t, values)` in file order, in constant memory.

@@ -1,0 +1,51 @@
+//! Spread over seeds of each method's worst relative error on a scenario at a given
+//! record length, through the real pipeline (log written, identified back). The CI
+//! accuracy regression's thresholds come from this:
+//! `cargo run --release --example gate_spread -- SCENARIO RECORD_LENGTH SEEDS`.
+
+use fpkbench::bench::{identify_log, Options};
+use fpkbench::io::log::LogWriter;
+use fpkbench::sim::simulate;
+use fpkbench::{Model, Scenario};
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let mut s = Scenario::from_file(std::path::Path::new(&a[1])).unwrap();
+    s.simulation.record_length = a[2].parse().unwrap();
+    let seeds: u64 = a[3].parse().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mut worst: std::collections::BTreeMap<&'static str, Vec<f64>> = Default::default();
+    for seed in 0..seeds {
+        s.simulation.seed = 1000 + seed;
+        let m = Model::new(&s);
+        let path = dir.path().join("run.mcap");
+        let mut w = LogWriter::create(&path, &s, &m).unwrap();
+        simulate(&m, &s.simulation, &mut w, &|_| {}).unwrap();
+        w.finish().unwrap();
+        let r = identify_log(
+            &path,
+            &Options {
+                validate: false,
+                ..Options::default()
+            },
+        )
+        .unwrap();
+        for mr in &r.methods {
+            worst.entry(mr.method).or_default().push(mr.worst_rel_error);
+        }
+    }
+    for (m, mut v) in worst {
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        println!(
+            "{m:<17} worst rel error over {} seeds: median {:.4}, mean {:.4}, sd {:.4}, max {:.4}",
+            v.len(),
+            v[v.len() / 2],
+            mean,
+            sd,
+            v[v.len() - 1]
+        );
+    }
+}

@@ -1,0 +1,129 @@
+//! CI accuracy regression: every scenario in `scenarios/` is run through the real binary
+//! (`fpkbench run … --json`) at a reduced record length with a fixed seed, and each
+//! method's worst relative error must stay under a threshold taken from its spread over
+//! 12 seeds (seeds 1000–1011, measured with
+//! `cargo run --release --example gate_spread -- SCENARIO RECORD 12`):
+//! threshold = mean + 4 sd of the worst error, so a healthy build fails with probability
+//! well under 1 % while a real loss of accuracy fails it.
+
+use std::process::Command;
+
+struct Gate {
+    scenario: &'static str,
+    /// Reduced record length per trajectory, s.
+    record_length: f64,
+    /// (method, threshold on the worst relative error).
+    thresholds: &'static [(&'static str, f64)],
+}
+
+const SEED: u64 = 1000;
+
+const GATES: &[Gate] = &[
+    // 8 × 1250 s. weak: mean 0.0335, sd 0.0136, max 0.054; strong: mean 0.105, sd 0.037, max 0.179.
+    Gate {
+        scenario: "sdof_duffing",
+        record_length: 1250.0,
+        thresholds: &[("weak", 0.088), ("strong", 0.253)],
+    },
+    // 16 × 2500 s. weak: mean 0.059, sd 0.027, max 0.120; strong (4-D histogram starved at
+    // 4e5 samples): mean 4.26, sd 0.27, max 4.59; strong-marginals (coupling link → 0):
+    // mean 1.004, sd 0.014, max 1.049.
+    Gate {
+        scenario: "duffing2dof",
+        record_length: 2500.0,
+        thresholds: &[
+            ("weak", 0.168),
+            ("strong", 5.33),
+            ("strong-marginals", 1.06),
+        ],
+    },
+];
+
+#[test]
+fn every_scenario_meets_its_accuracy_gate_at_reduced_length() {
+    let mut files: Vec<_> = std::fs::read_dir("scenarios")
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    assert!(!files.is_empty());
+    let mut failures = Vec::new();
+    for file in files {
+        let stem = file.file_stem().unwrap().to_string_lossy().to_string();
+        let gate = GATES.iter().find(|g| g.scenario == stem).unwrap_or_else(|| {
+            panic!("scenario {stem} has no accuracy gate: measure its spread with examples/gate_spread.rs and add it to GATES")
+        });
+        let src = std::fs::read_to_string(&file).unwrap();
+        let reduced: String = src
+            .lines()
+            .map(|l| {
+                let t = l.trim_start();
+                if t.starts_with("record_length") {
+                    format!("record_length = {:?}", gate.record_length)
+                } else if t.starts_with("seed") {
+                    format!("seed = {SEED}")
+                } else {
+                    l.to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n");
+        assert!(
+            reduced.contains(&format!("seed = {SEED}")),
+            "{stem}: the scenario needs a `seed` line"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(format!("{stem}.toml"));
+        std::fs::write(&path, reduced).unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+            .args([
+                "run",
+                path.to_str().unwrap(),
+                "--json",
+                "--no-validate",
+                "--out",
+                dir.path().to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let code = out.status.code();
+        assert!(
+            code == Some(0) || code == Some(1),
+            "{stem}: exit {code:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        for (method, threshold) in gate.thresholds {
+            let m = report["methods"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|m| m["method"] == *method);
+            let Some(m) = m else {
+                failures.push(format!("{stem}: method {method} missing from the report"));
+                continue;
+            };
+            let worst = m["worst_rel_error"].as_f64().unwrap_or(f64::INFINITY);
+            eprintln!("{stem:<14} {method:<17} worst relative error {worst:.4} (regression threshold {threshold})");
+            if !(worst <= *threshold) {
+                failures.push(format!(
+                    "{stem}: {method} worst relative error {worst:.4} > {threshold}"
+                ));
+            }
+        }
+        for f in [
+            "report.json",
+            "report.md",
+            "characteristics.svg",
+            "run.mcap",
+        ] {
+            assert!(dir.path().join(f).exists(), "{stem}: {f} not written");
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "accuracy regression:\n{}",
+        failures.join("\n")
+    );
+}
