@@ -6,6 +6,15 @@
 use super::moments::RawMoments;
 use super::Problem;
 
+/// The weak form's moments when `degree` is what it needs, else every moment to `degree`.
+fn accumulator(problem: &Problem, degree: u32) -> RawMoments {
+    if degree == super::weak::moment_degree(problem) {
+        super::weak::accumulator(problem)
+    } else {
+        RawMoments::new(problem.dim(), degree)
+    }
+}
+
 /// Samples buffered before a parallel moment update.
 const BLOCK: usize = 1 << 16;
 

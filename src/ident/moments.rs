@@ -12,8 +12,10 @@ use std::collections::HashMap;
 
 /// Samples per parallel chunk (fixed, so sums do not depend on the thread count).
 const CHUNK: usize = 4096;
-/// Samples evaluated side by side in the monomial recursion.
+/// Partial sums kept per monomial (reduced once per chunk).
 const CHUNK_LANES: usize = 8;
+/// Samples evaluated side by side in the monomial recursion.
+const BLOCK: usize = 128;
 
 /// Accumulated raw moments.
 #[derive(Debug, Clone)]
@@ -35,8 +37,32 @@ pub struct RawMoments {
 
 impl RawMoments {
     pub fn new(vars: usize, max_degree: u32) -> RawMoments {
+        Self::with_monomials(vars, max_degree, &monomials(vars, max_degree))
+    }
+
+    /// Accumulate only `wanted` (and the lower monomials their evaluation passes through).
+    pub fn with_monomials(vars: usize, max_degree: u32, wanted: &[Exponents]) -> RawMoments {
+        // Close under "drop one power of the last variable present" (the recursion's parent),
+        // for every variable present, so any wanted monomial can be reached.
+        let mut set: std::collections::BTreeSet<Exponents> = wanted.iter().copied().collect();
+        // Second moments of every variable are always kept (means and standard deviations).
+        for j in 0..vars {
+            set.insert(var(j));
+            set.insert(2 * var(j));
+        }
+        let mut frontier: Vec<Exponents> = set.iter().copied().collect();
+        while let Some(e) = frontier.pop() {
+            if let Some(j) = (0..vars).rev().find(|&j| exponent(e, j) > 0) {
+                let p = e - var(j);
+                if p != 0 && set.insert(p) {
+                    frontier.push(p);
+                }
+            }
+        }
         let mut mons = vec![0u64];
-        mons.extend(monomials(vars, max_degree));
+        let mut rest: Vec<Exponents> = set.into_iter().filter(|&e| e != 0).collect();
+        rest.sort_by_key(|&e| (super::poly::degree(e), e));
+        mons.extend(rest);
         let index: HashMap<Exponents, usize> =
             mons.iter().enumerate().map(|(i, &e)| (e, i)).collect();
         let mut parent = vec![0; mons.len()];
@@ -120,48 +146,57 @@ impl RawMoments {
     fn chunk_sums(&self, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let d = self.vars;
         let m = self.monomials.len();
-        let mut sums = vec![0.0; m];
         let mut lo = vec![f64::INFINITY; d];
         let mut hi = vec![f64::NEG_INFINITY; d];
-        // vals[k][lane]
-        let mut vals = vec![[0.0f64; CHUNK_LANES]; m];
-        let mut y = vec![[0.0f64; CHUNK_LANES]; d];
+        // vals[k][s]: monomial k of the block's samples; acc[k][l]: per-lane partial sums,
+        // reduced once per chunk (the order is fixed, so results do not depend on threads).
+        let mut vals = vec![[0.0f64; BLOCK]; m];
+        let mut acc = vec![[0.0f64; CHUNK_LANES]; m];
+        let mut y = vec![[0.0f64; BLOCK]; d];
         let n = rows.len() / d;
         let mut start = 0;
         while start < n {
-            let lanes = (n - start).min(CHUNK_LANES);
+            let len = (n - start).min(BLOCK);
             for j in 0..d {
-                for l in 0..CHUNK_LANES {
-                    y[j][l] = if l < lanes {
-                        rows[(start + l) * d + j]
+                for s in 0..BLOCK {
+                    y[j][s] = if s < len {
+                        rows[(start + s) * d + j]
                     } else {
                         0.0
                     };
                 }
-                for l in 0..lanes {
-                    lo[j] = lo[j].min(y[j][l]);
-                    hi[j] = hi[j].max(y[j][l]);
+                for s in 0..len {
+                    lo[j] = lo[j].min(y[j][s]);
+                    hi[j] = hi[j].max(y[j][s]);
                 }
             }
-            vals[0] = [1.0; CHUNK_LANES];
-            for l in lanes..CHUNK_LANES {
-                vals[0][l] = 0.0;
+            for s in 0..BLOCK {
+                vals[0][s] = if s < len { 1.0 } else { 0.0 };
             }
             for k in 1..m {
                 let (p, j) = (self.parent[k], self.var[k]);
-                let pv = vals[p];
-                let yj = y[j];
-                let mut out = [0.0; CHUNK_LANES];
-                for l in 0..CHUNK_LANES {
-                    out[l] = pv[l] * yj[l];
+                let (head, tail) = vals.split_at_mut(k);
+                let (pv, out) = (&head[p], &mut tail[0]);
+                let yj = &y[j];
+                let mut a = acc[k];
+                for c in 0..BLOCK / CHUNK_LANES {
+                    for l in 0..CHUNK_LANES {
+                        let s = c * CHUNK_LANES + l;
+                        let v = pv[s] * yj[s];
+                        out[s] = v;
+                        a[l] += v;
+                    }
                 }
-                vals[k] = out;
+                acc[k] = a;
             }
-            for k in 0..m {
-                sums[k] += vals[k].iter().sum::<f64>();
+            for c in vals[0].chunks_exact(CHUNK_LANES) {
+                for l in 0..CHUNK_LANES {
+                    acc[0][l] += c[l];
+                }
             }
-            start += lanes;
+            start += len;
         }
+        let sums = acc.iter().map(|a| a.iter().sum()).collect();
         (sums, lo, hi)
     }
 }

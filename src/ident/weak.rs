@@ -23,17 +23,43 @@ pub fn test_degree(problem: &Problem) -> u32 {
     problem.pmax + 1
 }
 
+/// The raw moments the weak form of `problem` reads (a fraction of all monomials of
+/// degree ≤ `2 p_max`: accumulate only these).
+pub fn required_moments(problem: &Problem) -> Vec<super::poly::Exponents> {
+    let d = problem.dim();
+    let all = RawMoments::exact(d, moment_degree(problem), |_| 1.0);
+    let seen = std::cell::RefCell::new(std::collections::BTreeSet::new());
+    assemble(problem, &|e| {
+        seen.borrow_mut().insert(e);
+        all.moment(e)
+    });
+    seen.into_inner().into_iter().filter(|&e| e != 0).collect()
+}
+
+/// Moments accumulator for `problem`'s weak form.
+pub fn accumulator(problem: &Problem) -> RawMoments {
+    RawMoments::with_monomials(
+        problem.dim(),
+        moment_degree(problem),
+        &required_moments(problem),
+    )
+}
+
 /// Assemble the weak-form pieces from raw moments of the state.
 pub fn pieces(problem: &Problem, mom: &RawMoments) -> Pieces {
+    assemble(problem, &|e| mom.moment(e))
+}
+
+fn assemble(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -> Pieces {
     let n = problem.n;
     let d = problem.dim();
     let rc = problem.coefficient_count();
     let tests = monomials(d, test_degree(problem));
     let scale: Vec<f64> = (0..d)
-        .map(|j| mom.moment(2 * super::poly::var(j)).sqrt().max(1e-300))
+        .map(|j| moment(2 * super::poly::var(j)).sqrt().max(1e-300))
         .collect();
     let mut pc = Pieces::new(tests.len(), n, rc);
-    let ex = |p: &Poly| p.expectation(|e| mom.moment(e));
+    let ex = |p: &Poly| p.expectation(moment);
     for (k, &alpha) in tests.iter().enumerate() {
         // ψ = Π (y_j / s_j)^α_j
         let w: f64 = (0..d)
