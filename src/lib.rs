@@ -3,8 +3,34 @@
 //! excited multi-mass system identified from the stationary density of its response via
 //! the Fokker–Planck–Kolmogorov equation.
 //!
-//! Dependencies point one way: `io` → `sim` → `model` → `scenario`; the numerics never
-//! import file formats or the CLI (which lives in the binary).
+//! Dependencies point one way: `report`, `bench` → `io` → `ident`, `sim`, `stats` →
+//! `model` → `scenario`; the numerics never import file formats, plotting or the CLI
+//! (which lives in the binary).
+//!
+//! Identify a linear oscillator from its simulated stationary response with the weak form:
+//!
+//! ```
+//! use fpkbench::ident::{data::StationaryData, identify_weak, weak, Problem};
+//! use fpkbench::sim::{simulate, Collect};
+//! use fpkbench::{zoo, Model};
+//!
+//! let s = zoo::linear_sdof(1.0, 10.0, 2.0, 1.0,
+//!     "dt = 1e-3\nrecord_length = 2000.0\nsample_interval = 0.1\ntrajectories = 8");
+//! let mut samples = Collect::default();
+//! simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+//!
+//! let problem = Problem::new(&s).unwrap(); // k1 and c1 unknown
+//! let mut data = StationaryData::new(&problem, weak::moment_degree(&problem), 2000.0, 8);
+//! for b in &samples.batches {
+//!     for i in 0..b.len() {
+//!         data.push(b.time[i], b.row(i));
+//!     }
+//! }
+//! data.finish();
+//! let estimate = identify_weak(&problem, &data).unwrap();
+//! assert_eq!(estimate.names, ["k1[ground-m1]", "c1[ground-m1]"]);
+//! assert!((estimate.values[0] - 10.0).abs() < 0.5 && (estimate.values[1] - 2.0).abs() < 0.2);
+//! ```
 
 pub mod bench;
 pub mod ident;
