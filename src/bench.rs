@@ -274,6 +274,12 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
     data.finish();
     let total = data.total();
     let typical = problem.typical(&total);
+    // Identifiability is a property of the unknowns and the data: measured once, with the
+    // weak form's batches, whatever methods were asked for (no estimates on failure).
+    let weak_estimate = ident::identify_weak(&problem, &data);
+    if let Err(e @ IdentError::NotIdentifiable { .. }) = weak_estimate {
+        return Err(e.into());
+    }
 
     // Pass 2: grid and histograms.
     let want_grid = methods
@@ -340,7 +346,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
     for m in &methods {
         let t = Instant::now();
         let est = match m {
-            Method::Weak => ident::identify_weak(&problem, &data),
+            Method::Weak => weak_estimate.clone(),
             Method::Strong => {
                 ident::identify_strong(&problem, grid.as_ref().expect("grid"), false, &typical)
             }

@@ -40,17 +40,18 @@ pub enum Unknown {
 }
 
 /// Errors of identification.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum IdentError {
     /// The requested unknowns cannot be separated by the stationary density.
     #[error(
         "the unknowns cannot be separated by the stationary density: {} move together along \
-         the direction [{}] (singular values {}; smallest/largest = {:.2e}, rank {} of {}). \
-         Declare some of them known (DESIGN §6: the excitation intensity and the masses must be known)",
+         the direction [{}] (singular values {}; smallest/largest = {:.2e}, rank {} of {}; {}). \
+         No estimates are given. Declare some of them known (DESIGN §6: the excitation \
+         intensity and the masses must be known)",
         .names.join(", "),
         .direction.iter().map(|(n, d)| format!("{n}: {d:+.3}")).collect::<Vec<_>>().join(", "),
         .singular_values.iter().map(|s| format!("{s:.3e}")).collect::<Vec<_>>().join(" "),
-        .sv_ratio, .rank, .cols
+        .sv_ratio, .rank, .cols, .reason
     )]
     NotIdentifiable {
         names: Vec<String>,
@@ -462,9 +463,11 @@ pub fn y(j: usize) -> Poly {
 
 /// Singular-value ratio below which unknowns count as inseparable outright.
 pub const INSEPARABLE_RATIO: f64 = 1e-8;
-/// Below this ratio the estimates are weakly determined (a warning), and the batch spread
-/// decides whether the data can separate them at all.
+/// Below this ratio the estimates are weakly determined (a warning).
 pub const WEAK_RATIO: f64 = 1e-3;
+/// Below this ratio the batch spread decides whether the data separate the unknowns of the
+/// weakest direction at all (a well-conditioned problem never counts as inseparable).
+pub const SPREAD_CHECK_RATIO: f64 = 1e-2;
 
 /// One method's estimate of the unknowns.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -528,7 +531,7 @@ pub fn estimate(
             diag.rank, diag.cols
         )));
     }
-    if diag.sv_ratio < WEAK_RATIO && per_batch.len() >= 2 {
+    if per_batch.len() >= 2 && diag.sv_ratio < SPREAD_CHECK_RATIO {
         // Per-batch scatter of the unknowns along the weakest direction, relative to them.
         let nb = per_batch.len() as f64;
         let worst = involved
