@@ -86,21 +86,21 @@ fn main() {
     let mut c = Criterion::default().sample_size(10).configure_from_args();
     let mut g = c.benchmark_group("random-number bound");
     g.throughput(Throughput::Elements(1 << 22));
-    g.bench_function("standard normals, 8 Xoshiro256++ lanes", |b| {
+    g.bench_function("standard normals, one Xoshiro256++ per lane", |b| {
         b.iter(|| normals(1 << 22))
     });
     g.finish();
 
-    // One lane group per thread (8 trajectories) for the per-core figure.
-    let one = scenario(8, 200.0, 100);
-    let two = scenario(16, 200.0, 100);
+    // One full lane group per thread for the per-core figure.
+    let one = scenario(LANES, 100.0, 100);
+    let two = scenario(2 * LANES, 100.0, 100);
     let mut g = c.benchmark_group("simulator duffing2dof");
     g.throughput(Throughput::Elements(steps(&one)));
-    g.bench_function("1 thread, 8 trajectories", |b| {
+    g.bench_function("1 thread, one lane group", |b| {
         b.iter(|| run(&one, 1, &mut Discard))
     });
     g.throughput(Throughput::Elements(steps(&two)));
-    g.bench_function("2 threads, 16 trajectories", |b| {
+    g.bench_function("2 threads, two lane groups", |b| {
         b.iter(|| run(&two, 2, &mut Discard))
     });
     g.finish();
@@ -122,8 +122,8 @@ fn main() {
     let rate1 = steps(&one) as f64 / t1;
     let rate2 = steps(&two) as f64 / t2;
 
-    let quiet = scenario(16, 200.0, 200_000); // one sample at the end: no logging to speak of
-    let logged = scenario(16, 200.0, 10);
+    let quiet = scenario(2 * LANES, 100.0, 100_000); // one sample at the end: no logging to speak of
+    let logged = scenario(2 * LANES, 100.0, 10);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bench.mcap");
     let m = Model::new(&logged);
@@ -163,7 +163,7 @@ fn main() {
 
     println!("\n== ratios measured in this run (duffing2dof, dt = 1e-3) ==");
     println!(
-        "raw normals (8 lanes)           {:>10.3e} /s per core",
+        "raw normals (one generator/lane) {:>9.3e} /s per core",
         normal_rate
     );
     println!("random-number bound             {:>10.3e} steps/s per core ({normals_per_step} normals per step)", bound);

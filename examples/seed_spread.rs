@@ -49,7 +49,7 @@ fn main() {
     }
     let (mut rx, mut rv) = (vec![], vec![]);
     for seed in 0..seeds {
-        let s = zoo::linear_sdof(1.0, 10.0, 5.0, 1.0, &format!("dt = 1e-3\nrecord_length = 12500.0\nsample_interval = 0.1\ntrajectories = 16\nseed = {seed}"));
+        let s = zoo::linear_sdof(1.0, 10.0, 5.0, 1.0, &format!("dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"));
         let m = var(&s);
         rx.push(m.covariance(0, 0) / ex - 1.0);
         rv.push(m.covariance(1, 1) / ev - 1.0);
@@ -59,7 +59,7 @@ fn main() {
 
     // EM vs SI, common random numbers, reference SDOF (k 10, c 0.5).
     let (mut ratio_x, mut ratio_v) = (vec![], vec![]);
-    let base = "dt = 1e-3\nrecord_length = 12500.0\nsample_interval = 0.1\ntrajectories = 16\n";
+    let base = "dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\n";
     for seed in 0..seeds {
         let si = zoo::linear_sdof(1.0, 10.0, 0.5, 1.0, &format!("{base}seed = {seed}"));
         let mut em = si.clone();
@@ -74,7 +74,7 @@ fn main() {
     // Linear 2-DOF: covariance entries relative to sqrt(var_i var_j).
     let mut worst = vec![];
     for seed in 0..seeds {
-        let s = zoo::linear_2dof(&format!("dt = 1e-3\nrecord_length = 12500.0\nsample_interval = 0.1\ntrajectories = 16\nseed = {seed}"));
+        let s = zoo::linear_2dof(&format!("dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"));
         let model = Model::new(&s);
         let exact = zoo::stationary_covariance(&model).unwrap();
         let m = var(&s);
@@ -95,7 +95,7 @@ fn main() {
     // OU force variance A²/(2B).
     let mut ou = vec![];
     for seed in 0..seeds {
-        let s = zoo::filtered_sdof(1.0, 10.0, 1.0, 20.0, 5.0, &format!("dt = 1e-3\nrecord_length = 2500.0\nsample_interval = 0.1\ntrajectories = 16\nseed = {seed}"));
+        let s = zoo::filtered_sdof(1.0, 10.0, 1.0, 20.0, 5.0, &format!("dt = 1e-3\nrecord_length = 1250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"));
         let m = var(&s);
         ou.push(m.covariance(3, 3) / (20.0f64 * 20.0 / 10.0) - 1.0);
     }

@@ -22,8 +22,9 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
-/// Trajectories stepped together in one group.
-pub const LANES: usize = 8;
+/// Trajectories stepped together in one group (a group is the unit of parallel work:
+/// multiples of `2 × LANES` trajectories keep two cores busy).
+pub const LANES: usize = 32;
 type Lane = [f64; LANES];
 
 /// States whose magnitude passes this are taken as diverged.
@@ -139,6 +140,14 @@ struct LaneModel<const D: usize> {
     ou_on: Vec<Vec<usize>>,
     /// Whether excitation `e` is white.
     is_white: Vec<bool>,
+    /// Signed incidence, `incidence[l·n + i] = s_iℓ` (for the fixed-shape kernel).
+    incidence: Vec<f64>,
+    /// `white_weight[i·n_white + slot] = 1/m_i` if white slot acts on mass `i`, else 0.
+    white_weight: Vec<f64>,
+    /// `ou_weight[i·n_ou + slot] = 1` if filtered slot acts on mass `i`, else 0.
+    ou_weight: Vec<f64>,
+    /// Advances a group by a number of steps: a fixed-shape kernel when one matches.
+    advance: fn(&mut Group, &LaneModel<D>, usize),
 }
 
 impl<const D: usize> LaneModel<D> {
@@ -168,6 +177,10 @@ impl<const D: usize> LaneModel<D> {
             ou: Vec::new(),
             ou_on: vec![Vec::new(); n],
             is_white: Vec::new(),
+            incidence: Vec::new(),
+            white_weight: Vec::new(),
+            ou_weight: Vec::new(),
+            advance: advance_generic::<D>,
         };
         for (e, exc) in m.excitations.iter().enumerate() {
             match exc.process {
@@ -189,8 +202,149 @@ impl<const D: usize> LaneModel<D> {
                 }
             }
         }
+        let links = m.links();
+        lm.incidence = (0..links)
+            .flat_map(|l| (0..n).map(move |i| (l, i)))
+            .map(|(l, i)| m.sign(l, i))
+            .collect();
+        let (nw, no) = (lm.white.len(), lm.ou.len());
+        lm.white_weight = vec![0.0; n * nw];
+        lm.ou_weight = vec![0.0; n * no];
+        for i in 0..n {
+            for &(slot, im) in &lm.white_on[i] {
+                lm.white_weight[i * nw + slot] = im;
+            }
+            for &e in &lm.ou_on[i] {
+                let slot = lm.ou.iter().position(|o| o.0 == e).expect("filtered slot");
+                lm.ou_weight[i * no + slot] = 1.0;
+            }
+        }
+        lm.advance = match (n, links) {
+            (1, 1) => advance_fixed::<1, 1, D>,
+            (1, 2) => advance_fixed::<1, 2, D>,
+            (2, 2) => advance_fixed::<2, 2, D>,
+            (2, 3) => advance_fixed::<2, 3, D>,
+            (3, 3) => advance_fixed::<3, 3, D>,
+            (3, 4) => advance_fixed::<3, 4, D>,
+            (4, 5) => advance_fixed::<4, 5, D>,
+            _ => advance_generic::<D>,
+        };
         lm
     }
+}
+
+/// The generic stepper: any shape, intermediates in memory.
+fn advance_generic<const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usize) {
+    for _ in 0..steps {
+        g.step(lm);
+    }
+}
+
+/// The fixed-shape kernel: `N` masses, `L` links, degree `D` known at compile time, so the
+/// state stays in registers for the whole interval. Link ends enter as the signed
+/// incidence (`u = Σ s_iℓ x_i`, force `−Σ_ℓ s_iℓ F_ℓ`); with entries ±1 and 0 this is
+/// bit-identical to [`Group::step`].
+fn advance_fixed<const N: usize, const L: usize, const D: usize>(
+    g: &mut Group,
+    lm: &LaneModel<D>,
+    steps: usize,
+) {
+    let mut inc = [[0.0; N]; L];
+    let mut k = [[0.0; D]; L];
+    let mut c = [[0.0; D]; L];
+    for l in 0..L {
+        for i in 0..N {
+            inc[l][i] = lm.incidence[l * N + i];
+        }
+        k[l] = lm.k[l];
+        c[l] = lm.c[l];
+    }
+    let mut him = [0.0; N];
+    him.copy_from_slice(&lm.h_inv_mass[..N]);
+    let (h, semi) = (lm.h, lm.semi_implicit);
+    let (nw, no) = (lm.white.len(), lm.ou.len());
+    let mut rng = g.rng.clone();
+    let mut x: [Lane; N] = std::array::from_fn(|i| g.x[i]);
+    let mut v: [Lane; N] = std::array::from_fn(|i| g.v[i]);
+    for _ in 0..steps {
+        let mut f = [zero(); N];
+        for l in 0..L {
+            let mut u = zero();
+            let mut w = zero();
+            for i in 0..N {
+                for j in 0..LANES {
+                    u[j] += inc[l][i] * x[i][j];
+                    w[j] += inc[l][i] * v[i][j];
+                }
+            }
+            let mut ku = [k[l][D - 1]; LANES];
+            let mut cw = [c[l][D - 1]; LANES];
+            for p in (0..D - 1).rev() {
+                for j in 0..LANES {
+                    ku[j] = ku[j] * u[j] + k[l][p];
+                    cw[j] = cw[j] * w[j] + c[l][p];
+                }
+            }
+            for i in 0..N {
+                for j in 0..LANES {
+                    f[i][j] -= inc[l][i] * (ku[j] * u[j] + cw[j] * w[j]);
+                }
+            }
+        }
+        for (slot, &(e, _, _)) in lm.ou.iter().enumerate() {
+            let p = g.p[e];
+            for i in 0..N {
+                let wgt = lm.ou_weight[i * no + slot];
+                for j in 0..LANES {
+                    f[i][j] += wgt * p[j];
+                }
+            }
+        }
+        for (slot, &(e, scale)) in lm.white.iter().enumerate() {
+            let mut dw = zero();
+            for j in 0..LANES {
+                let z: f64 = StandardNormal.sample(&mut rng[j]);
+                dw[j] = scale * z;
+            }
+            for j in 0..LANES {
+                g.p[e][j] += dw[j];
+            }
+            g.dw[slot] = dw;
+        }
+        for &(e, d, sd) in &lm.ou {
+            let mut pe = g.p[e];
+            for j in 0..LANES {
+                let z: f64 = StandardNormal.sample(&mut rng[j]);
+                pe[j] = pe[j] * d + sd * z;
+            }
+            g.p[e] = pe;
+        }
+        for i in 0..N {
+            if !semi {
+                for j in 0..LANES {
+                    x[i][j] += h * v[i][j];
+                }
+            }
+            for j in 0..LANES {
+                v[i][j] += him[i] * f[i][j];
+            }
+            for slot in 0..nw {
+                let wgt = lm.white_weight[i * nw + slot];
+                let dw = g.dw[slot];
+                for j in 0..LANES {
+                    v[i][j] += wgt * dw[j];
+                }
+            }
+            if semi {
+                for j in 0..LANES {
+                    x[i][j] += h * v[i][j];
+                }
+            }
+        }
+    }
+    g.x[..N].copy_from_slice(&x);
+    g.v[..N].copy_from_slice(&v);
+    g.rng = rng;
 }
 
 /// `LANES` trajectories in struct-of-arrays form.
@@ -382,9 +536,7 @@ impl Group {
             self.buf.resize(samples * LANES * cols, 0.0);
         }
         for k in 0..samples {
-            for _ in 0..steps {
-                self.step(lm);
-            }
+            (lm.advance)(self, lm, steps);
             if let Some(j) = self.diverged_lane() {
                 return Err(SimError::Diverged {
                     trajectory: self.first + j,
@@ -444,18 +596,39 @@ pub fn simulate(
     sink: &mut dyn SampleSink,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RunStats, SimError> {
+    simulate_with(model, sim, sink, progress, false)
+}
+
+/// [`simulate`] with the generic stepper only (no fixed-shape kernel): the reference the
+/// kernels are tested against, bit for bit.
+pub fn simulate_generic(
+    model: &Model,
+    sim: &Simulation,
+    sink: &mut dyn SampleSink,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RunStats, SimError> {
+    simulate_with(model, sim, sink, progress, true)
+}
+
+fn simulate_with(
+    model: &Model,
+    sim: &Simulation,
+    sink: &mut dyn SampleSink,
+    progress: &(dyn Fn(u64) + Sync),
+    generic: bool,
+) -> Result<RunStats, SimError> {
     let degree = (0..model.links())
         .map(|l| model.k_len[l].max(model.c_len[l]))
         .max()
         .unwrap_or(1);
     // One monomorphised stepper per padded degree.
     match degree {
-        0 | 1 => simulate_padded::<1>(model, sim, sink, progress),
-        2 => simulate_padded::<2>(model, sim, sink, progress),
-        3 => simulate_padded::<3>(model, sim, sink, progress),
-        4 | 5 => simulate_padded::<5>(model, sim, sink, progress),
-        6 | 7 => simulate_padded::<7>(model, sim, sink, progress),
-        _ => simulate_padded::<15>(model, sim, sink, progress),
+        0 | 1 => simulate_padded::<1>(model, sim, sink, progress, generic),
+        2 => simulate_padded::<2>(model, sim, sink, progress, generic),
+        3 => simulate_padded::<3>(model, sim, sink, progress, generic),
+        4 | 5 => simulate_padded::<5>(model, sim, sink, progress, generic),
+        6 | 7 => simulate_padded::<7>(model, sim, sink, progress, generic),
+        _ => simulate_padded::<15>(model, sim, sink, progress, generic),
     }
 }
 
@@ -464,8 +637,12 @@ fn simulate_padded<const D: usize>(
     sim: &Simulation,
     sink: &mut dyn SampleSink,
     progress: &(dyn Fn(u64) + Sync),
+    generic: bool,
 ) -> Result<RunStats, SimError> {
-    let lm = LaneModel::<D>::new(model, sim);
+    let mut lm = LaneModel::<D>::new(model, sim);
+    if generic {
+        lm.advance = advance_generic::<D>;
+    }
     let steps = sim.steps_per_sample() * sim.substeps;
     let interval = sim.sample_interval;
     let total = sim.samples_per_trajectory();

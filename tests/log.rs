@@ -9,16 +9,10 @@ use std::process::Command;
 
 fn scenario(record_length: f64, trajectories: usize) -> Scenario {
     let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
-    let src = src
-        .replace(
-            "record_length = 20000.0",
-            &format!("record_length = {record_length:?}"),
-        )
-        .replace(
-            "trajectories = 16",
-            &format!("trajectories = {trajectories}"),
-        );
-    Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap()
+    let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+    s.simulation.record_length = record_length;
+    s.simulation.trajectories = trajectories;
+    s
 }
 
 /// Writes to the log and keeps a copy in memory.
@@ -152,7 +146,7 @@ fn simulate_inspect_export_from_the_command_line() {
     let sc = dir.path().join("small.toml");
     let src = std::fs::read_to_string("scenarios/sdof_duffing.toml")
         .unwrap()
-        .replace("record_length = 1250.0", "record_length = 30.0");
+        .replace("record_length = 312.5", "record_length = 30.0");
     std::fs::write(&sc, src).unwrap();
     let bin = env!("CARGO_BIN_EXE_fpkbench");
     // Default output: out/<scenario name>/run.mcap relative to the working directory.
@@ -167,7 +161,7 @@ fn simulate_inspect_export_from_the_command_line() {
         String::from_utf8_lossy(&out.stderr)
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(v["samples"], 8 * 300);
+    assert_eq!(v["samples"], 32 * 300);
     let log = dir.path().join("out/sdof_duffing/run.mcap");
     assert!(log.exists());
     let out = Command::new(bin)
@@ -176,7 +170,7 @@ fn simulate_inspect_export_from_the_command_line() {
         .unwrap();
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(v["samples"], 2400);
+    assert_eq!(v["samples"], 9600);
     assert_eq!(v["truth"]["k3[ground-m1]"], 20.0);
     assert_eq!(v["record_length_s"], 30.0);
     let csv = dir.path().join("x.csv");
@@ -197,7 +191,7 @@ fn simulate_inspect_export_from_the_command_line() {
         text.lines().next().unwrap(),
         "trajectory,t,x_m1,v_m1,a_m1,p_m1"
     );
-    assert_eq!(text.lines().count(), 2401);
+    assert_eq!(text.lines().count(), 9601);
     let npy = dir.path().join("x.npy");
     let out = Command::new(bin)
         .args([
@@ -216,9 +210,9 @@ fn simulate_inspect_export_from_the_command_line() {
     let hlen = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
     assert_eq!((10 + hlen) % 64, 0);
     assert!(
-        String::from_utf8_lossy(&bytes[10..10 + hlen]).contains("'shape': (                2400,)")
+        String::from_utf8_lossy(&bytes[10..10 + hlen]).contains("'shape': (                9600,)")
     );
-    assert_eq!(bytes.len() - 10 - hlen, 2400 * (4 + 8 * 5));
+    assert_eq!(bytes.len() - 10 - hlen, 9600 * (4 + 8 * 5));
 }
 
 #[test]

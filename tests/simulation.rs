@@ -62,14 +62,14 @@ fn discrete_schemes_have_their_known_stationary_bias() {
 #[test]
 fn explicit_euler_maruyama_shows_its_two_percent_inflation() {
     // Same seed ⇒ same noise for both schemes, so the ratio of their variances is very
-    // precise: over 10 seeds EM/SI − 1 had mean +2.042 %, sd 0.005 %. Asserted against the
-    // exact discrete-recursion prediction to ±0.03 % (6 sd).
+    // precise: over 10 seeds EM/SI − 1 had mean +2.044 %, sd 0.006 %. Asserted against the
+    // exact discrete-recursion prediction to ±0.03 % (5 sd).
     let si = zoo::linear_sdof(
         1.0,
         10.0,
         0.5,
         1.0,
-        "dt = 1e-3\nrecord_length = 12500.0\nsample_interval = 0.1\ntrajectories = 16\nseed = 3",
+        "dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 3",
     );
     let mut em = si.clone();
     em.simulation.scheme = Scheme::EulerMaruyama;
@@ -90,10 +90,10 @@ fn explicit_euler_maruyama_shows_its_two_percent_inflation() {
 
 #[test]
 fn linear_2dof_covariance_matches_lyapunov_solution() {
-    // Worst entry error normalised by √(Σii Σjj): over 10 seeds at 2e5 s mean 0.73 %,
-    // sd 0.37 %, max 1.3 %; threshold 2.5 % (mean + 4.8 sd).
+    // Worst entry error normalised by √(Σii Σjj): over 10 seeds at 2e5 s mean 0.44 %,
+    // sd 0.26 %, max 0.9 %; threshold 2.5 % (mean + 8 sd).
     let s = zoo::linear_2dof(
-        "dt = 1e-3\nrecord_length = 12500.0\nsample_interval = 0.1\ntrajectories = 16\nseed = 7",
+        "dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 7",
     );
     let exact = zoo::stationary_covariance(&Model::new(&s)).unwrap();
     let m = moments(&s);
@@ -114,15 +114,15 @@ fn linear_2dof_covariance_matches_lyapunov_solution() {
 
 #[test]
 fn ou_force_has_variance_a2_over_2b() {
-    // Exact OU transition. Over 10 seeds at 4e4 s: relative error sd 0.24 %, max 0.46 %;
-    // threshold 1.2 % (5 sd).
+    // Exact OU transition. Over 10 seeds at 4e4 s: relative error mean 0.13 %, sd 0.30 %,
+    // max 0.66 %; threshold 1.2 % (mean + 3.6 sd).
     let s = zoo::filtered_sdof(
         1.0,
         10.0,
         1.0,
         20.0,
         5.0,
-        "dt = 1e-3\nrecord_length = 2500.0\nsample_interval = 0.1\ntrajectories = 16\nseed = 5",
+        "dt = 1e-3\nrecord_length = 1250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 5",
     );
     let m = moments(&s);
     let rel = m.covariance(3, 3) / (20.0f64 * 20.0 / 10.0) - 1.0;
@@ -155,12 +155,12 @@ fn samples_with_threads(s: &Scenario, threads: usize) -> Vec<(u32, f64, Vec<f64>
 fn same_seed_gives_bit_identical_samples_whatever_the_thread_count() {
     let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
     let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
-    s.simulation.record_length = 50.0;
-    s.simulation.trajectories = 20; // two full lane groups and a partial one
+    s.simulation.record_length = 20.0;
+    s.simulation.trajectories = 2 * fpkbench::sim::LANES + 5; // two full lane groups and a partial one
     let one = samples_with_threads(&s, 1);
     let two = samples_with_threads(&s, 2);
     let again = samples_with_threads(&s, 2);
-    assert_eq!(one.len(), 20 * 500);
+    assert_eq!(one.len(), s.simulation.trajectories * 200);
     let bits = |v: &[(u32, f64, Vec<f64>)]| -> Vec<u64> {
         v.iter()
             .flat_map(|r| r.2.iter().map(|x| x.to_bits()))
@@ -172,7 +172,7 @@ fn same_seed_gives_bit_identical_samples_whatever_the_thread_count() {
     s.simulation.seed += 1;
     assert_ne!(bits(&one), bits(&samples_with_threads(&s, 2)));
     // Trajectories are independent of how many there are: trajectory 3 of a 4-trajectory
-    // run equals trajectory 3 of the 20-trajectory run.
+    // run equals trajectory 3 of the larger run.
     s.simulation.seed -= 1;
     s.simulation.trajectories = 4;
     let few = samples_with_threads(&s, 2);
@@ -220,4 +220,49 @@ fn diverging_simulation_reports_trajectory_time_and_state() {
         c.batches.is_empty(),
         "no samples may be delivered from a diverged block"
     );
+}
+
+#[test]
+fn fixed_shape_kernel_is_bit_identical_to_the_generic_stepper() {
+    for (file, scheme) in [
+        ("scenarios/duffing2dof.toml", Scheme::SemiImplicit),
+        ("scenarios/sdof_duffing.toml", Scheme::EulerMaruyama),
+    ] {
+        let src = std::fs::read_to_string(file).unwrap();
+        let mut s = Scenario::parse(&src, file, "t").unwrap();
+        s.simulation.record_length = 20.0;
+        s.simulation.trajectories = 40;
+        s.simulation.scheme = scheme;
+        let m = Model::new(&s);
+        let (mut a, mut b) = (Collect::default(), Collect::default());
+        simulate(&m, &s.simulation, &mut a, &|_| {}).unwrap();
+        fpkbench::sim::simulate_generic(&m, &s.simulation, &mut b, &|_| {}).unwrap();
+        let bits = |c: &Collect| -> Vec<u64> {
+            c.batches
+                .iter()
+                .flat_map(|b| b.values.iter().map(|v| v.to_bits()))
+                .collect()
+        };
+        assert_eq!(bits(&a), bits(&b), "{file}");
+    }
+    // A filtered excitation through the kernel too.
+    let s = zoo::filtered_sdof(
+        1.0,
+        10.0,
+        1.0,
+        20.0,
+        5.0,
+        "dt = 1e-3\nrecord_length = 20.0\nsample_interval = 0.1\ntrajectories = 33",
+    );
+    let m = Model::new(&s);
+    let (mut a, mut b) = (Collect::default(), Collect::default());
+    simulate(&m, &s.simulation, &mut a, &|_| {}).unwrap();
+    fpkbench::sim::simulate_generic(&m, &s.simulation, &mut b, &|_| {}).unwrap();
+    let bits = |c: &Collect| -> Vec<u64> {
+        c.batches
+            .iter()
+            .flat_map(|b| b.values.iter().map(|v| v.to_bits()))
+            .collect()
+    };
+    assert_eq!(bits(&a), bits(&b));
 }

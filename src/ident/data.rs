@@ -44,7 +44,7 @@ impl StationaryData {
         let d = problem.dim();
         StationaryData {
             batches: (0..batches.max(1))
-                .map(|_| RawMoments::new(d, degree))
+                .map(|_| accumulator(problem, degree))
                 .collect(),
             record_length,
             columns: problem.columns.clone(),

@@ -81,17 +81,12 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
         .collect();
     let m = dir.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
     if m > 0.0 {
-        let sign = if dir
+        // Sign: the largest entry positive.
+        let big = dir
             .iter()
-            .find(|v| v.abs() > 1e-6 * m)
             .copied()
-            .unwrap_or(1.0)
-            < 0.0
-        {
-            -1.0
-        } else {
-            1.0
-        };
+            .fold(0.0f64, |a, v| if v.abs() > a.abs() { v } else { a });
+        let sign = if big < 0.0 { -1.0 } else { 1.0 };
         dir.iter_mut().for_each(|v| *v *= sign / m);
     }
     let sv_ratio = if smax > 0.0 { smin / smax } else { 0.0 };

@@ -378,28 +378,39 @@ impl Problem {
     /// used for column scaling; the diagnostics at the solution use the estimates
     /// themselves, so the weakest direction is in relative changes of the unknowns.
     pub fn solve(&self, pc: &Pieces, typical: &[f64]) -> (Vec<f64>, lsq::Diagnostics) {
+        // 1. The coefficients by linear least squares, masses and intensities at their
+        //    nominal values: the linearisation point of the diagnostics.
+        let rc = self.coefficient_count();
         let mut p = self.start.clone();
-        let linear = self.coefficient_count() == self.unknowns.len();
-        for _ in 0..if linear { 1 } else { 100 } {
-            let (r, j) = self.residual(pc, &p);
-            let (dx, _) = lsq::solve(&j, &(-r), typical);
-            let mut change: f64 = 0.0;
-            for (k, v) in p.iter_mut().enumerate() {
-                *v += dx[k];
-                change = change.max((dx[k] / typical[k]).abs());
-            }
-            if change < 1e-13 {
-                break;
-            }
+        let (r, j) = self.residual(pc, &p);
+        let (dx, _) = lsq::solve(&j.columns(0, rc).into_owned(), &(-r), &typical[..rc]);
+        for k in 0..rc {
+            p[k] += dx[k];
         }
+        // 2. Diagnostics of the full Jacobian there, directions relative to the values.
         let (_, j) = self.residual(pc, &p);
         let scale: Vec<f64> = p
             .iter()
             .zip(typical)
             .map(|(&v, &t)| if v.abs() > 1e-6 * t.abs() { v } else { t })
             .collect();
-        let (_, d) = lsq::solve(&j, &DVector::zeros(pc.rows), &scale);
-        (p, d)
+        let (_, diag) = lsq::solve(&j, &DVector::zeros(pc.rows), &scale);
+        // 3. Gauss–Newton for all unknowns (nothing to do when only coefficients are unknown).
+        if rc < self.unknowns.len() {
+            for _ in 0..100 {
+                let (r, j) = self.residual(pc, &p);
+                let (dx, _) = lsq::solve(&j, &(-r), typical);
+                let mut change: f64 = 0.0;
+                for (k, v) in p.iter_mut().enumerate() {
+                    *v += dx[k];
+                    change = change.max((dx[k] / typical[k]).abs());
+                }
+                if change < 1e-13 {
+                    break;
+                }
+            }
+        }
+        (p, diag)
     }
 
     /// Data-based typical magnitude of each unknown: for a coefficient of `z^p`,
