@@ -34,10 +34,7 @@ fn main() {
     let n = rows.len() / 4;
     let deg = weak::moment_degree(&p);
 
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let mut cr = Criterion::default().sample_size(10).configure_from_args();
     let mut g = cr.benchmark_group("identification duffing2dof");
     g.throughput(Throughput::Elements(n as u64));
@@ -102,8 +99,15 @@ fn main() {
     let typical = p.typical(&data.total());
     let _ = black_box(fpkbench::ident::identify_strong(&p, &grid, false, &typical));
     let solve = t.elapsed().as_secs_f64();
-    println!("\n== identification figures measured in this run (duffing2dof, 4-D state, {} unknowns, {n} samples) ==", est.values.len());
-    println!("weak form, {} moments to degree {deg}, 1 thread {:>10.3e} samples/s per core (target >= 3e7)", weak::accumulator(&p).monomials.len() - 1, weak_rate);
+    println!(
+        "\n== identification figures measured in this run (duffing2dof, 4-D state, {} unknowns, {n} samples) ==",
+        est.values.len()
+    );
+    println!(
+        "weak form, {} moments to degree {deg}, 1 thread {:>10.3e} samples/s per core (target >= 3e7)",
+        weak::accumulator(&p).monomials.len() - 1,
+        weak_rate
+    );
     println!(
         "weak form, whole estimate (2 threads)       {:>10.3} s for {n} samples",
         weak_all

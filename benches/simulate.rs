@@ -40,17 +40,12 @@ fn scenario(trajectories: usize, record: f64, every: usize) -> Scenario {
 
 fn steps(s: &Scenario) -> u64 {
     let sim = &s.simulation;
-    (sim.trajectories.div_ceil(LANES)
-        * LANES
-        * sim.samples_per_trajectory()
-        * sim.steps_per_sample()) as u64
+    (sim.trajectories.div_ceil(LANES) * LANES * sim.samples_per_trajectory() * sim.steps_per_sample()) as u64
 }
 
 /// Normals per second from one generator per lane, drawn as the simulator draws them.
 fn normals(n: usize) -> f64 {
-    let mut rng: Vec<Xoshiro256PlusPlus> = (0..LANES as u64)
-        .map(Xoshiro256PlusPlus::seed_from_u64)
-        .collect();
+    let mut rng: Vec<Xoshiro256PlusPlus> = (0..LANES as u64).map(Xoshiro256PlusPlus::seed_from_u64).collect();
     let mut acc = [0.0f64; LANES];
     for _ in 0..n / LANES {
         for (j, r) in rng.iter_mut().enumerate() {
@@ -62,13 +57,9 @@ fn normals(n: usize) -> f64 {
 }
 
 fn run(s: &Scenario, threads: usize, sink: &mut (dyn SampleSink + Send)) {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     let m = Model::new(s);
-    pool.install(|| simulate(&m, &s.simulation, sink, &|_| {}))
-        .unwrap();
+    pool.install(|| simulate(&m, &s.simulation, sink, &|_| {})).unwrap();
 }
 
 fn time<F: FnMut()>(mut f: F, reps: usize) -> f64 {
@@ -96,13 +87,9 @@ fn main() {
     let two = scenario(2 * LANES, 100.0, 100);
     let mut g = c.benchmark_group("simulator duffing2dof");
     g.throughput(Throughput::Elements(steps(&one)));
-    g.bench_function("1 thread, one lane group", |b| {
-        b.iter(|| run(&one, 1, &mut Discard))
-    });
+    g.bench_function("1 thread, one lane group", |b| b.iter(|| run(&one, 1, &mut Discard)));
     g.throughput(Throughput::Elements(steps(&two)));
-    g.bench_function("2 threads, two lane groups", |b| {
-        b.iter(|| run(&two, 2, &mut Discard))
-    });
+    g.bench_function("2 threads, two lane groups", |b| b.iter(|| run(&two, 2, &mut Discard)));
     g.finish();
     c.final_summary();
 
@@ -137,17 +124,14 @@ fn main() {
         },
         3,
     );
-    let samples =
-        (logged.simulation.trajectories * logged.simulation.samples_per_trajectory()) as f64;
+    let samples = (logged.simulation.trajectories * logged.simulation.samples_per_trajectory()) as f64;
 
     // The writer alone, fed pre-made batches shaped like duffing2dof's.
     let batch = SampleBatch {
         columns: 8,
         trajectory: (0..16 * 4096).map(|i| (i % 16) as u32).collect(),
         time: (0..16 * 4096).map(|i| (i / 16) as f64 * 0.01).collect(),
-        values: (0..16 * 4096 * 8)
-            .map(|i| ((i as f64) * 0.618).sin())
-            .collect(),
+        values: (0..16 * 4096 * 8).map(|i| ((i as f64) * 0.618).sin()).collect(),
     };
     let writer_secs = time(
         || {
@@ -162,11 +146,11 @@ fn main() {
     let writer_rate = (8 * batch.len()) as f64 / writer_secs;
 
     println!("\n== ratios measured in this run (duffing2dof, dt = 1e-3) ==");
+    println!("raw normals (one generator/lane) {:>9.3e} /s per core", normal_rate);
     println!(
-        "raw normals (one generator/lane) {:>9.3e} /s per core",
-        normal_rate
+        "random-number bound             {:>10.3e} steps/s per core ({normals_per_step} normals per step)",
+        bound
     );
-    println!("random-number bound             {:>10.3e} steps/s per core ({normals_per_step} normals per step)", bound);
     println!(
         "simulator, 1 thread             {:>10.3e} steps/s  = {:.2} of the bound (target >= 0.8)",
         rate1,

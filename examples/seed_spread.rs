@@ -29,13 +29,7 @@ fn main() {
     // Semi-implicit linear SDOF (m 1, k 10, c 5): relative variance errors.
     let (ex, ev) = zoo::linear_sdof_variances(1.0, 10.0, 5.0, 1.0);
     for (k, c) in [(10.0, 5.0), (10.0, 0.5)] {
-        let s = zoo::linear_sdof(
-            1.0,
-            k,
-            c,
-            1.0,
-            "dt = 1e-3\nrecord_length = 1.0\nsample_interval = 0.1",
-        );
+        let s = zoo::linear_sdof(1.0, k, c, 1.0, "dt = 1e-3\nrecord_length = 1.0\nsample_interval = 0.1");
         let m = Model::new(&s);
         let (x, v) = zoo::linear_sdof_variances(1.0, k, c, 1.0);
         for scheme in [Scheme::SemiImplicit, Scheme::EulerMaruyama] {
@@ -49,7 +43,13 @@ fn main() {
     }
     let (mut rx, mut rv) = (vec![], vec![]);
     for seed in 0..seeds {
-        let s = zoo::linear_sdof(1.0, 10.0, 5.0, 1.0, &format!("dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"));
+        let s = zoo::linear_sdof(
+            1.0,
+            10.0,
+            5.0,
+            1.0,
+            &format!("dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"),
+        );
         let m = var(&s);
         rx.push(m.covariance(0, 0) / ex - 1.0);
         rv.push(m.covariance(1, 1) / ev - 1.0);
@@ -74,7 +74,9 @@ fn main() {
     // Linear 2-DOF: covariance entries relative to sqrt(var_i var_j).
     let mut worst = vec![];
     for seed in 0..seeds {
-        let s = zoo::linear_2dof(&format!("dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"));
+        let s = zoo::linear_2dof(&format!(
+            "dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"
+        ));
         let model = Model::new(&s);
         let exact = zoo::stationary_covariance(&model).unwrap();
         let m = var(&s);
@@ -83,8 +85,7 @@ fn main() {
         let mut w: f64 = 0.0;
         for i in 0..4 {
             for j in 0..4 {
-                let e = (m.covariance(col[i], col[j]) - exact[(i, j)])
-                    / (exact[(i, i)] * exact[(j, j)]).sqrt();
+                let e = (m.covariance(col[i], col[j]) - exact[(i, j)]) / (exact[(i, i)] * exact[(j, j)]).sqrt();
                 w = w.max(e.abs());
             }
         }
@@ -95,7 +96,14 @@ fn main() {
     // OU force variance A²/(2B).
     let mut ou = vec![];
     for seed in 0..seeds {
-        let s = zoo::filtered_sdof(1.0, 10.0, 1.0, 20.0, 5.0, &format!("dt = 1e-3\nrecord_length = 1250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"));
+        let s = zoo::filtered_sdof(
+            1.0,
+            10.0,
+            1.0,
+            20.0,
+            5.0,
+            &format!("dt = 1e-3\nrecord_length = 1250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = {seed}"),
+        );
         let m = var(&s);
         ou.push(m.covariance(3, 3) / (20.0f64 * 20.0 / 10.0) - 1.0);
     }

@@ -35,12 +35,7 @@ fn main() {
         simulate(&m, &s.simulation, &mut Feed(&mut d), &|_| {}).unwrap();
         d.finish();
         let e = identify_weak(&p, &d).unwrap();
-        let signed: Vec<f64> = e
-            .values
-            .iter()
-            .zip(&p.truth)
-            .map(|(v, t)| (v - t) / t)
-            .collect();
+        let signed: Vec<f64> = e.values.iter().zip(&p.truth).map(|(v, t)| (v - t) / t).collect();
         let errs: Vec<f64> = signed.iter().map(|x| x.abs()).collect();
         signed_all.push(signed.clone());
         let worst = errs.iter().cloned().fold(0.0, f64::max);

@@ -129,11 +129,7 @@ pub struct Histogram {
 
 impl Histogram {
     pub fn new(lo: f64, hi: f64, bins: usize) -> Histogram {
-        let (lo, hi) = if hi > lo {
-            (lo, hi)
-        } else {
-            (lo - 0.5, lo + 0.5)
-        };
+        let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
         Histogram {
             lo,
             hi,
@@ -289,9 +285,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         Some(DensityGrid::new(
             &problem,
             &total,
-            options
-                .grid
-                .unwrap_or_else(|| GridOptions::auto(problem.dim())),
+            options.grid.unwrap_or_else(|| GridOptions::auto(problem.dim())),
         )?)
     } else {
         None
@@ -347,12 +341,8 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         let t = Instant::now();
         let est = match m {
             Method::Weak => weak_estimate.clone(),
-            Method::Strong => {
-                ident::identify_strong(&problem, grid.as_ref().expect("grid"), false, &typical)
-            }
-            Method::StrongMarginals => {
-                ident::identify_strong(&problem, grid.as_ref().expect("grid"), true, &typical)
-            }
+            Method::Strong => ident::identify_strong(&problem, grid.as_ref().expect("grid"), false, &typical),
+            Method::StrongMarginals => ident::identify_strong(&problem, grid.as_ref().expect("grid"), true, &typical),
         };
         let threshold = s.accept.threshold(*m);
         let mut rep = MethodReport {
@@ -414,15 +404,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
     let mut model_samples = 0.0;
     let validation = match (&first_ok, options.validate) {
         (Some(values), true) => {
-            let v = validate(
-                s,
-                &problem,
-                &coef_of,
-                values,
-                first_method,
-                &marg,
-                &state_hist,
-            );
+            let v = validate(s, &problem, &coef_of, values, first_method, &marg, &state_hist);
             if let Ok((_, m)) = &v {
                 for (j, h) in m.hist.iter().enumerate() {
                     marginals[j].3 = Some(h.clone());

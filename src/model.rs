@@ -261,12 +261,7 @@ impl Model {
 
     /// Human-readable name of a coefficient, e.g. `k3[ground-m1]`.
     pub fn coefficient_name(&self, c: Coefficient) -> String {
-        format!(
-            "{}{}[{}]",
-            c.kind.symbol(),
-            c.power,
-            self.link_names[c.link]
-        )
+        format!("{}{}[{}]", c.kind.symbol(), c.power, self.link_names[c.link])
     }
 
     /// Whether every link is linear (powers ≤ 1): then the stationary response is Gaussian.

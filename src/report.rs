@@ -34,7 +34,15 @@ pub fn summary(r: &Report) -> String {
     let mut s = String::new();
     s += &format!(
         "scenario {}: {} samples every {} s, {} trajectories x {} s = {} s of record ({}; dt {} s, seed {})\n",
-        r.scenario, r.samples, r.sample_interval_s, r.trajectories, r.record_length_s, r.total_record_s, r.scheme, r.dt_s, r.seed
+        r.scenario,
+        r.samples,
+        r.sample_interval_s,
+        r.trajectories,
+        r.record_length_s,
+        r.total_record_s,
+        r.scheme,
+        r.dt_s,
+        r.seed
     );
     s += &format!(
         "time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n\n",
@@ -226,10 +234,7 @@ fn draw_histogram_strip(
     let w = (h.hi - h.lo) / h.counts.len() as f64;
     chart.draw_series(h.counts.iter().enumerate().map(|(i, &c)| {
         let x0 = h.lo + i as f64 * w;
-        Rectangle::new(
-            [(x0, 0.0), (x0 + w, c / max)],
-            RGBColor(160, 160, 160).filled(),
-        )
+        Rectangle::new([(x0, 0.0), (x0 + w, c / max)], RGBColor(160, 160, 160).filled())
     }))?;
     Ok(())
 }
@@ -243,11 +248,10 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
     for (l, link) in s.links.iter().enumerate() {
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
             let truth = stats::true_characteristic(s, l, kind);
-            let identified = r.methods.iter().any(|m| {
-                m.curves
-                    .iter()
-                    .any(|c| c.link == link.name && c.kind == kind.name())
-            });
+            let identified = r
+                .methods
+                .iter()
+                .any(|m| m.curves.iter().any(|c| c.link == link.name && c.kind == kind.name()));
             if truth.is_empty() && !identified {
                 continue;
             }
@@ -267,9 +271,7 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
             let (top, bottom) = area.split_vertically((area.dim_in_pixel().1 as f64 * 0.74) as u32);
             let truth = stats::true_characteristic(s, *l, *kind);
             let (lo, hi) = (hist.lo, hist.hi);
-            let xs: Vec<f64> = (0..=200)
-                .map(|k| lo + (hi - lo) * k as f64 / 200.0)
-                .collect();
+            let xs: Vec<f64> = (0..=200).map(|k| lo + (hi - lo) * k as f64 / 200.0).collect();
             let mut curves: Vec<(String, Vec<f64>, RGBColor, bool)> = vec![(
                 "true".into(),
                 xs.iter().map(|&z| truth.eval(z)).collect(),
@@ -277,11 +279,7 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
                 false,
             )];
             for (mi, m) in r.methods.iter().enumerate() {
-                if let Some(c) = m
-                    .curves
-                    .iter()
-                    .find(|c| c.link == link.name && c.kind == kind.name())
-                {
+                if let Some(c) = m.curves.iter().find(|c| c.link == link.name && c.kind == kind.name()) {
                     let p = stats::characteristic(&c.identified);
                     curves.push((
                         format!("{} ({} error)", m.method, fmt_err(c.rel_l2_error)),
@@ -381,15 +379,8 @@ pub fn plot_densities(r: &Report, path: &Path) -> PlotResult {
     svg_to_file(path, (1000, 340 * rows as u32), |root| {
         for ((name, unit, data, model), area) in m.iter().zip(root.split_evenly((rows, cols))) {
             let dd = data.density(r.plot.samples.max(1.0));
-            let md = model
-                .as_ref()
-                .map(|h| h.density(r.plot.model_samples.max(1.0)));
-            let ymax = dd
-                .iter()
-                .chain(md.iter().flatten())
-                .copied()
-                .fold(0.0, f64::max)
-                * 1.08;
+            let md = model.as_ref().map(|h| h.density(r.plot.model_samples.max(1.0)));
+            let ymax = dd.iter().chain(md.iter().flatten()).copied().fold(0.0, f64::max) * 1.08;
             let w = (data.hi - data.lo) / data.counts.len() as f64;
             let mut chart = ChartBuilder::on(&area)
                 .caption(format!("marginal density of {name}"), ("sans-serif", 16))
@@ -408,12 +399,7 @@ pub fn plot_densities(r: &Report, path: &Path) -> PlotResult {
                     Rectangle::new([(x0, 0.0), (x0 + w, d)], RGBColor(170, 170, 170).filled())
                 }))?
                 .label("data (histogram)")
-                .legend(|(x, y)| {
-                    Rectangle::new(
-                        [(x, y - 5), (x + 18, y + 5)],
-                        RGBColor(170, 170, 170).filled(),
-                    )
-                });
+                .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(170, 170, 170).filled()));
             if let Some(md) = md {
                 let pts: Vec<(f64, f64)> = md
                     .iter()

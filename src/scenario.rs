@@ -342,10 +342,7 @@ pub struct Accept {
 
 impl Accept {
     pub fn threshold(&self, method: Method) -> f64 {
-        self.methods
-            .get(&method)
-            .copied()
-            .unwrap_or(self.worst_rel_error)
+        self.methods.get(&method).copied().unwrap_or(self.worst_rel_error)
     }
 }
 
@@ -372,12 +369,7 @@ struct Locator<'a> {
 }
 
 impl Locator<'_> {
-    fn at(
-        &self,
-        span: Range<usize>,
-        key: impl Into<String>,
-        message: impl Into<String>,
-    ) -> ScenarioError {
+    fn at(&self, span: Range<usize>, key: impl Into<String>, message: impl Into<String>) -> ScenarioError {
         let offset = span.start.min(self.src.len());
         let before = &self.src[..offset];
         let line = before.matches('\n').count() + 1;
@@ -396,9 +388,7 @@ impl Locator<'_> {
     fn key_at(&self, offset: usize) -> String {
         let offset = offset.min(self.src.len());
         let line_start = self.src[..offset].rfind('\n').map_or(0, |i| i + 1);
-        let line_end = self.src[offset..]
-            .find('\n')
-            .map_or(self.src.len(), |i| offset + i);
+        let line_end = self.src[offset..].find('\n').map_or(self.src.len(), |i| offset + i);
         let line = &self.src[line_start..line_end];
         let header = self.src[..line_start]
             .lines()
@@ -416,36 +406,21 @@ impl Locator<'_> {
     }
 }
 
-fn finite_positive(
-    loc: &Locator,
-    v: &Spanned<f64>,
-    key: &str,
-    what: &str,
-) -> Result<f64, ScenarioError> {
+fn finite_positive(loc: &Locator, v: &Spanned<f64>, key: &str, what: &str) -> Result<f64, ScenarioError> {
     let x = *v.get_ref();
     if x.is_finite() && x > 0.0 {
         Ok(x)
     } else {
-        Err(loc.at(
-            v.span(),
-            key,
-            format!("must be a finite number > 0 ({what}), got {x}"),
-        ))
+        Err(loc.at(v.span(), key, format!("must be a finite number > 0 ({what}), got {x}")))
     }
 }
 
 /// Check a name. Mass and excitation names become log field names (`x_<mass>`,
 /// `p_<excitation>`), which ROS 2 message definitions restrict to `[a-z][a-z0-9_]*` with no
 /// `__` and no trailing `_`; link names may also use `-`.
-fn check_name(
-    loc: &Locator,
-    s: &Spanned<String>,
-    key: &str,
-    field: bool,
-) -> Result<String, ScenarioError> {
+fn check_name(loc: &Locator, s: &Spanned<String>, key: &str, field: bool) -> Result<String, ScenarioError> {
     let n = s.get_ref();
-    let ok_char =
-        |c: char| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || (!field && c == '-');
+    let ok_char = |c: char| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || (!field && c == '-');
     let ok = n.chars().next().is_some_and(|c| c.is_ascii_lowercase())
         && n.chars().all(ok_char)
         && !n.contains("__")
@@ -477,16 +452,17 @@ fn polynomial(
     };
     let mut terms = Vec::new();
     for (p, c) in map.get_ref() {
-        let power: u32 = match p.parse::<u32>() {
-            Ok(p) if (1..=15).contains(&p) => p,
-            _ => {
-                return Err(loc.at(
+        let power: u32 =
+            match p.parse::<u32>() {
+                Ok(p) if (1..=15).contains(&p) => p,
+                _ => return Err(loc.at(
                     c.span(),
                     format!("{key}.{p}"),
-                    format!("power {p:?} is not allowed: powers are whole numbers 1..=15, e.g. {{ 1 = 10.0, 3 = 20.0 }}"),
-                ))
-            }
-        };
+                    format!(
+                        "power {p:?} is not allowed: powers are whole numbers 1..=15, e.g. {{ 1 = 10.0, 3 = 20.0 }}"
+                    ),
+                )),
+            };
         let v = *c.get_ref();
         if !v.is_finite() {
             return Err(loc.at(
@@ -508,11 +484,7 @@ fn polynomial(
     Ok(Polynomial { terms })
 }
 
-fn powers(
-    loc: &Locator,
-    raw: &Option<Vec<Spanned<i64>>>,
-    key: &str,
-) -> Result<Option<Vec<u32>>, ScenarioError> {
+fn powers(loc: &Locator, raw: &Option<Vec<Spanned<i64>>>, key: &str) -> Result<Option<Vec<u32>>, ScenarioError> {
     let Some(list) = raw else { return Ok(None) };
     let mut out = Vec::new();
     for p in list {
@@ -597,37 +569,27 @@ impl Scenario {
                     format!("duplicate mass name {n:?}: names must be unique"),
                 ));
             }
-            let v = finite_positive(
-                &loc,
-                &m.value,
-                &format!("{key}.value"),
-                raw.motion.units()[4],
-            )?;
+            let v = finite_positive(&loc, &m.value, &format!("{key}.value"), raw.motion.units()[4])?;
             masses.push(Mass { name: n, value: v });
         }
-        let mass_index =
-            |s: &Spanned<String>, key: &str, allow_ground: bool| -> Result<End, ScenarioError> {
-                let n = s.get_ref();
-                if allow_ground && n == "ground" {
-                    return Ok(End::Ground);
-                }
-                masses
-                    .iter()
-                    .position(|m| &m.name == n)
-                    .map(End::Mass)
-                    .ok_or_else(|| {
-                        let names: Vec<_> = masses.iter().map(|m| m.name.as_str()).collect();
-                        loc.at(
-                            s.span(),
-                            key,
-                            format!(
-                                "unknown mass {n:?}: allowed are {}{}",
-                                if allow_ground { "`ground`, " } else { "" },
-                                names.join(", ")
-                            ),
-                        )
-                    })
-            };
+        let mass_index = |s: &Spanned<String>, key: &str, allow_ground: bool| -> Result<End, ScenarioError> {
+            let n = s.get_ref();
+            if allow_ground && n == "ground" {
+                return Ok(End::Ground);
+            }
+            masses.iter().position(|m| &m.name == n).map(End::Mass).ok_or_else(|| {
+                let names: Vec<_> = masses.iter().map(|m| m.name.as_str()).collect();
+                loc.at(
+                    s.span(),
+                    key,
+                    format!(
+                        "unknown mass {n:?}: allowed are {}{}",
+                        if allow_ground { "`ground`, " } else { "" },
+                        names.join(", ")
+                    ),
+                )
+            })
+        };
 
         // Links.
         let mut links: Vec<Link> = Vec::new();
@@ -672,11 +634,7 @@ impl Scenario {
             let stiffness = polynomial(&loc, &l.stiffness, &format!("{key}.stiffness"))?;
             let damping = polynomial(&loc, &l.damping, &format!("{key}.damping"))?;
             if stiffness.is_empty() && damping.is_empty() {
-                return Err(loc.at(
-                    l.ends.span(),
-                    &key,
-                    "a link needs `stiffness` or `damping` (or both)",
-                ));
+                return Err(loc.at(l.ends.span(), &key, "a link needs `stiffness` or `damping` (or both)"));
             }
             links.push(Link {
                 name: n,
@@ -718,19 +676,10 @@ impl Scenario {
                         ));
                     }
                     let s = e.sigma.as_ref().ok_or_else(|| {
-                        loc.at(
-                            e.kind.span(),
-                            format!("{key}.sigma"),
-                            "white noise needs `sigma` (> 0)",
-                        )
+                        loc.at(e.kind.span(), format!("{key}.sigma"), "white noise needs `sigma` (> 0)")
                     })?;
                     Process::White {
-                        sigma: finite_positive(
-                            &loc,
-                            s,
-                            &format!("{key}.sigma"),
-                            "noise intensity",
-                        )?,
+                        sigma: finite_positive(&loc, s, &format!("{key}.sigma"), "noise intensity")?,
                     }
                 }
                 RawKind::Filtered => {
@@ -774,9 +723,7 @@ impl Scenario {
                 return Err(loc.at(
                     e.name.as_ref().map_or(e.acts_on.span(), |s| s.span()),
                     format!("{key}.name"),
-                    format!(
-                        "duplicate excitation name {n:?}: give the excitations distinct `name`s"
-                    ),
+                    format!("duplicate excitation name {n:?}: give the excitations distinct `name`s"),
                 ));
             }
             excitations.push(Excitation {
@@ -787,11 +734,7 @@ impl Scenario {
             });
         }
         if excitations.is_empty() {
-            return Err(loc.at(
-                0..0,
-                "excitation",
-                "no excitation: add at least one [[excitation]]",
-            ));
+            return Err(loc.at(0..0, "excitation", "no excitation: add at least one [[excitation]]"));
         }
 
         // Simulation.
@@ -803,14 +746,8 @@ impl Scenario {
             )
         })?;
         let dt = finite_positive(&loc, &s.dt, "simulation.dt", "s")?;
-        let record_length = finite_positive(
-            &loc,
-            &s.record_length,
-            "simulation.record_length",
-            "s per trajectory",
-        )?;
-        let sample_interval =
-            finite_positive(&loc, &s.sample_interval, "simulation.sample_interval", "s")?;
+        let record_length = finite_positive(&loc, &s.record_length, "simulation.record_length", "s per trajectory")?;
+        let sample_interval = finite_positive(&loc, &s.sample_interval, "simulation.sample_interval", "s")?;
         let ratio = sample_interval / dt;
         if (ratio - ratio.round()).abs() > 1e-6 * ratio.max(1.0) || ratio.round() < 1.0 {
             return Err(loc.at(
@@ -840,11 +777,7 @@ impl Scenario {
             }
             None => default_burn_in(&masses, &links),
         };
-        let count = |v: &Option<Spanned<i64>>,
-                     key: &str,
-                     default: usize,
-                     max: i64|
-         -> Result<usize, ScenarioError> {
+        let count = |v: &Option<Spanned<i64>>, key: &str, default: usize, max: i64| -> Result<usize, ScenarioError> {
             match v {
                 None => Ok(default),
                 Some(x) if (1..=max).contains(x.get_ref()) => Ok(*x.get_ref() as usize),
@@ -860,13 +793,15 @@ impl Scenario {
         let seed = match &s.seed {
             None => 1,
             Some(x) if *x.get_ref() >= 0 => *x.get_ref() as u64,
-            Some(x) => {
-                return Err(loc.at(x.span(), "simulation.seed", "must be a whole number >= 0"))
-            }
+            Some(x) => return Err(loc.at(x.span(), "simulation.seed", "must be a whole number >= 0")),
         };
         let steps = record_length / dt * trajectories as f64 * substeps as f64;
         if steps > 1e13 {
-            return Err(loc.at(s.record_length.span(), "simulation.record_length", format!("{steps:.1e} integration steps in total is beyond what this tool will run (1e13)")));
+            return Err(loc.at(
+                s.record_length.span(),
+                "simulation.record_length",
+                format!("{steps:.1e} integration steps in total is beyond what this tool will run (1e13)"),
+            ));
         }
         let simulation = Simulation {
             dt,
@@ -908,9 +843,7 @@ impl Scenario {
             }
             None => {
                 for (i, l) in links.iter().enumerate() {
-                    let ps = |p: &Polynomial| {
-                        (!p.is_empty()).then(|| p.terms.iter().map(|t| t.0).collect())
-                    };
+                    let ps = |p: &Polynomial| (!p.is_empty()).then(|| p.terms.iter().map(|t| t.0).collect());
                     id_links.push(IdentifyLink {
                         link: i,
                         stiffness: ps(&l.stiffness),
@@ -920,37 +853,26 @@ impl Scenario {
             }
         }
         let mut unknown_masses = Vec::new();
-        for m in ident
-            .and_then(|i| i.unknown_masses.as_ref())
-            .into_iter()
-            .flatten()
-        {
+        for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {
             let End::Mass(k) = mass_index(m, "identify.unknown_masses", false)? else {
                 unreachable!()
             };
             unknown_masses.push(k);
         }
         let mut unknown_intensities = Vec::new();
-        for e in ident
-            .and_then(|i| i.unknown_intensities.as_ref())
-            .into_iter()
-            .flatten()
-        {
-            let k = excitations
-                .iter()
-                .position(|x| &x.name == e.get_ref())
-                .ok_or_else(|| {
-                    let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
-                    loc.at(
-                        e.span(),
-                        "identify.unknown_intensities",
-                        format!(
-                            "unknown excitation {:?}: excitations are {}",
-                            e.get_ref(),
-                            names.join(", ")
-                        ),
-                    )
-                })?;
+        for e in ident.and_then(|i| i.unknown_intensities.as_ref()).into_iter().flatten() {
+            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+                loc.at(
+                    e.span(),
+                    "identify.unknown_intensities",
+                    format!(
+                        "unknown excitation {:?}: excitations are {}",
+                        e.get_ref(),
+                        names.join(", ")
+                    ),
+                )
+            })?;
             unknown_intensities.push(k);
         }
         let identify = Identify {
@@ -967,26 +889,19 @@ impl Scenario {
         };
         if let Some(a) = &raw.accept {
             if let Some(w) = &a.worst_rel_error {
-                accept.worst_rel_error = finite_positive(
-                    &loc,
-                    w,
-                    "accept.worst_rel_error",
-                    "relative error, e.g. 0.03",
-                )?;
+                accept.worst_rel_error =
+                    finite_positive(&loc, w, "accept.worst_rel_error", "relative error, e.g. 0.03")?;
             }
             for (m, v) in a.methods.iter().flatten() {
                 let key = format!("accept.methods.{m}");
-                let method = Method::ALL
-                    .into_iter()
-                    .find(|x| x.name() == m)
-                    .ok_or_else(|| {
-                        let names: Vec<_> = Method::ALL.iter().map(|x| x.name()).collect();
-                        loc.at(
-                            v.span(),
-                            &key,
-                            format!("unknown method {m:?}: methods are {}", names.join(", ")),
-                        )
-                    })?;
+                let method = Method::ALL.into_iter().find(|x| x.name() == m).ok_or_else(|| {
+                    let names: Vec<_> = Method::ALL.iter().map(|x| x.name()).collect();
+                    loc.at(
+                        v.span(),
+                        &key,
+                        format!("unknown method {m:?}: methods are {}", names.join(", ")),
+                    )
+                })?;
                 accept
                     .methods
                     .insert(method, finite_positive(&loc, v, &key, "relative error")?);

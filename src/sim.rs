@@ -77,8 +77,7 @@ impl SampleBatch {
 
 /// Where samples go.
 pub trait SampleSink {
-    fn write(&mut self, batch: SampleBatch)
-        -> Result<(), Box<dyn std::error::Error + Send + Sync>>;
+    fn write(&mut self, batch: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>>;
 }
 
 /// Names of the logged values per sample: `x_<mass>`, `v_<mass>`, `a_<mass>` for every mass,
@@ -106,10 +105,7 @@ pub struct RunStats {
 
 /// The seed of trajectory `j`'s generator: a SplitMix64 mix of the master seed and `j`.
 pub fn trajectory_seed(seed: u64, j: usize) -> u64 {
-    let mut z = seed
-        ^ (j as u64)
-            .wrapping_add(1)
-            .wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    let mut z = seed ^ (j as u64).wrapping_add(1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_133f_11eb);
     z ^ (z >> 31)
@@ -164,10 +160,7 @@ impl<const D: usize> LaneModel<D> {
             h,
             semi_implicit: sim.scheme == Scheme::SemiImplicit,
             a: m.link_a.clone(),
-            b: m.link_b
-                .iter()
-                .map(|&b| if b == GROUND { n } else { b })
-                .collect(),
+            b: m.link_b.iter().map(|&b| if b == GROUND { n } else { b }).collect(),
             k: (0..m.links()).map(|l| pad(m.stiffness(l))).collect(),
             c: (0..m.links()).map(|l| pad(m.damping(l))).collect(),
             h_inv_mass: m.inv_mass.iter().map(|im| h * im).collect(),
@@ -244,11 +237,7 @@ fn advance_generic<const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usiz
 /// state stays in registers for the whole interval. Link ends enter as the signed
 /// incidence (`u = Σ s_iℓ x_i`, force `−Σ_ℓ s_iℓ F_ℓ`); with entries ±1 and 0 this is
 /// bit-identical to [`Group::step`].
-fn advance_fixed<const N: usize, const L: usize, const D: usize>(
-    g: &mut Group,
-    lm: &LaneModel<D>,
-    steps: usize,
-) {
+fn advance_fixed<const N: usize, const L: usize, const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usize) {
     let mut inc = [[0.0; N]; L];
     let mut k = [[0.0; D]; L];
     let mut c = [[0.0; D]; L];
@@ -379,9 +368,7 @@ impl Group {
         Group {
             first,
             active,
-            rng: std::array::from_fn(|l| {
-                Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l))
-            }),
+            rng: std::array::from_fn(|l| Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l))),
             x: vec![zero(); n + 1],
             v: vec![zero(); n + 1],
             f: vec![zero(); n + 1],
@@ -583,9 +570,7 @@ impl Group {
 /// Samples per block so that a group's block is about `2e5` steps (bounded memory, cheap
 /// synchronisation).
 fn block_samples(steps_per_sample: usize, total: usize) -> usize {
-    (200_000 / steps_per_sample.max(1))
-        .clamp(1, 4096)
-        .min(total.max(1))
+    (200_000 / steps_per_sample.max(1)).clamp(1, 4096).min(total.max(1))
 }
 
 /// Simulate every trajectory of `sim` and hand the samples to `sink`, block by block, in
@@ -648,14 +633,7 @@ fn simulate_padded<const D: usize>(
     let total = sim.samples_per_trajectory();
     let cols = 3 * model.masses() + model.excitations.len();
     let mut groups: Vec<Group> = (0..sim.trajectories.div_ceil(LANES))
-        .map(|g| {
-            Group::new(
-                model,
-                sim.seed,
-                g * LANES,
-                (sim.trajectories - g * LANES).min(LANES),
-            )
-        })
+        .map(|g| Group::new(model, sim.seed, g * LANES, (sim.trajectories - g * LANES).min(LANES)))
         .collect();
 
     // Burn-in, in whole sample intervals (plus the remainder) so divergence is caught early.
@@ -666,15 +644,7 @@ fn simulate_padded<const D: usize>(
     groups.par_iter_mut().try_for_each(|g| {
         g.run(model, &lm, steps, burn_intervals, interval, t_burn, false)?;
         let t_rest = t_burn + burn_intervals as f64 * interval;
-        g.run(
-            model,
-            &lm,
-            burn_rest,
-            1,
-            burn_rest as f64 * lm.h,
-            t_rest,
-            false,
-        )?;
+        g.run(model, &lm, burn_rest, 1, burn_rest as f64 * lm.h, t_rest, false)?;
         // The first sample's Δv and impulse start here.
         g.v_mark.copy_from_slice(&g.v[..model.masses()]);
         for (e, p) in g.p.iter_mut().enumerate() {
@@ -731,10 +701,7 @@ pub struct Collect {
 }
 
 impl SampleSink for Collect {
-    fn write(
-        &mut self,
-        batch: SampleBatch,
-    ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    fn write(&mut self, batch: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         self.batches.push(batch);
         Ok(())
     }
@@ -768,10 +735,7 @@ impl Moments {
 }
 
 impl SampleSink for Moments {
-    fn write(
-        &mut self,
-        batch: SampleBatch,
-    ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    fn write(&mut self, batch: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         let n = self.sum.len();
         for r in 0..batch.len() {
             let row = batch.row(r);

@@ -46,14 +46,7 @@ pub fn rel_l2(estimate: &Polynomial, truth: &Polynomial, lo: f64, hi: f64) -> f6
 /// Relative error of one coefficient estimate. A coefficient whose true value is 0 is
 /// measured against the scale of its characteristic over the observed range: the RMS of
 /// `ĉ z^p` divided by the RMS of the true characteristic.
-pub fn coefficient_error(
-    estimate: f64,
-    truth: f64,
-    power: u32,
-    true_curve: &Polynomial,
-    lo: f64,
-    hi: f64,
-) -> f64 {
+pub fn coefficient_error(estimate: f64, truth: f64, power: u32, true_curve: &Polynomial, lo: f64, hi: f64) -> f64 {
     if truth != 0.0 {
         ((estimate - truth) / truth).abs()
     } else {
@@ -81,13 +74,7 @@ pub struct Dissipativity {
 }
 
 /// Check `K(u)·u > 0` (or `C(w)·w > 0`) over the observed `[lo, hi]` (3.4), (3.16)–(3.17).
-pub fn dissipativity(
-    link: &str,
-    kind: Characteristic,
-    p: &Polynomial,
-    lo: f64,
-    hi: f64,
-) -> Dissipativity {
+pub fn dissipativity(link: &str, kind: Characteristic, p: &Polynomial, lo: f64, hi: f64) -> Dissipativity {
     let mut fails_at = None;
     for k in 0..POINTS {
         let z = lo + (hi - lo) * k as f64 / (POINTS - 1) as f64;
@@ -145,10 +132,7 @@ pub fn estimated_characteristic(
     let terms: Vec<(u32, f64)> = unknowns
         .iter()
         .zip(values)
-        .filter_map(|(u, &v)| {
-            u.filter(|c| c.link == link && c.kind == kind)
-                .map(|c| (c.power, v))
-        })
+        .filter_map(|(u, &v)| u.filter(|c| c.link == link && c.kind == kind).map(|c| (c.power, v)))
         .collect();
     if terms.is_empty() {
         (true_characteristic(s, link, kind), false)

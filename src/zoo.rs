@@ -122,11 +122,7 @@ pub fn stationary_covariance(model: &Model) -> Option<DMatrix<f64>> {
 /// Exact stationary covariance of the discrete recursion that `scheme` applies to a linear
 /// model under white noise with step `h`. `None` if the model is nonlinear or has filtered
 /// excitations.
-pub fn discrete_stationary_covariance(
-    model: &Model,
-    scheme: Scheme,
-    h: f64,
-) -> Option<DMatrix<f64>> {
+pub fn discrete_stationary_covariance(model: &Model, scheme: Scheme, h: f64) -> Option<DMatrix<f64>> {
     let (a, g) = linear_system(model)?;
     let n = model.masses();
     if a.nrows() != 2 * n {
@@ -162,9 +158,7 @@ pub fn gaussian_moment(cov: &DMatrix<f64>, e: crate::ident::poly::Exponents) -> 
         return 1.0;
     }
     let d = cov.nrows();
-    let j = (0..d)
-        .find(|&j| exponent(e, j) > 0)
-        .expect("nonzero exponent");
+    let j = (0..d).find(|&j| exponent(e, j) > 0).expect("nonzero exponent");
     let gamma = e - var(j);
     (0..d)
         .filter(|&k| exponent(gamma, k) > 0)

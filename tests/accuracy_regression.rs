@@ -33,11 +33,7 @@ const GATES: &[Gate] = &[
     Gate {
         scenario: "duffing2dof",
         record_length: 625.0,
-        thresholds: &[
-            ("weak", 0.192),
-            ("strong", 6.25),
-            ("strong-marginals", 1.01),
-        ],
+        thresholds: &[("weak", 0.192), ("strong", 6.25), ("strong-marginals", 1.01)],
     },
 ];
 
@@ -114,18 +110,9 @@ fn every_scenario_meets_its_accuracy_gate_at_reduced_length() {
                 ));
             }
         }
-        for f in [
-            "report.json",
-            "report.md",
-            "characteristics.svg",
-            "run.mcap",
-        ] {
+        for f in ["report.json", "report.md", "characteristics.svg", "run.mcap"] {
             assert!(dir.path().join(f).exists(), "{stem}: {f} not written");
         }
     }
-    assert!(
-        failures.is_empty(),
-        "accuracy regression:\n{}",
-        failures.join("\n")
-    );
+    assert!(failures.is_empty(), "accuracy regression:\n{}", failures.join("\n"));
 }

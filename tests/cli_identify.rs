@@ -25,12 +25,7 @@ fn run(args: &[&str]) -> Output {
 fn refused(identify_lines: &str, must_name: &[&str]) -> String {
     let dir = tempfile::tempdir().unwrap();
     let s = sdof_with(identify_lines, 1, dir.path());
-    let out = run(&[
-        "run",
-        s.to_str().unwrap(),
-        "--out",
-        dir.path().to_str().unwrap(),
-    ]);
+    let out = run(&["run", s.to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
@@ -70,14 +65,8 @@ fn damping_and_intensity_together_are_refused_on_simulated_data() {
     // Sampled moments break the exact (c, σ²) symmetry only by their noise: the ratio is
     // ≈1e-3 and the batch estimates scatter by hundreds of per cent. The direction is the
     // theoretical one, c → (1+ε)c with σ → (1+ε/2)σ, to sampling accuracy.
-    let err = refused(
-        "unknown_intensities = [\"m1\"]",
-        &["c1[ground-m1]", "sigma[m1]"],
-    );
-    let (c, s) = (
-        direction(&err, "c1[ground-m1]"),
-        direction(&err, "sigma[m1]"),
-    );
+    let err = refused("unknown_intensities = [\"m1\"]", &["c1[ground-m1]", "sigma[m1]"]);
+    let (c, s) = (direction(&err, "c1[ground-m1]"), direction(&err, "sigma[m1]"));
     assert!((c - 1.0).abs() < 1e-9 && (s - 0.5).abs() < 0.05, "{err}");
 }
 
@@ -90,11 +79,7 @@ fn mass_with_stiffness_and_damping_is_refused_on_simulated_data() {
         &["m[m1]", "k1[ground-m1]", "c1[ground-m1]"],
     );
     let m = direction(&err, "m[m1]");
-    for (name, sign) in [
-        ("k1[ground-m1]", 1.0),
-        ("k3[ground-m1]", 1.0),
-        ("c1[ground-m1]", -1.0),
-    ] {
+    for (name, sign) in [("k1[ground-m1]", 1.0), ("k3[ground-m1]", 1.0), ("c1[ground-m1]", -1.0)] {
         let d = direction(&err, name);
         assert!((d - sign * m).abs() < 0.1 * m.abs(), "{name}: {err}");
     }
@@ -150,11 +135,9 @@ fn identify_reads_scenario_and_truth_from_the_log_and_writes_the_report() {
     let dir = tempfile::tempdir().unwrap();
     let s = sdof_with("", 1, dir.path());
     let log = dir.path().join("run.mcap");
-    assert!(
-        run(&["simulate", s.to_str().unwrap(), "-o", log.to_str().unwrap()])
-            .status
-            .success()
-    );
+    assert!(run(&["simulate", s.to_str().unwrap(), "-o", log.to_str().unwrap()])
+        .status
+        .success());
     let out_dir = dir.path().join("rep");
     let out = run(&[
         "identify",
@@ -205,18 +188,9 @@ fn identify_reads_scenario_and_truth_from_the_log_and_writes_the_report() {
         }
     }
     // The exit code follows the gates.
-    let passed = r["methods"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .all(|m| m["passed"] == true);
+    let passed = r["methods"].as_array().unwrap().iter().all(|m| m["passed"] == true);
     assert_eq!(out.status.code(), Some(if passed { 0 } else { 1 }));
-    for f in [
-        "report.json",
-        "report.md",
-        "characteristics.svg",
-        "densities.svg",
-    ] {
+    for f in ["report.json", "report.md", "characteristics.svg", "densities.svg"] {
         let p = out_dir.join(f);
         assert!(p.exists(), "{f}");
         if f.ends_with(".svg") {
@@ -227,9 +201,7 @@ fn identify_reads_scenario_and_truth_from_the_log_and_writes_the_report() {
             );
         }
     }
-    assert!(std::fs::read_dir(&out_dir).unwrap().all(|e| !e
+    assert!(std::fs::read_dir(&out_dir)
         .unwrap()
-        .path()
-        .to_string_lossy()
-        .ends_with(".partial")));
+        .all(|e| !e.unwrap().path().to_string_lossy().ends_with(".partial")));
 }

@@ -26,9 +26,7 @@ fn sdof_exact(deg: u32) -> RawMoments {
             (1..b).step_by(2).map(|k| k as f64).product::<f64>() * var_v.powi(b as i32 / 2)
         }
     };
-    RawMoments::exact(2, deg, |e| {
-        mx[exponent(e, 0) as usize] * gauss(exponent(e, 1))
-    })
+    RawMoments::exact(2, deg, |e| mx[exponent(e, 0) as usize] * gauss(exponent(e, 1)))
 }
 
 #[test]
@@ -53,16 +51,11 @@ fn weak_form_with_exact_gaussian_moments_recovers_linear_2dof() {
     // Lyapunov order x1 x2 v1 v2 → problem order x1 v1 x2 v2.
     let perm = [0usize, 2, 1, 3];
     let cov = nalgebra::DMatrix::from_fn(4, 4, |i, j| cov4[(perm[i], perm[j])]);
-    let mom = RawMoments::exact(4, weak::moment_degree(&p), |e| {
-        zoo::gaussian_moment(&cov, e)
-    });
+    let mom = RawMoments::exact(4, weak::moment_degree(&p), |e| zoo::gaussian_moment(&cov, e));
     let pc = weak::pieces(&p, &mom);
     let (est, _) = p.solve(&pc, &p.typical(&mom));
     for ((e, t), n) in est.iter().zip(&p.truth).zip(&p.names) {
-        assert!(
-            ((e - t) / t).abs() < 1e-10,
-            "{n}: estimate {e} vs truth {t}"
-        );
+        assert!(((e - t) / t).abs() < 1e-10, "{n}: estimate {e} vs truth {t}");
     }
 }
 
@@ -76,9 +69,7 @@ fn sdof_strong_errors(bins: usize) -> Vec<f64> {
     let (sx, sv) = (mom.std(0), mom.std(1));
     let lo = vec![-4.5 * sx, -4.5 * sv];
     let h = vec![9.0 * sx / bins as f64, 9.0 * sv / bins as f64];
-    let f = |y: &[f64]| {
-        (-beta * (m * y[1] * y[1] / 2.0 + k1 * y[0] * y[0] / 2.0 + k3 * y[0].powi(4) / 4.0)).exp()
-    };
+    let f = |y: &[f64]| (-beta * (m * y[1] * y[1] / 2.0 + k1 * y[0] * y[0] / 2.0 + k3 * y[0].powi(4) / 4.0)).exp();
     let grid = DensityGrid::from_density(&p, lo, h, bins, f);
     let e = fpkbench::ident::identify_strong(&p, &grid, false, &p.typical(&mom)).unwrap();
     e.values
@@ -153,11 +144,7 @@ fn mass_unknown_is_flagged_with_its_null_direction() {
     assert!(ratio < 1e-8, "sv ratio {ratio:e}");
     assert_eq!(names.len(), 4);
     let m = dir(&d, "m[m1]");
-    for (n, s) in [
-        ("k1[ground-m1]", 1.0),
-        ("k3[ground-m1]", 1.0),
-        ("c1[ground-m1]", -1.0),
-    ] {
+    for (n, s) in [("k1[ground-m1]", 1.0), ("k3[ground-m1]", 1.0), ("c1[ground-m1]", -1.0)] {
         assert!((dir(&d, n) - s * m).abs() < 1e-6, "{n}: {d:?}");
     }
     assert!((m.abs() - 1.0).abs() < 1e-6);
@@ -167,15 +154,7 @@ fn mass_unknown_is_flagged_with_its_null_direction() {
 fn coefficients_alone_are_identifiable() {
     let p = Problem::new(&sdof_duffing("")).unwrap();
     let mom = sdof_exact(weak::moment_degree(&p));
-    let e = fpkbench::ident::estimate(
-        &p,
-        "weak",
-        &weak::pieces(&p, &mom),
-        &[],
-        &p.typical(&mom),
-        vec![],
-    )
-    .unwrap();
+    let e = fpkbench::ident::estimate(&p, "weak", &weak::pieces(&p, &mom), &[], &p.typical(&mom), vec![]).unwrap();
     assert!(
         e.diagnostics.sv_ratio > 1e-2 && !e.weakly_determined,
         "{:?}",
@@ -192,12 +171,7 @@ fn extra_power_in_the_model_comes_out_near_zero() {
     .unwrap();
     assert_eq!(
         p.names,
-        [
-            "k1[ground-m1]",
-            "k2[ground-m1]",
-            "k3[ground-m1]",
-            "c1[ground-m1]"
-        ]
+        ["k1[ground-m1]", "k2[ground-m1]", "k3[ground-m1]", "c1[ground-m1]"]
     );
     assert_eq!(p.truth[1], 0.0);
     let mom = sdof_exact(weak::moment_degree(&p));

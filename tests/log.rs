@@ -46,20 +46,14 @@ fn every_sample_scenario_and_truth_round_trip_exactly() {
     let info = read_info(&path).unwrap();
     assert_eq!(info.scenario, s, "scenario recovered from the attachment");
     assert_eq!(info.truth, s.truth());
-    assert!(info
-        .truth
-        .iter()
-        .any(|(k, v)| k == "k3[ground-m1]" && *v == 20.0));
+    assert!(info.truth.iter().any(|(k, v)| k == "k3[ground-m1]" && *v == 20.0));
     assert_eq!(info.run["seed"], "2024");
     assert_eq!(info.run["scheme"], "semi-implicit");
     assert_eq!(
         info.columns,
         ["x_m1", "v_m1", "a_m1", "x_m2", "v_m2", "a_m2", "p_m1", "p_m2"]
     );
-    assert_eq!(
-        info.channel_metadata["interval_averaged"],
-        "a_m1,a_m2,p_m1,p_m2"
-    );
+    assert_eq!(info.channel_metadata["interval_averaged"], "a_m1,a_m2,p_m1,p_m2");
     let mut read = Vec::new();
     let n = read_samples(&info, |traj, t, v| read.push((traj, t, v.to_vec()))).unwrap();
     assert_eq!(n as usize, written.len());
@@ -67,11 +61,7 @@ fn every_sample_scenario_and_truth_round_trip_exactly() {
     for (a, b) in written.iter().zip(&read) {
         assert_eq!(a.0, b.0);
         assert_eq!(a.1.to_bits(), b.1.to_bits());
-        assert!(a
-            .2
-            .iter()
-            .zip(&b.2)
-            .all(|(x, y)| x.to_bits() == y.to_bits()));
+        assert!(a.2.iter().zip(&b.2).all(|(x, y)| x.to_bits() == y.to_bits()));
     }
 }
 
@@ -90,9 +80,7 @@ fn truncated_log_says_how_many_samples_are_readable_and_yields_them() {
     let mut got = Vec::new();
     let err = read_samples(&info, |traj, t, v| got.push((traj, t, v.to_vec()))).unwrap_err();
     match &err {
-        LogError::Truncated {
-            readable, expected, ..
-        } => {
+        LogError::Truncated { readable, expected, .. } => {
             assert_eq!(*readable as usize, got.len());
             assert_eq!(*expected as usize, written.len());
             assert!(
@@ -117,10 +105,7 @@ fn truncated_log_says_how_many_samples_are_readable_and_yields_them() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        text.contains("PROBLEM") && text.contains("truncated"),
-        "{text}"
-    );
+    assert!(text.contains("PROBLEM") && text.contains("truncated"), "{text}");
     let csv = dir.path().join("cut.csv");
     let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
         .args([
@@ -155,11 +140,7 @@ fn simulate_inspect_export_from_the_command_line() {
         .args(["simulate", "small.toml", "--json"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["samples"], 32 * 300);
     let log = dir.path().join("out/sdof_duffing/run.mcap");
@@ -187,10 +168,7 @@ fn simulate_inspect_export_from_the_command_line() {
         .unwrap();
     assert!(out.status.success());
     let text = std::fs::read_to_string(&csv).unwrap();
-    assert_eq!(
-        text.lines().next().unwrap(),
-        "trajectory,t,x_m1,v_m1,a_m1,p_m1"
-    );
+    assert_eq!(text.lines().next().unwrap(), "trajectory,t,x_m1,v_m1,a_m1,p_m1");
     assert_eq!(text.lines().count(), 9601);
     let npy = dir.path().join("x.npy");
     let out = Command::new(bin)
@@ -209,9 +187,7 @@ fn simulate_inspect_export_from_the_command_line() {
     assert_eq!(&bytes[..6], b"\x93NUMPY");
     let hlen = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
     assert_eq!((10 + hlen) % 64, 0);
-    assert!(
-        String::from_utf8_lossy(&bytes[10..10 + hlen]).contains("'shape': (                9600,)")
-    );
+    assert!(String::from_utf8_lossy(&bytes[10..10 + hlen]).contains("'shape': (                9600,)"));
     assert_eq!(bytes.len() - 10 - hlen, 9600 * (4 + 8 * 5));
 }
 

@@ -36,10 +36,7 @@ trajectories = 2
 
 /// Replace `from` (which must occur) with `to` in the good scenario.
 fn bad(from: &str, to: &str) -> String {
-    assert!(
-        GOOD.contains(from),
-        "test setup: {from:?} not in the scenario"
-    );
+    assert!(GOOD.contains(from), "test setup: {from:?} not in the scenario");
     GOOD.replacen(from, to, 1)
 }
 
@@ -49,33 +46,18 @@ fn run_bad(name: &str, text: &str, line: usize, key: &str, allowed: &str) {
     std::fs::write(&file, text).unwrap();
     let out_file = dir.path().join("out").join("run.mcap");
     let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
-        .args([
-            "simulate",
-            file.to_str().unwrap(),
-            "-o",
-            out_file.to_str().unwrap(),
-        ])
+        .args(["simulate", file.to_str().unwrap(), "-o", out_file.to_str().unwrap()])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(
-        out.status.code(),
-        Some(2),
-        "{name}: exit code; stderr: {stderr}"
-    );
+    assert_eq!(out.status.code(), Some(2), "{name}: exit code; stderr: {stderr}");
     let located = format!("{}:{line}:", file.display());
     assert!(
         stderr.contains(&located),
         "{name}: expected location {located} in: {stderr}"
     );
-    assert!(
-        stderr.contains(key),
-        "{name}: expected key {key:?} in: {stderr}"
-    );
-    assert!(
-        stderr.contains(allowed),
-        "{name}: expected {allowed:?} in: {stderr}"
-    );
+    assert!(stderr.contains(key), "{name}: expected key {key:?} in: {stderr}");
+    assert!(stderr.contains(allowed), "{name}: expected {allowed:?} in: {stderr}");
     assert!(
         !out_file.exists() && !Path::new(&format!("{}.partial", out_file.display())).exists(),
         "{name}: output written"
@@ -140,13 +122,7 @@ fn link_with_equal_ends() {
 
 #[test]
 fn non_positive_dt() {
-    run_bad(
-        "zero_dt",
-        &bad("dt = 1e-3", "dt = 0.0"),
-        25,
-        "simulation.dt",
-        "> 0",
-    );
+    run_bad("zero_dt", &bad("dt = 1e-3", "dt = 0.0"), 25, "simulation.dt", "> 0");
 }
 
 #[test]
@@ -250,20 +226,12 @@ fn wrong_type() {
 
 #[test]
 fn syntax_error() {
-    run_bad(
-        "syntax",
-        &bad("value = 1.0", "value = 1.0 ]"),
-        4,
-        "mass.value",
-        "",
-    );
+    run_bad("syntax", &bad("value = 1.0", "value = 1.0 ]"), 4, "mass.value", "");
 }
 
 #[test]
 fn identify_names_an_unknown_link() {
-    let text = format!(
-        "{GOOD}\n[identify]\nmethods = [\"weak\"]\nlinks.ground-m7 = {{ stiffness = [1, 3] }}\n"
-    );
+    let text = format!("{GOOD}\n[identify]\nmethods = [\"weak\"]\nlinks.ground-m7 = {{ stiffness = [1, 3] }}\n");
     run_bad(
         "identify_link",
         &text,

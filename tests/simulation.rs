@@ -92,16 +92,13 @@ fn explicit_euler_maruyama_shows_its_two_percent_inflation() {
 fn linear_2dof_covariance_matches_lyapunov_solution() {
     // Worst entry error normalised by √(Σii Σjj): over 10 seeds at 2e5 s mean 0.44 %,
     // sd 0.26 %, max 0.9 %; threshold 2.5 % (mean + 8 sd).
-    let s = zoo::linear_2dof(
-        "dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 7",
-    );
+    let s = zoo::linear_2dof("dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 7");
     let exact = zoo::stationary_covariance(&Model::new(&s)).unwrap();
     let m = moments(&s);
     let col = [0usize, 3, 1, 4]; // x1 x2 v1 v2 in the log's column order
     for i in 0..4 {
         for j in 0..4 {
-            let e = (m.covariance(col[i], col[j]) - exact[(i, j)])
-                / (exact[(i, i)] * exact[(j, j)]).sqrt();
+            let e = (m.covariance(col[i], col[j]) - exact[(i, j)]) / (exact[(i, i)] * exact[(j, j)]).sqrt();
             assert!(
                 e.abs() < 0.025,
                 "Σ[{i},{j}]: simulated {}, exact {}",
@@ -130,21 +127,14 @@ fn ou_force_has_variance_a2_over_2b() {
     // And the response covariance against the augmented Lyapunov solution.
     let exact = zoo::stationary_covariance(&Model::new(&s)).unwrap();
     let rx = m.covariance(0, 0) / exact[(0, 0)] - 1.0;
-    assert!(
-        rx.abs() < 0.03,
-        "x variance under OU force: relative error {rx}"
-    );
+    assert!(rx.abs() < 0.03, "x variance under OU force: relative error {rx}");
 }
 
 fn samples_with_threads(s: &Scenario, threads: usize) -> Vec<(u32, f64, Vec<f64>)> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     let m = Model::new(s);
     let mut c = Collect::default();
-    pool.install(|| simulate(&m, &s.simulation, &mut c, &|_| {}))
-        .unwrap();
+    pool.install(|| simulate(&m, &s.simulation, &mut c, &|_| {})).unwrap();
     c.batches
         .iter()
         .flat_map(|b| (0..b.len()).map(move |i| (b.trajectory[i], b.time[i], b.row(i).to_vec())))
@@ -161,11 +151,8 @@ fn same_seed_gives_bit_identical_samples_whatever_the_thread_count() {
     let two = samples_with_threads(&s, 2);
     let again = samples_with_threads(&s, 2);
     assert_eq!(one.len(), s.simulation.trajectories * 200);
-    let bits = |v: &[(u32, f64, Vec<f64>)]| -> Vec<u64> {
-        v.iter()
-            .flat_map(|r| r.2.iter().map(|x| x.to_bits()))
-            .collect()
-    };
+    let bits =
+        |v: &[(u32, f64, Vec<f64>)]| -> Vec<u64> { v.iter().flat_map(|r| r.2.iter().map(|x| x.to_bits())).collect() };
     assert_eq!(bits(&one), bits(&two));
     assert_eq!(bits(&two), bits(&again));
     // A different seed gives different samples.

@@ -24,8 +24,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let dest = args
         .output
         .unwrap_or_else(|| args.log.with_extension(args.format.extension()));
-    let n = export(&info, args.format, &dest)
-        .with_context(|| format!("exporting {}", args.log.display()))?;
+    let n = export(&info, args.format, &dest).with_context(|| format!("exporting {}", args.log.display()))?;
     eprintln!("wrote {} samples to {}", n, dest.display());
     Ok(ExitCode::SUCCESS)
 }

@@ -112,11 +112,7 @@ pub fn finish(report: &Report, args: &IdentifyArgs) -> anyhow::Result<ExitCode> 
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let dim = fpkbench::io::log::read_info(&args.log)?
-        .scenario
-        .masses
-        .len()
-        * 2;
+    let dim = fpkbench::io::log::read_info(&args.log)?.scenario.masses.len() * 2;
     let report = identify_log(&args.log, &args.identify.options(dim))?;
     finish(&report, &args.identify)
 }

@@ -25,9 +25,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     });
     let (samples, problem) = match counted {
         Ok(n) => (n, None),
-        Err(LogError::Truncated { readable, .. }) => {
-            (readable, Some(counted.unwrap_err().to_string()))
-        }
+        Err(LogError::Truncated { readable, .. }) => (readable, Some(counted.unwrap_err().to_string())),
         Err(e) => return Err(e.into()),
     };
     let sc = &info.scenario;
@@ -63,24 +61,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
         );
         s += &format!("channel    {} (ros2msg/cdr)\n", fpkbench::io::log::TOPIC);
-        let units = info
-            .channel_metadata
-            .get("units")
-            .cloned()
-            .unwrap_or_default();
+        let units = info.channel_metadata.get("units").cloned().unwrap_or_default();
         s += &format!("columns    trajectory, {}\n", units.replace(',', ", "));
-        let unmeasured = info
-            .channel_metadata
-            .get("unmeasured")
-            .cloned()
-            .unwrap_or_default();
+        let unmeasured = info.channel_metadata.get("unmeasured").cloned().unwrap_or_default();
         s += &format!(
             "unmeasured {}\n",
-            if unmeasured.is_empty() {
-                "none"
-            } else {
-                &unmeasured
-            }
+            if unmeasured.is_empty() { "none" } else { &unmeasured }
         );
         let averaged = info
             .channel_metadata
@@ -89,11 +75,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .unwrap_or_default();
         s += &format!(
             "averaged   {} (mean over the preceding sample interval)\n",
-            if averaged.is_empty() {
-                "none"
-            } else {
-                &averaged
-            }
+            if averaged.is_empty() { "none" } else { &averaged }
         );
         s += &format!(
             "samples    {} of {} expected, {} trajectories, record length {} s per trajectory\n",

@@ -38,10 +38,8 @@ pub fn simulate_to(scenario: &Scenario, output: &Path) -> anyhow::Result<Simulat
     let total = (sim.trajectories * sim.samples_per_trajectory()) as u64;
     let bar = ProgressBar::new(total);
     bar.set_style(
-        ProgressStyle::with_template(
-            "simulating {bar:40} {percent:>3}% {human_pos}/{human_len} samples, eta {eta}",
-        )
-        .expect("valid template"),
+        ProgressStyle::with_template("simulating {bar:40} {percent:>3}% {human_pos}/{human_len} samples, eta {eta}")
+            .expect("valid template"),
     );
     let start = Instant::now();
     let mut writer = LogWriter::create(output, scenario, &model)?;

@@ -35,27 +35,15 @@ pub struct StationaryData {
 
 impl StationaryData {
     /// `degree`: highest moment degree; `record_length`: time span of `t` per trajectory.
-    pub fn new(
-        problem: &Problem,
-        degree: u32,
-        record_length: f64,
-        batches: usize,
-    ) -> StationaryData {
+    pub fn new(problem: &Problem, degree: u32, record_length: f64, batches: usize) -> StationaryData {
         let d = problem.dim();
         StationaryData {
-            batches: (0..batches.max(1))
-                .map(|_| accumulator(problem, degree))
-                .collect(),
+            batches: (0..batches.max(1)).map(|_| accumulator(problem, degree)).collect(),
             record_length,
             columns: problem.columns.clone(),
             buffers: vec![Vec::with_capacity(BLOCK * d); batches.max(1)],
             link_ranges: vec![
-                [
-                    f64::INFINITY,
-                    f64::NEG_INFINITY,
-                    f64::INFINITY,
-                    f64::NEG_INFINITY
-                ];
+                [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
                 problem.link_ends.len()
             ],
             link_ends: problem.link_ends.clone(),

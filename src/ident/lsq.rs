@@ -50,11 +50,7 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
     let svd = s.clone().svd(true, true);
     let sv: Vec<f64> = svd.singular_values.iter().copied().collect();
     let mut order: Vec<usize> = (0..sv.len()).collect();
-    order.sort_by(|&i, &j| {
-        sv[j]
-            .partial_cmp(&sv[i])
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
+    order.sort_by(|&i, &j| sv[j].partial_cmp(&sv[i]).unwrap_or(std::cmp::Ordering::Equal));
     let smax = sv.iter().copied().fold(0.0, f64::max);
     let smin = if rows >= cols {
         sv.iter().copied().fold(f64::INFINITY, f64::min)
@@ -62,9 +58,7 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
         0.0
     };
     let rank = sv.iter().filter(|&&x| x > RANK_TOL * smax).count();
-    let x_scaled = svd
-        .solve(b, RANK_TOL * smax)
-        .unwrap_or_else(|_| DVector::zeros(cols));
+    let x_scaled = svd.solve(b, RANK_TOL * smax).unwrap_or_else(|_| DVector::zeros(cols));
     let x = DVector::from_iterator(cols, (0..cols).map(|j| x_scaled[j] * colscale[j]));
     let v_t = svd.v_t.as_ref().expect("computed");
     let weakest = *order.last().unwrap_or(&0);
@@ -95,11 +89,7 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
         cols,
         rows,
         sv_ratio,
-        condition: if sv_ratio > 0.0 {
-            1.0 / sv_ratio
-        } else {
-            f64::INFINITY
-        },
+        condition: if sv_ratio > 0.0 { 1.0 / sv_ratio } else { f64::INFINITY },
         singular_values: order.iter().map(|&i| sv[i]).collect(),
         weakest_direction: dir,
     };

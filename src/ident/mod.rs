@@ -71,10 +71,29 @@ pub enum IdentError {
     Unsupported(String),
 }
 
-/// The identification problem for a white-noise-driven system.
+/// Which state the stationary density is taken of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Layout {
+    /// White-noise forces: `y = (x_1, v_1, …, x_n, v_n)`; forces and noise act on `v`.
+    White,
+    /// Filtered (Ornstein–Uhlenbeck) forces: `(x, v)` is not Markov, `(x_i, v_i, a_i)` is
+    /// (DESIGN §3, (3.22)–(3.28)); forces and noise act on `a`.
+    Augmented,
+}
+
+/// A filtered excitation as the identifier sees it: `dP = −B P dt + A dW`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Filter {
+    pub excitation: usize,
+    pub a: f64,
+    pub b: f64,
+}
+
+/// The identification problem.
 #[derive(Debug, Clone)]
 pub struct Problem {
     pub model: Model,
+    pub layout: Layout,
     pub unknowns: Vec<Unknown>,
     pub names: Vec<String>,
     /// True value of each unknown (0 for a power the truth does not have).
@@ -84,23 +103,32 @@ pub struct Problem {
     pub start: Vec<f64>,
     /// Masses.
     pub n: usize,
-    /// Highest power in the drift (known and unknown parts).
+    /// Highest polynomial degree in the drift (known and unknown parts).
     pub pmax: u32,
-    /// Per mass: the known part of the force, a polynomial in `y`.
+    /// Known drift terms not scaled by `1/m`: `(state variable, drift polynomial)`
+    /// (`ẋ = v`; with the augmented state also `v̇ = a` and the `−B a` part of `ȧ`).
+    pub free_drift: Vec<(usize, Poly)>,
+    /// Per mass: the state variable its forces and noise act on (`v_i` or `a_i`).
+    pub noise_var: Vec<usize>,
+    /// Per mass: the known part of the force term (scaled by `1/m_i` in the drift of
+    /// `noise_var[i]`), a polynomial in `y`.
     pub known_force: Vec<Poly>,
     /// Per unknown coefficient (in order of `unknowns`' coefficients): per mass, the force
-    /// per unit of the coefficient, `−s_iℓ z^p`.
+    /// term per unit of the coefficient (white: `−s_iℓ z^p`).
     pub unit_force: Vec<Vec<Poly>>,
-    /// Measured white excitations: targets, nominal σ, and the index of its unknown (if any).
+    /// Noise sources: targets, nominal intensity (`σ` or `A`), and the index of its
+    /// unknown (if any). The noise covariance on `noise_var` is `Σ σ² μ_i μ_j`.
     pub white: Vec<(Vec<usize>, f64, Option<usize>)>,
+    /// The filters used (augmented layout).
+    pub filters: Vec<Filter>,
     /// Log column of each state variable.
     pub columns: Vec<usize>,
     pub state_names: Vec<String>,
-    /// Per link: the log columns of its ends' displacement (a, b or none) for ranges.
+    /// Per link: its ends (mass indices; `None` for the ground) for ranges.
     pub link_ends: Vec<(usize, Option<usize>)>,
 }
 
-/// State variable index of `x_i` and `v_i`.
+/// State variable index of `x_i` and `v_i` in the white layout.
 pub fn xi(i: usize) -> usize {
     2 * i
 }
@@ -109,18 +137,70 @@ pub fn vi(i: usize) -> usize {
 }
 
 impl Problem {
-    /// Build the problem from a scenario's `[identify]` section and true system.
+    /// Build the problem from a scenario's `[identify]` section and true system. With
+    /// filtered excitations the filters are taken as known at their true values; use
+    /// [`Problem::with_filters`] to give fitted ones.
     pub fn new(s: &Scenario) -> Result<Problem, IdentError> {
-        if s.excitations
+        let filters: Vec<Filter> = s
+            .excitations
             .iter()
-            .any(|e| matches!(e.process, Process::Filtered { .. }))
-        {
-            return Err(IdentError::Unsupported(
-                "filtered (Ornstein–Uhlenbeck) excitation needs the acceleration-augmented state, which this version does not identify yet".into(),
-            ));
-        }
+            .enumerate()
+            .filter_map(|(e, x)| match x.process {
+                Process::Filtered { a, b } if x.measured => Some(Filter { excitation: e, a, b }),
+                _ => None,
+            })
+            .collect();
+        Problem::with_filters(s, &filters)
+    }
+
+    /// Build the problem with the given filter parameters for the measured filtered
+    /// excitations (fitted from the force spectrum, or known).
+    pub fn with_filters(s: &Scenario, filters: &[Filter]) -> Result<Problem, IdentError> {
         let model = Model::new(s);
         let n = model.masses();
+        let measured: Vec<usize> = (0..s.excitations.len())
+            .filter(|&e| s.excitations[e].measured)
+            .collect();
+        let filtered = measured
+            .iter()
+            .any(|&e| matches!(s.excitations[e].process, Process::Filtered { .. }));
+        let white_any = measured
+            .iter()
+            .any(|&e| matches!(s.excitations[e].process, Process::White { .. }));
+        if filtered && white_any {
+            return Err(IdentError::Unsupported(
+                "white and filtered excitations together: with white noise on one mass a neighbour's acceleration is not a proper state (DESIGN §3); the force-augmented state this needs is not implemented".into(),
+            ));
+        }
+        let layout = if filtered { Layout::Augmented } else { Layout::White };
+        let width = if filtered { 3 } else { 2 };
+        let xs = |i: usize| width * i;
+        let vs = |i: usize| width * i + 1;
+        let as_ = |i: usize| width * i + 2;
+        // The filter acting on each mass (augmented layout).
+        let mut corner = vec![f64::NAN; n];
+        if filtered {
+            for &e in &measured {
+                let f = filters.iter().find(|f| f.excitation == e).ok_or_else(|| {
+                    IdentError::Unsupported(format!("no filter parameters for excitation {}", s.excitations[e].name))
+                })?;
+                for &i in &s.excitations[e].acts_on {
+                    if !corner[i].is_nan() {
+                        return Err(IdentError::Unsupported(format!(
+                            "mass {} is driven by two filtered excitations: its force is then not one Ornstein–Uhlenbeck process and (x, v, a) is not Markov",
+                            s.masses[i].name
+                        )));
+                    }
+                    corner[i] = f.b;
+                }
+            }
+            if let Some(i) = corner.iter().position(|c| c.is_nan()) {
+                return Err(IdentError::Unsupported(format!(
+                    "mass {} has no filtered excitation: its acceleration is then a function of (x, v) and the augmented state is degenerate",
+                    s.masses[i].name
+                )));
+            }
+        }
         let id = &s.identify;
         let mut unknowns = Vec::new();
         // Known parts: characteristics not listed stay at their true values.
@@ -136,9 +216,7 @@ impl Problem {
                         Characteristic::Stiffness => (known.k_start[l], known.k_len[l]),
                         Characteristic::Damping => (known.c_start[l], known.c_len[l]),
                     };
-                    known.coefs[start..start + len]
-                        .iter_mut()
-                        .for_each(|c| *c = 0.0);
+                    known.coefs[start..start + len].iter_mut().for_each(|c| *c = 0.0);
                     for &p in ps {
                         unknowns.push(Unknown::Coefficient(Coefficient {
                             link: l,
@@ -159,7 +237,7 @@ impl Problem {
             return Err(IdentError::NothingToIdentify);
         }
 
-        let rel = |l: usize, base: fn(usize) -> usize| -> Poly {
+        let rel = |l: usize, base: &dyn Fn(usize) -> usize| -> Poly {
             let (a, b) = (model.link_a[l], model.link_b[l]);
             let mut p = vec![(base(a), 1.0)];
             if b != GROUND {
@@ -167,27 +245,41 @@ impl Problem {
             }
             Poly::linear(&p)
         };
+        // Force term of one characteristic term `c z^p` of link l on mass i (before 1/m_i):
+        // white `−s c z^p`; augmented `−s c (B_i z^p + p z^(p−1) ż)` (dF/dt through K'u̇, C'ẇ).
+        let term = |l: usize, kind: Characteristic, p: u32, i: usize| -> Poly {
+            let s_ = model.sign(l, i);
+            if s_ == 0.0 {
+                return Poly::zero();
+            }
+            let (z, zdot) = match kind {
+                Characteristic::Stiffness => (rel(l, &xs), rel(l, &vs)),
+                Characteristic::Damping => (rel(l, &vs), rel(l, &as_)),
+            };
+            let mut out = Poly::zero();
+            match layout {
+                Layout::White => out.add(&z.pow(p), -s_),
+                Layout::Augmented => {
+                    out.add(&z.pow(p), -s_ * corner[i]);
+                    out.add(&z.pow(p - 1).mul(&zdot), -s_ * p as f64);
+                }
+            }
+            out
+        };
         let mut known_force = vec![Poly::zero(); n];
         let mut pmax = 1;
         for l in 0..model.links() {
-            let (u, w) = (rel(l, xi), rel(l, vi));
-            let mut f = Poly::zero();
-            for (p, &c) in known.stiffness(l).iter().enumerate() {
-                if c != 0.0 {
-                    f.add(&u.pow(p as u32 + 1), c);
-                    pmax = pmax.max(p as u32 + 1);
-                }
-            }
-            for (p, &c) in known.damping(l).iter().enumerate() {
-                if c != 0.0 {
-                    f.add(&w.pow(p as u32 + 1), c);
-                    pmax = pmax.max(p as u32 + 1);
-                }
-            }
-            for (i, kf) in known_force.iter_mut().enumerate() {
-                let s = model.sign(l, i);
-                if s != 0.0 {
-                    kf.add(&f, -s);
+            for (kind, cs) in [
+                (Characteristic::Stiffness, known.stiffness(l)),
+                (Characteristic::Damping, known.damping(l)),
+            ] {
+                for (p, &c) in cs.iter().enumerate() {
+                    if c != 0.0 {
+                        pmax = pmax.max(p as u32 + 1);
+                        for (i, kf) in known_force.iter_mut().enumerate() {
+                            kf.add(&term(l, kind, p as u32 + 1, i), c);
+                        }
+                    }
                 }
             }
         }
@@ -198,21 +290,8 @@ impl Problem {
         for u in &unknowns {
             match *u {
                 Unknown::Coefficient(c) => {
-                    let z = match c.kind {
-                        Characteristic::Stiffness => rel(c.link, xi),
-                        Characteristic::Damping => rel(c.link, vi),
-                    };
-                    let zp = z.pow(c.power);
                     pmax = pmax.max(c.power);
-                    unit_force.push(
-                        (0..n)
-                            .map(|i| {
-                                let mut p = Poly::zero();
-                                p.add(&zp, -model.sign(c.link, i));
-                                p
-                            })
-                            .collect(),
-                    );
+                    unit_force.push((0..n).map(|i| term(c.link, c.kind, c.power, i)).collect());
                     names.push(model.coefficient_name(c));
                     let t = match c.kind {
                         Characteristic::Stiffness => s.links[c.link].stiffness.coefficient(c.power),
@@ -222,71 +301,113 @@ impl Problem {
                     start.push(0.0);
                 }
                 Unknown::Mass(i) => {
+                    if layout == Layout::Augmented {
+                        return Err(IdentError::Unsupported(
+                            "unknown masses with filtered excitation are not supported".into(),
+                        ));
+                    }
                     names.push(format!("m[{}]", model.mass_names[i]));
                     truth.push(model.mass[i]);
                     start.push(model.mass[i]);
                 }
                 Unknown::Intensity(e) => {
-                    names.push(format!("sigma[{}]", model.excitation_names[e]));
                     let Process::White { sigma } = model.excitations[e].process else {
-                        unreachable!()
+                        return Err(IdentError::Unsupported(format!(
+                            "excitation {} is filtered: its A and B come from the spectral fit (or are known), not from the density",
+                            model.excitation_names[e]
+                        )));
                     };
+                    names.push(format!("sigma[{}]", model.excitation_names[e]));
                     truth.push(sigma);
                     start.push(sigma);
                 }
             }
         }
         let mut white = Vec::new();
+        for &e in &measured {
+            let exc = &model.excitations[e];
+            let intensity = match exc.process {
+                Process::White { sigma } => sigma,
+                Process::Filtered { .. } => filters.iter().find(|f| f.excitation == e).expect("checked").a,
+            };
+            let idx = unknowns.iter().position(|u| *u == Unknown::Intensity(e));
+            white.push((exc.targets.clone(), intensity, idx));
+        }
         for (e, exc) in model.excitations.iter().enumerate() {
-            if let Process::White { sigma } = exc.process {
-                if exc.measured {
-                    let idx = unknowns.iter().position(|u| *u == Unknown::Intensity(e));
-                    white.push((exc.targets.clone(), sigma, idx));
-                } else if unknowns.contains(&Unknown::Intensity(e)) {
-                    return Err(IdentError::Unsupported(format!(
-                        "excitation {} is unmeasured: its intensity cannot be an unknown here",
-                        model.excitation_names[e]
-                    )));
-                }
+            if !exc.measured && unknowns.contains(&Unknown::Intensity(e)) {
+                return Err(IdentError::Unsupported(format!(
+                    "excitation {} is unmeasured: its intensity cannot be an unknown here",
+                    model.excitation_names[e]
+                )));
             }
         }
-        let columns = (0..2 * n).map(|j| 3 * (j / 2) + j % 2).collect();
+        let mut free_drift = Vec::new();
+        for i in 0..n {
+            free_drift.push((xs(i), Poly::monomial(var(vs(i)), 1.0)));
+            if layout == Layout::Augmented {
+                free_drift.push((vs(i), Poly::monomial(var(as_(i)), 1.0)));
+                free_drift.push((as_(i), Poly::monomial(var(as_(i)), -corner[i])));
+            }
+        }
+        let noise_var = (0..n)
+            .map(|i| if layout == Layout::Augmented { as_(i) } else { vs(i) })
+            .collect();
+        let columns = match layout {
+            Layout::White => (0..2 * n).map(|j| 3 * (j / 2) + j % 2).collect(),
+            Layout::Augmented => (0..3 * n).collect(),
+        };
         let state_names = (0..n)
             .flat_map(|i| {
-                [
-                    format!("x_{}", model.mass_names[i]),
-                    format!("v_{}", model.mass_names[i]),
-                ]
+                let m = &model.mass_names[i];
+                let mut v = vec![format!("x_{m}"), format!("v_{m}")];
+                if layout == Layout::Augmented {
+                    v.push(format!("a_{m}"));
+                }
+                v
             })
             .collect();
         let link_ends = (0..model.links())
-            .map(|l| {
-                (
-                    model.link_a[l],
-                    (model.link_b[l] != GROUND).then_some(model.link_b[l]),
-                )
-            })
+            .map(|l| (model.link_a[l], (model.link_b[l] != GROUND).then_some(model.link_b[l])))
             .collect();
         Ok(Problem {
             model,
+            layout,
             unknowns,
             names,
             truth,
             start,
             n,
             pmax,
+            free_drift,
+            noise_var,
             known_force,
             unit_force,
             white,
+            filters: filters.to_vec(),
             columns,
             state_names,
             link_ends,
         })
     }
 
+    /// Index of `x_i` in the state.
+    pub fn x(&self, i: usize) -> usize {
+        self.width() * i
+    }
+    /// Index of `v_i` in the state.
+    pub fn v(&self, i: usize) -> usize {
+        self.width() * i + 1
+    }
+    fn width(&self) -> usize {
+        match self.layout {
+            Layout::White => 2,
+            Layout::Augmented => 3,
+        }
+    }
+
     /// Number of state variables.
     pub fn dim(&self) -> usize {
-        2 * self.n
+        self.width() * self.n
     }
 
     /// Number of unknown coefficients (they come first in `unknowns`).
@@ -422,9 +543,9 @@ impl Problem {
             .zip(&self.start)
             .map(|(u, &s)| match *u {
                 Unknown::Coefficient(c) => {
-                    let base = match c.kind {
-                        Characteristic::Stiffness => xi,
-                        Characteristic::Damping => vi,
+                    let base = |i: usize| match c.kind {
+                        Characteristic::Stiffness => self.x(i),
+                        Characteristic::Damping => self.v(i),
                     };
                     let (a, b) = (self.model.link_a[c.link], self.model.link_b[c.link]);
                     let mut z = Poly::monomial(var(base(a)), 1.0);
@@ -505,10 +626,7 @@ pub fn estimate(
     facts: Vec<(String, String)>,
 ) -> Result<Estimate, IdentError> {
     let (values, diag) = problem.solve(total, typical);
-    let per_batch: Vec<Vec<f64>> = batches
-        .iter()
-        .map(|b| problem.solve(b, typical).0)
-        .collect();
+    let per_batch: Vec<Vec<f64>> = batches.iter().map(|b| problem.solve(b, typical).0).collect();
     let nu = values.len();
     let std_error: Vec<f64> = (0..nu)
         .map(|k| {
@@ -521,9 +639,7 @@ pub fn estimate(
             (var / nb).sqrt()
         })
         .collect();
-    let involved: Vec<usize> = (0..nu)
-        .filter(|&k| diag.weakest_direction[k].abs() >= 0.1)
-        .collect();
+    let involved: Vec<usize> = (0..nu).filter(|&k| diag.weakest_direction[k].abs() >= 0.1).collect();
     let inseparable = |reason: String| IdentError::NotIdentifiable {
         names: involved.iter().map(|&k| problem.names[k].clone()).collect(),
         direction: involved
@@ -568,10 +684,7 @@ pub fn estimate(
 }
 
 /// The weak-form estimate from streamed data.
-pub fn identify_weak(
-    problem: &Problem,
-    data: &data::StationaryData,
-) -> Result<Estimate, IdentError> {
+pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<Estimate, IdentError> {
     let total = data.total();
     if total.count < 10 * problem.unknowns.len() as u64 {
         return Err(IdentError::TooLittleData(format!(
@@ -591,11 +704,7 @@ pub fn identify_weak(
     let facts = vec![
         (
             "test functions".into(),
-            format!(
-                "{} monomials of degree 1..={}",
-                pc.rows,
-                weak::test_degree(problem)
-            ),
+            format!("{} monomials of degree 1..={}", pc.rows, weak::test_degree(problem)),
         ),
         (
             "moments".into(),
@@ -649,10 +758,7 @@ pub fn identify_strong(
                 grid.options.min_count
             ),
         ),
-        (
-            "samples in box".into(),
-            format!("{} of {}", grid.inside, grid.total),
-        ),
+        ("samples in box".into(), format!("{} of {}", grid.inside, grid.total)),
         (
             "density".into(),
             if marginals {
@@ -664,11 +770,7 @@ pub fn identify_strong(
     ];
     estimate(
         problem,
-        if marginals {
-            "strong-marginals"
-        } else {
-            "strong"
-        },
+        if marginals { "strong-marginals" } else { "strong" },
         &pc,
         &[],
         typical,

@@ -63,8 +63,7 @@ impl RawMoments {
         let mut rest: Vec<Exponents> = set.into_iter().filter(|&e| e != 0).collect();
         rest.sort_by_key(|&e| (super::poly::degree(e), e));
         mons.extend(rest);
-        let index: HashMap<Exponents, usize> =
-            mons.iter().enumerate().map(|(i, &e)| (e, i)).collect();
+        let index: HashMap<Exponents, usize> = mons.iter().enumerate().map(|(i, &e)| (e, i)).collect();
         let mut parent = vec![0; mons.len()];
         let mut vr = vec![0; mons.len()];
         for (k, &e) in mons.iter().enumerate().skip(1) {
@@ -100,12 +99,10 @@ impl RawMoments {
 
     /// `E[Y^β]`; panics if `β` is beyond the accumulated degree.
     pub fn moment(&self, e: Exponents) -> f64 {
-        let k = *self.index.get(&e).unwrap_or_else(|| {
-            panic!(
-                "moment of degree {} not accumulated",
-                super::poly::degree(e)
-            )
-        });
+        let k = *self
+            .index
+            .get(&e)
+            .unwrap_or_else(|| panic!("moment of degree {} not accumulated", super::poly::degree(e)));
         self.sums[k] / self.count as f64
     }
 
@@ -118,19 +115,15 @@ impl RawMoments {
     }
 
     pub fn std(&self, j: usize) -> f64 {
-        (self.moment(2 * var(j)) - self.mean(j).powi(2))
-            .max(0.0)
-            .sqrt()
+        (self.moment(2 * var(j)) - self.mean(j).powi(2)).max(0.0).sqrt()
     }
 
     /// Add a block of samples: `rows` is row-major with `self.vars` values per sample.
     pub fn add_block(&mut self, rows: &[f64]) {
         let d = self.vars;
         let n = rows.len() / d;
-        let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = rows
-            .par_chunks(CHUNK * d)
-            .map(|c| self.chunk_sums(c))
-            .collect();
+        let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> =
+            rows.par_chunks(CHUNK * d).map(|c| self.chunk_sums(c)).collect();
         for (s, lo, hi) in parts {
             for (a, b) in self.sums.iter_mut().zip(&s) {
                 *a += b;
@@ -159,11 +152,7 @@ impl RawMoments {
             let len = (n - start).min(BLOCK);
             for j in 0..d {
                 for s in 0..BLOCK {
-                    y[j][s] = if s < len {
-                        rows[(start + s) * d + j]
-                    } else {
-                        0.0
-                    };
+                    y[j][s] = if s < len { rows[(start + s) * d + j] } else { 0.0 };
                 }
                 for s in 0..len {
                     lo[j] = lo[j].min(y[j][s]);

@@ -100,11 +100,7 @@ impl Poly {
     pub fn eval(&self, y: &[f64]) -> f64 {
         self.terms
             .iter()
-            .map(|(&e, &c)| {
-                c * (0..y.len())
-                    .map(|j| y[j].powi(exponent(e, j) as i32))
-                    .product::<f64>()
-            })
+            .map(|(&e, &c)| c * (0..y.len()).map(|j| y[j].powi(exponent(e, j) as i32)).product::<f64>())
             .sum()
     }
     /// `E[p(Y)]` from raw moments `E[Y^β]`.

@@ -12,7 +12,7 @@
 //! The histogram is filled in one streaming pass; memory is the grid, not the samples.
 
 use super::moments::RawMoments;
-use super::{vi, xi, Pieces, Problem};
+use super::{Pieces, Problem};
 
 /// Grid settings; [`GridOptions::auto`] gives the defaults.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
@@ -74,11 +74,7 @@ pub struct DensityGrid {
 
 impl DensityGrid {
     /// A grid over mean ± span·std of each state variable (from `mom`).
-    pub fn new(
-        problem: &Problem,
-        mom: &RawMoments,
-        options: GridOptions,
-    ) -> Result<DensityGrid, super::IdentError> {
+    pub fn new(problem: &Problem, mom: &RawMoments, options: GridOptions) -> Result<DensityGrid, super::IdentError> {
         let d = problem.dim();
         let cells = (options.bins as f64).powi(d as i32);
         if cells > MAX_CELLS as f64 {
@@ -236,13 +232,8 @@ impl DensityGrid {
                 for i in 0..n {
                     for k in 0..n {
                         if i != k {
-                            let (si, sk) = (self.stride[vi(i)], self.stride[vi(k)]);
-                            for c in [
-                                flat + si + sk,
-                                flat + si - sk,
-                                flat - si + sk,
-                                flat - si - sk,
-                            ] {
+                            let (si, sk) = (self.stride[problem.noise_var[i]], self.stride[problem.noise_var[k]]);
+                            for c in [flat + si + sk, flat + si - sk, flat - si + sk, flat - si - sk] {
                                 if count(c) < min {
                                     continue 'cells;
                                 }
@@ -258,15 +249,20 @@ impl DensityGrid {
         for (k, (flat, idx)) in rows.iter().enumerate() {
             let flat = *flat;
             let y = self.center(idx);
+            // −Σ_j ∂(drift_j f)/∂y_j for the known, unscaled drift terms.
             let mut t0 = 0.0;
-            for i in 0..n {
-                let j = xi(i);
-                t0 -= y[vi(i)] * (f(flat + self.stride[j]) - f(flat - self.stride[j]))
+            for (j, drift) in &problem.free_drift {
+                let j = *j;
+                let mut yu = y.clone();
+                yu[j] += self.h[j];
+                let mut yd = y.clone();
+                yd[j] -= self.h[j];
+                t0 -= (drift.eval(&yu) * f(flat + self.stride[j]) - drift.eval(&yd) * f(flat - self.stride[j]))
                     / (2.0 * self.h[j]);
             }
             pc.t0[k] = t0;
             for i in 0..n {
-                let j = vi(i);
+                let j = problem.noise_var[i];
                 let (up, dn) = (flat + self.stride[j], flat - self.stride[j]);
                 let (fu, fd) = (f(up), f(dn));
                 let mut yu = y.clone();
@@ -274,21 +270,18 @@ impl DensityGrid {
                 let mut yd = y.clone();
                 yd[j] -= self.h[j];
                 let h2 = 2.0 * self.h[j];
-                pc.a[k * n + i] = -(problem.known_force[i].eval(&yu) * fu
-                    - problem.known_force[i].eval(&yd) * fd)
-                    / h2;
+                pc.a[k * n + i] = -(problem.known_force[i].eval(&yu) * fu - problem.known_force[i].eval(&yd) * fd) / h2;
                 for r in 0..rc {
                     let g = &problem.unit_force[r][i];
                     pc.b[(k * n + i) * rc + r] = -(g.eval(&yu) * fu - g.eval(&yd) * fd) / h2;
                 }
                 for m in 0..n {
-                    let jm = vi(m);
+                    let jm = problem.noise_var[m];
                     pc.c[(k * n + i) * n + m] = if m == i {
                         (fu - 2.0 * f(flat) + fd) / (self.h[j] * self.h[j])
                     } else if cross {
                         let (si, sm) = (self.stride[j], self.stride[jm]);
-                        (f(flat + si + sm) - f(flat + si - sm) - f(flat - si + sm)
-                            + f(flat - si - sm))
+                        (f(flat + si + sm) - f(flat + si - sm) - f(flat - si + sm) + f(flat - si - sm))
                             / (4.0 * self.h[j] * self.h[jm])
                     } else {
                         0.0

@@ -11,7 +11,7 @@
 
 use super::moments::RawMoments;
 use super::poly::{degree, exponent, monomials, Poly};
-use super::{vi, xi, Pieces, Problem};
+use super::{Pieces, Problem};
 
 /// Degree of moments the weak form needs for `problem`.
 pub fn moment_degree(problem: &Problem) -> u32 {
@@ -38,11 +38,7 @@ pub fn required_moments(problem: &Problem) -> Vec<super::poly::Exponents> {
 
 /// Moments accumulator for `problem`'s weak form.
 pub fn accumulator(problem: &Problem) -> RawMoments {
-    RawMoments::with_monomials(
-        problem.dim(),
-        moment_degree(problem),
-        &required_moments(problem),
-    )
+    RawMoments::with_monomials(problem.dim(), moment_degree(problem), &required_moments(problem))
 }
 
 /// Assemble the weak-form pieces from raw moments of the state.
@@ -62,17 +58,15 @@ fn assemble(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -
     let ex = |p: &Poly| p.expectation(moment);
     for (k, &alpha) in tests.iter().enumerate() {
         // ψ = Π (y_j / s_j)^α_j
-        let w: f64 = (0..d)
-            .map(|j| scale[j].powi(-(exponent(alpha, j) as i32)))
-            .product();
+        let w: f64 = (0..d).map(|j| scale[j].powi(-(exponent(alpha, j) as i32))).product();
         let psi = Poly::monomial(alpha, w);
         let mut t0 = Poly::zero();
-        for i in 0..n {
-            t0.add(&super::y(vi(i)).mul(&psi.derivative(xi(i))), 1.0);
+        for (j, drift) in &problem.free_drift {
+            t0.add(&drift.mul(&psi.derivative(*j)), 1.0);
         }
         pc.t0[k] = ex(&t0);
         for i in 0..n {
-            let dpsi = psi.derivative(vi(i));
+            let dpsi = psi.derivative(problem.noise_var[i]);
             if dpsi.terms.is_empty() {
                 continue;
             }
@@ -81,7 +75,7 @@ fn assemble(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -
                 pc.b[(k * n + i) * rc + r] = ex(&problem.unit_force[r][i].mul(&dpsi));
             }
             for j in 0..n {
-                pc.c[(k * n + i) * n + j] = ex(&dpsi.derivative(vi(j)));
+                pc.c[(k * n + i) * n + j] = ex(&dpsi.derivative(problem.noise_var[j]));
             }
         }
         debug_assert!(degree(alpha) <= test_degree(problem));

@@ -69,8 +69,7 @@ pub fn export(info: &LogInfo, format: Format, dest: &Path) -> Result<u64, LogErr
                     descr.push_str(&format!(", ('{c}', '<f8')"));
                 }
                 descr.push(']');
-                let mut dict =
-                    format!("{{'descr': {descr}, 'fortran_order': False, 'shape': ({n:>20},), }}");
+                let mut dict = format!("{{'descr': {descr}, 'fortran_order': False, 'shape': ({n:>20},), }}");
                 let total = 10 + dict.len() + 1;
                 let pad = (64 - total % 64) % 64;
                 dict.push_str(&" ".repeat(pad));

@@ -88,10 +88,7 @@ pub fn run_facts(s: &Scenario) -> BTreeMap<String, String> {
         "samples_per_trajectory".into(),
         sim.samples_per_trajectory().to_string(),
     );
-    m.insert(
-        "tool".into(),
-        format!("fpkbench {}", env!("CARGO_PKG_VERSION")),
-    );
+    m.insert("tool".into(), format!("fpkbench {}", env!("CARGO_PKG_VERSION")));
     m
 }
 
@@ -209,11 +206,7 @@ impl LogWriter {
             data: std::borrow::Cow::Borrowed(s.source.as_bytes()),
         })
         .map_err(mc)?;
-        let truth = s
-            .truth()
-            .into_iter()
-            .map(|(k, v)| (k, format!("{v:?}")))
-            .collect();
+        let truth = s.truth().into_iter().map(|(k, v)| (k, format!("{v:?}"))).collect();
         w.write_metadata(&Metadata {
             name: TRUTH_METADATA.into(),
             metadata: truth,
@@ -311,15 +304,8 @@ impl LogWriter {
 }
 
 impl SampleSink for LogWriter {
-    fn write(
-        &mut self,
-        batch: SampleBatch,
-    ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        let sent = self
-            .tx
-            .as_ref()
-            .map(|tx| tx.send(batch).is_ok())
-            .unwrap_or(false);
+    fn write(&mut self, batch: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        let sent = self.tx.as_ref().map(|tx| tx.send(batch).is_ok()).unwrap_or(false);
         if sent {
             Ok(())
         } else {
@@ -370,10 +356,7 @@ impl LogInfo {
 
 /// Stream every record of an MCAP file through `f`, in constant memory. `f` returns
 /// `false` to stop early.
-fn stream_records(
-    path: &Path,
-    mut f: impl FnMut(Record<'_>) -> Result<bool, LogError>,
-) -> Result<(), LogError> {
+fn stream_records(path: &Path, mut f: impl FnMut(Record<'_>) -> Result<bool, LogError>) -> Result<(), LogError> {
     let label = path.display().to_string();
     let mut file = File::open(path).map_err(|source| LogError::Io {
         path: label.clone(),
@@ -399,12 +382,7 @@ fn stream_records(
                     return Ok(());
                 }
             }
-            Err(source) => {
-                return Err(LogError::Mcap {
-                    path: label,
-                    source,
-                })
-            }
+            Err(source) => return Err(LogError::Mcap { path: label, source }),
         }
     }
     Ok(())
@@ -450,18 +428,12 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
         reason: reason.into(),
     };
     let src = scenario_src.ok_or_else(|| invalid("no scenario attachment (`scenario.toml`)"))?;
-    let (_, channel_metadata) =
-        channel.ok_or_else(|| invalid("no sample channel (`/fpkbench/samples`)"))?;
-    let name = run
-        .get("scenario")
-        .cloned()
-        .unwrap_or_else(|| "scenario".into());
+    let (_, channel_metadata) = channel.ok_or_else(|| invalid("no sample channel (`/fpkbench/samples`)"))?;
+    let name = run.get("scenario").cloned().unwrap_or_else(|| "scenario".into());
     let mut scenario =
-        Scenario::parse(&src, &format!("{label}#scenario.toml"), &name).map_err(|source| {
-            LogError::Scenario {
-                path: label.clone(),
-                source,
-            }
+        Scenario::parse(&src, &format!("{label}#scenario.toml"), &name).map_err(|source| LogError::Scenario {
+            path: label.clone(),
+            source,
         })?;
     apply_run_facts(&mut scenario, &run).map_err(|reason| LogError::Invalid {
         path: label.clone(),
@@ -488,10 +460,7 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
 /// The run facts describe what was simulated; they override the attached scenario's
 /// `[simulation]` (a run may have been made with settings changed from the file's).
 fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(), String> {
-    fn get<T: std::str::FromStr>(
-        run: &BTreeMap<String, String>,
-        key: &str,
-    ) -> Result<Option<T>, String> {
+    fn get<T: std::str::FromStr>(run: &BTreeMap<String, String>, key: &str) -> Result<Option<T>, String> {
         run.get(key)
             .map(|v| {
                 v.parse::<T>()
@@ -560,10 +529,7 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
         Ok(true)
     });
     if let Some(reason) = bad {
-        return Err(LogError::Invalid {
-            path: label,
-            reason,
-        });
+        return Err(LogError::Invalid { path: label, reason });
     }
     let expected = info.expected_samples();
     match res {
