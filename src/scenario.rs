@@ -179,7 +179,15 @@ struct RawIdentify {
     methods: Option<Vec<Method>>,
     unknown_masses: Option<Vec<Spanned<String>>>,
     unknown_intensities: Option<Vec<Spanned<String>>>,
+    known_filters: Option<Vec<Spanned<String>>>,
     links: Option<BTreeMap<String, Spanned<RawIdentifyLink>>>,
+    compare: Option<BTreeMap<String, Spanned<RawCompare>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCompare {
+    links: BTreeMap<String, Spanned<RawIdentifyLink>>,
 }
 
 #[derive(Deserialize)]
@@ -330,6 +338,12 @@ pub struct Identify {
     pub unknown_masses: Vec<usize>,
     /// Excitations whose intensity (`sigma`, or `A`) is unknown.
     pub unknown_intensities: Vec<usize>,
+    /// Filtered excitations whose `A`, `B` the identifier is given; the others' are
+    /// fitted to the measured force's spectrum.
+    pub known_filters: Vec<usize>,
+    /// Alternative models identified alongside for comparison (e.g. the paper's linear
+    /// case 1), by name: each replaces `links`; reported, not gated.
+    pub compare: Vec<(String, Vec<IdentifyLink>)>,
 }
 
 /// `[accept]`: the accuracy gate.
@@ -452,17 +466,18 @@ fn polynomial(
     };
     let mut terms = Vec::new();
     for (p, c) in map.get_ref() {
-        let power: u32 =
-            match p.parse::<u32>() {
-                Ok(p) if (1..=15).contains(&p) => p,
-                _ => return Err(loc.at(
+        let power: u32 = match p.parse::<u32>() {
+            Ok(p) if (1..=15).contains(&p) => p,
+            _ => {
+                return Err(loc.at(
                     c.span(),
                     format!("{key}.{p}"),
                     format!(
                         "power {p:?} is not allowed: powers are whole numbers 1..=15, e.g. {{ 1 = 10.0, 3 = 20.0 }}"
                     ),
-                )),
-            };
+                ))
+            }
+        };
         let v = *c.get_ref();
         if !v.is_finite() {
             return Err(loc.at(
@@ -819,38 +834,77 @@ impl Scenario {
         let methods = ident
             .and_then(|i| i.methods.clone())
             .unwrap_or_else(|| vec![Method::Weak]);
-        let mut id_links = Vec::new();
-        match ident.and_then(|i| i.links.as_ref()) {
-            Some(map) => {
-                for (lname, spec) in map {
-                    let key = format!("identify.links.{lname}");
-                    let link = links.iter().position(|l| &l.name == lname).ok_or_else(|| {
-                        let names: Vec<_> = links.iter().map(|l| l.name.as_str()).collect();
-                        loc.at(
-                            spec.span(),
-                            &key,
-                            format!("unknown link {lname:?}: links are {}", names.join(", ")),
-                        )
-                    })?;
-                    let sp = spec.get_ref();
-                    id_links.push(IdentifyLink {
-                        link,
-                        stiffness: powers(&loc, &sp.stiffness, &format!("{key}.stiffness"))?,
-                        damping: powers(&loc, &sp.damping, &format!("{key}.damping"))?,
-                    });
-                }
-                id_links.sort_by_key(|l| l.link);
+        let parse_links = |map: &BTreeMap<String, Spanned<RawIdentifyLink>>,
+                           prefix: &str|
+         -> Result<Vec<IdentifyLink>, ScenarioError> {
+            let mut out = Vec::new();
+            for (lname, spec) in map {
+                let key = format!("{prefix}.{lname}");
+                let link = links.iter().position(|l| &l.name == lname).ok_or_else(|| {
+                    let names: Vec<_> = links.iter().map(|l| l.name.as_str()).collect();
+                    loc.at(
+                        spec.span(),
+                        &key,
+                        format!("unknown link {lname:?}: links are {}", names.join(", ")),
+                    )
+                })?;
+                let sp = spec.get_ref();
+                out.push(IdentifyLink {
+                    link,
+                    stiffness: powers(&loc, &sp.stiffness, &format!("{key}.stiffness"))?,
+                    damping: powers(&loc, &sp.damping, &format!("{key}.damping"))?,
+                });
             }
-            None => {
-                for (i, l) in links.iter().enumerate() {
+            out.sort_by_key(|l| l.link);
+            Ok(out)
+        };
+        let id_links = match ident.and_then(|i| i.links.as_ref()) {
+            Some(map) => parse_links(map, "identify.links")?,
+            None => links
+                .iter()
+                .enumerate()
+                .map(|(i, l)| {
                     let ps = |p: &Polynomial| (!p.is_empty()).then(|| p.terms.iter().map(|t| t.0).collect());
-                    id_links.push(IdentifyLink {
+                    IdentifyLink {
                         link: i,
                         stiffness: ps(&l.stiffness),
                         damping: ps(&l.damping),
-                    });
-                }
+                    }
+                })
+                .collect(),
+        };
+        let mut compare = Vec::new();
+        for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
+            compare.push((
+                name.clone(),
+                parse_links(&c.get_ref().links, &format!("identify.compare.{name}.links"))?,
+            ));
+        }
+        let mut known_filters = Vec::new();
+        for e in ident.and_then(|i| i.known_filters.as_ref()).into_iter().flatten() {
+            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+                loc.at(
+                    e.span(),
+                    "identify.known_filters",
+                    format!(
+                        "unknown excitation {:?}: excitations are {}",
+                        e.get_ref(),
+                        names.join(", ")
+                    ),
+                )
+            })?;
+            if !matches!(excitations[k].process, Process::Filtered { .. }) {
+                return Err(loc.at(
+                    e.span(),
+                    "identify.known_filters",
+                    format!(
+                        "excitation {:?} is white: only filtered excitations have A and B",
+                        e.get_ref()
+                    ),
+                ));
             }
+            known_filters.push(k);
         }
         let mut unknown_masses = Vec::new();
         for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {
@@ -880,6 +934,8 @@ impl Scenario {
             links: id_links,
             unknown_masses,
             unknown_intensities,
+            known_filters,
+            compare,
         };
 
         // Accept.

@@ -21,6 +21,7 @@ pub mod data;
 pub mod lsq;
 pub mod moments;
 pub mod poly;
+pub mod spectrum;
 pub mod strong;
 pub mod weak;
 
@@ -403,6 +404,23 @@ impl Problem {
             Layout::White => 2,
             Layout::Augmented => 3,
         }
+    }
+
+    /// Drift of mass `i`'s noise variable (`v̇_i` white, `ȧ_i` augmented) at state `y` with
+    /// the unknown coefficients `theta` (masses and intensities at their nominal values).
+    pub fn noise_drift(&self, i: usize, y: &[f64], theta: &[f64]) -> f64 {
+        let j = self.noise_var[i];
+        let free: f64 = self
+            .free_drift
+            .iter()
+            .filter(|(v, _)| *v == j)
+            .map(|(_, p)| p.eval(y))
+            .sum();
+        let mut f = self.known_force[i].eval(y);
+        for (r, unit) in self.unit_force.iter().enumerate() {
+            f += theta[r] * unit[i].eval(y);
+        }
+        free + f / self.model.mass[i]
     }
 
     /// Number of state variables.
