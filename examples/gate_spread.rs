@@ -14,7 +14,7 @@ fn main() {
     s.simulation.record_length = a[2].parse().unwrap();
     let seeds: u64 = a[3].parse().unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let mut worst: std::collections::BTreeMap<&'static str, Vec<f64>> = Default::default();
+    let mut worst: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
     for seed in 0..seeds {
         s.simulation.seed = 1000 + seed;
         let m = Model::new(&s);
@@ -31,7 +31,7 @@ fn main() {
         )
         .unwrap();
         for mr in &r.methods {
-            worst.entry(mr.method).or_default().push(mr.worst_rel_error);
+            worst.entry(mr.method.clone()).or_default().push(mr.worst_rel_error);
         }
     }
     for (m, mut v) in worst {

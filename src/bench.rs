@@ -8,10 +8,10 @@
 
 use crate::ident::data::StationaryData;
 use crate::ident::strong::{DensityGrid, GridOptions};
-use crate::ident::{self, lsq::Diagnostics, weak, IdentError, Problem, Unknown};
+use crate::ident::{self, lsq::Diagnostics, spectrum, spectrum::Welch, weak, Filter, IdentError, Problem, Unknown};
 use crate::io::log::{read_info, read_samples, LogError, LogInfo};
 use crate::model::{Characteristic, Coefficient, Model};
-use crate::scenario::{Method, Polynomial, Scenario};
+use crate::scenario::{Method, Polynomial, Process, Scenario};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
 use crate::stats;
 use serde::Serialize;
@@ -74,9 +74,30 @@ pub struct Curve {
     pub identified: Vec<(u32, f64)>,
 }
 
+/// A filtered excitation's `A`, `B`: the fit to the measured force spectrum (3.20) and
+/// what the identifier used.
+#[derive(Debug, Clone, Serialize)]
+pub struct FilterReport {
+    pub excitation: String,
+    /// `fitted` or `known`.
+    pub used: &'static str,
+    pub a: f64,
+    pub b: f64,
+    pub fitted_a: f64,
+    pub fitted_b: f64,
+    pub true_a: f64,
+    pub true_b: f64,
+    pub rms_log_residual: f64,
+    pub expected_rms_log_residual: f64,
+    pub segments: usize,
+    pub segment_len: usize,
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodReport {
-    pub method: &'static str,
+    pub method: String,
+    /// Whether this method has an acceptance gate (baselines and comparisons do not).
+    pub gated: bool,
     pub parameters: Vec<Parameter>,
     pub curves: Vec<Curve>,
     pub worst_rel_error: f64,
@@ -158,6 +179,8 @@ pub struct PlotData {
     pub marginals: Vec<(String, String, Histogram, Option<Histogram>)>,
     pub samples: f64,
     pub model_samples: f64,
+    /// Per filtered excitation: name, estimated spectrum, fit, true (A, B).
+    pub spectra: Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>,
 }
 
 /// The result of identifying one log.
@@ -174,6 +197,8 @@ pub struct Report {
     pub scheme: String,
     pub dt_s: f64,
     pub timings_s: Timings,
+    /// Filtered excitations: fitted and used `A`, `B`.
+    pub filters: Vec<FilterReport>,
     pub methods: Vec<MethodReport>,
     pub validation: Option<Validation>,
     pub passed: bool,
@@ -252,45 +277,76 @@ pub fn identify_log(path: &Path, options: &Options) -> Result<Report, BenchError
 fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, BenchError> {
     let s = &info.scenario;
     let sim = &s.simulation;
-    let problem = Problem::new(s)?;
     let methods = if options.methods.is_empty() {
         s.identify.methods.clone()
     } else {
         options.methods.clone()
     };
+    // Measured filtered excitations: their A, B come from the force spectrum unless known.
+    let filtered: Vec<usize> = (0..s.excitations.len())
+        .filter(|&e| s.excitations[e].measured && matches!(s.excitations[e].process, Process::Filtered { .. }))
+        .collect();
+    // The problem's structure (state, columns, moments needed) does not depend on A and B.
+    let placeholder: Vec<Filter> = filtered
+        .iter()
+        .map(|&e| Filter {
+            excitation: e,
+            a: 1.0,
+            b: 1.0,
+        })
+        .collect();
+    let structure = Problem::with_filters(s, &placeholder)?;
+    let naive_scenario = (!filtered.is_empty()).then(|| whitened(s, &placeholder));
+    let naive_structure = naive_scenario.as_ref().map(Problem::new).transpose()?;
 
-    // Pass 1: moments per batch, link ranges.
+    // Pass 1: moments per batch, link ranges, lag-1 correlation of each filtered force.
     let mut data = StationaryData::new(
-        &problem,
-        weak::moment_degree(&problem),
+        &structure,
+        weak::moment_degree(&structure),
         sim.record_length,
         options.batches,
     );
-    read_samples(info, |_, t, row| data.push(t, row))?;
+    let mut naive_data = naive_structure
+        .as_ref()
+        .map(|p| StationaryData::new(p, weak::moment_degree(p), sim.record_length, options.batches));
+    let force_col = |e: usize| 3 * s.masses.len() + e;
+    let mut lag = vec![(0.0f64, 0.0f64, vec![f64::NAN; sim.trajectories]); filtered.len()];
+    read_samples(info, |traj, t, row| {
+        data.push(t, row);
+        if let Some(d) = naive_data.as_mut() {
+            d.push(t, row);
+        }
+        for (k, &e) in filtered.iter().enumerate() {
+            let p = row[force_col(e)];
+            let (s0, s1, last) = &mut lag[k];
+            if let Some(prev) = last.get_mut(traj as usize) {
+                if prev.is_finite() {
+                    *s0 += p * p;
+                    *s1 += p * *prev;
+                }
+                *prev = p;
+            }
+        }
+    })?;
     data.finish();
-    let total = data.total();
-    let typical = problem.typical(&total);
-    // Identifiability is a property of the unknowns and the data: measured once, with the
-    // weak form's batches, whatever methods were asked for (no estimates on failure).
-    let weak_estimate = ident::identify_weak(&problem, &data);
-    if let Err(e @ IdentError::NotIdentifiable { .. }) = weak_estimate {
-        return Err(e.into());
+    if let Some(d) = naive_data.as_mut() {
+        d.finish();
     }
+    let total = data.total();
 
-    // Pass 2: grid and histograms.
+    // Pass 2: grid, histograms, force spectra.
     let want_grid = methods
         .iter()
         .any(|m| matches!(m, Method::Strong | Method::StrongMarginals));
-    let mut grid = if want_grid {
-        Some(DensityGrid::new(
-            &problem,
+    let mut grid = match want_grid {
+        true => Some(DensityGrid::new(
+            &structure,
             &total,
-            options.grid.unwrap_or_else(|| GridOptions::auto(problem.dim())),
-        )?)
-    } else {
-        None
+            options.grid.unwrap_or_else(|| GridOptions::auto(structure.dim())),
+        )),
+        false => None,
     };
-    let n = problem.n;
+    let n = structure.n;
     let mut link_hist: Vec<(Histogram, Histogram)> = data
         .link_ranges
         .iter()
@@ -301,14 +357,27 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
             )
         })
         .collect();
-    let state_hist: Vec<Histogram> = (0..problem.dim())
+    let state_hist: Vec<Histogram> = (0..structure.dim())
         .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
         .collect();
-    let mut marg = Marginals::new(problem.columns.clone(), state_hist.clone());
-    let model = &problem.model;
+    let mut marg = Marginals::new(structure.columns.clone(), state_hist.clone());
+    let mut welch: Vec<Welch> = lag
+        .iter()
+        .map(|(s0, s1, _)| {
+            // B from the lag-1 correlation (an AR(1) guess) sets the segment length only.
+            let phi = (s1 / s0).clamp(1e-6, 1.0 - 1e-9);
+            let b_guess = -phi.ln() / sim.sample_interval;
+            Welch::new(
+                Welch::segment_for(b_guess, sim.sample_interval, sim.samples_per_trajectory()),
+                sim.sample_interval,
+                sim.trajectories,
+            )
+        })
+        .collect();
+    let model = &structure.model;
     let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
-    read_samples(info, |_, _, row| {
-        if let Some(g) = grid.as_mut() {
+    read_samples(info, |traj, _, row| {
+        if let Some(Ok(g)) = grid.as_mut() {
             g.push(row);
         }
         for i in 0..n {
@@ -320,91 +389,143 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
             h.1.push(model.relative(l, &vs));
         }
         marg.push(row);
+        for (k, &e) in filtered.iter().enumerate() {
+            welch[k].push(traj as usize, row[force_col(e)]);
+        }
     })?;
 
+    // Filters: fitted to the spectra, or known.
+    let mut filters = Vec::new();
+    let mut filter_reports = Vec::new();
+    let mut spectra = Vec::new();
+    for (k, &e) in filtered.iter().enumerate() {
+        let spec = welch[k].spectrum();
+        let fit = spectrum::fit_ou(&spec);
+        let Process::Filtered { a: ta, b: tb } = s.excitations[e].process else {
+            unreachable!()
+        };
+        let known = s.identify.known_filters.contains(&e);
+        let (a, b) = if known { (ta, tb) } else { (fit.a, fit.b) };
+        filters.push(Filter { excitation: e, a, b });
+        filter_reports.push(FilterReport {
+            excitation: s.excitations[e].name.clone(),
+            used: if known { "known" } else { "fitted" },
+            a,
+            b,
+            fitted_a: fit.a,
+            fitted_b: fit.b,
+            true_a: ta,
+            true_b: tb,
+            rms_log_residual: fit.rms_log_residual,
+            expected_rms_log_residual: fit.expected_rms,
+            segments: spec.segments,
+            segment_len: spec.segment_len,
+        });
+        spectra.push((s.excitations[e].name.clone(), spec, fit, (ta, tb)));
+    }
+    let problem = Problem::with_filters(s, &filters)?;
+    let typical = problem.typical(&total);
+    // Identifiability is a property of the unknowns and the data: measured once, with the
+    // weak form's batches, whatever methods were asked for (no estimates on failure).
+    let bilinear = problem.unknowns.iter().any(|u| matches!(u, Unknown::Corner(_)));
+    let weak_estimate = if bilinear {
+        ident::identify_weak_bilinear(&problem, &data)
+    } else {
+        ident::identify_weak(&problem, &data)
+    };
+    // What the reports are about: with an unknown corner, the physical coefficients and corners.
+    let reported = if bilinear { problem.physical() } else { problem.clone() };
+    if let Err(e @ IdentError::NotIdentifiable { .. }) = weak_estimate {
+        return Err(e.into());
+    }
+
     // Methods.
-    let coef_of: Vec<Option<Coefficient>> = problem
-        .unknowns
-        .iter()
-        .map(|u| {
-            if let Unknown::Coefficient(c) = u {
-                Some(*c)
-            } else {
-                None
-            }
-        })
-        .collect();
+    let coef_of = coefficients_of(&reported);
     let mut reports = Vec::new();
     let mut first_ok: Option<Vec<f64>> = None;
     let mut first_method = "";
     for m in &methods {
         let t = Instant::now();
-        let est = match m {
-            Method::Weak => weak_estimate.clone(),
-            Method::Strong => ident::identify_strong(&problem, grid.as_ref().expect("grid"), false, &typical),
-            Method::StrongMarginals => ident::identify_strong(&problem, grid.as_ref().expect("grid"), true, &typical),
+        let est = match (m, &grid) {
+            (Method::Weak, _) => weak_estimate.clone(),
+            (Method::Strong | Method::StrongMarginals, Some(Err(e))) => Err(e.clone()),
+            (Method::Strong | Method::StrongMarginals, _) if bilinear => Err(IdentError::Unsupported(
+                "an unknown corner B makes the drift bilinear; the strong form here solves linear problems only".into(),
+            )),
+            (Method::Strong, Some(Ok(g))) => ident::identify_strong(&problem, g, false, &typical),
+            (Method::StrongMarginals, Some(Ok(g))) => ident::identify_strong(&problem, g, true, &typical),
+            (_, None) => unreachable!("grid requested"),
         };
-        let threshold = s.accept.threshold(*m);
-        let mut rep = MethodReport {
-            method: m.name(),
-            parameters: Vec::new(),
-            curves: Vec::new(),
-            worst_rel_error: f64::NAN,
-            threshold,
-            passed: false,
-            diagnostics: None,
-            weakly_determined: false,
-            facts: BTreeMap::new(),
-            dissipativity: Vec::new(),
-            error: None,
-            seconds: 0.0,
-        };
-        match est {
-            Err(e @ IdentError::NotIdentifiable { .. }) => return Err(e.into()),
-            Err(e) => rep.error = Some(e.to_string()),
-            Ok(e) => {
-                fill_accuracy(
-                    &mut rep,
-                    s,
-                    &problem,
-                    &coef_of,
-                    &e.values,
-                    &e.std_error,
-                    &data.link_ranges,
-                );
-                rep.diagnostics = Some(e.diagnostics.clone());
-                rep.weakly_determined = e.weakly_determined;
-                rep.facts = e.facts.into_iter().collect();
-                if first_ok.is_none() {
-                    first_ok = Some(e.values.clone());
-                    first_method = m.name();
-                }
-            }
+        if let Err(e @ IdentError::NotIdentifiable { .. }) = est {
+            return Err(e.into());
         }
-        rep.seconds = t.elapsed().as_secs_f64();
-        reports.push(rep);
+        if let (Ok(e), None) = (&est, &first_ok) {
+            first_ok = Some(e.values.clone());
+            first_method = m.name();
+        }
+        reports.push(method_report(
+            m.name(),
+            Some(s.accept.threshold(*m)),
+            est,
+            s,
+            &reported,
+            &data.link_ranges,
+            t,
+        ));
+    }
+    // The naive baseline: the white-noise identification applied to filtered data, with
+    // each filtered force taken as white of the same low-frequency density (σ = A/B).
+    if let (Some(d), false) = (&naive_data, filtered.is_empty()) {
+        let t = Instant::now();
+        let naive = Problem::new(&whitened(s, &filters))?;
+        let est = ident::identify_weak(&naive, d);
+        reports.push(method_report(
+            "weak-white-naive",
+            None,
+            est,
+            s,
+            &naive,
+            &data.link_ranges,
+            t,
+        ));
+    }
+    // Alternative models for comparison (e.g. the paper's linear case 1).
+    for (name, links) in &s.identify.compare {
+        let t = Instant::now();
+        let mut alt = s.clone();
+        alt.identify.links = links.clone();
+        let p = Problem::with_filters(&alt, &filters)?;
+        let est = ident::identify_weak(&p, &data);
+        reports.push(method_report(
+            &format!("weak [{name}]"),
+            None,
+            est,
+            s,
+            &p,
+            &data.link_ranges,
+            t,
+        ));
     }
 
     // Validation by re-simulation of the first identified model.
+    let units = s.motion.units();
     let mut marginals: Vec<(String, String, Histogram, Option<Histogram>)> = (0..problem.dim())
         .map(|j| {
-            let unit = if j % 2 == 0 {
-                s.motion.units()[0]
+            let name = problem.state_names[j].clone();
+            let unit = units[if name.starts_with("x_") {
+                0
+            } else if name.starts_with("v_") {
+                1
             } else {
-                s.motion.units()[1]
-            };
-            (
-                problem.state_names[j].clone(),
-                unit.to_string(),
-                marg.hist[j].clone(),
-                None,
-            )
+                2
+            }];
+            (name, unit.to_string(), marg.hist[j].clone(), None)
         })
         .collect();
     let mut model_samples = 0.0;
     let validation = match (&first_ok, options.validate) {
         (Some(values), true) => {
-            let v = validate(s, &problem, &coef_of, values, first_method, &marg, &state_hist);
+            let v = validate(s, &reported, &coef_of, values, first_method, &marg, &state_hist);
             if let Ok((_, m)) = &v {
                 for (j, h) in m.hist.iter().enumerate() {
                     marginals[j].3 = Some(h.clone());
@@ -426,7 +547,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         _ => None,
     };
 
-    let passed = !reports.is_empty() && reports.iter().all(|r| r.passed);
+    let passed = reports.iter().any(|r| r.gated) && reports.iter().filter(|r| r.gated).all(|r| r.passed);
     let identify_s = start.elapsed().as_secs_f64();
     Ok(Report {
         scenario: s.name.clone(),
@@ -444,6 +565,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
             identify: identify_s,
             total: identify_s,
         },
+        filters: filter_reports,
         methods: reports,
         validation,
         passed,
@@ -452,6 +574,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
             marginals,
             samples: marg.n,
             model_samples,
+            spectra,
         },
         scenario_def: Some(s.clone()),
     })
@@ -526,6 +649,88 @@ fn fill_accuracy(
     rep.passed = worst <= rep.threshold;
 }
 
+/// The coefficient behind each unknown (`None` for masses and intensities).
+fn coefficients_of(problem: &Problem) -> Vec<Option<Coefficient>> {
+    problem
+        .unknowns
+        .iter()
+        .map(|u| {
+            if let Unknown::Coefficient(c) = u {
+                Some(*c)
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// The scenario with every filtered excitation replaced by white noise of the same
+/// low-frequency density (`σ = A/B`): what ignoring the filter amounts to.
+fn whitened(s: &Scenario, filters: &[Filter]) -> Scenario {
+    let mut w = s.clone();
+    w.identify.unknown_corners.clear();
+    for f in filters {
+        w.excitations[f.excitation].process = Process::White { sigma: f.a / f.b };
+    }
+    w
+}
+
+/// One method's report: estimates, accuracy, dissipativity; `threshold` `None` for an
+/// ungated baseline or comparison.
+fn method_report(
+    method: &str,
+    threshold: Option<f64>,
+    est: Result<ident::Estimate, IdentError>,
+    s: &Scenario,
+    problem: &Problem,
+    ranges: &[[f64; 4]],
+    started: Instant,
+) -> MethodReport {
+    let mut rep = MethodReport {
+        method: method.to_string(),
+        gated: threshold.is_some(),
+        parameters: Vec::new(),
+        curves: Vec::new(),
+        worst_rel_error: f64::NAN,
+        threshold: threshold.unwrap_or(f64::NAN),
+        passed: false,
+        diagnostics: None,
+        weakly_determined: false,
+        facts: BTreeMap::new(),
+        dissipativity: Vec::new(),
+        error: None,
+        seconds: 0.0,
+    };
+    match est {
+        Err(e) => rep.error = Some(e.to_string()),
+        Ok(e) => {
+            fill_accuracy(
+                &mut rep,
+                s,
+                problem,
+                &coefficients_of(problem),
+                &e.values,
+                &e.std_error,
+                ranges,
+            );
+            if threshold.is_none() {
+                rep.passed = true;
+            }
+            rep.diagnostics = Some(e.diagnostics.clone());
+            rep.weakly_determined = e.weakly_determined;
+            rep.facts = e.facts.into_iter().collect();
+            for (name, direct, from_product) in problem.recovered(&e.values) {
+                rep.facts.insert(
+                    format!("physical {name}"),
+                    format!("{direct:.6} directly, {from_product:.6} from (B*{name})/B"),
+                );
+            }
+        }
+    }
+    rep.seconds = started.elapsed().as_secs_f64();
+    rep
+}
+
 /// The scenario with the identified values in place of the unknowns.
 pub fn identified_scenario(
     s: &Scenario,
@@ -556,7 +761,12 @@ pub fn identified_scenario(
                     *sigma = values[k];
                 }
             }
-            Unknown::Coefficient(_) => {}
+            Unknown::Corner(e) => {
+                if let Process::Filtered { b, .. } = &mut out.excitations[e].process {
+                    *b = values[k];
+                }
+            }
+            Unknown::Coefficient(_) | Unknown::CornerProduct(..) | Unknown::Monomial(..) => {}
         }
     }
     out

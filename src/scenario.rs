@@ -180,6 +180,7 @@ struct RawIdentify {
     unknown_masses: Option<Vec<Spanned<String>>>,
     unknown_intensities: Option<Vec<Spanned<String>>>,
     known_filters: Option<Vec<Spanned<String>>>,
+    unknown_corners: Option<Vec<Spanned<String>>>,
     links: Option<BTreeMap<String, Spanned<RawIdentifyLink>>>,
     compare: Option<BTreeMap<String, Spanned<RawCompare>>>,
 }
@@ -341,6 +342,9 @@ pub struct Identify {
     /// Filtered excitations whose `A`, `B` the identifier is given; the others' are
     /// fitted to the measured force's spectrum.
     pub known_filters: Vec<usize>,
+    /// Filtered excitations whose corner `B` is unknown: the drift is then bilinear, and
+    /// the identifier solves for the monomial coefficients `B`, `B·θ`, `θ`.
+    pub unknown_corners: Vec<usize>,
     /// Alternative models identified alongside for comparison (e.g. the paper's linear
     /// case 1), by name: each replaces `links`; reported, not gated.
     pub compare: Vec<(String, Vec<IdentifyLink>)>,
@@ -906,6 +910,32 @@ impl Scenario {
             }
             known_filters.push(k);
         }
+        let mut unknown_corners = Vec::new();
+        for e in ident.and_then(|i| i.unknown_corners.as_ref()).into_iter().flatten() {
+            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+                loc.at(
+                    e.span(),
+                    "identify.unknown_corners",
+                    format!(
+                        "unknown excitation {:?}: excitations are {}",
+                        e.get_ref(),
+                        names.join(", ")
+                    ),
+                )
+            })?;
+            if !matches!(excitations[k].process, Process::Filtered { .. }) {
+                return Err(loc.at(
+                    e.span(),
+                    "identify.unknown_corners",
+                    format!(
+                        "excitation {:?} is white: only filtered excitations have a corner B",
+                        e.get_ref()
+                    ),
+                ));
+            }
+            unknown_corners.push(k);
+        }
         let mut unknown_masses = Vec::new();
         for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {
             let End::Mass(k) = mass_index(m, "identify.unknown_masses", false)? else {
@@ -935,6 +965,7 @@ impl Scenario {
             unknown_masses,
             unknown_intensities,
             known_filters,
+            unknown_corners,
             compare,
         };
 

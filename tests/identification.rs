@@ -179,3 +179,43 @@ fn extra_power_in_the_model_comes_out_near_zero() {
     assert!(est[1].abs() < 1e-6, "k2 = {}", est[1]);
     assert!(((est[2] - 20.0) / 20.0).abs() < 1e-6);
 }
+
+#[test]
+fn accumulated_moments_equal_brute_force_sums() {
+    use fpkbench::ident::poly::{degree, exponent, monomials};
+    // Deterministic pseudo-random data in 3 variables, degree 6, full and reduced sets.
+    let mut state = 12345u64;
+    let mut rnd = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    };
+    let n = 10_007;
+    let rows: Vec<f64> = (0..3 * n).map(|_| rnd()).collect();
+    let all = monomials(3, 6);
+    let wanted: Vec<_> = all
+        .iter()
+        .copied()
+        .filter(|&e| degree(e) == 6 || exponent(e, 1) == 0)
+        .collect();
+    for m in [RawMoments::new(3, 6), RawMoments::with_monomials(3, 6, &wanted)] {
+        let mut m = m;
+        m.add_block(&rows);
+        for &e in &wanted {
+            let brute: f64 = (0..n)
+                .map(|s| {
+                    (0..3)
+                        .map(|j| rows[3 * s + j].powi(exponent(e, j) as i32))
+                        .product::<f64>()
+                })
+                .sum::<f64>()
+                / n as f64;
+            assert!(
+                (m.moment(e) - brute).abs() < 1e-12 * (1.0 + brute.abs()),
+                "moment {e:x}: {} vs {brute}",
+                m.moment(e)
+            );
+        }
+    }
+}

@@ -34,8 +34,8 @@ fn sampled_ou_density_tends_to_the_rational_density_and_integrates_to_the_varian
 #[test]
 fn welch_and_fit_recover_a_and_b_of_a_simulated_ou_force() {
     // A 20, B 5, sampled every 0.1 s, 32 × 1250 s. Over seeds 0–9 (example
-    // spectral_spread): A relative error mean +0.01 %, sd 0.17 %, max 0.27 %; B mean
-    // +0.18 %, sd 0.24 %, max 0.58 %. Tolerances: A 1 %, B 1.5 % (≥ 4 sd).
+    // spectral_spread): A relative error mean −0.03 %, sd 0.17 %, max 0.31 %; B mean
+    // −0.17 %, sd 0.25 %, max 0.59 %. Tolerances: A 1 %, B 1.5 % (≥ 4 sd).
     let s = zoo::filtered_sdof(
         1.0,
         10.0,

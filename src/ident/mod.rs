@@ -38,6 +38,13 @@ pub enum Unknown {
     Mass(usize),
     /// Intensity `σ` of (white) excitation `e`.
     Intensity(usize),
+    /// Corner `B` of filtered excitation `e` (declared unknown: the drift is bilinear).
+    Corner(usize),
+    /// The product `B_e · θ` of an unknown corner and a coefficient (bilinear drift).
+    CornerProduct(Coefficient, usize),
+    /// The coefficient of one monomial in the unknown part of mass `i`'s drift (the
+    /// linear stage of a bilinear identification).
+    Monomial(usize, poly::Exponents),
 }
 
 /// Errors of identification.
@@ -178,8 +185,9 @@ impl Problem {
         let xs = |i: usize| width * i;
         let vs = |i: usize| width * i + 1;
         let as_ = |i: usize| width * i + 2;
-        // The filter acting on each mass (augmented layout).
+        // The filter acting on each mass (augmented layout), and whether its B is unknown.
         let mut corner = vec![f64::NAN; n];
+        let mut corner_unknown: Vec<Option<usize>> = vec![None; n];
         if filtered {
             for &e in &measured {
                 let f = filters.iter().find(|f| f.excitation == e).ok_or_else(|| {
@@ -193,6 +201,9 @@ impl Problem {
                         )));
                     }
                     corner[i] = f.b;
+                    if s.identify.unknown_corners.contains(&e) {
+                        corner_unknown[i] = Some(e);
+                    }
                 }
             }
             if let Some(i) = corner.iter().position(|c| c.is_nan()) {
@@ -228,6 +239,29 @@ impl Problem {
                 }
             }
         }
+        // With an unknown corner, each coefficient acting on a mass it drives also has a
+        // product unknown; then the corner itself. All linear: they precede masses.
+        let coefs: Vec<Coefficient> = unknowns
+            .iter()
+            .filter_map(|u| {
+                if let Unknown::Coefficient(c) = u {
+                    Some(*c)
+                } else {
+                    None
+                }
+            })
+            .collect();
+        for &e in &id.unknown_corners {
+            for c in &coefs {
+                let touches = [model.link_a[c.link], model.link_b[c.link]]
+                    .iter()
+                    .any(|&m| m != GROUND && corner_unknown[m] == Some(e));
+                if touches {
+                    unknowns.push(Unknown::CornerProduct(*c, e));
+                }
+            }
+            unknowns.push(Unknown::Corner(e));
+        }
         for &i in &id.unknown_masses {
             unknowns.push(Unknown::Mass(i));
         }
@@ -261,10 +295,23 @@ impl Problem {
             match layout {
                 Layout::White => out.add(&z.pow(p), -s_),
                 Layout::Augmented => {
-                    out.add(&z.pow(p), -s_ * corner[i]);
+                    // With an unknown corner the B·z^p part belongs to the product unknown.
+                    if corner_unknown[i].is_none() {
+                        out.add(&z.pow(p), -s_ * corner[i]);
+                    }
                     out.add(&z.pow(p - 1).mul(&zdot), -s_ * p as f64);
                 }
             }
+            out
+        };
+        // The B part alone, `−s z^p` (per unit of B·c).
+        let b_part = |l: usize, kind: Characteristic, p: u32, i: usize| -> Poly {
+            let (z, _) = match kind {
+                Characteristic::Stiffness => (rel(l, &xs), rel(l, &vs)),
+                Characteristic::Damping => (rel(l, &vs), rel(l, &as_)),
+            };
+            let mut out = Poly::zero();
+            out.add(&z.pow(p), -model.sign(l, i));
             out
         };
         let mut known_force = vec![Poly::zero(); n];
@@ -301,6 +348,66 @@ impl Problem {
                     truth.push(t);
                     start.push(0.0);
                 }
+                Unknown::CornerProduct(c, e) => {
+                    unit_force.push(
+                        (0..n)
+                            .map(|i| {
+                                if corner_unknown[i] == Some(e) {
+                                    b_part(c.link, c.kind, c.power, i)
+                                } else {
+                                    Poly::zero()
+                                }
+                            })
+                            .collect(),
+                    );
+                    names.push(format!(
+                        "B[{}]*{}",
+                        model.excitation_names[e],
+                        model.coefficient_name(c)
+                    ));
+                    let t = match c.kind {
+                        Characteristic::Stiffness => s.links[c.link].stiffness.coefficient(c.power),
+                        Characteristic::Damping => s.links[c.link].damping.coefficient(c.power),
+                    };
+                    let Process::Filtered { b, .. } = s.excitations[e].process else {
+                        unreachable!()
+                    };
+                    truth.push(b * t);
+                    start.push(0.0);
+                }
+                Unknown::Corner(e) => {
+                    // Per unit of B: −(m_i a_i + Σ s F_known) on every mass it drives.
+                    unit_force.push(
+                        (0..n)
+                            .map(|i| {
+                                let mut f = Poly::zero();
+                                if corner_unknown[i] == Some(e) {
+                                    f.add(&Poly::monomial(var(as_(i)), 1.0), -model.mass[i]);
+                                    for l in 0..model.links() {
+                                        for (kind, cs) in [
+                                            (Characteristic::Stiffness, known.stiffness(l)),
+                                            (Characteristic::Damping, known.damping(l)),
+                                        ] {
+                                            for (p, &c) in cs.iter().enumerate() {
+                                                if c != 0.0 {
+                                                    f.add(&b_part(l, kind, p as u32 + 1, i), c);
+                                                }
+                                            }
+                                        }
+                                    }
+                                }
+                                f
+                            })
+                            .collect(),
+                    );
+                    names.push(format!("B[{}]", model.excitation_names[e]));
+                    let Process::Filtered { b, .. } = s.excitations[e].process else {
+                        unreachable!()
+                    };
+                    truth.push(b);
+                    start.push(0.0);
+                }
+                Unknown::Monomial(..) => unreachable!("monomial unknowns come from monomial_form"),
                 Unknown::Mass(i) => {
                     if layout == Layout::Augmented {
                         return Err(IdentError::Unsupported(
@@ -347,7 +454,9 @@ impl Problem {
             free_drift.push((xs(i), Poly::monomial(var(vs(i)), 1.0)));
             if layout == Layout::Augmented {
                 free_drift.push((vs(i), Poly::monomial(var(as_(i)), 1.0)));
-                free_drift.push((as_(i), Poly::monomial(var(as_(i)), -corner[i])));
+                if corner_unknown[i].is_none() {
+                    free_drift.push((as_(i), Poly::monomial(var(as_(i)), -corner[i])));
+                }
             }
         }
         let noise_var = (0..n)
@@ -423,16 +532,44 @@ impl Problem {
         free + f / self.model.mass[i]
     }
 
+    /// With unknown corners: each coefficient estimated directly and recovered from its
+    /// product with the corner, `(name, direct, (B·θ)/B̂)`.
+    pub fn recovered(&self, values: &[f64]) -> Vec<(String, f64, f64)> {
+        let mut out = Vec::new();
+        for (k, u) in self.unknowns.iter().enumerate() {
+            if let Unknown::CornerProduct(c, e) = *u {
+                let direct = self
+                    .unknowns
+                    .iter()
+                    .position(|x| *x == Unknown::Coefficient(c))
+                    .map_or(f64::NAN, |j| values[j]);
+                let b = self
+                    .unknowns
+                    .iter()
+                    .position(|x| *x == Unknown::Corner(e))
+                    .map_or(f64::NAN, |j| values[j]);
+                out.push((self.model.coefficient_name(c), direct, values[k] / b));
+            }
+        }
+        out
+    }
+
     /// Number of state variables.
     pub fn dim(&self) -> usize {
         self.width() * self.n
     }
 
-    /// Number of unknown coefficients (they come first in `unknowns`).
+    /// Number of unknowns that enter the drift linearly — coefficients, products, corners,
+    /// monomial coefficients (they come first in `unknowns`).
     pub fn coefficient_count(&self) -> usize {
         self.unknowns
             .iter()
-            .filter(|u| matches!(u, Unknown::Coefficient(_)))
+            .filter(|u| {
+                matches!(
+                    u,
+                    Unknown::Coefficient(_) | Unknown::CornerProduct(..) | Unknown::Corner(_) | Unknown::Monomial(..)
+                )
+            })
             .count()
     }
 
@@ -556,27 +693,31 @@ impl Problem {
     /// `1/E[z²]^(p/2)` (a unit force at a typical amplitude); the nominal value for masses
     /// and intensities.
     pub fn typical(&self, mom: &moments::RawMoments) -> Vec<f64> {
+        let coef_scale = |c: Coefficient| -> f64 {
+            let base = |i: usize| match c.kind {
+                Characteristic::Stiffness => self.x(i),
+                Characteristic::Damping => self.v(i),
+            };
+            let (a, b) = (self.model.link_a[c.link], self.model.link_b[c.link]);
+            let mut z = Poly::monomial(var(base(a)), 1.0);
+            if b != GROUND {
+                z.add_term(var(base(b)), -1.0);
+            }
+            let ez2 = z.mul(&z).expectation(|e| mom.moment(e));
+            if ez2 > 0.0 {
+                ez2.powf(-(c.power as f64) / 2.0)
+            } else {
+                1.0
+            }
+        };
+        let corner = |e: usize| self.filters.iter().find(|f| f.excitation == e).map_or(1.0, |f| f.b);
         self.unknowns
             .iter()
             .zip(&self.start)
             .map(|(u, &s)| match *u {
-                Unknown::Coefficient(c) => {
-                    let base = |i: usize| match c.kind {
-                        Characteristic::Stiffness => self.x(i),
-                        Characteristic::Damping => self.v(i),
-                    };
-                    let (a, b) = (self.model.link_a[c.link], self.model.link_b[c.link]);
-                    let mut z = Poly::monomial(var(base(a)), 1.0);
-                    if b != GROUND {
-                        z.add_term(var(base(b)), -1.0);
-                    }
-                    let ez2 = z.mul(&z).expectation(|e| mom.moment(e));
-                    if ez2 > 0.0 {
-                        ez2.powf(-(c.power as f64) / 2.0)
-                    } else {
-                        1.0
-                    }
-                }
+                Unknown::Coefficient(c) => coef_scale(c),
+                Unknown::CornerProduct(c, e) => coef_scale(c) * corner(e),
+                Unknown::Corner(e) => corner(e),
                 _ => s.abs(),
             })
             .collect()
@@ -794,4 +935,211 @@ pub fn identify_strong(
         typical,
         facts,
     )
+}
+
+impl Problem {
+    /// The bilinear problem (an unknown corner) in its linear form: one unknown per
+    /// distinct monomial of the unknown part of each mass's drift. Returns that problem and
+    /// the map `M` with `monomial coefficients = M · φ`, `φ` this problem's linear unknowns
+    /// (coefficients, products `B·θ`, corners).
+    pub fn monomial_form(&self) -> (Problem, DMatrix<f64>) {
+        let rc = self.coefficient_count();
+        let mut keys: Vec<(usize, poly::Exponents)> = Vec::new();
+        for r in 0..rc {
+            for i in 0..self.n {
+                for &e in self.unit_force[r][i].terms.keys() {
+                    if !keys.contains(&(i, e)) {
+                        keys.push((i, e));
+                    }
+                }
+            }
+        }
+        keys.sort();
+        let mut map: DMatrix<f64> = DMatrix::zeros(keys.len(), rc);
+        for r in 0..rc {
+            for i in 0..self.n {
+                for (&e, &c) in &self.unit_force[r][i].terms {
+                    let k = keys.iter().position(|x| *x == (i, e)).expect("collected");
+                    map[(k, r)] += c;
+                }
+            }
+        }
+        let mut out = self.clone();
+        out.unknowns = keys.iter().map(|&(i, e)| Unknown::Monomial(i, e)).collect();
+        out.unit_force = keys
+            .iter()
+            .map(|&(i, e)| {
+                (0..self.n)
+                    .map(|j| if j == i { Poly::monomial(e, 1.0) } else { Poly::zero() })
+                    .collect()
+            })
+            .collect();
+        let truth_phi = DVector::from_column_slice(&self.truth[..rc]);
+        let truth_mono: DVector<f64> = &map * truth_phi;
+        out.truth = truth_mono.iter().copied().collect();
+        out.start = vec![0.0; keys.len()];
+        out.names = keys
+            .iter()
+            .map(|&(i, e)| {
+                let term: Vec<String> = (0..self.dim())
+                    .filter(|&j| poly::exponent(e, j) > 0)
+                    .map(|j| match poly::exponent(e, j) {
+                        1 => self.state_names[j].clone(),
+                        p => format!("{}^{p}", self.state_names[j]),
+                    })
+                    .collect();
+                format!(
+                    "drift[{}]:{}",
+                    self.model.mass_names[i],
+                    if term.is_empty() { "1".into() } else { term.join("*") }
+                )
+            })
+            .collect();
+        (out, map)
+    }
+
+    /// The physical unknowns of a bilinear problem: coefficients and corners (products
+    /// dropped), in order, for reporting.
+    pub fn physical(&self) -> Problem {
+        let keep: Vec<usize> = (0..self.unknowns.len())
+            .filter(|&k| !matches!(self.unknowns[k], Unknown::CornerProduct(..)))
+            .collect();
+        let mut out = self.clone();
+        out.unknowns = keep.iter().map(|&k| self.unknowns[k]).collect();
+        out.names = keep.iter().map(|&k| self.names[k].clone()).collect();
+        out.truth = keep.iter().map(|&k| self.truth[k]).collect();
+        out.start = keep.iter().map(|&k| self.start[k]).collect();
+        out.unit_force = keep
+            .iter()
+            .filter(|&&k| k < self.unit_force.len())
+            .map(|&k| self.unit_force[k].clone())
+            .collect();
+        out
+    }
+
+    /// `φ(p)`: the linear unknowns (coefficients, products, corners) from the physical
+    /// ones `p` (coefficients and corners, in the order of [`Problem::physical`]).
+    fn phi(&self, p: &[f64]) -> Vec<f64> {
+        let phys = self.physical();
+        let val = |u: Unknown| {
+            phys.unknowns
+                .iter()
+                .position(|x| *x == u)
+                .map(|k| p[k])
+                .expect("physical unknown")
+        };
+        self.unknowns[..self.coefficient_count()]
+            .iter()
+            .map(|u| match *u {
+                Unknown::CornerProduct(c, e) => val(Unknown::Coefficient(c)) * val(Unknown::Corner(e)),
+                other => val(other),
+            })
+            .collect()
+    }
+
+    /// Physical coefficients and corners from monomial coefficients `mono` (Gauss–Newton
+    /// on `M φ(p) = mono`), starting from `start_b` for every corner.
+    pub fn recover_physical(&self, map: &DMatrix<f64>, mono: &[f64], start_b: f64) -> (Vec<f64>, lsq::Diagnostics) {
+        let phys = self.physical();
+        let np = phys.unknowns.len();
+        let mut p: Vec<f64> = phys
+            .unknowns
+            .iter()
+            .map(|u| if let Unknown::Corner(_) = u { start_b } else { 0.0 })
+            .collect();
+        let target = DVector::from_column_slice(mono);
+        let scale: Vec<f64> = vec![1.0; np];
+        let mut diag = None;
+        for _ in 0..200 {
+            let f = map * DVector::from_vec(self.phi(&p));
+            let r = &target - &f;
+            // Numerical Jacobian of M φ(p) (φ is bilinear, so central differences are exact
+            // up to rounding).
+            let mut j = DMatrix::zeros(mono.len(), np);
+            for k in 0..np {
+                let h = 1e-6 * p[k].abs().max(1e-3);
+                let (mut up, mut dn) = (p.clone(), p.clone());
+                up[k] += h;
+                dn[k] -= h;
+                let d = (map * DVector::from_vec(self.phi(&up)) - map * DVector::from_vec(self.phi(&dn))) / (2.0 * h);
+                j.set_column(k, &d);
+            }
+            let (dx, d) = lsq::solve(&j, &r, &scale);
+            diag = Some(d);
+            let mut change: f64 = 0.0;
+            for k in 0..np {
+                p[k] += dx[k];
+                change = change.max((dx[k] / p[k].abs().max(1e-12)).abs());
+            }
+            if change < 1e-14 {
+                break;
+            }
+        }
+        (p, diag.expect("iterated"))
+    }
+}
+
+/// The weak-form estimate of a bilinear problem (an unknown corner): the monomial
+/// coefficients by linear least squares, then the physical coefficients and corners by
+/// Gauss–Newton; both are reported (the monomial ones in the facts).
+pub fn identify_weak_bilinear(problem: &Problem, data: &data::StationaryData) -> Result<Estimate, IdentError> {
+    let (mono, map) = problem.monomial_form();
+    let linear = identify_weak(&mono, data)?;
+    let start_b = problem.filters.iter().map(|f| f.b).next().unwrap_or(1.0);
+    let (values, recov) = problem.recover_physical(&map, &linear.values, start_b);
+    let phys = problem.physical();
+    if recov.rank < recov.cols || recov.sv_ratio < INSEPARABLE_RATIO {
+        return Err(IdentError::NotIdentifiable {
+            names: phys.names.clone(),
+            direction: phys
+                .names
+                .iter()
+                .cloned()
+                .zip(recov.weakest_direction.iter().copied())
+                .collect(),
+            singular_values: recov.singular_values.clone(),
+            sv_ratio: recov.sv_ratio,
+            rank: recov.rank,
+            cols: recov.cols,
+            reason: "the physical coefficients cannot be recovered from the monomial coefficients".into(),
+        });
+    }
+    // Standard errors: recover each batch's monomial estimate too.
+    let batches: Vec<Vec<f64>> = data
+        .batches
+        .iter()
+        .filter(|b| b.count > 0)
+        .map(|b| {
+            let pc = weak::pieces(&mono, b);
+            let (m, _) = mono.solve(&pc, &mono.typical(b));
+            problem.recover_physical(&map, &m, start_b).0
+        })
+        .collect();
+    let nb = batches.len() as f64;
+    let std_error = (0..values.len())
+        .map(|k| {
+            if batches.len() < 2 {
+                return f64::NAN;
+            }
+            let m = batches.iter().map(|b| b[k]).sum::<f64>() / nb;
+            (batches.iter().map(|b| (b[k] - m).powi(2)).sum::<f64>() / (nb - 1.0) / nb).sqrt()
+        })
+        .collect();
+    let mut facts = linear.facts.clone();
+    for ((n, v), t) in mono.names.iter().zip(&linear.values).zip(&mono.truth) {
+        facts.push((format!("monomial {n}"), format!("{v:.6} (true {t:.6})")));
+    }
+    facts.push((
+        "recovery".into(),
+        format!("rank {}/{}, sv ratio {:.2e}", recov.rank, recov.cols, recov.sv_ratio),
+    ));
+    Ok(Estimate {
+        method: "weak",
+        names: phys.names.clone(),
+        values,
+        std_error,
+        weakly_determined: linear.weakly_determined || recov.sv_ratio < WEAK_RATIO,
+        diagnostics: linear.diagnostics,
+        facts,
+    })
 }

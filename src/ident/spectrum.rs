@@ -173,9 +173,22 @@ pub fn ou_density(a: f64, b: f64, omega: f64) -> f64 {
     a * a / (2.0 * PI * (b * b + omega * omega))
 }
 
+/// Lowest frequency bins left out of the fit.
+const SKIP_LOW_BINS: usize = 3;
+
 /// Fit `A`, `B` to an estimated spectrum by least squares on the log density (golden
 /// section over `ln B`, `A` in closed form for each `B`).
 pub fn fit_ou(s: &Spectrum) -> OuFit {
+    // The lowest bins are left out: removing each segment's mean under the Hann window
+    // depresses them, which would bias B upwards.
+    let skip = SKIP_LOW_BINS.min(s.omega.len().saturating_sub(8));
+    let s = &Spectrum {
+        omega: s.omega[skip..].to_vec(),
+        density: s.density[skip..].to_vec(),
+        segments: s.segments,
+        segment_len: s.segment_len,
+        sample_interval: s.sample_interval,
+    };
     let dt = s.sample_interval;
     let logs: Vec<f64> = s.density.iter().map(|d| d.max(1e-300).ln()).collect();
     // For a given B, the best ln A² is the mean of ln Ŝ − ln shape(B).

@@ -13,14 +13,44 @@ use super::moments::RawMoments;
 use super::poly::{degree, exponent, monomials, Poly};
 use super::{Pieces, Problem};
 
+/// The test functions' monomials.
+pub fn test_functions(problem: &Problem) -> Vec<super::poly::Exponents> {
+    let all = monomials(problem.dim(), test_degree(problem));
+    match problem.layout {
+        super::Layout::White => all,
+        // At most linear in the accelerations: higher powers of a heavy-tailed acceleration
+        // only add noise.
+        super::Layout::Augmented => all
+            .into_iter()
+            .filter(|&e| {
+                let a_degree = (0..problem.n).map(|i| exponent(e, problem.noise_var[i])).sum::<u32>();
+                a_degree <= A_DEGREE + bilinear(problem) as u32
+            })
+            .collect(),
+    }
+}
+
+/// Highest total power of the accelerations in the augmented layout's test functions.
+pub const A_DEGREE: u32 = 1;
+
 /// Degree of moments the weak form needs for `problem`.
 pub fn moment_degree(problem: &Problem) -> u32 {
-    2 * problem.pmax
+    // Drift of degree p_max times ∂ψ of degree test − 1.
+    test_degree(problem) + problem.pmax - 1
 }
 
 /// Test-function degree for `problem`.
 pub fn test_degree(problem: &Problem) -> u32 {
-    problem.pmax + 1
+    problem.pmax + 1 + bilinear(problem) as u32
+}
+
+/// Whether a corner is unknown: the bilinear drift has more monomial unknowns and needs
+/// richer test functions (one degree more, quadratic in the accelerations).
+fn bilinear(problem: &Problem) -> bool {
+    problem
+        .unknowns
+        .iter()
+        .any(|u| matches!(u, super::Unknown::Corner(_) | super::Unknown::Monomial(..)))
 }
 
 /// The raw moments the weak form of `problem` reads (a fraction of all monomials of
@@ -50,7 +80,7 @@ fn assemble(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -
     let n = problem.n;
     let d = problem.dim();
     let rc = problem.coefficient_count();
-    let tests = monomials(d, test_degree(problem));
+    let tests = test_functions(problem);
     let scale: Vec<f64> = (0..d)
         .map(|j| moment(2 * super::poly::var(j)).sqrt().max(1e-300))
         .collect();
