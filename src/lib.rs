@@ -32,6 +32,9 @@
 //! assert!((estimate.values[0] - 10.0).abs() < 0.5 && (estimate.values[1] - 2.0).abs() < 0.2);
 //! ```
 
+// Numeric kernels index several same-length arrays by one index on purpose.
+#![allow(clippy::needless_range_loop)]
+
 pub mod bench;
 pub mod ident;
 pub mod io;

@@ -12,9 +12,6 @@
 //! This module knows nothing of files: sinks (the MCAP writer, moment accumulators in
 //! tests) are supplied by the caller.
 
-// Lane loops index several same-length arrays by lane on purpose.
-#![allow(clippy::needless_range_loop)]
-
 use crate::model::{Model, GROUND};
 use crate::scenario::{Process, Scheme, Simulation};
 use rand::rngs::Xoshiro256PlusPlus;

@@ -117,7 +117,8 @@ fn every_scenario_meets_its_accuracy_gate_at_reduced_length() {
             };
             let worst = m["worst_rel_error"].as_f64().unwrap_or(f64::INFINITY);
             eprintln!("{stem:<14} {method:<17} worst relative error {worst:.4} (regression threshold {threshold})");
-            if !(worst <= *threshold) {
+            // A NaN error fails too.
+            if worst.is_nan() || worst > *threshold {
                 failures.push(format!(
                     "{stem}: {method} worst relative error {worst:.4} > {threshold}"
                 ));

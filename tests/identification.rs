@@ -18,7 +18,8 @@ fn sdof_duffing(identify: &str) -> Scenario {
 /// Exact moments of the SDOF Duffing state (x, v): independent, v Gaussian.
 fn sdof_exact(deg: u32) -> RawMoments {
     let mx = zoo::duffing_displacement_moments(10.0, 20.0, 0.5, 1.0, deg);
-    let var_v: f64 = 1.0 / (2.0 * 0.5 * 1.0);
+    let (sigma, c, m): (f64, f64, f64) = (1.0, 0.5, 1.0);
+    let var_v = sigma * sigma / (2.0 * c * m);
     let gauss = |b: u32| {
         if b % 2 == 1 {
             0.0
