@@ -884,58 +884,41 @@ impl Scenario {
                 parse_links(&c.get_ref().links, &format!("identify.compare.{name}.links"))?,
             ));
         }
-        let mut known_filters = Vec::new();
-        for e in ident.and_then(|i| i.known_filters.as_ref()).into_iter().flatten() {
-            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
-                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
-                loc.at(
-                    e.span(),
-                    "identify.known_filters",
-                    format!(
-                        "unknown excitation {:?}: excitations are {}",
-                        e.get_ref(),
-                        names.join(", ")
-                    ),
-                )
-            })?;
-            if !matches!(excitations[k].process, Process::Filtered { .. }) {
-                return Err(loc.at(
-                    e.span(),
-                    "identify.known_filters",
-                    format!(
-                        "excitation {:?} is white: only filtered excitations have A and B",
-                        e.get_ref()
-                    ),
-                ));
+        // Names of filtered excitations in an `[identify]` list.
+        let filtered_list = |list: Option<&Vec<Spanned<String>>>, key: &str| -> Result<Vec<usize>, ScenarioError> {
+            let mut out = Vec::new();
+            for e in list.into_iter().flatten() {
+                let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+                    let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+                    loc.at(
+                        e.span(),
+                        key,
+                        format!(
+                            "unknown excitation {:?}: excitations are {}",
+                            e.get_ref(),
+                            names.join(", ")
+                        ),
+                    )
+                })?;
+                if !matches!(excitations[k].process, Process::Filtered { .. }) {
+                    return Err(loc.at(
+                        e.span(),
+                        key,
+                        format!(
+                            "excitation {:?} is white: only filtered excitations have A and B",
+                            e.get_ref()
+                        ),
+                    ));
+                }
+                out.push(k);
             }
-            known_filters.push(k);
-        }
-        let mut unknown_corners = Vec::new();
-        for e in ident.and_then(|i| i.unknown_corners.as_ref()).into_iter().flatten() {
-            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
-                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
-                loc.at(
-                    e.span(),
-                    "identify.unknown_corners",
-                    format!(
-                        "unknown excitation {:?}: excitations are {}",
-                        e.get_ref(),
-                        names.join(", ")
-                    ),
-                )
-            })?;
-            if !matches!(excitations[k].process, Process::Filtered { .. }) {
-                return Err(loc.at(
-                    e.span(),
-                    "identify.unknown_corners",
-                    format!(
-                        "excitation {:?} is white: only filtered excitations have a corner B",
-                        e.get_ref()
-                    ),
-                ));
-            }
-            unknown_corners.push(k);
-        }
+            Ok(out)
+        };
+        let known_filters = filtered_list(ident.and_then(|i| i.known_filters.as_ref()), "identify.known_filters")?;
+        let unknown_corners = filtered_list(
+            ident.and_then(|i| i.unknown_corners.as_ref()),
+            "identify.unknown_corners",
+        )?;
         let mut unknown_masses = Vec::new();
         for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {
             let End::Mass(k) = mass_index(m, "identify.unknown_masses", false)? else {

@@ -223,6 +223,38 @@ impl<const D: usize> LaneModel<D> {
     }
 }
 
+/// One step's noise for every lane: white increments into `dw` (and accumulated into the
+/// impulse in `p`), exact OU transitions of the filtered forces in `p`. The draw order is
+/// fixed (white excitations, then filtered, in scenario order), so every stepper consumes
+/// each lane's generator identically.
+#[inline(always)]
+fn draw_noise<const D: usize>(
+    lm: &LaneModel<D>,
+    rng: &mut [Xoshiro256PlusPlus; LANES],
+    p: &mut [Lane],
+    dw: &mut [Lane],
+) {
+    for (slot, &(e, scale)) in lm.white.iter().enumerate() {
+        let mut d = zero();
+        for j in 0..LANES {
+            let z: f64 = StandardNormal.sample(&mut rng[j]);
+            d[j] = scale * z;
+        }
+        for j in 0..LANES {
+            p[e][j] += d[j];
+        }
+        dw[slot] = d;
+    }
+    for &(e, decay, sd) in &lm.ou {
+        let mut pe = p[e];
+        for j in 0..LANES {
+            let z: f64 = StandardNormal.sample(&mut rng[j]);
+            pe[j] = pe[j] * decay + sd * z;
+        }
+        p[e] = pe;
+    }
+}
+
 /// The generic stepper: any shape, intermediates in memory.
 fn advance_generic<const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usize) {
     for _ in 0..steps {
@@ -286,25 +318,7 @@ fn advance_fixed<const N: usize, const L: usize, const D: usize>(g: &mut Group, 
                 }
             }
         }
-        for (slot, &(e, scale)) in lm.white.iter().enumerate() {
-            let mut dw = zero();
-            for j in 0..LANES {
-                let z: f64 = StandardNormal.sample(&mut rng[j]);
-                dw[j] = scale * z;
-            }
-            for j in 0..LANES {
-                g.p[e][j] += dw[j];
-            }
-            g.dw[slot] = dw;
-        }
-        for &(e, d, sd) in &lm.ou {
-            let mut pe = g.p[e];
-            for j in 0..LANES {
-                let z: f64 = StandardNormal.sample(&mut rng[j]);
-                pe[j] = pe[j] * d + sd * z;
-            }
-            g.p[e] = pe;
-        }
+        draw_noise(lm, &mut rng, &mut g.p, &mut g.dw);
         for i in 0..N {
             if !semi {
                 for j in 0..LANES {
@@ -430,25 +444,7 @@ impl Group {
     fn step<const D: usize>(&mut self, lm: &LaneModel<D>) {
         self.forces(lm);
         let h = lm.h;
-        for (slot, &(e, scale)) in lm.white.iter().enumerate() {
-            let mut dw = zero();
-            for j in 0..LANES {
-                let z: f64 = StandardNormal.sample(&mut self.rng[j]);
-                dw[j] = scale * z;
-            }
-            for j in 0..LANES {
-                self.p[e][j] += dw[j];
-            }
-            self.dw[slot] = dw;
-        }
-        for &(e, d, s) in &lm.ou {
-            let mut pe = self.p[e];
-            for j in 0..LANES {
-                let z: f64 = StandardNormal.sample(&mut self.rng[j]);
-                pe[j] = pe[j] * d + s * z;
-            }
-            self.p[e] = pe;
-        }
+        draw_noise(lm, &mut self.rng, &mut self.p, &mut self.dw);
         for i in 0..lm.n {
             let (mut x, mut v, f) = (self.x[i], self.v[i], self.f[i]);
             let him = lm.h_inv_mass[i];
