@@ -15,7 +15,7 @@ const CHUNK: usize = 4096;
 /// Partial sums kept per monomial (reduced once per chunk).
 const CHUNK_LANES: usize = 8;
 /// Samples evaluated side by side in the monomial recursion.
-const BLOCK: usize = 128;
+const BLOCK: usize = 512;
 
 /// Accumulated raw moments.
 #[derive(Debug, Clone)]
@@ -27,6 +27,8 @@ pub struct RawMoments {
     /// For monomial `k ≥ 1`: the monomial it is `parent × y_var` of.
     parent: Vec<usize>,
     var: Vec<usize>,
+    /// Whether monomial `k` is some other monomial's parent (its values must be kept).
+    is_parent: Vec<bool>,
     index: HashMap<Exponents, usize>,
     pub sums: Vec<f64>,
     pub count: u64,
@@ -71,9 +73,14 @@ impl RawMoments {
             parent[k] = index[&(e - var(j))];
             vr[k] = j;
         }
+        let mut is_parent = vec![false; mons.len()];
+        for &p in &parent[1..] {
+            is_parent[p] = true;
+        }
         RawMoments {
             vars,
             max_degree,
+            is_parent,
             sums: vec![0.0; mons.len()],
             monomials: mons,
             parent,
@@ -151,13 +158,30 @@ impl RawMoments {
         while start < n {
             let len = (n - start).min(BLOCK);
             for j in 0..d {
-                for s in 0..BLOCK {
-                    y[j][s] = if s < len { rows[(start + s) * d + j] } else { 0.0 };
+                if len == BLOCK {
+                    for (s, v) in y[j].iter_mut().enumerate() {
+                        *v = rows[(start + s) * d + j];
+                    }
+                } else {
+                    for s in 0..BLOCK {
+                        y[j][s] = if s < len { rows[(start + s) * d + j] } else { 0.0 };
+                    }
                 }
-                for s in 0..len {
-                    lo[j] = lo[j].min(y[j][s]);
-                    hi[j] = hi[j].max(y[j][s]);
+                // Per-lane extremes over whole 8-sample chunks (vectorises), then the tail.
+                let full = len / CHUNK_LANES * CHUNK_LANES;
+                let (mut lo8, mut hi8) = ([lo[j]; CHUNK_LANES], [hi[j]; CHUNK_LANES]);
+                for c in y[j][..full].chunks_exact(CHUNK_LANES) {
+                    for l in 0..CHUNK_LANES {
+                        lo8[l] = if c[l] < lo8[l] { c[l] } else { lo8[l] };
+                        hi8[l] = if c[l] > hi8[l] { c[l] } else { hi8[l] };
+                    }
                 }
+                for &v in &y[j][full..len] {
+                    lo8[0] = lo8[0].min(v);
+                    hi8[0] = hi8[0].max(v);
+                }
+                lo[j] = lo8.iter().fold(lo[j], |a, &b| a.min(b));
+                hi[j] = hi8.iter().fold(hi[j], |a, &b| a.max(b));
             }
             for s in 0..BLOCK {
                 vals[0][s] = if s < len { 1.0 } else { 0.0 };
@@ -168,12 +192,23 @@ impl RawMoments {
                 let (pv, out) = (&head[p], &mut tail[0]);
                 let yj = &y[j];
                 let mut a = acc[k];
-                for c in 0..BLOCK / CHUNK_LANES {
-                    for l in 0..CHUNK_LANES {
-                        let s = c * CHUNK_LANES + l;
-                        let v = pv[s] * yj[s];
-                        out[s] = v;
-                        a[l] += v;
+                if self.is_parent[k] {
+                    // Two plain loops (product, then lane sums) vectorise; a fused loop with
+                    // the store did not.
+                    for ((o, &p), &y) in out.iter_mut().zip(pv.iter()).zip(yj.iter()) {
+                        *o = p * y;
+                    }
+                    for c in out.chunks_exact(CHUNK_LANES) {
+                        for l in 0..CHUNK_LANES {
+                            a[l] += c[l];
+                        }
+                    }
+                } else {
+                    // A leaf: accumulate the product directly.
+                    for (pc, yc) in pv.chunks_exact(CHUNK_LANES).zip(yj.chunks_exact(CHUNK_LANES)) {
+                        for l in 0..CHUNK_LANES {
+                            a[l] += pc[l] * yc[l];
+                        }
                     }
                 }
                 acc[k] = a;
