@@ -5,25 +5,21 @@
 use fpkbench::ident::data::StationaryData;
 use fpkbench::ident::poly::{exponent, monomials};
 use fpkbench::ident::{weak, Problem};
-use fpkbench::sim::{simulate, SampleBatch, SampleSink};
+use fpkbench::sim::{simulate, ForEach};
 use fpkbench::{Model, Scenario};
-
-struct Feed<'a>(&'a mut StationaryData);
-impl SampleSink for Feed<'_> {
-    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        for i in 0..b.len() {
-            self.0.push(b.time[i], b.row(i));
-        }
-        Ok(())
-    }
-}
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     let s = Scenario::from_file(std::path::Path::new(&a[1])).unwrap();
     let p = Problem::new(&s).unwrap();
     let mut d = StationaryData::new(&p, weak::moment_degree(&p), s.simulation.record_length, 16);
-    simulate(&Model::new(&s), &s.simulation, &mut Feed(&mut d), &|_| {}).unwrap();
+    simulate(
+        &Model::new(&s),
+        &s.simulation,
+        &mut ForEach(|_, t, row: &[f64]| d.push(t, row)),
+        &|_| {},
+    )
+    .unwrap();
     d.finish();
     let total = weak::pieces(&p, &d.total());
     let (r, _) = p.residual(&total, &p.truth);

@@ -2,18 +2,8 @@
 //! test's tolerance): `cargo run --release --example spectral_spread`.
 
 use fpkbench::ident::spectrum::{fit_ou, Welch};
-use fpkbench::sim::{simulate, SampleBatch, SampleSink};
+use fpkbench::sim::{simulate, ForEach};
 use fpkbench::{zoo, Model};
-
-struct Feed(Welch, usize);
-impl SampleSink for Feed {
-    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        for i in 0..b.len() {
-            self.0.push(b.trajectory[i] as usize, b.row(i)[self.1]);
-        }
-        Ok(())
-    }
-}
 
 fn main() {
     for (a, b, dt, rec) in [(20.0, 5.0, 0.1, 1250.0), (250.0, 50.0, 0.01, 312.5)] {
@@ -28,15 +18,16 @@ fn main() {
                 &format!("dt = 1e-3\nrecord_length = {rec}\nsample_interval = {dt}\ntrajectories = 32\nseed = {seed}"),
             );
             let len = Welch::segment_for(b, dt, s.simulation.samples_per_trajectory());
-            let mut f = Feed(Welch::new(len, dt, 32), 3);
-            simulate(&Model::new(&s), &s.simulation, &mut f, &|_| {}).unwrap();
-            let fit = fit_ou(&f.0.spectrum());
+            let mut welch = Welch::new(len, dt, 32);
+            let mut feed = ForEach(|traj, _, row: &[f64]| welch.push(traj as usize, row[3]));
+            simulate(&Model::new(&s), &s.simulation, &mut feed, &|_| {}).unwrap();
+            let fit = fit_ou(&welch.spectrum());
             ea.push(fit.a / a - 1.0);
             eb.push(fit.b / b - 1.0);
             if seed == 0 {
                 println!(
                     "A {a} B {b} dt {dt}: segment {len}, {} segments, rms log residual {:.3} (expected {:.3})",
-                    f.0.spectrum().segments,
+                    welch.spectrum().segments,
                     fit.rms_log_residual,
                     fit.expected_rms
                 );

@@ -3,18 +3,8 @@
 
 use fpkbench::ident::data::StationaryData;
 use fpkbench::ident::{identify_weak, weak, Problem};
-use fpkbench::sim::{simulate, SampleBatch, SampleSink};
+use fpkbench::sim::{simulate, ForEach};
 use fpkbench::{Model, Scenario};
-
-struct Feed<'a>(&'a mut StationaryData);
-impl SampleSink for Feed<'_> {
-    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        for i in 0..b.len() {
-            self.0.push(b.time[i], b.row(i));
-        }
-        Ok(())
-    }
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -32,7 +22,13 @@ fn main() {
         let m = Model::new(&s);
         let mut d = StationaryData::new(&p, weak::moment_degree(&p), s.simulation.record_length, 8);
         let t = std::time::Instant::now();
-        simulate(&m, &s.simulation, &mut Feed(&mut d), &|_| {}).unwrap();
+        simulate(
+            &m,
+            &s.simulation,
+            &mut ForEach(|_, t, row: &[f64]| d.push(t, row)),
+            &|_| {},
+        )
+        .unwrap();
         d.finish();
         let e = identify_weak(&p, &d).unwrap();
         let signed: Vec<f64> = e.values.iter().zip(&p.truth).map(|(v, t)| (v - t) / t).collect();

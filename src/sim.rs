@@ -687,6 +687,18 @@ fn simulate_padded<const D: usize>(
     })
 }
 
+/// A sink that calls `f(trajectory, t, values)` for every sample, in order.
+pub struct ForEach<F: FnMut(u32, f64, &[f64])>(pub F);
+
+impl<F: FnMut(u32, f64, &[f64])> SampleSink for ForEach<F> {
+    fn write(&mut self, batch: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        for i in 0..batch.len() {
+            (self.0)(batch.trajectory[i], batch.time[i], batch.row(i));
+        }
+        Ok(())
+    }
+}
+
 /// A sink that keeps every sample in memory (tests and small runs).
 #[derive(Debug, Default)]
 pub struct Collect {

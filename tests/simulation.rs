@@ -209,6 +209,21 @@ fn diverging_simulation_reports_trajectory_time_and_state() {
     );
 }
 
+/// The fixed-shape kernel and the generic stepper give bit-identical samples for `s`.
+fn assert_kernel_matches_generic(s: &Scenario, label: &str) {
+    let m = Model::new(s);
+    let (mut a, mut b) = (Collect::default(), Collect::default());
+    simulate(&m, &s.simulation, &mut a, &|_| {}).unwrap();
+    fpkbench::sim::simulate_generic(&m, &s.simulation, &mut b, &|_| {}).unwrap();
+    let bits = |c: &Collect| -> Vec<u64> {
+        c.batches
+            .iter()
+            .flat_map(|b| b.values.iter().map(|v| v.to_bits()))
+            .collect()
+    };
+    assert_eq!(bits(&a), bits(&b), "{label}");
+}
+
 #[test]
 fn fixed_shape_kernel_is_bit_identical_to_the_generic_stepper() {
     for (file, scheme) in [
@@ -220,17 +235,7 @@ fn fixed_shape_kernel_is_bit_identical_to_the_generic_stepper() {
         s.simulation.record_length = 20.0;
         s.simulation.trajectories = 40;
         s.simulation.scheme = scheme;
-        let m = Model::new(&s);
-        let (mut a, mut b) = (Collect::default(), Collect::default());
-        simulate(&m, &s.simulation, &mut a, &|_| {}).unwrap();
-        fpkbench::sim::simulate_generic(&m, &s.simulation, &mut b, &|_| {}).unwrap();
-        let bits = |c: &Collect| -> Vec<u64> {
-            c.batches
-                .iter()
-                .flat_map(|b| b.values.iter().map(|v| v.to_bits()))
-                .collect()
-        };
-        assert_eq!(bits(&a), bits(&b), "{file}");
+        assert_kernel_matches_generic(&s, file);
     }
     // A filtered excitation through the kernel too.
     let s = zoo::filtered_sdof(
@@ -241,15 +246,5 @@ fn fixed_shape_kernel_is_bit_identical_to_the_generic_stepper() {
         5.0,
         "dt = 1e-3\nrecord_length = 20.0\nsample_interval = 0.1\ntrajectories = 33",
     );
-    let m = Model::new(&s);
-    let (mut a, mut b) = (Collect::default(), Collect::default());
-    simulate(&m, &s.simulation, &mut a, &|_| {}).unwrap();
-    fpkbench::sim::simulate_generic(&m, &s.simulation, &mut b, &|_| {}).unwrap();
-    let bits = |c: &Collect| -> Vec<u64> {
-        c.batches
-            .iter()
-            .flat_map(|b| b.values.iter().map(|v| v.to_bits()))
-            .collect()
-    };
-    assert_eq!(bits(&a), bits(&b));
+    assert_kernel_matches_generic(&s, "filtered_sdof");
 }

@@ -1,18 +1,8 @@
 //! Spectral estimate and rational fit (3.20) against a simulated OU force.
 
 use fpkbench::ident::spectrum::{fit_ou, ou_density, sampled_ou_density, Welch};
-use fpkbench::sim::{simulate, SampleBatch, SampleSink};
+use fpkbench::sim::{simulate, ForEach};
 use fpkbench::{zoo, Model};
-
-struct Feed(Welch);
-impl SampleSink for Feed {
-    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        for i in 0..b.len() {
-            self.0.push(b.trajectory[i] as usize, b.row(i)[3]);
-        }
-        Ok(())
-    }
-}
 
 #[test]
 fn sampled_ou_density_tends_to_the_rational_density_and_integrates_to_the_variance() {
@@ -45,9 +35,10 @@ fn welch_and_fit_recover_a_and_b_of_a_simulated_ou_force() {
         "dt = 1e-3\nrecord_length = 1250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 77",
     );
     let len = Welch::segment_for(5.0, 0.1, s.simulation.samples_per_trajectory());
-    let mut f = Feed(Welch::new(len, 0.1, 32));
-    simulate(&Model::new(&s), &s.simulation, &mut f, &|_| {}).unwrap();
-    let spec = f.0.spectrum();
+    let mut welch = Welch::new(len, 0.1, 32);
+    let mut feed = ForEach(|traj, _, row: &[f64]| welch.push(traj as usize, row[3]));
+    simulate(&Model::new(&s), &s.simulation, &mut feed, &|_| {}).unwrap();
+    let spec = welch.spectrum();
     // Parseval: the density integrates (both sides) to the variance A²/(2B) = 40.
     let dw = spec.omega[1] - spec.omega[0];
     let var: f64 = 2.0 * spec.density.iter().sum::<f64>() * dw;
