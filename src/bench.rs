@@ -7,8 +7,11 @@
 //! (strong forms) and the histograms behind the plots.
 
 use crate::ident::data::StationaryData;
+use crate::ident::poly::Poly;
 use crate::ident::strong::{DensityGrid, GridOptions};
-use crate::ident::{self, lsq::Diagnostics, spectrum, spectrum::Welch, weak, Filter, IdentError, Problem, Unknown};
+use crate::ident::{
+    self, disturbance, lsq::Diagnostics, spectrum, spectrum::Welch, weak, Filter, IdentError, Problem, Unknown,
+};
 use crate::io::log::{read_info, read_samples, LogError, LogInfo};
 use crate::model::{Characteristic, Coefficient, Model};
 use crate::scenario::{Method, Polynomial, Process, Scenario};
@@ -41,6 +44,10 @@ pub struct Options {
     pub batches: usize,
     /// Re-simulate the identified model for the validation table.
     pub validate: bool,
+    /// Override `[identify.disturbance] max_steps` of the iterative procedure.
+    pub max_steps: Option<usize>,
+    /// Override `[identify.disturbance] tolerance` of the iterative procedure.
+    pub tolerance: Option<f64>,
 }
 
 impl Default for Options {
@@ -50,6 +57,8 @@ impl Default for Options {
             grid: None,
             batches: 8,
             validate: true,
+            max_steps: None,
+            tolerance: None,
         }
     }
 }
@@ -201,6 +210,8 @@ pub struct Report {
     pub filters: Vec<FilterReport>,
     pub methods: Vec<MethodReport>,
     pub validation: Option<Validation>,
+    /// The paper's iterative procedure for an unmeasured disturbance (section 4).
+    pub iteration: Option<IterationReport>,
     pub passed: bool,
     #[serde(skip)]
     pub plot: PlotData,
@@ -276,6 +287,12 @@ pub fn identify_log(path: &Path, options: &Options) -> Result<Report, BenchError
 
 fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, BenchError> {
     let s = &info.scenario;
+    if let Some(d) = &s.identify.disturbance {
+        let mut d = d.clone();
+        d.max_steps = options.max_steps.unwrap_or(d.max_steps);
+        d.tolerance = options.tolerance.unwrap_or(d.tolerance);
+        return identify_disturbed(info, &d, options, start);
+    }
     let sim = &s.simulation;
     let methods = if options.methods.is_empty() {
         s.identify.methods.clone()
@@ -568,6 +585,384 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         filters: filter_reports,
         methods: reports,
         validation,
+        iteration: None,
+        passed,
+        plot: PlotData {
+            link_hist,
+            marginals,
+            samples: marg.n,
+            model_samples,
+            spectra,
+        },
+        scenario_def: Some(s.clone()),
+    })
+}
+
+/// The iterative procedure's sequence with its accuracy at every step.
+#[derive(Debug, Clone, Serialize)]
+pub struct IterationReport {
+    #[serde(flatten)]
+    pub iteration: disturbance::Iteration,
+    /// Per step: the relative error of every parameter (as in `methods[]`).
+    pub step_rel_errors: Vec<Vec<f64>>,
+    /// Per step: the worst relative error, curves included.
+    pub step_worst_rel_error: Vec<f64>,
+    pub step0_worst_rel_error: f64,
+    pub final_worst_rel_error: f64,
+    /// The bound: the identification given the disturbance as if it were measured (NaN
+    /// when that failed).
+    pub bound_worst_rel_error: f64,
+}
+
+/// One level of a disturbance-strength sweep.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepPoint {
+    /// Standard deviation of the disturbance over that of the measured force.
+    pub level: f64,
+    pub steps: usize,
+    pub stopped_by: String,
+    pub monotone: bool,
+    pub step0_worst_rel_error: f64,
+    pub final_worst_rel_error: f64,
+    pub bound_worst_rel_error: f64,
+    pub step0: Vec<f64>,
+    #[serde(rename = "final")]
+    pub last: Vec<f64>,
+    pub bound: Vec<f64>,
+}
+
+/// A disturbance-strength sweep: the procedure's accuracy against the disturbance level.
+#[derive(Debug, Clone, Serialize)]
+pub struct Sweep {
+    pub scenario: String,
+    pub names: Vec<String>,
+    pub truth: Vec<f64>,
+    pub points: Vec<SweepPoint>,
+}
+
+impl SweepPoint {
+    /// The sweep's entry for a report of the disturbed scenario at `level`.
+    pub fn from_report(level: f64, r: &Report) -> Option<SweepPoint> {
+        let it = r.iteration.as_ref()?;
+        let values = |m: &str| {
+            r.methods
+                .iter()
+                .find(|x| x.method == m)
+                .map(|x| x.parameters.iter().map(|p| p.estimate).collect())
+                .unwrap_or_default()
+        };
+        Some(SweepPoint {
+            level,
+            steps: it.iteration.steps.len() - 1,
+            stopped_by: it.iteration.stopped_by.clone(),
+            monotone: it.iteration.monotone,
+            step0_worst_rel_error: it.step0_worst_rel_error,
+            final_worst_rel_error: it.final_worst_rel_error,
+            bound_worst_rel_error: it.bound_worst_rel_error,
+            step0: values("step-0"),
+            last: values("iterated"),
+            bound: values("pz-measured"),
+        })
+    }
+}
+
+/// Identify a log of the paper's structure with an unmeasured disturbance by its
+/// iterative procedure ([`disturbance`]): step 0, every step, the final estimate (gated)
+/// and the bound with the disturbance given as measured.
+fn identify_disturbed(
+    info: &LogInfo,
+    settings: &crate::scenario::Disturbance,
+    options: &Options,
+    start: Instant,
+) -> Result<Report, BenchError> {
+    let s = &info.scenario;
+    let sim = &s.simulation;
+    let st = settings.structure;
+    let n = s.masses.len();
+    let force_col = |e: usize| 3 * n + e;
+    let filtered = |e: usize| matches!(s.excitations[e].process, Process::Filtered { .. });
+    // Forces whose spectra are fitted: P2 (if filtered), and the filtered disturbances
+    // (for the bound only).
+    let fitted: Vec<usize> = (0..s.excitations.len()).filter(|&e| filtered(e)).collect();
+    let placeholder = |e: usize| Filter {
+        excitation: e,
+        a: 1.0,
+        b: 1.0,
+    };
+    let p2_placeholder = filtered(st.measured).then(|| placeholder(st.measured));
+    let white_structure = Problem::new(&disturbance::step0_scenario(s, &st, p2_placeholder))?;
+    let driven_structure = Problem::with_filters(&disturbance::driven_scenario(s, &st, 1.0, 1.0), &[placeholder(0)])?;
+    let mut white = StationaryData::with_all_moments(
+        &white_structure,
+        weak::moment_degree(&white_structure),
+        sim.record_length,
+        options.batches,
+    );
+    let mut driven = StationaryData::new(
+        &driven_structure,
+        weak::moment_degree(&driven_structure),
+        sim.record_length,
+        options.batches,
+    );
+    let (x1, x2) = (3 * st.free, 3 * st.driven);
+    let mut lag = vec![(0.0f64, 0.0f64, vec![f64::NAN; sim.trajectories]); fitted.len()];
+    read_samples(info, |traj, t, row| {
+        white.push(t, row);
+        driven.push(t, &row[x2..x2 + 3]);
+        for (k, &e) in fitted.iter().enumerate() {
+            let p = row[force_col(e)];
+            let (s0, s1, last) = &mut lag[k];
+            if let Some(prev) = last.get_mut(traj as usize) {
+                if prev.is_finite() {
+                    *s0 += p * p;
+                    *s1 += p * *prev;
+                }
+                *prev = p;
+            }
+        }
+    })?;
+    white.finish();
+    driven.finish();
+    let total = white.total();
+
+    // Pass 2: force spectra, P3's pieces, histograms.
+    let mut welch: Vec<Welch> = lag
+        .iter()
+        .map(|(s0, s1, _)| {
+            let phi = (s1 / s0).clamp(1e-6, 1.0 - 1e-9);
+            let b_guess = -phi.ln() / sim.sample_interval;
+            Welch::new(
+                Welch::segment_for(b_guess, sim.sample_interval, sim.samples_per_trajectory()),
+                sim.sample_interval,
+                sim.trajectories,
+            )
+        })
+        .collect();
+    // P3's spectrum must resolve the responses' frequencies: 32 bins below the lowest
+    // apparent frequency √(E[ẋ²]/E[x²]) of x2 and of x1 − x2.
+    let apparent = |x: Poly, v: Poly| {
+        let ex = x.mul(&x).expectation(|e| total.moment(e));
+        let ev = v.mul(&v).expectation(|e| total.moment(e));
+        (ev / ex).sqrt()
+    };
+    let (wx1, wv1, wx2, wv2) = (
+        white_structure.x(st.free),
+        white_structure.v(st.free),
+        white_structure.x(st.driven),
+        white_structure.v(st.driven),
+    );
+    let w_low = apparent(ident::y(wx2), ident::y(wv2)).min(apparent(
+        Poly::linear(&[(wx1, 1.0), (wx2, -1.0)]),
+        Poly::linear(&[(wv1, 1.0), (wv2, -1.0)]),
+    ));
+    let mut p3 = spectrum::CrossWelch::new(
+        Welch::segment_for(w_low, sim.sample_interval, sim.samples_per_trajectory()),
+        sim.sample_interval,
+        sim.trajectories,
+    );
+    let m1 = s.masses[st.free].value;
+    let model = &white_structure.model;
+    let mut link_hist: Vec<(Histogram, Histogram)> = white
+        .link_ranges
+        .iter()
+        .map(|r| {
+            (
+                Histogram::new(r[0], r[1], HIST_BINS),
+                Histogram::new(r[2], r[3], HIST_BINS),
+            )
+        })
+        .collect();
+    let state_hist: Vec<Histogram> = (0..white_structure.dim())
+        .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
+        .collect();
+    let mut marg = Marginals::new(white_structure.columns.clone(), state_hist.clone());
+    let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+    read_samples(info, |traj, _, row| {
+        for (k, &e) in fitted.iter().enumerate() {
+            welch[k].push(traj as usize, row[force_col(e)]);
+        }
+        p3.push(
+            traj as usize,
+            row[force_col(st.measured)] + m1 * row[x1 + 2],
+            row[x1] - row[x2],
+        );
+        for i in 0..n {
+            xs[i] = row[3 * i];
+            vs[i] = row[3 * i + 1];
+        }
+        for (l, h) in link_hist.iter_mut().enumerate() {
+            h.0.push(model.relative(l, &xs));
+            h.1.push(model.relative(l, &vs));
+        }
+        marg.push(row);
+    })?;
+
+    // Filters: P2 as the identifier uses it; the disturbances' for the bound.
+    let mut filters = Vec::new();
+    let mut filter_reports = Vec::new();
+    let mut spectra = Vec::new();
+    for (k, &e) in fitted.iter().enumerate() {
+        let spec = welch[k].spectrum();
+        let fit = spectrum::fit_ou(&spec);
+        let Process::Filtered { a: ta, b: tb } = s.excitations[e].process else {
+            unreachable!()
+        };
+        let known = s.identify.known_filters.contains(&e);
+        let (a, b) = if known { (ta, tb) } else { (fit.a, fit.b) };
+        filters.push(Filter { excitation: e, a, b });
+        filter_reports.push(FilterReport {
+            excitation: s.excitations[e].name.clone(),
+            used: match (s.excitations[e].measured, known) {
+                (false, _) => "fitted (disturbance: the bound only)",
+                (true, true) => "known",
+                (true, false) => "fitted",
+            },
+            a,
+            b,
+            fitted_a: fit.a,
+            fitted_b: fit.b,
+            true_a: ta,
+            true_b: tb,
+            rms_log_residual: fit.rms_log_residual,
+            expected_rms_log_residual: fit.expected_rms,
+            segments: spec.segments,
+            segment_len: spec.segment_len,
+        });
+        spectra.push((s.excitations[e].name.clone(), spec, fit, (ta, tb)));
+    }
+    let p2 = filters.iter().copied().find(|f| f.excitation == st.measured);
+    let it = disturbance::iterate(&disturbance::Inputs {
+        scenario: s,
+        settings,
+        p2,
+        white: &white,
+        driven: &driven,
+        p3: &p3,
+    })?;
+    let problem = it.problem.clone();
+    if let Some(last) = it.steps.last().filter(|l| l.step > 0) {
+        let k1 = last.p3_k1.expect("steps >= 1 have one");
+        spectra.push((
+            format!("3 (step {}, k1 = {k1:.4})", last.step),
+            p3.spectrum_of(2.0 * k1),
+            last.p3_fit.expect("steps >= 1 have one"),
+            (f64::NAN, f64::NAN),
+        ));
+    }
+
+    // Reports: step 0, the final iterate (gated), the bound.
+    let ranges = &white.link_ranges;
+    let t = Instant::now();
+    let at = |values: &[f64]| ident::Estimate {
+        values: values.to_vec(),
+        std_error: vec![f64::NAN; values.len()],
+        ..it.step0.clone()
+    };
+    let step_reports: Vec<MethodReport> = it
+        .steps
+        .iter()
+        .map(|st_| method_report("step", None, Ok(at(&st_.values)), s, &problem, ranges, t))
+        .collect();
+    let mut final_est = at(it.last());
+    final_est.facts = vec![
+        ("steps".into(), (it.steps.len() - 1).to_string()),
+        ("stopped by".into(), it.stopped_by.clone()),
+        ("monotone differences".into(), it.monotone.to_string()),
+    ];
+    let bound_problem = Problem::new(&disturbance::bound_scenario(s, &st, &filters))?;
+    let bound = ident::identify_weak(&bound_problem, &white);
+    let mut reports = vec![
+        method_report("step-0", None, Ok(it.step0.clone()), s, &problem, ranges, t),
+        method_report(
+            "iterated",
+            Some(s.accept.threshold(Method::Weak)),
+            Ok(final_est),
+            s,
+            &problem,
+            ranges,
+            t,
+        ),
+        method_report("pz-measured", None, bound, s, &bound_problem, ranges, t),
+    ];
+    reports[0]
+        .facts
+        .insert("P_z".into(), "ignored (the paper's step 0)".into());
+    reports[2].facts.insert(
+        "P_z".into(),
+        "given as if measured: the bound on what is achievable".into(),
+    );
+    let iteration = IterationReport {
+        step_rel_errors: step_reports
+            .iter()
+            .map(|r| r.parameters.iter().map(|p| p.rel_error).collect())
+            .collect(),
+        step_worst_rel_error: step_reports.iter().map(|r| r.worst_rel_error).collect(),
+        step0_worst_rel_error: reports[0].worst_rel_error,
+        final_worst_rel_error: reports[1].worst_rel_error,
+        bound_worst_rel_error: reports[2].worst_rel_error,
+        iteration: it,
+    };
+
+    let coef_of = coefficients_of(&problem);
+    let units = s.motion.units();
+    let mut marginals: Vec<(String, String, Histogram, Option<Histogram>)> = (0..problem.dim())
+        .map(|j| {
+            let name = problem.state_names[j].clone();
+            let unit = units[if name.starts_with("x_") { 0 } else { 1 }];
+            (name, unit.to_string(), marg.hist[j].clone(), None)
+        })
+        .collect();
+    let mut model_samples = 0.0;
+    let validation = options.validate.then(|| {
+        let v = validate(
+            s,
+            &problem,
+            &coef_of,
+            iteration.iteration.last(),
+            "iterated",
+            &marg,
+            &state_hist,
+        );
+        match v {
+            Ok((val, m)) => {
+                for (j, h) in m.hist.iter().enumerate() {
+                    marginals[j].3 = Some(h.clone());
+                }
+                model_samples = m.n;
+                val
+            }
+            Err(e) => Validation {
+                method: "iterated",
+                record_length_s: 0.0,
+                trajectories: 0,
+                seed: 0,
+                rows: Vec::new(),
+                error: Some(format!("the identified model could not be simulated: {e}")),
+            },
+        }
+    });
+    let passed = reports[1].passed;
+    let identify_s = start.elapsed().as_secs_f64();
+    Ok(Report {
+        scenario: s.name.clone(),
+        log: info.path.display().to_string(),
+        record_length_s: sim.record_length,
+        total_record_s: sim.record_length * sim.trajectories as f64,
+        samples: white.samples(),
+        sample_interval_s: sim.sample_interval,
+        trajectories: sim.trajectories,
+        seed: sim.seed,
+        scheme: sim.scheme.name().to_string(),
+        dt_s: sim.dt,
+        timings_s: Timings {
+            simulate: 0.0,
+            identify: identify_s,
+            total: identify_s,
+        },
+        filters: filter_reports,
+        methods: reports,
+        validation,
+        iteration: Some(iteration),
         passed,
         plot: PlotData {
             link_hist,

@@ -171,6 +171,9 @@ pub fn summary(r: &Report) -> String {
             worst.map(|p| format!(" ({} off by {})", p.name, fmt_err(p.rel_error))).unwrap_or_default()
         );
     }
+    if let Some(it) = &r.iteration {
+        s += &iteration_summary(it);
+    }
     if let Some(v) = &r.validation {
         s += &format!(
             "\nvalidation: the {} model re-simulated ({} trajectories x {:.0} s, seed {})\n",
@@ -208,6 +211,266 @@ pub fn summary(r: &Report) -> String {
     s
 }
 
+/// The iterative procedure's sequence (paper section 4): every step's estimates and
+/// worst error, the fit of `P3s`, the changes, and how it stopped.
+fn iteration_summary(r: &crate::bench::IterationReport) -> String {
+    let it = &r.iteration;
+    let mut s = String::from(
+        "\niterative procedure for the unmeasured disturbance (paper section 4, weak form in every step)\n",
+    );
+    s += &format!("| {:>4} |", "step");
+    for n in &it.names {
+        s += &format!(" {n:>14} |");
+    }
+    s += &format!(
+        " {:>9} | {:>22} | {:>28} |\n",
+        "worst", "P3s fit A, B", "change k1 / K2 / C2"
+    );
+    s += &format!("|{}|", "-".repeat(6));
+    for _ in &it.names {
+        s += &format!("{}|", "-".repeat(16));
+    }
+    s += &format!("{}|{}|{}|\n", "-".repeat(11), "-".repeat(24), "-".repeat(30));
+    s += &format!("| {:>4} |", "true");
+    for t in &it.truth {
+        s += &format!(" {t:>14.5} |");
+    }
+    s += &format!(" {:>9} | {:>22} | {:>28} |\n", "", "", "");
+    for (k, st) in it.steps.iter().enumerate() {
+        s += &format!("| {:>4} |", st.step);
+        for v in &st.values {
+            s += &format!(" {v:>14.5} |");
+        }
+        let fit = st.p3_fit.map(|f| format!("{:.3}, {:.3}", f.a, f.b)).unwrap_or_default();
+        let changes = st
+            .changes
+            .iter()
+            .map(|(_, c)| format!("{c:.1e}"))
+            .collect::<Vec<_>>()
+            .join(" / ");
+        s += &format!(
+            " {:>9} | {fit:>22} | {changes:>28} |\n",
+            fmt_err(r.step_worst_rel_error[k])
+        );
+    }
+    s += &format!(
+        "stopped by {} after {} steps (max {}, tolerance {:.1e} relative); successive differences {} (the paper's criterion): {}\n",
+        it.stopped_by,
+        it.steps.len() - 1,
+        it.max_steps,
+        it.tolerance,
+        if it.monotone { "decrease monotonically" } else { "do NOT decrease monotonically" },
+        if it.converged { "converged" } else { "not converged" }
+    );
+    s += &format!(
+        "worst error: step 0 {}, final {}, with the disturbance given as measured (bound) {}\n",
+        fmt_err(r.step0_worst_rel_error),
+        fmt_err(r.final_worst_rel_error),
+        fmt_err(r.bound_worst_rel_error)
+    );
+    s
+}
+
+/// The sweep as a table.
+pub fn sweep_summary(sw: &crate::bench::Sweep) -> String {
+    let mut s = format!(
+        "disturbance sweep of {} (level = std of the unmeasured force / std of the measured one)\n",
+        sw.scenario
+    );
+    s += &format!(
+        "| {:>6} | {:>12} | {:>12} | {:>12} | {:>5} | {:>8} | {:<12} |\n",
+        "level", "step 0", "final", "Pz measured", "steps", "monotone", "stopped by"
+    );
+    s += "|--------|--------------|--------------|--------------|-------|----------|--------------|\n";
+    for p in &sw.points {
+        s += &format!(
+            "| {:>6} | {:>12} | {:>12} | {:>12} | {:>5} | {:>8} | {:<12} |\n",
+            p.level,
+            fmt_err(p.step0_worst_rel_error),
+            fmt_err(p.final_worst_rel_error),
+            fmt_err(p.bound_worst_rel_error),
+            p.steps,
+            p.monotone,
+            p.stopped_by
+        );
+    }
+    s += "(worst relative error over every parameter and curve, as in the run reports)\n";
+    s
+}
+
+/// Write `sweep.json`, `sweep.md` and `sweep.svg` into `dir`.
+pub fn write_sweep(sw: &crate::bench::Sweep, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let p = dir.join("sweep.json");
+    write_atomic(
+        &p,
+        serde_json::to_string_pretty(sw)
+            .map_err(std::io::Error::other)?
+            .as_bytes(),
+    )?;
+    let mut files = vec![p];
+    let p = dir.join("sweep.md");
+    write_atomic(
+        &p,
+        format!(
+            "# fpkbench disturbance sweep: {}\n\n```\n{}```\n\nPlot: `sweep.svg`.\n",
+            sw.scenario,
+            sweep_summary(sw)
+        )
+        .as_bytes(),
+    )?;
+    files.push(p);
+    let p = dir.join("sweep.svg");
+    plot_sweep(sw, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
+    files.push(p);
+    Ok(files)
+}
+
+/// Worst error of step 0, of the final iterate and of the bound against the disturbance
+/// level (log scale).
+pub fn plot_sweep(sw: &crate::bench::Sweep, path: &Path) -> PlotResult {
+    svg_to_file(path, (900, 520), |root| {
+        let pts = &sw.points;
+        let all: Vec<f64> = pts
+            .iter()
+            .flat_map(|p| {
+                [
+                    p.step0_worst_rel_error,
+                    p.final_worst_rel_error,
+                    p.bound_worst_rel_error,
+                ]
+            })
+            .filter(|e| e.is_finite() && *e > 0.0)
+            .map(|e| 100.0 * e)
+            .collect();
+        let lo = all.iter().copied().fold(f64::INFINITY, f64::min).min(1.0) * 0.5;
+        let hi = all.iter().copied().fold(0.0, f64::max).max(10.0) * 2.0;
+        let xmax = pts.iter().map(|p| p.level).fold(0.0, f64::max).max(1e-3) * 1.05;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{}: worst relative error against disturbance level", sw.scenario),
+                ("sans-serif", 18),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-0.02 * xmax..xmax, (lo..hi).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("disturbance level: std(P_z) / std(P_2)")
+            .y_desc("worst relative error (%)")
+            .draw()?;
+        for (k, (label, get)) in [
+            (
+                "step 0 (P_z ignored)",
+                (|p: &crate::bench::SweepPoint| p.step0_worst_rel_error) as fn(&crate::bench::SweepPoint) -> f64,
+            ),
+            ("final iterate", |p| p.final_worst_rel_error),
+            ("P_z given as measured (bound)", |p| p.bound_worst_rel_error),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let color = COLORS[k];
+            let data: Vec<(f64, f64)> = pts
+                .iter()
+                .map(|p| (p.level, 100.0 * get(p)))
+                .filter(|(_, e)| e.is_finite() && *e > 0.0)
+                .collect();
+            chart
+                .draw_series(LineSeries::new(data.clone(), color.stroke_width(2)))?
+                .label(label)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+            chart.draw_series(
+                data.into_iter()
+                    .map(move |(x, y)| Circle::new((x, y), 4, color.filled())),
+            )?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+        Ok(())
+    })
+}
+
+/// Every parameter of the iterative procedure against the step number, with the true
+/// value (dashed) and the estimate with the disturbance given as measured (dotted).
+pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
+    let Some(it) = &r.iteration else { return Ok(()) };
+    let names = &it.iteration.names;
+    let rows = names.len().div_ceil(2);
+    let bound: Vec<f64> = r
+        .methods
+        .iter()
+        .find(|m| m.method == "pz-measured")
+        .map(|m| m.parameters.iter().map(|p| p.estimate).collect())
+        .unwrap_or_default();
+    svg_to_file(path, (1000, 300 * rows as u32), |root| {
+        for (k, area) in root.split_evenly((rows, 2)).into_iter().enumerate().take(names.len()) {
+            let values: Vec<(f64, f64)> = it
+                .iteration
+                .steps
+                .iter()
+                .map(|s| (s.step as f64, s.values[k]))
+                .collect();
+            let truth = it.iteration.truth[k];
+            let b = bound.get(k).copied().unwrap_or(f64::NAN);
+            let ys = values.iter().map(|v| v.1).chain([truth, b]).filter(|y| y.is_finite());
+            let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(y), h.max(y)));
+            let pad = 0.1 * (hi - lo).max(1e-3 * truth.abs().max(1e-12));
+            let last = values.len().max(2) as f64 - 1.0;
+            let mut chart = ChartBuilder::on(&area)
+                .caption(&names[k], ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(34)
+                .y_label_area_size(70)
+                .build_cartesian_2d(-0.2..last + 0.2, lo - pad..hi + pad)?;
+            chart
+                .configure_mesh()
+                .x_desc("step")
+                .y_desc("estimate")
+                .x_labels(values.len().clamp(2, 12))
+                .draw()?;
+            let c = COLORS[0];
+            chart
+                .draw_series(LineSeries::new(values.clone(), c.stroke_width(2)))?
+                .label("iterate")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+            chart.draw_series(values.iter().map(|&(x, y)| Circle::new((x, y), 4, c.filled())))?;
+            let tstyle = ShapeStyle {
+                color: BLACK.to_rgba(),
+                filled: false,
+                stroke_width: 1,
+            };
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(-0.2, truth), (last + 0.2, truth)],
+                    6,
+                    4,
+                    tstyle,
+                ))?
+                .label(format!("true {truth}"))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], tstyle));
+            if b.is_finite() {
+                let bstyle = COLORS[2].stroke_width(1);
+                chart
+                    .draw_series(DashedLineSeries::new(vec![(-0.2, b), (last + 0.2, b)], 2, 3, bstyle))?
+                    .label(format!("P_z measured {b:.4}"))
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], bstyle));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()?;
+        }
+        Ok(())
+    })
+}
+
 /// Write `report.json`, `report.md` and the plots into `dir`; returns the files written.
 pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut files = Vec::new();
@@ -226,6 +489,11 @@ pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let p = dir.join("characteristics.svg");
     plot_characteristics(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
     files.push(p);
+    if r.iteration.is_some() {
+        let p = dir.join("iteration.svg");
+        plot_iteration(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
+        files.push(p);
+    }
     if !r.plot.spectra.is_empty() {
         let p = dir.join("spectrum.svg");
         plot_spectra(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
@@ -551,10 +819,12 @@ pub fn plot_spectra(r: &Report, path: &Path) -> PlotResult {
                 filled: false,
                 stroke_width: 1,
             };
-            chart
-                .draw_series(DashedLineSeries::new(truth, 6, 4, tstyle))?
-                .label(format!("true: A = {ta}, B = {tb} 1/s"))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], tstyle));
+            if ta.is_finite() {
+                chart
+                    .draw_series(DashedLineSeries::new(truth, 6, 4, tstyle))?
+                    .label(format!("true: A = {ta}, B = {tb} 1/s"))
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], tstyle));
+            }
             chart
                 .configure_series_labels()
                 .position(SeriesLabelPosition::LowerLeft)

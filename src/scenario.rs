@@ -183,6 +183,15 @@ struct RawIdentify {
     unknown_corners: Option<Vec<Spanned<String>>>,
     links: Option<BTreeMap<String, Spanned<RawIdentifyLink>>>,
     compare: Option<BTreeMap<String, Spanned<RawCompare>>>,
+    disturbance: Option<Spanned<RawDisturbance>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDisturbance {
+    max_steps: Option<Spanned<i64>>,
+    tolerance: Option<Spanned<f64>>,
+    sweep: Option<Spanned<Vec<Spanned<f64>>>>,
 }
 
 #[derive(Deserialize)]
@@ -348,6 +357,35 @@ pub struct Identify {
     /// Alternative models identified alongside for comparison (e.g. the paper's linear
     /// case 1), by name: each replaces `links`; reported, not gated.
     pub compare: Vec<(String, Vec<IdentifyLink>)>,
+    /// `[identify.disturbance]`: identify with the paper's iterative procedure for an
+    /// unmeasured disturbance (section 4) instead of the ordinary methods.
+    pub disturbance: Option<Disturbance>,
+}
+
+/// `[identify.disturbance]`: the paper's successive approximations (section 4).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Disturbance {
+    /// Stop after this many steps after step 0 (the paper's rule 1).
+    pub max_steps: usize,
+    /// Stop when every coefficient changed by less than this fraction of its value in the
+    /// last step (the paper's rule 2, with relative rather than absolute ε).
+    pub tolerance: f64,
+    /// Disturbance levels of `fpkbench sweep`: standard deviation of the unmeasured force
+    /// over that of the measured one (0 = no disturbance).
+    pub sweep: Vec<f64>,
+    pub structure: PaperStructure,
+}
+
+/// The paper's two-mass structure (4.3), as found in a scenario: a free mass `m1` tied by
+/// a linear spring `k1` (the coupling link) to a driven mass `m2`, which is tied to the
+/// ground by `K2`, `C2` and driven by the one measured force `P2`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PaperStructure {
+    pub free: usize,
+    pub driven: usize,
+    pub coupling: usize,
+    pub ground: usize,
+    pub measured: usize,
 }
 
 /// `[accept]`: the accuracy gate.
@@ -942,6 +980,73 @@ impl Scenario {
             })?;
             unknown_intensities.push(k);
         }
+        let disturbance = match ident.and_then(|i| i.disturbance.as_ref()) {
+            None => None,
+            Some(d) => {
+                let raw_d = d.get_ref();
+                let max_steps = match &raw_d.max_steps {
+                    None => 10,
+                    Some(v) if (1..=1000).contains(v.get_ref()) => *v.get_ref() as usize,
+                    Some(v) => {
+                        return Err(loc.at(
+                            v.span(),
+                            "identify.disturbance.max_steps",
+                            format!("must be a whole number 1..=1000, got {}", v.get_ref()),
+                        ))
+                    }
+                };
+                let tolerance = match &raw_d.tolerance {
+                    None => 1e-3,
+                    Some(v) => finite_positive(
+                        &loc,
+                        v,
+                        "identify.disturbance.tolerance",
+                        "largest relative change of any coefficient in the last step, e.g. 1e-3",
+                    )?,
+                };
+                let sweep = match &raw_d.sweep {
+                    None => vec![0.0, 0.25, 0.5, 1.0, 2.0],
+                    Some(list) => {
+                        let mut out = Vec::new();
+                        for v in list.get_ref() {
+                            let x = *v.get_ref();
+                            if !(x.is_finite() && x >= 0.0) {
+                                return Err(loc.at(
+                                    v.span(),
+                                    "identify.disturbance.sweep",
+                                    format!("levels are finite numbers >= 0 (std of the disturbance over std of the measured force), got {x}"),
+                                ));
+                            }
+                            out.push(x);
+                        }
+                        if out.is_empty() {
+                            return Err(loc.at(
+                                list.span(),
+                                "identify.disturbance.sweep",
+                                "empty: give the levels, e.g. [0, 0.25, 0.5, 1, 2]",
+                            ));
+                        }
+                        out
+                    }
+                };
+                let structure = paper_structure(
+                    &masses,
+                    &links,
+                    &excitations,
+                    &id_links,
+                    &unknown_masses,
+                    &unknown_intensities,
+                    &unknown_corners,
+                )
+                .map_err(|m| loc.at(d.span(), "identify.disturbance", m))?;
+                Some(Disturbance {
+                    max_steps,
+                    tolerance,
+                    sweep,
+                    structure,
+                })
+            }
+        };
         let identify = Identify {
             methods,
             links: id_links,
@@ -950,6 +1055,7 @@ impl Scenario {
             known_filters,
             unknown_corners,
             compare,
+            disturbance,
         };
 
         // Accept.
@@ -992,6 +1098,63 @@ impl Scenario {
         })
     }
 
+    /// This scenario with every unmeasured excitation scaled so that its standard deviation
+    /// is `level` times the measured force's (at level 0 they are removed) — the source
+    /// text is rewritten too, so a log of it describes what was simulated. White noise
+    /// counts at the sample interval (it is logged as interval means).
+    pub fn with_disturbance_level(&self, level: f64) -> Result<Scenario, ScenarioError> {
+        let dt = self.simulation.sample_interval;
+        let std = |p: Process| match p {
+            Process::White { sigma } => sigma / dt.sqrt(),
+            Process::Filtered { a, b } => a / (2.0 * b).sqrt(),
+        };
+        let reference = self
+            .excitations
+            .iter()
+            .find(|e| e.measured)
+            .map_or(1.0, |e| std(e.process));
+        let mut table: toml::Table = toml::from_str(&self.source).map_err(|e| ScenarioError::Invalid {
+            path: self.name.clone(),
+            line: 1,
+            column: 1,
+            key: "(top level)".into(),
+            message: e.to_string(),
+        })?;
+        if let Some(toml::Value::Array(list)) = table.get_mut("excitation") {
+            let mut kept = Vec::new();
+            for (e, v) in self.excitations.iter().zip(list.drain(..)) {
+                let mut v = v;
+                if !e.measured {
+                    if level == 0.0 {
+                        continue;
+                    }
+                    let k = level * reference / std(e.process);
+                    if let Some(t) = v.as_table_mut() {
+                        let key = if t.contains_key("sigma") { "sigma" } else { "A" };
+                        let old = t
+                            .get(key)
+                            .and_then(|x| x.as_float().or(x.as_integer().map(|i| i as f64)));
+                        t.insert(key.into(), toml::Value::Float(k * old.unwrap_or(0.0)));
+                    }
+                }
+                kept.push(v);
+            }
+            *list = kept;
+        }
+        let src = format!(
+            "# {} with its unmeasured disturbance at level {level} (std relative to the measured force), written by fpkbench\n{}",
+            self.name,
+            toml::to_string(&table).map_err(|e| ScenarioError::Invalid {
+                path: self.name.clone(),
+                line: 1,
+                column: 1,
+                key: "(top level)".into(),
+                message: e.to_string(),
+            })?
+        );
+        Scenario::parse(&src, &format!("{} at disturbance level {level}", self.name), &self.name)
+    }
+
     /// The true value of every parameter, by its human-readable name
     /// (`m[m1]`, `k3[ground-m1]`, `c1[m1-m2]`, `sigma[m1]`, `A[P]`, `B[P]`).
     pub fn truth(&self) -> Vec<(String, f64)> {
@@ -1018,6 +1181,87 @@ impl Scenario {
         }
         out
     }
+}
+
+/// Find the paper's structure (4.3) for the iterative procedure of section 4, or say what
+/// is missing.
+fn paper_structure(
+    masses: &[Mass],
+    links: &[Link],
+    excitations: &[Excitation],
+    id_links: &[IdentifyLink],
+    unknown_masses: &[usize],
+    unknown_intensities: &[usize],
+    unknown_corners: &[usize],
+) -> Result<PaperStructure, String> {
+    let need = "the iterative procedure (paper section 4) is defined for its two-mass structure (4.3): \
+                a free mass tied only by a linear spring k1 (no damper; identify stiffness = [1]) to a \
+                driven mass, which is tied to the ground by K2, C2 (identified) and driven by the one \
+                measured force; any unmeasured disturbances";
+    let fail = |what: &str| Err(format!("{what}; {need}"));
+    if masses.len() != 2 {
+        return fail(&format!("the scenario has {} masses", masses.len()));
+    }
+    let measured: Vec<usize> = (0..excitations.len()).filter(|&e| excitations[e].measured).collect();
+    let [measured] = measured[..] else {
+        return fail(&format!("the scenario has {} measured excitations", measured.len()));
+    };
+    let [driven] = excitations[measured].acts_on[..] else {
+        return fail(&format!(
+            "the measured excitation {:?} acts on several masses",
+            excitations[measured].name
+        ));
+    };
+    let free = 1 - driven;
+    if links.len() != 2 {
+        return fail(&format!("the scenario has {} links", links.len()));
+    }
+    let coupling = links
+        .iter()
+        .position(|l| l.ends.contains(&End::Mass(free)) && l.ends.contains(&End::Mass(driven)));
+    let ground = links.iter().position(|l| l.ends == [End::Mass(driven), End::Ground]);
+    let (Some(coupling), Some(ground)) = (coupling, ground) else {
+        return fail(&format!(
+            "the links must join {} to {} and {} to the ground",
+            masses[free].name, masses[driven].name, masses[driven].name
+        ));
+    };
+    if !links[coupling].damping.is_empty() {
+        return fail(&format!("link {:?} has a damper", links[coupling].name));
+    }
+    let id = |l: usize| id_links.iter().find(|x| x.link == l);
+    match id(coupling) {
+        Some(IdentifyLink {
+            stiffness: Some(p),
+            damping: None,
+            ..
+        }) if p == &[1] => {}
+        _ => {
+            return fail(&format!(
+                "[identify.links.{}] must be {{ stiffness = [1] }}",
+                links[coupling].name
+            ))
+        }
+    }
+    match id(ground) {
+        Some(IdentifyLink { stiffness, damping, .. }) if stiffness.is_some() || damping.is_some() => {}
+        _ => {
+            return fail(&format!(
+                "[identify.links.{}] must list K2 and/or C2 powers",
+                links[ground].name
+            ))
+        }
+    }
+    if !unknown_masses.is_empty() || !unknown_intensities.is_empty() || !unknown_corners.is_empty() {
+        return fail("masses, intensities and corners must be known");
+    }
+    Ok(PaperStructure {
+        free,
+        driven,
+        coupling,
+        ground,
+        measured,
+    })
 }
 
 /// Ten times the slowest modal decay time estimated per mass from its own links

@@ -256,3 +256,33 @@ fn missing_file_is_an_error_not_a_panic() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/x.toml"));
 }
+
+#[test]
+fn disturbance_procedure_needs_the_papers_structure() {
+    let text = format!(
+        "{}\n[identify.disturbance]\nmax_steps = 5\n",
+        bad(
+            "stiffness = { 1 = 5.0 }",
+            "stiffness = { 1 = 5.0 }\ndamping = { 1 = 0.1 }"
+        )
+    );
+    run_bad(
+        "disturbance_structure",
+        &text,
+        31,
+        "identify.disturbance",
+        "link \"m1-m2\" has a damper; the iterative procedure (paper section 4) is defined for its two-mass structure",
+    );
+}
+
+#[test]
+fn disturbance_tolerance_must_be_positive() {
+    let text = format!("{GOOD}\n[identify.disturbance]\ntolerance = -1.0\n");
+    run_bad(
+        "disturbance_tolerance",
+        &text,
+        31,
+        "identify.disturbance.tolerance",
+        "> 0",
+    );
+}

@@ -48,3 +48,36 @@ fn welch_and_fit_recover_a_and_b_of_a_simulated_ou_force() {
     assert!((fit.b / 5.0 - 1.0).abs() < 0.015, "B = {}", fit.b);
     assert!(fit.rms_log_residual < 2.0 * fit.expected_rms, "{fit:?}");
 }
+
+#[test]
+fn cross_spectra_give_the_spectrum_of_any_combination() {
+    use fpkbench::ident::spectrum::CrossWelch;
+    // Two correlated signals: r an AR(1), q partly r, partly its own noise.
+    let (mut q, mut r) = (Vec::new(), Vec::new());
+    let mut state = 0.0f64;
+    let mut u = 12345u64;
+    let mut noise = || {
+        u = u.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (u >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    for _ in 0..20_000 {
+        state = 0.9 * state + noise();
+        r.push(state);
+        q.push(0.7 * state + noise());
+    }
+    let mut cw = CrossWelch::new(256, 0.01, 2);
+    for (k, (&a, &b)) in q.iter().zip(&r).enumerate() {
+        cw.push(k % 2, a, b);
+    }
+    for c in [0.0, -1.3, 2.5] {
+        let mut w = Welch::new(256, 0.01, 2);
+        for (k, (&a, &b)) in q.iter().zip(&r).enumerate() {
+            w.push(k % 2, a + c * b);
+        }
+        let (x, y) = (cw.spectrum_of(c), w.spectrum());
+        assert_eq!(x.segments, y.segments);
+        for (dx, dy) in x.density.iter().zip(&y.density) {
+            assert!((dx - dy).abs() <= 1e-9 * dy.abs().max(1e-12), "c = {c}: {dx} vs {dy}");
+        }
+    }
+}

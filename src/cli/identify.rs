@@ -46,6 +46,12 @@ pub struct IdentifyArgs {
     /// Strong form: smallest count of every cell in a difference stencil [default: 5].
     #[arg(long)]
     pub min_count: Option<u32>,
+    /// Iterative procedure (`[identify.disturbance]`): stop after this many steps.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub max_steps: Option<u64>,
+    /// Iterative procedure: stop when every coefficient changes by less than this fraction.
+    #[arg(long)]
+    pub tolerance: Option<f64>,
     /// Skip the validation by re-simulating the identified model.
     #[arg(long)]
     pub no_validate: bool,
@@ -70,6 +76,8 @@ impl IdentifyArgs {
             methods: self.methods.iter().map(|&m| m.into()).collect(),
             grid,
             validate: !self.no_validate,
+            max_steps: self.max_steps.map(|m| m as usize),
+            tolerance: self.tolerance,
             ..Options::default()
         }
     }

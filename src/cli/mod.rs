@@ -7,6 +7,7 @@ mod identify;
 mod inspect;
 mod run;
 mod simulate;
+mod sweep;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -29,6 +30,7 @@ enum Command {
     Simulate(simulate::Args),
     Inspect(inspect::Args),
     Export(export::Args),
+    Sweep(sweep::Args),
 }
 
 pub fn main() -> ExitCode {
@@ -46,6 +48,7 @@ pub fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         Command::Inspect(a) => inspect::run(a),
         Command::Export(a) => export::run(a),
+        Command::Sweep(a) => sweep::run(a),
     };
     match result {
         Ok(code) => code,

@@ -36,9 +36,24 @@ pub struct StationaryData {
 impl StationaryData {
     /// `degree`: highest moment degree; `record_length`: time span of `t` per trajectory.
     pub fn new(problem: &Problem, degree: u32, record_length: f64, batches: usize) -> StationaryData {
+        StationaryData::from_accumulator(problem, || accumulator(problem, degree), record_length, batches)
+    }
+
+    /// Every raw moment up to `degree` (for several problems over the same state).
+    pub fn with_all_moments(problem: &Problem, degree: u32, record_length: f64, batches: usize) -> StationaryData {
+        let d = problem.dim();
+        StationaryData::from_accumulator(problem, || RawMoments::new(d, degree), record_length, batches)
+    }
+
+    fn from_accumulator(
+        problem: &Problem,
+        make: impl Fn() -> RawMoments,
+        record_length: f64,
+        batches: usize,
+    ) -> StationaryData {
         let d = problem.dim();
         StationaryData {
-            batches: (0..batches.max(1)).map(|_| accumulator(problem, degree)).collect(),
+            batches: (0..batches.max(1)).map(|_| make()).collect(),
             record_length,
             columns: problem.columns.clone(),
             buffers: vec![Vec::with_capacity(BLOCK * d); batches.max(1)],

@@ -18,6 +18,7 @@
 //! `θ` the unknown coefficients. Depends on `model` and `scenario` only.
 
 pub mod data;
+pub mod disturbance;
 pub mod lsq;
 pub mod moments;
 pub mod poly;

@@ -161,6 +161,58 @@ impl Welch {
     }
 }
 
+/// Streaming Welch estimate of two signals `q`, `r` and their cross-spectrum, so that the
+/// spectrum of any combination `q + c·r` follows without another pass (the paper's
+/// `P3s = P2 + m1ẍ1 + 2k1(x1 − x2)` for every iterate of `k1`, (4.9)).
+#[derive(Debug, Clone)]
+pub struct CrossWelch {
+    q: Welch,
+    r: Welch,
+    /// `Σ Re(Q R̄)` per frequency.
+    cross: Vec<f64>,
+}
+
+impl CrossWelch {
+    pub fn new(len: usize, dt: f64, trajectories: usize) -> CrossWelch {
+        let q = Welch::new(len, dt, trajectories);
+        let cross = vec![0.0; q.len / 2 + 1];
+        CrossWelch { r: q.clone(), q, cross }
+    }
+
+    pub fn push(&mut self, trajectory: usize, q: f64, r: f64) {
+        if trajectory >= self.q.buffers.len() {
+            return;
+        }
+        self.q.buffers[trajectory].push(q);
+        self.r.buffers[trajectory].push(r);
+        if self.q.buffers[trajectory].len() == self.q.len {
+            let len = self.q.len;
+            for w in [&mut self.q, &mut self.r] {
+                let seg = std::mem::take(&mut w.buffers[trajectory]);
+                w.segment(&seg);
+                let mut rest = Vec::with_capacity(len);
+                rest.extend_from_slice(&seg[len / 2..]);
+                w.buffers[trajectory] = rest;
+            }
+            // Both transforms are still in the scratch buffers.
+            for k in 0..=len / 2 {
+                self.cross[k] += self.q.re[k] * self.r.re[k] + self.q.im[k] * self.r.im[k];
+            }
+        }
+    }
+
+    /// Spectrum of `q + c·r`: `S_qq + 2c Re S_qr + c² S_rr`.
+    pub fn spectrum_of(&self, c: f64) -> Spectrum {
+        let mut s = self.q.spectrum();
+        let sr = self.r.spectrum();
+        let scale = self.q.dt / (2.0 * PI * self.q.wsum2 * self.q.segments.max(1) as f64);
+        for (k, d) in s.density.iter_mut().enumerate() {
+            *d += 2.0 * c * self.cross[k + 1] * scale + c * c * sr.density[k];
+        }
+        s
+    }
+}
+
 /// Two-sided density of an OU process `dP = −B P dt + A dW` sampled every `dt`, at `ω`.
 pub fn sampled_ou_density(a: f64, b: f64, dt: f64, omega: f64) -> f64 {
     let phi = (-b * dt).exp();
