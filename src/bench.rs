@@ -676,6 +676,12 @@ fn identify_disturbed(
     start: Instant,
 ) -> Result<Report, BenchError> {
     let s = &info.scenario;
+    if options.methods.iter().any(|m| *m != Method::Weak) {
+        return Err(IdentError::Unsupported(
+            "the iterative procedure ([identify.disturbance]) uses the weak form in every step; other methods do not apply".into(),
+        )
+        .into());
+    }
     let sim = &s.simulation;
     let st = settings.structure;
     let n = s.masses.len();

@@ -50,7 +50,7 @@ pub struct IdentifyArgs {
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1000))]
     pub max_steps: Option<u64>,
     /// Iterative procedure: stop when every coefficient changes by less than this fraction.
-    #[arg(long)]
+    #[arg(long, value_parser = positive)]
     pub tolerance: Option<f64>,
     /// Skip the validation by re-simulating the identified model.
     #[arg(long)]
@@ -80,6 +80,13 @@ impl IdentifyArgs {
             tolerance: self.tolerance,
             ..Options::default()
         }
+    }
+}
+
+fn positive(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!("must be a finite number > 0, e.g. 1e-3, got {s:?}")),
     }
 }
 
