@@ -326,24 +326,13 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
     let mut naive_data = naive_structure
         .as_ref()
         .map(|p| StationaryData::new(p, weak::moment_degree(p), sim.record_length, options.batches));
-    let force_col = |e: usize| 3 * s.masses.len() + e;
-    let mut lag = vec![(0.0f64, 0.0f64, vec![f64::NAN; sim.trajectories]); filtered.len()];
+    let mut forces = ForceSpectra::new(s, &filtered);
     read_samples(info, |traj, t, row| {
         data.push(t, row);
         if let Some(d) = naive_data.as_mut() {
             d.push(t, row);
         }
-        for (k, &e) in filtered.iter().enumerate() {
-            let p = row[force_col(e)];
-            let (s0, s1, last) = &mut lag[k];
-            if let Some(prev) = last.get_mut(traj as usize) {
-                if prev.is_finite() {
-                    *s0 += p * p;
-                    *s1 += p * *prev;
-                }
-                *prev = p;
-            }
-        }
+        forces.push_lag(traj, row);
     })?;
     data.finish();
     if let Some(d) = naive_data.as_mut() {
@@ -378,19 +367,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
         .collect();
     let mut marg = Marginals::new(structure.columns.clone(), state_hist.clone());
-    let mut welch: Vec<Welch> = lag
-        .iter()
-        .map(|(s0, s1, _)| {
-            // B from the lag-1 correlation (an AR(1) guess) sets the segment length only.
-            let phi = (s1 / s0).clamp(1e-6, 1.0 - 1e-9);
-            let b_guess = -phi.ln() / sim.sample_interval;
-            Welch::new(
-                Welch::segment_for(b_guess, sim.sample_interval, sim.samples_per_trajectory()),
-                sim.sample_interval,
-                sim.trajectories,
-            )
-        })
-        .collect();
+    forces.start_welch(sim);
     let model = &structure.model;
     let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
     read_samples(info, |traj, _, row| {
@@ -406,40 +383,11 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
             h.1.push(model.relative(l, &vs));
         }
         marg.push(row);
-        for (k, &e) in filtered.iter().enumerate() {
-            welch[k].push(traj as usize, row[force_col(e)]);
-        }
+        forces.push(traj, row);
     })?;
 
     // Filters: fitted to the spectra, or known.
-    let mut filters = Vec::new();
-    let mut filter_reports = Vec::new();
-    let mut spectra = Vec::new();
-    for (k, &e) in filtered.iter().enumerate() {
-        let spec = welch[k].spectrum();
-        let fit = spectrum::fit_ou(&spec);
-        let Process::Filtered { a: ta, b: tb } = s.excitations[e].process else {
-            unreachable!()
-        };
-        let known = s.identify.known_filters.contains(&e);
-        let (a, b) = if known { (ta, tb) } else { (fit.a, fit.b) };
-        filters.push(Filter { excitation: e, a, b });
-        filter_reports.push(FilterReport {
-            excitation: s.excitations[e].name.clone(),
-            used: if known { "known" } else { "fitted" },
-            a,
-            b,
-            fitted_a: fit.a,
-            fitted_b: fit.b,
-            true_a: ta,
-            true_b: tb,
-            rms_log_residual: fit.rms_log_residual,
-            expected_rms_log_residual: fit.expected_rms,
-            segments: spec.segments,
-            segment_len: spec.segment_len,
-        });
-        spectra.push((s.excitations[e].name.clone(), spec, fit, (ta, tb)));
-    }
+    let (filters, filter_reports, spectra) = forces.filters(s);
     let problem = Problem::with_filters(s, &filters)?;
     let typical = problem.typical(&total);
     // Identifiability is a property of the unknowns and the data: measured once, with the
@@ -457,7 +405,6 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
     }
 
     // Methods.
-    let coef_of = coefficients_of(&reported);
     let mut reports = Vec::new();
     let mut first_ok: Option<Vec<f64>> = None;
     let mut first_method = "";
@@ -525,42 +472,18 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
     }
 
     // Validation by re-simulation of the first identified model.
-    let units = s.motion.units();
-    let mut marginals: Vec<(String, String, Histogram, Option<Histogram>)> = (0..problem.dim())
-        .map(|j| {
-            let name = problem.state_names[j].clone();
-            let unit = units[if name.starts_with("x_") {
-                0
-            } else if name.starts_with("v_") {
-                1
-            } else {
-                2
-            }];
-            (name, unit.to_string(), marg.hist[j].clone(), None)
-        })
-        .collect();
+    let mut marginals = state_marginals(s, &problem, &marg);
     let mut model_samples = 0.0;
     let validation = match (&first_ok, options.validate) {
-        (Some(values), true) => {
-            let v = validate(s, &reported, &coef_of, values, first_method, &marg, &state_hist);
-            if let Ok((_, m)) = &v {
-                for (j, h) in m.hist.iter().enumerate() {
-                    marginals[j].3 = Some(h.clone());
-                }
-                model_samples = m.n;
-            }
-            Some(match v {
-                Ok((val, _)) => val,
-                Err(e) => Validation {
-                    method: first_method,
-                    record_length_s: 0.0,
-                    trajectories: 0,
-                    seed: 0,
-                    rows: Vec::new(),
-                    error: Some(format!("the identified model could not be simulated: {e}")),
-                },
-            })
-        }
+        (Some(values), true) => Some(validation(
+            s,
+            &reported,
+            values,
+            first_method,
+            (&marg, &state_hist),
+            &mut marginals,
+            &mut model_samples,
+        )),
         _ => None,
     };
 
@@ -711,39 +634,18 @@ fn identify_disturbed(
         options.batches,
     );
     let (x1, x2) = (3 * st.free, 3 * st.driven);
-    let mut lag = vec![(0.0f64, 0.0f64, vec![f64::NAN; sim.trajectories]); fitted.len()];
+    let mut forces = ForceSpectra::new(s, &fitted);
     read_samples(info, |traj, t, row| {
         white.push(t, row);
         driven.push(t, &row[x2..x2 + 3]);
-        for (k, &e) in fitted.iter().enumerate() {
-            let p = row[force_col(e)];
-            let (s0, s1, last) = &mut lag[k];
-            if let Some(prev) = last.get_mut(traj as usize) {
-                if prev.is_finite() {
-                    *s0 += p * p;
-                    *s1 += p * *prev;
-                }
-                *prev = p;
-            }
-        }
+        forces.push_lag(traj, row);
     })?;
     white.finish();
     driven.finish();
     let total = white.total();
 
     // Pass 2: force spectra, P3's pieces, histograms.
-    let mut welch: Vec<Welch> = lag
-        .iter()
-        .map(|(s0, s1, _)| {
-            let phi = (s1 / s0).clamp(1e-6, 1.0 - 1e-9);
-            let b_guess = -phi.ln() / sim.sample_interval;
-            Welch::new(
-                Welch::segment_for(b_guess, sim.sample_interval, sim.samples_per_trajectory()),
-                sim.sample_interval,
-                sim.trajectories,
-            )
-        })
-        .collect();
+    forces.start_welch(sim);
     // P3's spectrum must resolve the responses' frequencies: 32 bins below the lowest
     // apparent frequency √(E[ẋ²]/E[x²]) of x2 and of x1 − x2.
     let apparent = |x: Poly, v: Poly| {
@@ -784,9 +686,7 @@ fn identify_disturbed(
     let mut marg = Marginals::new(white_structure.columns.clone(), state_hist.clone());
     let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
     read_samples(info, |traj, _, row| {
-        for (k, &e) in fitted.iter().enumerate() {
-            welch[k].push(traj as usize, row[force_col(e)]);
-        }
+        forces.push(traj, row);
         p3.push(
             traj as usize,
             row[force_col(st.measured)] + m1 * row[x1 + 2],
@@ -804,38 +704,7 @@ fn identify_disturbed(
     })?;
 
     // Filters: P2 as the identifier uses it; the disturbances' for the bound.
-    let mut filters = Vec::new();
-    let mut filter_reports = Vec::new();
-    let mut spectra = Vec::new();
-    for (k, &e) in fitted.iter().enumerate() {
-        let spec = welch[k].spectrum();
-        let fit = spectrum::fit_ou(&spec);
-        let Process::Filtered { a: ta, b: tb } = s.excitations[e].process else {
-            unreachable!()
-        };
-        let known = s.identify.known_filters.contains(&e);
-        let (a, b) = if known { (ta, tb) } else { (fit.a, fit.b) };
-        filters.push(Filter { excitation: e, a, b });
-        filter_reports.push(FilterReport {
-            excitation: s.excitations[e].name.clone(),
-            used: match (s.excitations[e].measured, known) {
-                (false, _) => "fitted (disturbance: the bound only)",
-                (true, true) => "known",
-                (true, false) => "fitted",
-            },
-            a,
-            b,
-            fitted_a: fit.a,
-            fitted_b: fit.b,
-            true_a: ta,
-            true_b: tb,
-            rms_log_residual: fit.rms_log_residual,
-            expected_rms_log_residual: fit.expected_rms,
-            segments: spec.segments,
-            segment_len: spec.segment_len,
-        });
-        spectra.push((s.excitations[e].name.clone(), spec, fit, (ta, tb)));
-    }
+    let (filters, filter_reports, mut spectra) = forces.filters(s);
     let p2 = filters.iter().copied().find(|f| f.excitation == st.measured);
     let it = disturbance::iterate(&disturbance::Inputs {
         scenario: s,
@@ -909,43 +778,18 @@ fn identify_disturbed(
         iteration: it,
     };
 
-    let coef_of = coefficients_of(&problem);
-    let units = s.motion.units();
-    let mut marginals: Vec<(String, String, Histogram, Option<Histogram>)> = (0..problem.dim())
-        .map(|j| {
-            let name = problem.state_names[j].clone();
-            let unit = units[if name.starts_with("x_") { 0 } else { 1 }];
-            (name, unit.to_string(), marg.hist[j].clone(), None)
-        })
-        .collect();
+    let mut marginals = state_marginals(s, &problem, &marg);
     let mut model_samples = 0.0;
     let validation = options.validate.then(|| {
-        let v = validate(
+        validation(
             s,
             &problem,
-            &coef_of,
             iteration.iteration.last(),
             "iterated",
-            &marg,
-            &state_hist,
-        );
-        match v {
-            Ok((val, m)) => {
-                for (j, h) in m.hist.iter().enumerate() {
-                    marginals[j].3 = Some(h.clone());
-                }
-                model_samples = m.n;
-                val
-            }
-            Err(e) => Validation {
-                method: "iterated",
-                record_length_s: 0.0,
-                trajectories: 0,
-                seed: 0,
-                rows: Vec::new(),
-                error: Some(format!("the identified model could not be simulated: {e}")),
-            },
-        }
+            (&marg, &state_hist),
+            &mut marginals,
+            &mut model_samples,
+        )
     });
     let passed = reports[1].passed;
     let identify_s = start.elapsed().as_secs_f64();
@@ -979,6 +823,162 @@ fn identify_disturbed(
         },
         scenario_def: Some(s.clone()),
     })
+}
+
+/// The measured forces whose spectra are fitted: lag-1 sums in pass 1 (an AR(1) guess of
+/// the corner sets the Welch segment length), Welch estimates in pass 2.
+struct ForceSpectra {
+    excitations: Vec<usize>,
+    columns: Vec<usize>,
+    /// Per force: `Σ p²`, `Σ p·p_prev`, the last value per trajectory.
+    lag: Vec<(f64, f64, Vec<f64>)>,
+    welch: Vec<Welch>,
+}
+
+impl ForceSpectra {
+    fn new(s: &Scenario, excitations: &[usize]) -> ForceSpectra {
+        let n = s.masses.len();
+        ForceSpectra {
+            excitations: excitations.to_vec(),
+            columns: excitations.iter().map(|e| 3 * n + e).collect(),
+            lag: vec![(0.0, 0.0, vec![f64::NAN; s.simulation.trajectories]); excitations.len()],
+            welch: Vec::new(),
+        }
+    }
+
+    fn push_lag(&mut self, traj: u32, row: &[f64]) {
+        for (k, &c) in self.columns.iter().enumerate() {
+            let p = row[c];
+            let (s0, s1, last) = &mut self.lag[k];
+            if let Some(prev) = last.get_mut(traj as usize) {
+                if prev.is_finite() {
+                    *s0 += p * p;
+                    *s1 += p * *prev;
+                }
+                *prev = p;
+            }
+        }
+    }
+
+    fn start_welch(&mut self, sim: &crate::scenario::Simulation) {
+        self.welch = self
+            .lag
+            .iter()
+            .map(|(s0, s1, _)| {
+                let phi = (s1 / s0).clamp(1e-6, 1.0 - 1e-9);
+                let b_guess = -phi.ln() / sim.sample_interval;
+                Welch::new(
+                    Welch::segment_for(b_guess, sim.sample_interval, sim.samples_per_trajectory()),
+                    sim.sample_interval,
+                    sim.trajectories,
+                )
+            })
+            .collect();
+    }
+
+    fn push(&mut self, traj: u32, row: &[f64]) {
+        for (w, &c) in self.welch.iter_mut().zip(&self.columns) {
+            w.push(traj as usize, row[c]);
+        }
+    }
+
+    /// Fit (3.20) to every spectrum: the filters the identifier uses (the fit, or the true
+    /// values where the scenario declares them known), their reports and the plot data.
+    #[allow(clippy::type_complexity)]
+    fn filters(
+        &self,
+        s: &Scenario,
+    ) -> (
+        Vec<Filter>,
+        Vec<FilterReport>,
+        Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>,
+    ) {
+        let mut filters = Vec::new();
+        let mut reports = Vec::new();
+        let mut spectra = Vec::new();
+        for (&e, w) in self.excitations.iter().zip(&self.welch) {
+            let spec = w.spectrum();
+            let fit = spectrum::fit_ou(&spec);
+            let Process::Filtered { a: ta, b: tb } = s.excitations[e].process else {
+                unreachable!("only filtered forces are fitted")
+            };
+            let known = s.identify.known_filters.contains(&e);
+            let (a, b) = if known { (ta, tb) } else { (fit.a, fit.b) };
+            filters.push(Filter { excitation: e, a, b });
+            reports.push(FilterReport {
+                excitation: s.excitations[e].name.clone(),
+                used: match (s.excitations[e].measured, known) {
+                    (false, _) => "fitted (disturbance: the bound only)",
+                    (true, true) => "known",
+                    (true, false) => "fitted",
+                },
+                a,
+                b,
+                fitted_a: fit.a,
+                fitted_b: fit.b,
+                true_a: ta,
+                true_b: tb,
+                rms_log_residual: fit.rms_log_residual,
+                expected_rms_log_residual: fit.expected_rms,
+                segments: spec.segments,
+                segment_len: spec.segment_len,
+            });
+            spectra.push((s.excitations[e].name.clone(), spec, fit, (ta, tb)));
+        }
+        (filters, reports, spectra)
+    }
+}
+
+/// Per state variable of `problem`: name, unit and the data's histogram (the model's is
+/// filled in by the validation).
+fn state_marginals(
+    s: &Scenario,
+    problem: &Problem,
+    marg: &Marginals,
+) -> Vec<(String, String, Histogram, Option<Histogram>)> {
+    let units = s.motion.units();
+    (0..problem.dim())
+        .map(|j| {
+            let name = problem.state_names[j].clone();
+            let unit = units[if name.starts_with("x_") {
+                0
+            } else if name.starts_with("v_") {
+                1
+            } else {
+                2
+            }];
+            (name, unit.to_string(), marg.hist[j].clone(), None)
+        })
+        .collect()
+}
+
+/// The validation table for `values`, the re-simulated histograms put into `marginals`.
+fn validation(
+    s: &Scenario,
+    problem: &Problem,
+    values: &[f64],
+    method: &'static str,
+    (marg, hist): (&Marginals, &[Histogram]),
+    marginals: &mut [(String, String, Histogram, Option<Histogram>)],
+    model_samples: &mut f64,
+) -> Validation {
+    match validate(s, problem, &coefficients_of(problem), values, method, marg, hist) {
+        Ok((val, m)) => {
+            for (j, h) in m.hist.iter().enumerate() {
+                marginals[j].3 = Some(h.clone());
+            }
+            *model_samples = m.n;
+            val
+        }
+        Err(e) => Validation {
+            method,
+            record_length_s: 0.0,
+            trajectories: 0,
+            seed: 0,
+            rows: Vec::new(),
+            error: Some(format!("the identified model could not be simulated: {e}")),
+        },
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
