@@ -352,37 +352,13 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         )),
         false => None,
     };
-    let n = structure.n;
-    let mut link_hist: Vec<(Histogram, Histogram)> = data
-        .link_ranges
-        .iter()
-        .map(|r| {
-            (
-                Histogram::new(r[0], r[1], HIST_BINS),
-                Histogram::new(r[2], r[3], HIST_BINS),
-            )
-        })
-        .collect();
-    let state_hist: Vec<Histogram> = (0..structure.dim())
-        .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
-        .collect();
-    let mut marg = Marginals::new(structure.columns.clone(), state_hist.clone());
+    let mut dist = Distributions::new(s, &structure, &data);
     forces.start_welch(sim);
-    let model = &structure.model;
-    let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
     read_samples(info, |traj, _, row| {
         if let Some(Ok(g)) = grid.as_mut() {
             g.push(row);
         }
-        for i in 0..n {
-            xs[i] = row[3 * i];
-            vs[i] = row[3 * i + 1];
-        }
-        for (l, h) in link_hist.iter_mut().enumerate() {
-            h.0.push(model.relative(l, &xs));
-            h.1.push(model.relative(l, &vs));
-        }
-        marg.push(row);
+        dist.push(row);
         forces.push(traj, row);
     })?;
 
@@ -472,53 +448,20 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
     }
 
     // Validation by re-simulation of the first identified model.
-    let mut marginals = state_marginals(s, &problem, &marg);
-    let mut model_samples = 0.0;
     let validation = match (&first_ok, options.validate) {
-        (Some(values), true) => Some(validation(
-            s,
-            &reported,
-            values,
-            first_method,
-            (&marg, &state_hist),
-            &mut marginals,
-            &mut model_samples,
-        )),
+        (Some(values), true) => Some(dist.validate(s, &reported, values, first_method)),
         _ => None,
     };
-
-    let passed = reports.iter().any(|r| r.gated) && reports.iter().filter(|r| r.gated).all(|r| r.passed);
-    let identify_s = start.elapsed().as_secs_f64();
-    Ok(Report {
-        scenario: s.name.clone(),
-        log: info.path.display().to_string(),
-        record_length_s: sim.record_length,
-        total_record_s: sim.record_length * sim.trajectories as f64,
-        samples: data.samples(),
-        sample_interval_s: sim.sample_interval,
-        trajectories: sim.trajectories,
-        seed: sim.seed,
-        scheme: sim.scheme.name().to_string(),
-        dt_s: sim.dt,
-        timings_s: Timings {
-            simulate: 0.0,
-            identify: identify_s,
-            total: identify_s,
-        },
-        filters: filter_reports,
-        methods: reports,
+    Ok(assemble(
+        info,
+        data.samples(),
+        start,
+        filter_reports,
+        reports,
         validation,
-        iteration: None,
-        passed,
-        plot: PlotData {
-            link_hist,
-            marginals,
-            samples: marg.n,
-            model_samples,
-            spectra,
-        },
-        scenario_def: Some(s.clone()),
-    })
+        None,
+        dist.into_plot(spectra),
+    ))
 }
 
 /// The iterative procedure's sequence with its accuracy at every step.
@@ -669,22 +612,7 @@ fn identify_disturbed(
         sim.trajectories,
     );
     let m1 = s.masses[st.free].value;
-    let model = &white_structure.model;
-    let mut link_hist: Vec<(Histogram, Histogram)> = white
-        .link_ranges
-        .iter()
-        .map(|r| {
-            (
-                Histogram::new(r[0], r[1], HIST_BINS),
-                Histogram::new(r[2], r[3], HIST_BINS),
-            )
-        })
-        .collect();
-    let state_hist: Vec<Histogram> = (0..white_structure.dim())
-        .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
-        .collect();
-    let mut marg = Marginals::new(white_structure.columns.clone(), state_hist.clone());
-    let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+    let mut dist = Distributions::new(s, &white_structure, &white);
     read_samples(info, |traj, _, row| {
         forces.push(traj, row);
         p3.push(
@@ -692,15 +620,7 @@ fn identify_disturbed(
             row[force_col(st.measured)] + m1 * row[x1 + 2],
             row[x1] - row[x2],
         );
-        for i in 0..n {
-            xs[i] = row[3 * i];
-            vs[i] = row[3 * i + 1];
-        }
-        for (l, h) in link_hist.iter_mut().enumerate() {
-            h.0.push(model.relative(l, &xs));
-            h.1.push(model.relative(l, &vs));
-        }
-        marg.push(row);
+        dist.push(row);
     })?;
 
     // Filters: P2 as the identifier uses it; the disturbances' for the bound.
@@ -778,51 +698,19 @@ fn identify_disturbed(
         iteration: it,
     };
 
-    let mut marginals = state_marginals(s, &problem, &marg);
-    let mut model_samples = 0.0;
-    let validation = options.validate.then(|| {
-        validation(
-            s,
-            &problem,
-            iteration.iteration.last(),
-            "iterated",
-            (&marg, &state_hist),
-            &mut marginals,
-            &mut model_samples,
-        )
-    });
-    let passed = reports[1].passed;
-    let identify_s = start.elapsed().as_secs_f64();
-    Ok(Report {
-        scenario: s.name.clone(),
-        log: info.path.display().to_string(),
-        record_length_s: sim.record_length,
-        total_record_s: sim.record_length * sim.trajectories as f64,
-        samples: white.samples(),
-        sample_interval_s: sim.sample_interval,
-        trajectories: sim.trajectories,
-        seed: sim.seed,
-        scheme: sim.scheme.name().to_string(),
-        dt_s: sim.dt,
-        timings_s: Timings {
-            simulate: 0.0,
-            identify: identify_s,
-            total: identify_s,
-        },
-        filters: filter_reports,
-        methods: reports,
+    let validation = options
+        .validate
+        .then(|| dist.validate(s, &problem, iteration.iteration.last(), "iterated"));
+    Ok(assemble(
+        info,
+        white.samples(),
+        start,
+        filter_reports,
+        reports,
         validation,
-        iteration: Some(iteration),
-        passed,
-        plot: PlotData {
-            link_hist,
-            marginals,
-            samples: marg.n,
-            model_samples,
-            spectra,
-        },
-        scenario_def: Some(s.clone()),
-    })
+        Some(iteration),
+        dist.into_plot(spectra),
+    ))
 }
 
 /// The measured forces whose spectra are fitted: lag-1 sums in pass 1 (an AR(1) guess of
@@ -929,55 +817,160 @@ impl ForceSpectra {
     }
 }
 
-/// Per state variable of `problem`: name, unit and the data's histogram (the model's is
-/// filled in by the validation).
-fn state_marginals(
-    s: &Scenario,
-    problem: &Problem,
-    marg: &Marginals,
-) -> Vec<(String, String, Histogram, Option<Histogram>)> {
-    let units = s.motion.units();
-    (0..problem.dim())
-        .map(|j| {
-            let name = problem.state_names[j].clone();
-            let unit = units[if name.starts_with("x_") {
-                0
-            } else if name.starts_with("v_") {
-                1
-            } else {
-                2
-            }];
-            (name, unit.to_string(), marg.hist[j].clone(), None)
-        })
-        .collect()
+/// The report of an identification of `info`'s log; passed when there is a gated method
+/// and every gated method passed.
+#[allow(clippy::too_many_arguments)]
+fn assemble(
+    info: &LogInfo,
+    samples: u64,
+    start: Instant,
+    filters: Vec<FilterReport>,
+    methods: Vec<MethodReport>,
+    validation: Option<Validation>,
+    iteration: Option<IterationReport>,
+    plot: PlotData,
+) -> Report {
+    let s = &info.scenario;
+    let sim = &s.simulation;
+    let passed = methods.iter().any(|r| r.gated) && methods.iter().filter(|r| r.gated).all(|r| r.passed);
+    let identify_s = start.elapsed().as_secs_f64();
+    Report {
+        scenario: s.name.clone(),
+        log: info.path.display().to_string(),
+        record_length_s: sim.record_length,
+        total_record_s: sim.record_length * sim.trajectories as f64,
+        samples,
+        sample_interval_s: sim.sample_interval,
+        trajectories: sim.trajectories,
+        seed: sim.seed,
+        scheme: sim.scheme.name().to_string(),
+        dt_s: sim.dt,
+        timings_s: Timings {
+            simulate: 0.0,
+            identify: identify_s,
+            total: identify_s,
+        },
+        filters,
+        methods,
+        validation,
+        iteration,
+        passed,
+        plot,
+        scenario_def: Some(s.clone()),
+    }
 }
 
-/// The validation table for `values`, the re-simulated histograms put into `marginals`.
-fn validation(
-    s: &Scenario,
-    problem: &Problem,
-    values: &[f64],
-    method: &'static str,
-    (marg, hist): (&Marginals, &[Histogram]),
-    marginals: &mut [(String, String, Histogram, Option<Histogram>)],
-    model_samples: &mut f64,
-) -> Validation {
-    match validate(s, problem, &coefficients_of(problem), values, method, marg, hist) {
-        Ok((val, m)) => {
-            for (j, h) in m.hist.iter().enumerate() {
-                marginals[j].3 = Some(h.clone());
-            }
-            *model_samples = m.n;
-            val
+/// The data's distributions behind the plots and the validation, filled in pass 2:
+/// histograms of every link's relative displacement and velocity, and moments and
+/// histograms of every state variable of `problem`; after [`Distributions::validate`],
+/// the re-simulated model's too.
+struct Distributions {
+    model: Model,
+    xs: Vec<f64>,
+    vs: Vec<f64>,
+    link_hist: Vec<(Histogram, Histogram)>,
+    /// Empty histograms over the data's ranges (the validation fills copies).
+    state_hist: Vec<Histogram>,
+    marg: Marginals,
+    /// Per state variable: name, unit, data histogram, model histogram.
+    names: Vec<(String, String)>,
+    model_marg: Option<Marginals>,
+}
+
+impl Distributions {
+    fn new(s: &Scenario, problem: &Problem, data: &StationaryData) -> Distributions {
+        let total = data.total();
+        let state_hist: Vec<Histogram> = (0..problem.dim())
+            .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
+            .collect();
+        let units = s.motion.units();
+        let names = problem
+            .state_names
+            .iter()
+            .map(|name| {
+                let unit = units[if name.starts_with("x_") {
+                    0
+                } else if name.starts_with("v_") {
+                    1
+                } else {
+                    2
+                }];
+                (name.clone(), unit.to_string())
+            })
+            .collect();
+        Distributions {
+            model: problem.model.clone(),
+            xs: vec![0.0; problem.n],
+            vs: vec![0.0; problem.n],
+            link_hist: data
+                .link_ranges
+                .iter()
+                .map(|r| {
+                    (
+                        Histogram::new(r[0], r[1], HIST_BINS),
+                        Histogram::new(r[2], r[3], HIST_BINS),
+                    )
+                })
+                .collect(),
+            marg: Marginals::new(problem.columns.clone(), state_hist.clone()),
+            state_hist,
+            names,
+            model_marg: None,
         }
-        Err(e) => Validation {
+    }
+
+    fn push(&mut self, row: &[f64]) {
+        for i in 0..self.xs.len() {
+            self.xs[i] = row[3 * i];
+            self.vs[i] = row[3 * i + 1];
+        }
+        for (l, h) in self.link_hist.iter_mut().enumerate() {
+            h.0.push(self.model.relative(l, &self.xs));
+            h.1.push(self.model.relative(l, &self.vs));
+        }
+        self.marg.push(row);
+    }
+
+    /// The validation table for `values` (keeping the re-simulated distributions).
+    fn validate(&mut self, s: &Scenario, problem: &Problem, values: &[f64], method: &'static str) -> Validation {
+        match validate(
+            s,
+            problem,
+            &coefficients_of(problem),
+            values,
             method,
-            record_length_s: 0.0,
-            trajectories: 0,
-            seed: 0,
-            rows: Vec::new(),
-            error: Some(format!("the identified model could not be simulated: {e}")),
-        },
+            &self.marg,
+            &self.state_hist,
+        ) {
+            Ok((val, m)) => {
+                self.model_marg = Some(m);
+                val
+            }
+            Err(e) => Validation {
+                method,
+                record_length_s: 0.0,
+                trajectories: 0,
+                seed: 0,
+                rows: Vec::new(),
+                error: Some(format!("the identified model could not be simulated: {e}")),
+            },
+        }
+    }
+
+    fn into_plot(self, spectra: Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>) -> PlotData {
+        let model_hist = |j: usize| self.model_marg.as_ref().map(|m| m.hist[j].clone());
+        PlotData {
+            marginals: self
+                .names
+                .iter()
+                .enumerate()
+                .map(|(j, (name, unit))| (name.clone(), unit.clone(), self.marg.hist[j].clone(), model_hist(j)))
+                .collect(),
+            samples: self.marg.n,
+            model_samples: self.model_marg.as_ref().map_or(0.0, |m| m.n),
+            link_hist: self.link_hist,
+            spectra,
+        }
     }
 }
 
