@@ -385,12 +385,7 @@ pub fn plot_sweep(sw: &crate::bench::Sweep, path: &Path) -> PlotResult {
                     .map(move |(x, y)| Circle::new((x, y), 4, color.filled())),
             )?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend_box(&mut chart, SeriesLabelPosition::UpperLeft)?;
         Ok(())
     })
 }
@@ -460,12 +455,7 @@ pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
                     .label(format!("P_z measured {b:.4}"))
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], bstyle));
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()?;
+            legend_box(&mut chart, SeriesLabelPosition::UpperRight)?;
         }
         Ok(())
     })
@@ -518,6 +508,23 @@ const COLORS: [RGBColor; 7] = [
 ];
 
 type PlotResult = Result<(), Box<dyn std::error::Error>>;
+
+/// The series legend in a framed, lightly opaque box at `position`.
+fn legend_box<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> PlotResult
+where
+    DB::ErrorType: 'static,
+{
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
 
 fn svg_to_file(
     path: &Path,
@@ -677,12 +684,7 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
                 }
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperLeft)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()?;
+            legend_box(&mut chart, SeriesLabelPosition::UpperLeft)?;
             draw_histogram_strip(
                 &bottom,
                 hist,
@@ -739,12 +741,7 @@ pub fn plot_densities(r: &Report, path: &Path) -> PlotResult {
                     .label(format!("re-simulated {model_name} model"))
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()?;
+            legend_box(&mut chart, SeriesLabelPosition::UpperRight)?;
         }
         Ok(())
     })
@@ -825,12 +822,7 @@ pub fn plot_spectra(r: &Report, path: &Path) -> PlotResult {
                     .label(format!("true: A = {ta}, B = {tb} 1/s"))
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], tstyle));
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerLeft)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()?;
+            legend_box(&mut chart, SeriesLabelPosition::LowerLeft)?;
         }
         Ok(())
     })
