@@ -26,10 +26,10 @@ fn main() {
             rows.extend(p.columns.iter().map(|&k| b.row(i)[k]));
         }
     }
-    let full_rows: Vec<(f64, Vec<f64>)> = c
+    let full_rows: Vec<(u32, f64, Vec<f64>)> = c
         .batches
         .iter()
-        .flat_map(|b| (0..b.len()).map(move |i| (b.time[i], b.row(i).to_vec())))
+        .flat_map(|b| (0..b.len()).map(move |i| (b.trajectory[i], b.time[i], b.row(i).to_vec())))
         .collect();
     let n = rows.len() / 4;
     let deg = weak::moment_degree(&p);
@@ -64,7 +64,7 @@ fn main() {
     g.bench_function("strong: fill a 20^4 grid", |b| {
         b.iter(|| {
             let mut grid = grid0.clone();
-            for (_, r) in &full_rows {
+            for (_, _, r) in &full_rows {
                 grid.push(r);
             }
             black_box(grid.inside)
@@ -83,15 +83,15 @@ fn main() {
     let weak_rate = n as f64 / t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut data = StationaryData::new(&p, deg, s.simulation.record_length, 8);
-    for (tt, r) in &full_rows {
-        data.push(*tt, r);
+    for (tr, tt, r) in &full_rows {
+        data.push(*tr, *tt, r);
     }
     data.finish();
     let est = fpkbench::ident::identify_weak(&p, &data).unwrap();
     let weak_all = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut grid = grid0.clone();
-    for (_, r) in &full_rows {
+    for (_, _, r) in &full_rows {
         grid.push(r);
     }
     let fill = t.elapsed().as_secs_f64();

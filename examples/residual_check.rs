@@ -16,7 +16,7 @@ fn main() {
     simulate(
         &Model::new(&s),
         &s.simulation,
-        &mut ForEach(|_, t, row: &[f64]| d.push(t, row)),
+        &mut ForEach(|traj, t, row: &[f64]| d.push(traj, t, row)),
         &|_| {},
     )
     .unwrap();
@@ -24,7 +24,7 @@ fn main() {
     let total = weak::pieces(&p, &d.total());
     let (r, _) = p.residual(&total, &p.truth);
     let per: Vec<Vec<f64>> = d
-        .batches
+        .batches()
         .iter()
         .map(|b| p.residual(&weak::pieces(&p, b), &p.truth).0.iter().copied().collect())
         .collect();

@@ -25,7 +25,7 @@ fn main() {
         simulate(
             &m,
             &s.simulation,
-            &mut ForEach(|_, t, row: &[f64]| d.push(t, row)),
+            &mut ForEach(|traj, t, row: &[f64]| d.push(traj, t, row)),
             &|_| {},
         )
         .unwrap();

@@ -328,9 +328,9 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         .map(|p| StationaryData::new(p, weak::moment_degree(p), sim.record_length, options.batches));
     let mut forces = ForceSpectra::new(s, &filtered);
     read_samples(info, |traj, t, row| {
-        data.push(t, row);
+        data.push(traj, t, row);
         if let Some(d) = naive_data.as_mut() {
-            d.push(t, row);
+            d.push(traj, t, row);
         }
         forces.push_lag(traj, row);
     })?;
@@ -579,8 +579,8 @@ fn identify_disturbed(
     let (x1, x2) = (3 * st.free, 3 * st.driven);
     let mut forces = ForceSpectra::new(s, &fitted);
     read_samples(info, |traj, t, row| {
-        white.push(t, row);
-        driven.push(t, &row[x2..x2 + 3]);
+        white.push(traj, t, row);
+        driven.push(traj, t, &row[x2..x2 + 3]);
         forces.push_lag(traj, row);
     })?;
     white.finish();

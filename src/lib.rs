@@ -23,7 +23,7 @@
 //! let mut data = StationaryData::new(&problem, weak::moment_degree(&problem), 2000.0, 8);
 //! for b in &samples.batches {
 //!     for i in 0..b.len() {
-//!         data.push(b.time[i], b.row(i));
+//!         data.push(b.trajectory[i], b.time[i], b.row(i));
 //!     }
 //! }
 //! data.finish();

@@ -144,7 +144,7 @@ fn augmented_weak_form_with_exact_gaussian_moments_recovers_a_linear_sdof() {
     let p = Problem::new(&s).unwrap();
     assert_eq!(p.layout, fpkbench::ident::Layout::Augmented);
     let mom = RawMoments::exact(3, weak::moment_degree(&p), |e| fpkbench::zoo::gaussian_moment(&cov, e));
-    let (est, _) = p.solve(&weak::pieces(&p, &mom), &p.typical(&mom));
+    let (est, _) = p.solve(&weak::pieces(&p, &mom), &p.typical(&mom), None);
     for ((e, tr), n) in est.iter().zip(&p.truth).zip(&p.names) {
         assert!(((e - tr) / tr).abs() < 1e-9, "{n}: {e} vs {tr}");
     }
@@ -180,7 +180,7 @@ fn unknown_corner_is_identified_through_the_bilinear_monomials() {
     let (mono, map) = p.monomial_form();
     assert_eq!(mono.unknowns.len(), 3, "{:?}", mono.names);
     let mom = RawMoments::exact(3, weak::moment_degree(&p), |e| fpkbench::zoo::gaussian_moment(&cov, e));
-    let (coefs, diag) = mono.solve(&weak::pieces(&mono, &mom), &mono.typical(&mom));
+    let (coefs, diag) = mono.solve(&weak::pieces(&mono, &mom), &mono.typical(&mom), None);
     assert_eq!(diag.rank, 3, "{diag:?}");
     for ((e, tr), n) in coefs.iter().zip(&mono.truth).zip(&mono.names) {
         assert!(((e - tr) / tr).abs() < 1e-8, "{n}: {e} vs {tr}");

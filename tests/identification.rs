@@ -36,7 +36,7 @@ fn weak_form_with_exact_expectations_recovers_sdof_duffing() {
     assert_eq!(p.names, ["k1[ground-m1]", "k3[ground-m1]", "c1[ground-m1]"]);
     let mom = sdof_exact(weak::moment_degree(&p));
     let pc = weak::pieces(&p, &mom);
-    let (est, diag) = p.solve(&pc, &p.typical(&mom));
+    let (est, diag) = p.solve(&pc, &p.typical(&mom), None);
     for (e, t) in est.iter().zip(&p.truth) {
         assert!(((e - t) / t).abs() < 1e-7, "estimate {e} vs truth {t}");
     }
@@ -54,7 +54,7 @@ fn weak_form_with_exact_gaussian_moments_recovers_linear_2dof() {
     let cov = nalgebra::DMatrix::from_fn(4, 4, |i, j| cov4[(perm[i], perm[j])]);
     let mom = RawMoments::exact(4, weak::moment_degree(&p), |e| zoo::gaussian_moment(&cov, e));
     let pc = weak::pieces(&p, &mom);
-    let (est, _) = p.solve(&pc, &p.typical(&mom));
+    let (est, _) = p.solve(&pc, &p.typical(&mom), None);
     for ((e, t), n) in est.iter().zip(&p.truth).zip(&p.names) {
         assert!(((e - t) / t).abs() < 1e-10, "{n}: estimate {e} vs truth {t}");
     }
@@ -107,7 +107,7 @@ fn inseparable(identify: &str) -> (Vec<String>, Vec<(String, f64)>, f64) {
     let p = Problem::new(&sdof_duffing(identify)).unwrap();
     let mom = sdof_exact(weak::moment_degree(&p));
     let pc = weak::pieces(&p, &mom);
-    match fpkbench::ident::estimate(&p, "weak", &pc, &[], &p.typical(&mom), vec![]) {
+    match fpkbench::ident::estimate(&p, "weak", &pc, &[], &p.typical(&mom), vec![], None) {
         Err(fpkbench::ident::IdentError::NotIdentifiable {
             names,
             direction,
@@ -155,7 +155,8 @@ fn mass_unknown_is_flagged_with_its_null_direction() {
 fn coefficients_alone_are_identifiable() {
     let p = Problem::new(&sdof_duffing("")).unwrap();
     let mom = sdof_exact(weak::moment_degree(&p));
-    let e = fpkbench::ident::estimate(&p, "weak", &weak::pieces(&p, &mom), &[], &p.typical(&mom), vec![]).unwrap();
+    let e =
+        fpkbench::ident::estimate(&p, "weak", &weak::pieces(&p, &mom), &[], &p.typical(&mom), vec![], None).unwrap();
     assert!(
         e.diagnostics.sv_ratio > 1e-2 && !e.weakly_determined,
         "{:?}",
@@ -176,7 +177,7 @@ fn extra_power_in_the_model_comes_out_near_zero() {
     );
     assert_eq!(p.truth[1], 0.0);
     let mom = sdof_exact(weak::moment_degree(&p));
-    let (est, _) = p.solve(&weak::pieces(&p, &mom), &p.typical(&mom));
+    let (est, _) = p.solve(&weak::pieces(&p, &mom), &p.typical(&mom), None);
     assert!(est[1].abs() < 1e-6, "k2 = {}", est[1]);
     assert!(((est[2] - 20.0) / 20.0).abs() < 1e-6);
 }
@@ -219,4 +220,71 @@ fn accumulated_moments_equal_brute_force_sums() {
             );
         }
     }
+}
+
+#[test]
+fn the_compiled_pieces_map_equals_direct_assembly_and_exact_moments_stay_exact_under_any_weighting() {
+    let p = Problem::new(&sdof_duffing("")).unwrap();
+    let mom = sdof_exact(weak::moment_degree(&p));
+    let direct = weak::pieces(&p, &mom);
+    let mapped = weak::PiecesMap::new(&p, &mom).apply(&mom);
+    for (a, b) in [
+        (&direct.t0, &mapped.t0),
+        (&direct.a, &mapped.a),
+        (&direct.b, &mapped.b),
+        (&direct.c, &mapped.c),
+    ] {
+        for (x, y) in a.iter().zip(b.iter()) {
+            assert!((x - y).abs() <= 1e-12 * (1.0 + x.abs()), "{x} vs {y}");
+        }
+    }
+    // Any invertible weighting keeps the exact solution exact (the weighting changes the
+    // estimator's noise, never its target).
+    let rows = direct.rows;
+    let t = nalgebra::DMatrix::from_fn(rows, rows, |i, j| {
+        if i == j {
+            1.0 + i as f64
+        } else {
+            0.3 / (1.0 + (i + j) as f64)
+        }
+    });
+    let (est, diag) = p.solve(&direct, &p.typical(&mom), Some(&t));
+    for (e, tr) in est.iter().zip(&p.truth) {
+        assert!(((e - tr) / tr).abs() < 1e-7, "weighted estimate {e} vs truth {tr}");
+    }
+    assert_eq!(diag.rank, 3);
+}
+
+#[test]
+fn the_equation_weighting_whitens_a_known_covariance() {
+    use rand::SeedableRng;
+    use rand_distr::Distribution;
+    // Residual vectors r = L z with a known covariance S = L Lᵀ (strongly correlated, scales
+    // 1e-3 … 10); the returned T must satisfy T S Tᵀ ≈ I up to the shrinkage rows/batches
+    // and the sampling error of 20 000 batches (≈ 1 %: tolerance 5 %).
+    let l = nalgebra::DMatrix::from_row_slice(3, 3, &[10.0, 0.0, 0.0, 0.9, 0.5, 0.0, 1e-3, -2e-3, 1e-3]);
+    let s = &l * l.transpose();
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(7);
+    let residuals: Vec<nalgebra::DVector<f64>> = (0..20_000)
+        .map(|_| {
+            let z: nalgebra::DVector<f64> =
+                nalgebra::DVector::from_fn(3, |_, _| rand_distr::StandardNormal.sample(&mut rng));
+            &l * z
+        })
+        .collect();
+    let counts = vec![100u64; residuals.len()];
+    let t = weak::weighting(&residuals, &counts).expect("enough batches");
+    let white = &t * &s * t.transpose();
+    for i in 0..3 {
+        for j in 0..3 {
+            let want = if i == j { 1.0 } else { 0.0 };
+            assert!(
+                (white[(i, j)] - want).abs() < 0.05,
+                "T S Tᵀ[{i},{j}] = {}",
+                white[(i, j)]
+            );
+        }
+    }
+    // Too few batches for the equations: no weighting.
+    assert!(weak::weighting(&residuals[..8], &counts[..8]).is_none());
 }

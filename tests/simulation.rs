@@ -130,6 +130,58 @@ fn ou_force_has_variance_a2_over_2b() {
     assert!(rx.abs() < 0.03, "x variance under OU force: relative error {rx}");
 }
 
+#[test]
+fn semi_implicit_samples_are_taken_at_the_step_midpoint() {
+    // The semi-implicit step is staggered: v_(n+1) is the step's mean velocity, so the
+    // logged displacement is the step's mean too, x̄ = (x_n + x_(n+1)) / 2. In the exact
+    // stationary covariance of the recursion (reference SDOF, dt 1e-3) that pairing makes
+    // var x̄ exact and cov(x̄, v) zero; the end-of-step x has cov(x, v) = h var(v) / 2.
+    let h = 1e-3;
+    let s = zoo::linear_sdof(
+        1.0,
+        10.0,
+        0.5,
+        1.0,
+        "dt = 1e-3\nrecord_length = 0.01\nsample_interval = 1e-3\nburn_in = 1.0\ntrajectories = 2",
+    );
+    let m = Model::new(&s);
+    let (ex, ev) = zoo::linear_sdof_variances(1.0, 10.0, 0.5, 1.0);
+    let d = zoo::discrete_stationary_covariance(&m, Scheme::SemiImplicit, h).unwrap();
+    let var_mid = d[(0, 0)] - h * d[(0, 1)] + h * h / 4.0 * d[(1, 1)];
+    let cov_mid = d[(0, 1)] - h / 2.0 * d[(1, 1)];
+    assert!(
+        (d[(0, 1)] / (h / 2.0 * d[(1, 1)]) - 1.0).abs() < 1e-9,
+        "end-of-step cov {}",
+        d[(0, 1)]
+    );
+    assert!((var_mid / ex - 1.0).abs() < 1e-10, "midpoint var x {var_mid} vs {ex}");
+    assert!(cov_mid.abs() < 1e-12 * (ex * ev).sqrt(), "midpoint cov {cov_mid}");
+    // The simulator logs exactly that: with one step per sample, consecutive samples of a
+    // trajectory satisfy x̄_(n+1) − x̄_n = h (v_n + v_(n+1)) / 2 (explicit EM: x_(n+1) − x_n = h v_n).
+    for (scheme, name) in [
+        (Scheme::SemiImplicit, "semi-implicit"),
+        (Scheme::EulerMaruyama, "euler-maruyama"),
+    ] {
+        let mut s = s.clone();
+        s.simulation.scheme = scheme;
+        let rows = samples_with_threads(&s, 1);
+        let traj0: Vec<&Vec<f64>> = rows.iter().filter(|r| r.0 == 0).map(|r| &r.2).collect();
+        assert!(traj0.len() >= 9);
+        for w in traj0.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let want = match scheme {
+                Scheme::SemiImplicit => h * (a[1] + b[1]) / 2.0,
+                Scheme::EulerMaruyama => h * a[1],
+            };
+            assert!(
+                (b[0] - a[0] - want).abs() < 1e-12,
+                "{name}: Δx {} vs {want}",
+                b[0] - a[0]
+            );
+        }
+    }
+}
+
 fn samples_with_threads(s: &Scenario, threads: usize) -> Vec<(u32, f64, Vec<f64>)> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     let m = Model::new(s);

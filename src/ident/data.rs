@@ -1,5 +1,5 @@
-//! Streaming statistics of stationary samples for identification: raw moments per time
-//! batch (their sum is the whole record's), and each link's observed ranges of relative
+//! Streaming statistics of stationary samples for identification: raw moments per fine
+//! time batch (their sum is the whole record's; their spread weights the weak form), and each link's observed ranges of relative
 //! displacement and velocity (3.16)–(3.17). Fed one sample at a time from any source (a
 //! log reader, the simulator), in constant memory.
 
@@ -18,23 +18,37 @@ fn accumulator(problem: &Problem, degree: u32) -> RawMoments {
 /// Samples buffered before a parallel moment update.
 const BLOCK: usize = 1 << 16;
 
+/// Fine batches: the spread of the weak form's equations over them gives the equations'
+/// covariance, from which the weak form weights them (see [`super::weak`]). A fine batch
+/// is one of [`TRAJECTORY_GROUPS`] groups of trajectories (trajectory mod groups) over one
+/// of [`TIME_WINDOWS`] consecutive time windows: groups are independent, and windows are
+/// long enough to be nearly so even for short records.
+pub const FINE_BATCHES: usize = TRAJECTORY_GROUPS * TIME_WINDOWS;
+pub const TRAJECTORY_GROUPS: usize = 8;
+pub const TIME_WINDOWS: usize = 128;
+
 /// Moments and ranges of the state, per time batch.
 #[derive(Debug, Clone)]
 pub struct StationaryData {
-    /// Batch `b` holds samples with `t` in `[b, b+1) · record_length / batches` (all
-    /// trajectories): consecutive windows far longer than a correlation time, so batch
-    /// estimates are nearly independent.
-    pub batches: Vec<RawMoments>,
+    /// Fine batch `g · TIME_WINDOWS + w` holds the samples of trajectories `≡ g` (mod
+    /// [`TRAJECTORY_GROUPS`]) with `t` in `[w, w+1) · record_length / TIME_WINDOWS`. Their
+    /// sum is the whole record's moments.
+    pub fine: Vec<RawMoments>,
+    /// Coarse batches for standard errors (groups of consecutive fine batches: with 8,
+    /// exactly the trajectory groups).
+    coarse: usize,
     record_length: f64,
     columns: Vec<usize>,
-    buffers: Vec<Vec<f64>>,
+    buffer: Vec<f64>,
+    ids: Vec<u32>,
     /// Per link: `[u_min, u_max, w_min, w_max]`.
     pub link_ranges: Vec<[f64; 4]>,
     link_ends: Vec<(usize, Option<usize>)>,
 }
 
 impl StationaryData {
-    /// `degree`: highest moment degree; `record_length`: time span of `t` per trajectory.
+    /// `degree`: highest moment degree; `record_length`: time span of `t` per trajectory;
+    /// `batches`: coarse time batches for standard errors.
     pub fn new(problem: &Problem, degree: u32, record_length: f64, batches: usize) -> StationaryData {
         StationaryData::from_accumulator(problem, || accumulator(problem, degree), record_length, batches)
     }
@@ -52,11 +66,14 @@ impl StationaryData {
         batches: usize,
     ) -> StationaryData {
         let d = problem.dim();
+        let first = make();
         StationaryData {
-            batches: (0..batches.max(1)).map(|_| make()).collect(),
+            fine: vec![first; FINE_BATCHES],
+            coarse: batches.clamp(1, FINE_BATCHES),
             record_length,
             columns: problem.columns.clone(),
-            buffers: vec![Vec::with_capacity(BLOCK * d); batches.max(1)],
+            buffer: Vec::with_capacity(BLOCK * d),
+            ids: Vec::with_capacity(BLOCK),
             link_ranges: vec![
                 [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
                 problem.link_ends.len()
@@ -65,15 +82,16 @@ impl StationaryData {
         }
     }
 
-    /// Add one sample (`row`: the log's columns) taken at time `t` after burn-in.
-    pub fn push(&mut self, t: f64, row: &[f64]) {
-        let nb = self.batches.len();
-        let b = ((t / self.record_length * nb as f64).ceil() as usize).clamp(1, nb) - 1;
-        let d = self.columns.len();
-        let buf = &mut self.buffers[b];
+    /// Add one sample (`row`: the log's columns) of `trajectory` taken at time `t` after
+    /// burn-in.
+    pub fn push(&mut self, trajectory: u32, t: f64, row: &[f64]) {
+        let nw = TIME_WINDOWS;
+        let w = ((t / self.record_length * nw as f64).ceil() as usize).clamp(1, nw) - 1;
+        let b = (trajectory as usize % TRAJECTORY_GROUPS) * nw + w;
         for &c in &self.columns {
-            buf.push(row[c]);
+            self.buffer.push(row[c]);
         }
+        self.ids.push(b as u32);
         for (l, &(a, bb)) in self.link_ends.iter().enumerate() {
             // Log columns: x_i = 3i, v_i = 3i + 1.
             let u = row[3 * a] - bb.map_or(0.0, |b| row[3 * b]);
@@ -84,39 +102,45 @@ impl StationaryData {
             r[2] = r[2].min(w);
             r[3] = r[3].max(w);
         }
-        if buf.len() >= BLOCK * d {
-            self.batches[b].add_block(buf);
-            buf.clear();
+        if self.ids.len() >= BLOCK {
+            self.finish();
         }
     }
 
     /// Flush buffered samples.
     pub fn finish(&mut self) {
-        for (b, buf) in self.buffers.iter_mut().enumerate() {
-            if !buf.is_empty() {
-                self.batches[b].add_block(buf);
-                buf.clear();
-            }
+        if !self.ids.is_empty() {
+            RawMoments::add_batched(&mut self.fine, &self.buffer, &self.ids);
+            self.buffer.clear();
+            self.ids.clear();
         }
     }
 
     /// Moments of the whole record (the sum of the batches).
     pub fn total(&self) -> RawMoments {
-        let mut t = self.batches[0].clone();
-        for b in &self.batches[1..] {
-            for (a, s) in t.sums.iter_mut().zip(&b.sums) {
-                *a += s;
-            }
-            t.count += b.count;
-            for j in 0..t.vars {
-                t.min[j] = t.min[j].min(b.min[j]);
-                t.max[j] = t.max[j].max(b.max[j]);
-            }
+        let mut t = self.fine[0].clone();
+        for b in &self.fine[1..] {
+            t.merge(b);
         }
         t
     }
 
+    /// The coarse batches (consecutive groups of fine ones), for standard errors.
+    pub fn batches(&self) -> Vec<RawMoments> {
+        let per = FINE_BATCHES.div_ceil(self.coarse);
+        self.fine
+            .chunks(per)
+            .map(|g| {
+                let mut t = g[0].clone();
+                for b in &g[1..] {
+                    t.merge(b);
+                }
+                t
+            })
+            .collect()
+    }
+
     pub fn samples(&self) -> u64 {
-        self.batches.iter().map(|b| b.count).sum()
+        self.fine.iter().map(|b| b.count).sum()
     }
 }

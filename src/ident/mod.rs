@@ -654,12 +654,19 @@ impl Problem {
     /// only coefficients are unknown). `typical` gives each unknown's data-based magnitude,
     /// used for column scaling; the diagnostics at the solution use the estimates
     /// themselves, so the weakest direction is in relative changes of the unknowns.
-    pub fn solve(&self, pc: &Pieces, typical: &[f64]) -> (Vec<f64>, lsq::Diagnostics) {
+    /// `weight`, if given, multiplies the equations (a whitening transform, see
+    /// [`weak::weighting`]); the diagnostics are always those of the unweighted equations,
+    /// so the identifiability thresholds mean the same whatever the weighting.
+    pub fn solve(&self, pc: &Pieces, typical: &[f64], weight: Option<&DMatrix<f64>>) -> (Vec<f64>, lsq::Diagnostics) {
+        let weighted = |(r, j): (DVector<f64>, DMatrix<f64>)| match weight {
+            Some(t) => (t * r, t * j),
+            None => (r, j),
+        };
         // 1. The coefficients by linear least squares, masses and intensities at their
         //    nominal values: the linearisation point of the diagnostics.
         let rc = self.coefficient_count();
         let mut p = self.start.clone();
-        let (r, j) = self.residual(pc, &p);
+        let (r, j) = weighted(self.residual(pc, &p));
         let (dx, _) = lsq::solve(&j.columns(0, rc).into_owned(), &(-r), &typical[..rc]);
         for k in 0..rc {
             p[k] += dx[k];
@@ -675,7 +682,7 @@ impl Problem {
         // 3. Gauss–Newton for all unknowns (nothing to do when only coefficients are unknown).
         if rc < self.unknowns.len() {
             for _ in 0..100 {
-                let (r, j) = self.residual(pc, &p);
+                let (r, j) = weighted(self.residual(pc, &p));
                 let (dx, _) = lsq::solve(&j, &(-r), typical);
                 let mut change: f64 = 0.0;
                 for (k, v) in p.iter_mut().enumerate() {
@@ -776,7 +783,8 @@ pub struct Estimate {
     pub facts: Vec<(String, String)>,
 }
 
-/// Solve `pieces` built from all data and from each batch; decide identifiability.
+/// Solve `pieces` built from all data and from each batch (with the equations weighted by
+/// `weight`, if given); decide identifiability.
 pub fn estimate(
     problem: &Problem,
     method: &'static str,
@@ -784,9 +792,10 @@ pub fn estimate(
     batches: &[Pieces],
     typical: &[f64],
     facts: Vec<(String, String)>,
+    weight: Option<&DMatrix<f64>>,
 ) -> Result<Estimate, IdentError> {
-    let (values, diag) = problem.solve(total, typical);
-    let per_batch: Vec<Vec<f64>> = batches.iter().map(|b| problem.solve(b, typical).0).collect();
+    let (values, diag) = problem.solve(total, typical, weight);
+    let per_batch: Vec<Vec<f64>> = batches.iter().map(|b| problem.solve(b, typical, weight).0).collect();
     let nu = values.len();
     let std_error: Vec<f64> = (0..nu)
         .map(|k| {
@@ -854,14 +863,24 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
         )));
     }
     let typical = problem.typical(&total);
-    let pc = weak::pieces(problem, &total);
+    let map = weak::PiecesMap::new(problem, &total);
+    let pc = map.apply(&total);
     let batches: Vec<Pieces> = data
-        .batches
+        .batches()
         .iter()
         .filter(|b| b.count > 0)
-        .map(|b| weak::pieces(problem, b))
+        .map(|b| map.apply(b))
         .collect();
-    let facts = vec![
+    // The equations' covariance from the fine batches' residuals at a first estimate.
+    let fine: Vec<&moments::RawMoments> = data.fine.iter().filter(|b| b.count > 0).collect();
+    let fine_pieces: Vec<Pieces> = fine.iter().map(|b| map.apply(b)).collect();
+    let counts: Vec<u64> = fine.iter().map(|b| b.count).collect();
+    // Two-step: the covariance at the unweighted estimate (iterating it changed nothing
+    // measurable on silentblock).
+    let (first, _) = problem.solve(&pc, &typical, None);
+    let residuals: Vec<DVector<f64>> = fine_pieces.iter().map(|b| problem.residual(b, &first).0).collect();
+    let weight = weak::weighting(&residuals, &counts);
+    let mut facts = vec![
         (
             "test functions".into(),
             format!("{} monomials of degree 1..={}", pc.rows, weak::test_degree(problem)),
@@ -876,7 +895,22 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
         ),
         ("batches".into(), batches.len().to_string()),
     ];
-    estimate(problem, "weak", &pc, &batches, &typical, facts)
+    facts.push((
+        "weighting".into(),
+        match weight {
+            Some(_) => format!(
+                "inverse covariance of the equations from {} time batches (shrinkage {:.3})",
+                fine.len(),
+                pc.rows as f64 / fine.len() as f64
+            ),
+            None => format!(
+                "none (natural scales): {} time batches are too few for {} equations",
+                fine.len(),
+                pc.rows
+            ),
+        },
+    ));
+    estimate(problem, "weak", &pc, &batches, &typical, facts, weight.as_ref())
 }
 
 /// The strong-form estimate (the paper's procedure) from a filled density grid; with
@@ -935,6 +969,7 @@ pub fn identify_strong(
         &[],
         typical,
         facts,
+        None,
     )
 }
 
@@ -1107,12 +1142,12 @@ pub fn identify_weak_bilinear(problem: &Problem, data: &data::StationaryData) ->
     }
     // Standard errors: recover each batch's monomial estimate too.
     let batches: Vec<Vec<f64>> = data
-        .batches
+        .batches()
         .iter()
         .filter(|b| b.count > 0)
         .map(|b| {
             let pc = weak::pieces(&mono, b);
-            let (m, _) = mono.solve(&pc, &mono.typical(b));
+            let (m, _) = mono.solve(&pc, &mono.typical(b), None);
             problem.recover_physical(&map, &m, start_b).0
         })
         .collect();

