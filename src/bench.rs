@@ -40,7 +40,8 @@ pub struct Options {
     pub methods: Vec<Method>,
     /// Strong-form grid; `None`: automatic.
     pub grid: Option<GridOptions>,
-    /// Time batches for standard errors and the identifiability spread.
+    /// Batches (groups of the fine trajectory-group × time batches) for standard errors and
+    /// the identifiability spread.
     pub batches: usize,
     /// Re-simulate the identified model for the validation table.
     pub validate: bool,

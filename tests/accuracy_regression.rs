@@ -19,42 +19,43 @@ struct Gate {
 const SEED: u64 = 1000;
 
 const GATES: &[Gate] = &[
-    // 32 × 312.5 s. weak: mean 0.0293, sd 0.0146, max 0.056; strong: mean 0.0815, sd 0.0557,
-    // max 0.199.
+    // 32 × 312.5 s. weak: mean 0.0199, sd 0.0106, max 0.035; strong: mean 0.0802, sd 0.0533,
+    // max 0.193.
     Gate {
         scenario: "sdof_duffing",
         record_length: 312.5,
-        thresholds: &[("weak", 0.088), ("strong", 0.304)],
+        thresholds: &[("weak", 0.062), ("strong", 0.294)],
     },
-    // 64 × 625 s. weak: mean 0.0644, sd 0.0319, max 0.125; strong (the 4-D histogram is
-    // starved at 4e5 samples): mean 4.34, sd 0.48, max 5.31; strong-marginals (the coupling
-    // link comes out as 0, so 100 % error every time): mean 1.0001, sd 0.0002, max 1.0004 —
-    // gated at 1.01.
-    // 32 × 31.25 s (1e3 s). weak: mean 0.0825, sd 0.0537, max 0.165; strong: mean 0.273,
-    // sd 0.028, max 0.309; strong-marginals: mean 0.959, sd 0.005, max 0.969.
+    // 32 × 31.25 s (1e3 s, the paper's experiment at the length the issue asks ≤ 4 % for).
+    // weak (A, B fitted): mean 0.0121, sd 0.0049, max 0.020; strong: mean 0.278, sd 0.036,
+    // max 0.343; strong-marginals: mean 0.9596, sd 0.0018, max 0.962.
     Gate {
         scenario: "silentblock",
         record_length: 31.25,
-        thresholds: &[("weak", 0.297), ("strong", 0.386), ("strong-marginals", 0.98)],
+        thresholds: &[("weak", 0.032), ("strong", 0.421), ("strong-marginals", 0.967)],
     },
-    // 64 × 625 s (4e4 s) at dt 2.5e-4. weak: mean 0.0802, sd 0.0494, max 0.181.
+    // 64 × 625 s (4e4 s) at dt 2.5e-4. weak: mean 0.0466, sd 0.0233, max 0.096.
     Gate {
         scenario: "filtered2dof",
         record_length: 625.0,
-        thresholds: &[("weak", 0.278)],
+        thresholds: &[("weak", 0.140)],
     },
     // 32 × 375 s (1.2e4 s). The iterative procedure's final estimate ("iterated"): mean
-    // 0.656, sd 0.0215, max 0.693 (its error is the procedure's bias, not noise); the bound
-    // with the disturbance given as measured ("pz-measured"): mean 0.091, sd 0.065, max 0.228.
+    // 0.452, sd 0.0128, max 0.477 (its error is the procedure's bias, not noise); the bound
+    // with the disturbance given as measured ("pz-measured"): mean 0.072, sd 0.042, max 0.147.
     Gate {
         scenario: "disturbed2dof",
         record_length: 375.0,
-        thresholds: &[("iterated", 0.742), ("pz-measured", 0.353)],
+        thresholds: &[("iterated", 0.503), ("pz-measured", 0.239)],
     },
+    // 64 × 625 s. weak: mean 0.0477, sd 0.0288, max 0.112; strong (the 4-D histogram is
+    // starved at 4e5 samples): mean 4.36, sd 0.47, max 5.29; strong-marginals (the coupling
+    // link comes out as 0, so 100 % error every time): mean 1.0001, sd 0.0002, max 1.0004 —
+    // gated at 1.01.
     Gate {
         scenario: "duffing2dof",
         record_length: 625.0,
-        thresholds: &[("weak", 0.192), ("strong", 6.25), ("strong-marginals", 1.01)],
+        thresholds: &[("weak", 0.163), ("strong", 6.24), ("strong-marginals", 1.01)],
     },
 ];
 
@@ -142,7 +143,8 @@ fn every_scenario_meets_its_accuracy_gate_at_reduced_length() {
 #[test]
 fn silentblock_at_its_shipped_length_meets_its_gate() {
     // The paper's experiment at 1e4 s: the weak form's worst error over k1, k3 had median
-    // 1.12 %, mean 1.57 %, sd 1.92 % over 10 seeds; the scenario's gate (mean + 4 sd) is 9.2 %.
+    // 0.44 %, mean 0.46 %, sd 0.28 %, max 1.06 % over 10 seeds (seeds 1000–1009). The issue's
+    // target is ≤ 1 %; the shipped seed is asserted against it (one seed in ten exceeds it).
     let dir = tempfile::tempdir().unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
         .args([
@@ -161,7 +163,8 @@ fn silentblock_at_its_shipped_length_meets_its_gate() {
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let weak = &r["methods"][0];
     assert_eq!(weak["method"], "weak");
-    assert!(weak["worst_rel_error"].as_f64().unwrap() <= 0.092);
+    let worst = weak["worst_rel_error"].as_f64().unwrap();
+    assert!(worst <= 0.01, "weak worst relative error {worst}");
     // The spectral fit of the moment is part of the report.
     let f = &r["filters"][0];
     assert!((f["fitted_b"].as_f64().unwrap() / 50.0 - 1.0).abs() < 0.01, "{f}");

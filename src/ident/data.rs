@@ -41,6 +41,9 @@ pub struct StationaryData {
     columns: Vec<usize>,
     buffer: Vec<f64>,
     ids: Vec<u32>,
+    /// Scratch: the buffer sorted by batch.
+    sorted: Vec<f64>,
+    sorted_ids: Vec<u32>,
     /// Per link: `[u_min, u_max, w_min, w_max]`.
     pub link_ranges: Vec<[f64; 4]>,
     link_ends: Vec<(usize, Option<usize>)>,
@@ -74,6 +77,8 @@ impl StationaryData {
             columns: problem.columns.clone(),
             buffer: Vec::with_capacity(BLOCK * d),
             ids: Vec::with_capacity(BLOCK),
+            sorted: Vec::new(),
+            sorted_ids: Vec::new(),
             link_ranges: vec![
                 [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
                 problem.link_ends.len()
@@ -109,11 +114,31 @@ impl StationaryData {
 
     /// Flush buffered samples.
     pub fn finish(&mut self) {
-        if !self.ids.is_empty() {
-            RawMoments::add_batched(&mut self.fine, &self.buffer, &self.ids);
-            self.buffer.clear();
-            self.ids.clear();
+        if self.ids.is_empty() {
+            return;
         }
+        // Samples arrive in (time, trajectory) order, so consecutive ones belong to different
+        // trajectory groups: a stable counting sort by batch makes each batch's samples one
+        // run, summed in whole chunks (the order within a batch is kept: deterministic).
+        let d = self.columns.len();
+        let mut start = vec![0usize; FINE_BATCHES + 1];
+        for &b in &self.ids {
+            start[b as usize + 1] += 1;
+        }
+        for b in 0..FINE_BATCHES {
+            start[b + 1] += start[b];
+        }
+        self.sorted.resize(self.buffer.len(), 0.0);
+        self.sorted_ids.resize(self.ids.len(), 0);
+        for (s, &b) in self.ids.iter().enumerate() {
+            let at = start[b as usize];
+            start[b as usize] += 1;
+            self.sorted[at * d..(at + 1) * d].copy_from_slice(&self.buffer[s * d..(s + 1) * d]);
+            self.sorted_ids[at] = b;
+        }
+        RawMoments::add_batched(&mut self.fine, &self.sorted, &self.sorted_ids);
+        self.buffer.clear();
+        self.ids.clear();
     }
 
     /// Moments of the whole record (the sum of the batches).

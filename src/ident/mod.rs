@@ -899,12 +899,12 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
         "weighting".into(),
         match weight {
             Some(_) => format!(
-                "inverse covariance of the equations from {} time batches (shrinkage {:.3})",
+                "inverse covariance of the equations from {} batches (shrinkage {:.3})",
                 fine.len(),
                 pc.rows as f64 / fine.len() as f64
             ),
             None => format!(
-                "none (natural scales): {} time batches are too few for {} equations",
+                "none (natural scales): {} batches are too few for {} equations",
                 fine.len(),
                 pc.rows
             ),
