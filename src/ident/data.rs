@@ -1,7 +1,7 @@
 //! Streaming statistics of stationary samples for identification: raw moments per fine
-//! time batch (their sum is the whole record's; their spread weights the weak form), and each link's observed ranges of relative
-//! displacement and velocity (3.16)–(3.17). Fed one sample at a time from any source (a
-//! log reader, the simulator), in constant memory.
+//! batch (their sum is the whole record's; their spread weights the weak form), and each
+//! link's observed ranges of relative displacement and velocity (3.16)–(3.17). Fed one
+//! sample at a time from any source (a log reader, the simulator), in constant memory.
 
 use super::moments::RawMoments;
 use super::Problem;
@@ -143,29 +143,25 @@ impl StationaryData {
 
     /// Moments of the whole record (the sum of the batches).
     pub fn total(&self) -> RawMoments {
-        let mut t = self.fine[0].clone();
-        for b in &self.fine[1..] {
-            t.merge(b);
-        }
-        t
+        sum_of(&self.fine)
     }
 
     /// The coarse batches (consecutive groups of fine ones), for standard errors.
     pub fn batches(&self) -> Vec<RawMoments> {
         let per = FINE_BATCHES.div_ceil(self.coarse);
-        self.fine
-            .chunks(per)
-            .map(|g| {
-                let mut t = g[0].clone();
-                for b in &g[1..] {
-                    t.merge(b);
-                }
-                t
-            })
-            .collect()
+        self.fine.chunks(per).map(sum_of).collect()
     }
 
     pub fn samples(&self) -> u64 {
         self.fine.iter().map(|b| b.count).sum()
     }
+}
+
+/// The moments of several accumulators of the same monomials together.
+fn sum_of(group: &[RawMoments]) -> RawMoments {
+    let mut t = group[0].clone();
+    for b in &group[1..] {
+        t.merge(b);
+    }
+    t
 }

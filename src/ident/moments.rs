@@ -131,16 +131,10 @@ impl RawMoments {
         let n = rows.len() / d;
         let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> =
             rows.par_chunks(CHUNK * d).map(|c| self.chunk_sums(c)).collect();
-        for (s, lo, hi) in parts {
-            for (a, b) in self.sums.iter_mut().zip(&s) {
-                *a += b;
-            }
-            for j in 0..d {
-                self.min[j] = self.min[j].min(lo[j]);
-                self.max[j] = self.max[j].max(hi[j]);
-            }
+        for (k, (s, lo, hi)) in parts.iter().enumerate() {
+            let samples = (n - k * CHUNK).min(CHUNK);
+            self.absorb(s, lo, hi, samples as u64);
         }
-        self.count += n as u64;
     }
 
     /// Add samples to several accumulators of the same monomials at once: sample `s`
@@ -167,28 +161,25 @@ impl RawMoments {
             .map(|&(_, a, b)| first.chunk_sums(&rows[a * d..b * d]))
             .collect();
         for (&(id, a, b), (s, lo, hi)) in pieces.iter().zip(sums) {
-            let m = &mut batches[id];
-            for (acc, v) in m.sums.iter_mut().zip(&s) {
-                *acc += v;
-            }
-            for j in 0..d {
-                m.min[j] = m.min[j].min(lo[j]);
-                m.max[j] = m.max[j].max(hi[j]);
-            }
-            m.count += (b - a) as u64;
+            batches[id].absorb(&s, &lo, &hi, (b - a) as u64);
         }
     }
 
     /// Add another accumulator of the same monomials (e.g. a batch into a total).
     pub fn merge(&mut self, other: &RawMoments) {
-        for (a, s) in self.sums.iter_mut().zip(&other.sums) {
+        self.absorb(&other.sums, &other.min, &other.max, other.count);
+    }
+
+    /// Add partial sums and extremes of `samples` samples.
+    fn absorb(&mut self, sums: &[f64], lo: &[f64], hi: &[f64], samples: u64) {
+        for (a, s) in self.sums.iter_mut().zip(sums) {
             *a += s;
         }
-        self.count += other.count;
         for j in 0..self.vars {
-            self.min[j] = self.min[j].min(other.min[j]);
-            self.max[j] = self.max[j].max(other.max[j]);
+            self.min[j] = self.min[j].min(lo[j]);
+            self.max[j] = self.max[j].max(hi[j]);
         }
+        self.count += samples;
     }
 
     /// Index of monomial `e` in [`RawMoments::sums`], if accumulated.
