@@ -4,9 +4,13 @@
 //! After criterion's own figures, a summary prints the ratios the targets are stated in,
 //! all measured in this one run:
 //! - trajectory-steps/s per core ÷ (raw normal rate ÷ normals per step), target ≥ 0.8;
-//! - 2-thread ÷ 1-thread throughput, target ≥ 1.8;
+//! - 2-thread ÷ 1-thread throughput, target ≥ 1.8, next to the same ratio for raw normal
+//!   generation (what this machine's two cores give to perfectly parallel work);
 //! - time with an MCAP log every 10th step ÷ time without logging, target ≤ 1.25;
 //! - log bytes per sample.
+//!
+//! The machine is shared (a virtual machine's cores), so every ratio compares the fastest
+//! of many interleaved repetitions of each side: contention only ever adds time.
 
 use criterion::{Criterion, Throughput};
 use fpkbench::io::log::LogWriter;
@@ -43,7 +47,8 @@ fn steps(s: &Scenario) -> u64 {
     (sim.trajectories.div_ceil(LANES) * LANES * sim.samples_per_trajectory() * sim.steps_per_sample()) as u64
 }
 
-/// Normals per second from one generator per lane, drawn as the simulator draws them.
+/// `n` normals from one generator per lane, drawn round-robin over the lanes (one normal
+/// per generator in turn).
 fn normals(n: usize) -> f64 {
     let mut rng: Vec<Xoshiro256PlusPlus> = (0..LANES as u64).map(Xoshiro256PlusPlus::seed_from_u64).collect();
     let mut acc = [0.0f64; LANES];
@@ -56,19 +61,45 @@ fn normals(n: usize) -> f64 {
     black_box(acc).iter().sum()
 }
 
+/// `n` normals from one generator per lane, drawn in runs of 64 per generator into a
+/// 16 KiB buffer (the simulator's pattern: the generator's state stays in registers).
+fn normals_in_runs(n: usize) -> f64 {
+    let mut rng: Vec<Xoshiro256PlusPlus> = (0..LANES as u64).map(Xoshiro256PlusPlus::seed_from_u64).collect();
+    let mut buf = vec![0.0f64; 64 * LANES];
+    let mut acc = 0.0;
+    for _ in 0..n / buf.len() {
+        for (j, r) in rng.iter_mut().enumerate() {
+            for z in buf[j..].iter_mut().step_by(LANES) {
+                *z = StandardNormal.sample(r);
+            }
+        }
+        acc += black_box(&buf)[0];
+    }
+    acc
+}
+
 fn run(s: &Scenario, threads: usize, sink: &mut (dyn SampleSink + Send)) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     let m = Model::new(s);
     pool.install(|| simulate(&m, &s.simulation, sink, &|_| {})).unwrap();
 }
 
-fn time<F: FnMut()>(mut f: F, reps: usize) -> f64 {
+fn seconds<F: FnMut()>(mut f: F) -> f64 {
+    let t = Instant::now();
     f();
-    let mut best = f64::INFINITY;
+    t.elapsed().as_secs_f64()
+}
+
+/// The fastest of `reps` repetitions of each job, the jobs interleaved round by round.
+fn fastest(reps: usize, jobs: &mut [&mut dyn FnMut()]) -> Vec<f64> {
+    for job in jobs.iter_mut() {
+        job();
+    }
+    let mut best = vec![f64::INFINITY; jobs.len()];
     for _ in 0..reps {
-        let t = Instant::now();
-        f();
-        best = best.min(t.elapsed().as_secs_f64());
+        for (b, job) in best.iter_mut().zip(jobs.iter_mut()) {
+            *b = b.min(seconds(&mut **job));
+        }
     }
     best
 }
@@ -94,36 +125,50 @@ fn main() {
     c.final_summary();
 
     // Ratios, one run.
-    let n = 1 << 24;
-    let normal_rate = n as f64
-        / time(
-            || {
+    let n = 1 << 23;
+    let pool2 = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let [t_rr, t_runs, t_runs2, t1, t2]: [f64; 5] = fastest(
+        15,
+        &mut [
+            &mut || {
                 black_box(normals(n));
             },
-            3,
-        );
+            &mut || {
+                black_box(normals_in_runs(n));
+            },
+            &mut || {
+                pool2.install(|| rayon::join(|| black_box(normals_in_runs(n)), || black_box(normals_in_runs(n))));
+            },
+            &mut || run(&one, 1, &mut Discard),
+            &mut || run(&two, 2, &mut Discard),
+        ],
+    )
+    .try_into()
+    .unwrap();
+    // The bound is the faster raw generation pattern.
+    let normal_rate = n as f64 / t_rr.min(t_runs);
     let normals_per_step = 2.0; // one per white excitation
     let bound = normal_rate / normals_per_step;
-    let t1 = time(|| run(&one, 1, &mut Discard), 3);
-    let t2 = time(|| run(&two, 2, &mut Discard), 3);
     let rate1 = steps(&one) as f64 / t1;
     let rate2 = steps(&two) as f64 / t2;
+    let ceiling2 = 2.0 * t_runs / t_runs2;
 
     let quiet = scenario(2 * LANES, 100.0, 100_000); // one sample at the end: no logging to speak of
     let logged = scenario(2 * LANES, 100.0, 10);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bench.mcap");
     let m = Model::new(&logged);
-    let t_quiet = time(|| run(&quiet, 2, &mut Discard), 3);
     let mut bytes = 0;
-    let t_logged = time(
-        || {
+    let [t_quiet, t_logged]: [f64; 2] = fastest(
+        5,
+        &mut [&mut || run(&quiet, 2, &mut Discard), &mut || {
             let mut w = LogWriter::create(&path, &logged, &m).unwrap();
             run(&logged, 2, &mut w);
             bytes = w.finish().unwrap().bytes;
-        },
-        3,
-    );
+        }],
+    )
+    .try_into()
+    .unwrap();
     let samples = (logged.simulation.trajectories * logged.simulation.samples_per_trajectory()) as f64;
 
     // The writer alone, fed pre-made batches shaped like duffing2dof's.
@@ -133,20 +178,24 @@ fn main() {
         time: (0..16 * 4096).map(|i| (i / 16) as f64 * 0.01).collect(),
         values: (0..16 * 4096 * 8).map(|i| ((i as f64) * 0.618).sin()).collect(),
     };
-    let writer_secs = time(
-        || {
+    let writer_secs = fastest(
+        3,
+        &mut [&mut || {
             let mut w = LogWriter::create(&path, &logged, &m).unwrap();
             for _ in 0..8 {
                 w.write(batch.clone()).unwrap();
             }
             w.finish().unwrap();
-        },
-        3,
-    );
+        }],
+    )[0];
     let writer_rate = (8 * batch.len()) as f64 / writer_secs;
 
     println!("\n== ratios measured in this run (duffing2dof, dt = 1e-3) ==");
-    println!("raw normals (one generator/lane) {:>9.3e} /s per core", normal_rate);
+    println!(
+        "raw normals, one generator/lane  {:>9.3e} /s round-robin, {:.3e} /s in runs per core",
+        n as f64 / t_rr,
+        n as f64 / t_runs
+    );
     println!(
         "random-number bound             {:>10.3e} steps/s per core ({normals_per_step} normals per step)",
         bound
@@ -157,9 +206,11 @@ fn main() {
         rate1 / bound
     );
     println!(
-        "simulator, 2 threads            {:>10.3e} steps/s  = {:.2}x one thread (target >= 1.8)",
+        "simulator, 2 threads            {:>10.3e} steps/s  = {:.2}x one thread (target >= 1.8; \
+         raw normals on 2 threads: {:.2}x)",
         rate2,
-        rate2 / rate1
+        rate2 / rate1,
+        ceiling2
     );
     println!(
         "MCAP log every 10th step        {:>10.3} s vs {:.3} s unlogged = {:.2}x (target <= 1.25)",

@@ -3,7 +3,10 @@
 //!
 //! Performance design: trajectories are stepped [`LANES`] at a time in struct-of-arrays
 //! lanes, so the CPU always has independent work while one lane waits on its state's
-//! dependency chain, and the per-link polynomial loop is amortised over the lanes. Each
+//! dependency chain, and the per-link polynomial loop is amortised over the lanes. The
+//! fixed-shape kernel (`advance_fixed`) separates the two kinds of work: the normals of a
+//! block of steps are drawn first, one generator at a time (`fill_noise`), then the steps
+//! run over them as vector arithmetic, 16 lanes at a time in registers. Each
 //! lane has its own `Xoshiro256PlusPlus`, seeded from `(seed, trajectory)`, so the output is
 //! bit-identical whatever the number of threads. Time advances in blocks of samples: in a
 //! block every lane group runs in parallel (rayon), then the block's samples are handed,
@@ -133,8 +136,8 @@ struct LaneModel<const D: usize> {
     ou_on: Vec<Vec<usize>>,
     /// Whether excitation `e` is white.
     is_white: Vec<bool>,
-    /// Signed incidence, `incidence[l·n + i] = s_iℓ` (for the fixed-shape kernel).
-    incidence: Vec<f64>,
+    /// Per link: the number of stiffness and damping coefficients before padding.
+    lens: Vec<(usize, usize)>,
     /// `white_weight[i·n_white + slot] = 1/m_i` if white slot acts on mass `i`, else 0.
     white_weight: Vec<f64>,
     /// `ou_weight[i·n_ou + slot] = 1` if filtered slot acts on mass `i`, else 0.
@@ -167,7 +170,7 @@ impl<const D: usize> LaneModel<D> {
             ou: Vec::new(),
             ou_on: vec![Vec::new(); n],
             is_white: Vec::new(),
-            incidence: Vec::new(),
+            lens: (0..m.links()).map(|l| (m.k_len[l], m.c_len[l])).collect(),
             white_weight: Vec::new(),
             ou_weight: Vec::new(),
             advance: advance_generic::<D>,
@@ -192,11 +195,6 @@ impl<const D: usize> LaneModel<D> {
                 }
             }
         }
-        let links = m.links();
-        lm.incidence = (0..links)
-            .flat_map(|l| (0..n).map(move |i| (l, i)))
-            .map(|(l, i)| m.sign(l, i))
-            .collect();
         let (nw, no) = (lm.white.len(), lm.ou.len());
         lm.white_weight = vec![0.0; n * nw];
         lm.ou_weight = vec![0.0; n * no];
@@ -209,7 +207,9 @@ impl<const D: usize> LaneModel<D> {
                 lm.ou_weight[i * no + slot] = 1.0;
             }
         }
+        let links = m.links();
         lm.advance = match (n, links) {
+            _ if lm.is_white.len() > MAX_KERNEL_EXCITATIONS => advance_generic::<D>,
             (1, 1) => advance_fixed::<1, 1, D>,
             (1, 2) => advance_fixed::<1, 2, D>,
             (2, 2) => advance_fixed::<2, 2, D>,
@@ -249,7 +249,7 @@ fn draw_noise<const D: usize>(
         let mut pe = p[e];
         for j in 0..LANES {
             let z: f64 = StandardNormal.sample(&mut rng[j]);
-            pe[j] = pe[j] * decay + sd * z;
+            pe[j] = pe[j].mul_add(decay, sd * z);
         }
         p[e] = pe;
     }
@@ -262,89 +262,183 @@ fn advance_generic<const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usiz
     }
 }
 
-/// The fixed-shape kernel: `N` masses, `L` links, degree `D` known at compile time, so the
-/// state stays in registers for the whole interval. Link ends enter as the signed
-/// incidence (`u = Σ s_iℓ x_i`, force `−Σ_ℓ s_iℓ F_ℓ`); with entries ±1 and 0 this is
-/// bit-identical to [`Group::step`].
-fn advance_fixed<const N: usize, const L: usize, const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usize) {
-    let mut inc = [[0.0; N]; L];
-    let mut k = [[0.0; D]; L];
-    let mut c = [[0.0; D]; L];
-    for l in 0..L {
-        for i in 0..N {
-            inc[l][i] = lm.incidence[l * N + i];
+/// Steps whose normals are drawn in one go by [`fill_noise`]: a block's normals
+/// (`NOISE_STEPS × excitations × LANES` doubles, 16 KiB for two excitations) stay in L1.
+const NOISE_STEPS: usize = 32;
+
+/// Draws the normals of `steps` steps for every lane into `noise[(t·nz + slot)·LANES + j]`,
+/// one lane at a time so its generator's state stays in registers across the run. Each
+/// lane's generator is consumed in exactly the order of [`draw_noise`] (per step: white
+/// slots, then filtered), so the samples do not depend on the blocking. Kept out of line:
+/// the generator's slow path calls `exp`, which would force the kernel's vector state out
+/// of registers.
+#[inline(never)]
+fn fill_noise(rng: &mut [Xoshiro256PlusPlus; LANES], nz: usize, steps: usize, noise: &mut [f64]) {
+    let noise = &mut noise[..steps * nz * LANES];
+    for (j, r) in rng.iter_mut().enumerate() {
+        for z in noise[j..].iter_mut().step_by(LANES) {
+            *z = StandardNormal.sample(r);
         }
-        k[l] = lm.k[l];
-        c[l] = lm.c[l];
     }
-    let mut him = [0.0; N];
-    him.copy_from_slice(&lm.h_inv_mass[..N]);
+}
+
+/// Lanes the fixed kernel carries through a noise block at once: few enough that the
+/// state and the temporaries stay in vector registers (32 lanes spill), enough independent
+/// chains to overlap the step's latency (8 lanes wait on it); 16 measured fastest.
+const W: usize = 16;
+type Part = [f64; W];
+/// Excitations the fixed kernel keeps in registers (more go to the generic stepper).
+const MAX_KERNEL_EXCITATIONS: usize = 4;
+
+/// The fixed-shape kernel: `N` masses and `L` links known at compile time, so the loops
+/// over masses and links unroll and every lane array is addressed statically. Each link
+/// costs only its own flops: `u = x_a − x_b` (a ground end contributes nothing), Horner from
+/// the characteristic's own highest power, force into its two ends; each white force only
+/// into the masses it acts on. The arithmetic is that of [`Group::forces`] and
+/// [`Group::step`] operation for operation (the same fused multiply–adds in the same
+/// order; starting Horner at the highest non-padded power gives the padded evaluation's
+/// bits, `0·u + k = k`), so the kernel is bit-identical to the generic stepper (tested).
+///
+/// The normals are drawn [`NOISE_STEPS`] steps at a time by [`fill_noise`] (the
+/// generator's tight loop), then the steps run over the buffer, [`W`] lanes at a time, as
+/// pure vector arithmetic. The white impulse enters the velocity before the force does:
+/// it does not wait on the force's dependency chain.
+fn advance_fixed<const N: usize, const L: usize, const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usize) {
+    // Constant-size copies: the loops over masses and links are unrolled and every lane
+    // array is addressed statically.
+    let ends: [(usize, usize); L] = std::array::from_fn(|l| (lm.a[l], lm.b[l]));
+    let lens: [(usize, usize); L] = std::array::from_fn(|l| lm.lens[l]);
+    let k: [[f64; D]; L] = std::array::from_fn(|l| lm.k[l]);
+    let c: [[f64; D]; L] = std::array::from_fn(|l| lm.c[l]);
+    let him: [f64; N] = std::array::from_fn(|i| lm.h_inv_mass[i]);
     let (h, semi) = (lm.h, lm.semi_implicit);
     let (nw, no) = (lm.white.len(), lm.ou.len());
-    let mut rng = g.rng.clone();
-    let mut x: [Lane; N] = std::array::from_fn(|i| g.x[i]);
-    let mut v: [Lane; N] = std::array::from_fn(|i| g.v[i]);
-    for _ in 0..steps {
-        let mut f = [zero(); N];
-        for l in 0..L {
-            let mut u = zero();
-            let mut w = zero();
-            for i in 0..N {
-                for j in 0..LANES {
-                    u[j] += inc[l][i] * x[i][j];
-                    w[j] += inc[l][i] * v[i][j];
+    let nz = nw + no;
+    let mut done = 0;
+    while done < steps {
+        let block = (steps - done).min(NOISE_STEPS);
+        fill_noise(&mut g.rng, nz, block, &mut g.noise);
+        for h0 in (0..LANES).step_by(W) {
+            let part = |lane: &Lane| -> Part { lane[h0..h0 + W].try_into().expect("part") };
+            let mut x: [Part; N] = std::array::from_fn(|i| part(&g.x[i]));
+            let mut v: [Part; N] = std::array::from_fn(|i| part(&g.v[i]));
+            let mut p: [Part; MAX_KERNEL_EXCITATIONS] = std::array::from_fn(|e| g.p.get(e).map_or([0.0; W], part));
+            for t in 0..block {
+                let noise = &g.noise;
+                let z = |slot: usize| -> &Part { noise[(t * nz + slot) * LANES + h0..][..W].try_into().expect("part") };
+                let mut f = [[0.0; W]; N];
+                for l in 0..L {
+                    let (a, b) = ends[l];
+                    let (mut u, mut w) = ([0.0; W], [0.0; W]);
+                    for i in 0..N {
+                        if i == a {
+                            (u, w) = (x[i], v[i]);
+                        }
+                    }
+                    for i in 0..N {
+                        if i == b {
+                            for j in 0..W {
+                                u[j] -= x[i][j];
+                                w[j] -= v[i][j];
+                            }
+                        }
+                    }
+                    let (dk, dc) = lens[l];
+                    let (mut ku, mut cw) = ([0.0; W], [0.0; W]);
+                    for q in (0..D).rev() {
+                        if q + 1 == dk {
+                            ku = [k[l][q]; W];
+                        } else if q + 1 < dk {
+                            for j in 0..W {
+                                ku[j] = ku[j].mul_add(u[j], k[l][q]);
+                            }
+                        }
+                        if q + 1 == dc {
+                            cw = [c[l][q]; W];
+                        } else if q + 1 < dc {
+                            for j in 0..W {
+                                cw[j] = cw[j].mul_add(w[j], c[l][q]);
+                            }
+                        }
+                    }
+                    let mut force = [0.0; W];
+                    for j in 0..W {
+                        force[j] = ku[j].mul_add(u[j], cw[j] * w[j]);
+                    }
+                    for i in 0..N {
+                        if i == a {
+                            for j in 0..W {
+                                f[i][j] -= force[j];
+                            }
+                        }
+                        if i == b {
+                            for j in 0..W {
+                                f[i][j] += force[j];
+                            }
+                        }
+                    }
+                }
+                for (slot, &(e, decay, sd)) in lm.ou.iter().enumerate() {
+                    for i in 0..N {
+                        let wgt = lm.ou_weight[i * no + slot];
+                        for j in 0..W {
+                            f[i][j] = wgt.mul_add(p[e][j], f[i][j]);
+                        }
+                    }
+                    let zo = z(nw + slot);
+                    let mut pe = p[e];
+                    for j in 0..W {
+                        pe[j] = pe[j].mul_add(decay, sd * zo[j]);
+                    }
+                    p[e] = pe;
+                }
+                if !semi {
+                    for i in 0..N {
+                        for j in 0..W {
+                            x[i][j] = h.mul_add(v[i][j], x[i][j]);
+                        }
+                    }
+                }
+                // The white impulses first: they do not wait for this step's forces.
+                for (slot, &(e, scale)) in lm.white.iter().enumerate() {
+                    let zw = z(slot);
+                    let mut d = [0.0; W];
+                    let mut pe = p[e];
+                    for j in 0..W {
+                        d[j] = scale * zw[j];
+                        pe[j] += d[j];
+                    }
+                    p[e] = pe;
+                    for i in 0..N {
+                        let im = lm.white_weight[i * nw + slot];
+                        if im != 0.0 {
+                            for j in 0..W {
+                                v[i][j] = im.mul_add(d[j], v[i][j]);
+                            }
+                        }
+                    }
+                }
+                for i in 0..N {
+                    for j in 0..W {
+                        v[i][j] = him[i].mul_add(f[i][j], v[i][j]);
+                    }
+                    if semi {
+                        for j in 0..W {
+                            x[i][j] = h.mul_add(v[i][j], x[i][j]);
+                        }
+                    }
                 }
             }
-            let mut ku = [k[l][D - 1]; LANES];
-            let mut cw = [c[l][D - 1]; LANES];
-            for p in (0..D - 1).rev() {
-                for j in 0..LANES {
-                    ku[j] = ku[j] * u[j] + k[l][p];
-                    cw[j] = cw[j] * w[j] + c[l][p];
-                }
-            }
             for i in 0..N {
-                for j in 0..LANES {
-                    f[i][j] -= inc[l][i] * (ku[j] * u[j] + cw[j] * w[j]);
-                }
+                g.x[i][h0..h0 + W].copy_from_slice(&x[i]);
+                g.v[i][h0..h0 + W].copy_from_slice(&v[i]);
+            }
+            for (e, pe) in g.p.iter_mut().enumerate() {
+                pe[h0..h0 + W].copy_from_slice(&p[e]);
             }
         }
-        for (slot, &(e, _, _)) in lm.ou.iter().enumerate() {
-            let p = g.p[e];
-            for i in 0..N {
-                let wgt = lm.ou_weight[i * no + slot];
-                for j in 0..LANES {
-                    f[i][j] += wgt * p[j];
-                }
-            }
-        }
-        draw_noise(lm, &mut rng, &mut g.p, &mut g.dw);
-        for i in 0..N {
-            if !semi {
-                for j in 0..LANES {
-                    x[i][j] += h * v[i][j];
-                }
-            }
-            for j in 0..LANES {
-                v[i][j] += him[i] * f[i][j];
-            }
-            for slot in 0..nw {
-                let wgt = lm.white_weight[i * nw + slot];
-                let dw = g.dw[slot];
-                for j in 0..LANES {
-                    v[i][j] += wgt * dw[j];
-                }
-            }
-            if semi {
-                for j in 0..LANES {
-                    x[i][j] += h * v[i][j];
-                }
-            }
-        }
+        done += block;
     }
-    g.x[..N].copy_from_slice(&x);
-    g.v[..N].copy_from_slice(&v);
-    g.rng = rng;
 }
 
 /// `LANES` trajectories in struct-of-arrays form.
@@ -361,6 +455,8 @@ struct Group {
     p: Vec<Lane>,
     /// Scratch: this step's white-noise increments, per white excitation.
     dw: Vec<Lane>,
+    /// Scratch: a block of standard normals for the fixed kernel (see [`fill_noise`]).
+    noise: Vec<f64>,
     /// Velocities at the previous sample (for `Δv ÷ interval`).
     v_mark: Vec<Lane>,
     /// Scratch: the displacements while a sample is taken at the velocity's instant.
@@ -387,6 +483,7 @@ impl Group {
             f: vec![zero(); n + 1],
             p: vec![zero(); ne],
             dw: vec![zero(); ne],
+            noise: vec![0.0; NOISE_STEPS * ne * LANES],
             v_mark: vec![zero(); n],
             x_keep: vec![zero(); n],
             buf: Vec::new(),
@@ -415,13 +512,13 @@ impl Group {
             let mut cw = [c[D - 1]; LANES];
             for p in (0..D - 1).rev() {
                 for j in 0..LANES {
-                    ku[j] = ku[j] * u[j] + k[p];
-                    cw[j] = cw[j] * w[j] + c[p];
+                    ku[j] = ku[j].mul_add(u[j], k[p]);
+                    cw[j] = cw[j].mul_add(w[j], c[p]);
                 }
             }
             let mut force = zero();
             for j in 0..LANES {
-                force[j] = ku[j] * u[j] + cw[j] * w[j];
+                force[j] = ku[j].mul_add(u[j], cw[j] * w[j]);
             }
             let fa = &mut f[a];
             for j in 0..LANES {
@@ -453,21 +550,21 @@ impl Group {
             let him = lm.h_inv_mass[i];
             if !lm.semi_implicit {
                 for j in 0..LANES {
-                    x[j] += h * v[j];
+                    x[j] = h.mul_add(v[j], x[j]);
                 }
-            }
-            for j in 0..LANES {
-                v[j] += him * f[j];
             }
             for &(slot, im) in &lm.white_on[i] {
                 let dw = self.dw[slot];
                 for j in 0..LANES {
-                    v[j] += im * dw[j];
+                    v[j] = im.mul_add(dw[j], v[j]);
                 }
+            }
+            for j in 0..LANES {
+                v[j] = him.mul_add(f[j], v[j]);
             }
             if lm.semi_implicit {
                 for j in 0..LANES {
-                    x[j] += h * v[j];
+                    x[j] = h.mul_add(v[j], x[j]);
                 }
             }
             self.x[i] = x;
@@ -677,23 +774,35 @@ fn simulate_padded<const D: usize>(
             .collect();
         // The first failing group in trajectory order, whatever the thread count.
         results.into_iter().collect::<Result<Vec<()>, SimError>>()?;
+        // The block's samples in (time, trajectory) order, gathered in parallel (a serial
+        // copy here would idle the other cores between blocks). `vec![0.0; n]` is lazily
+        // zeroed memory, so the pages are first touched by the parallel writers too.
+        let per_k = sim.trajectories;
         let mut batch = SampleBatch {
             columns: cols,
-            trajectory: Vec::with_capacity(b * sim.trajectories),
-            time: Vec::with_capacity(b * sim.trajectories),
-            values: Vec::with_capacity(b * sim.trajectories * cols),
+            trajectory: vec![0; b * per_k],
+            time: vec![0.0; b * per_k],
+            values: vec![0.0; b * per_k * cols],
         };
-        for k in 0..b {
-            let t = (done + k + 1) as f64 * interval;
-            for g in &groups {
-                for j in 0..g.active {
-                    batch.trajectory.push((g.first + j) as u32);
-                    batch.time.push(t);
-                    let at = (k * LANES + j) * cols;
-                    batch.values.extend_from_slice(&g.buf[at..at + cols]);
+        batch
+            .values
+            .par_chunks_mut(per_k * cols)
+            .zip(batch.trajectory.par_chunks_mut(per_k))
+            .zip(batch.time.par_chunks_mut(per_k))
+            .enumerate()
+            .for_each(|(k, ((values, trajectory), time))| {
+                let t = (done + k + 1) as f64 * interval;
+                time.fill(t);
+                let mut r = 0;
+                for g in &groups {
+                    let at = k * LANES * cols;
+                    values[r * cols..(r + g.active) * cols].copy_from_slice(&g.buf[at..at + g.active * cols]);
+                    for j in 0..g.active {
+                        trajectory[r + j] = (g.first + j) as u32;
+                    }
+                    r += g.active;
                 }
-            }
-        }
+            });
         sink.write(batch).map_err(SimError::Sink)?;
         done += b;
         progress((done * sim.trajectories) as u64);

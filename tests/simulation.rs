@@ -281,6 +281,9 @@ fn fixed_shape_kernel_is_bit_identical_to_the_generic_stepper() {
     for (file, scheme) in [
         ("scenarios/duffing2dof.toml", Scheme::SemiImplicit),
         ("scenarios/sdof_duffing.toml", Scheme::EulerMaruyama),
+        // One filtered disturbance acting on both masses, a measured filtered force.
+        ("scenarios/disturbed2dof.toml", Scheme::SemiImplicit),
+        ("scenarios/silentblock.toml", Scheme::SemiImplicit),
     ] {
         let src = std::fs::read_to_string(file).unwrap();
         let mut s = Scenario::parse(&src, file, "t").unwrap();

@@ -227,17 +227,16 @@ impl LogWriter {
                 path: path.clone(),
                 source,
             };
-            let mut payload = Vec::with_capacity(20 + 8 * cols.len());
+            // Fixed layout: header, trajectory, padding, t, then the columns.
+            let mut payload = vec![0u8; 20 + 8 * cols.len()];
+            payload[..4].copy_from_slice(&CDR_HEADER);
             let mut seq: u32 = 0;
             for batch in rx {
                 for r in 0..batch.len() {
-                    payload.clear();
-                    payload.extend_from_slice(&CDR_HEADER);
-                    payload.extend_from_slice(&batch.trajectory[r].to_le_bytes());
-                    payload.extend_from_slice(&[0; 4]);
-                    payload.extend_from_slice(&batch.time[r].to_le_bytes());
-                    for v in batch.row(r) {
-                        payload.extend_from_slice(&v.to_le_bytes());
+                    payload[4..8].copy_from_slice(&batch.trajectory[r].to_le_bytes());
+                    payload[12..20].copy_from_slice(&batch.time[r].to_le_bytes());
+                    for (out, v) in payload[20..].chunks_exact_mut(8).zip(batch.row(r)) {
+                        out.copy_from_slice(&v.to_le_bytes());
                     }
                     let ns = (batch.time[r] * 1e9).round() as u64;
                     let header = MessageHeader {
