@@ -207,8 +207,7 @@ impl<const D: usize> LaneModel<D> {
                 lm.ou_weight[i * no + slot] = 1.0;
             }
         }
-        let links = m.links();
-        lm.advance = match (n, links) {
+        lm.advance = match (n, m.links()) {
             _ if lm.is_white.len() > MAX_KERNEL_EXCITATIONS => advance_generic::<D>,
             (1, 1) => advance_fixed::<1, 1, D>,
             (1, 2) => advance_fixed::<1, 2, D>,
