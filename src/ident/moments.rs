@@ -3,7 +3,7 @@
 //!
 //! Samples arrive in blocks; each block is split into fixed-size chunks summed in parallel
 //! and merged in chunk order, so the result does not depend on the number of threads. Each
-//! monomial is its parent monomial times one variable, evaluated for [`CHUNK_LANES`]
+//! monomial is its parent monomial times one variable, evaluated for `CHUNK_LANES`
 //! samples at a time so the inner loop vectorises.
 
 use super::poly::{exponent, monomials, var, Exponents};
