@@ -44,9 +44,15 @@ impl SampleSink for Payload {
 /// chunk), and the compressed size.
 fn zstd_seconds(bytes: &[u8], level: i32) -> (f64, usize) {
     let mut out = 0;
-    let t = fastest(3, &mut [&mut || {
-        out = bytes.chunks(1 << 20).map(|c| zstd::bulk::compress(c, level).unwrap().len()).sum();
-    }])[0];
+    let t = fastest(
+        3,
+        &mut [&mut || {
+            out = bytes
+                .chunks(1 << 20)
+                .map(|c| zstd::bulk::compress(c, level).unwrap().len())
+                .sum();
+        }],
+    )[0];
     (t, out)
 }
 
