@@ -4,9 +4,11 @@
 //! Performance design: trajectories are stepped [`LANES`] at a time in struct-of-arrays
 //! lanes, so the CPU always has independent work while one lane waits on its state's
 //! dependency chain, and the per-link polynomial loop is amortised over the lanes. The
-//! fixed-shape kernel (`advance_fixed`) separates the two kinds of work: the normals of a
-//! block of steps are drawn first, one generator at a time (`fill_noise`), then the steps
-//! run over them as vector arithmetic, 16 lanes at a time in registers. Each
+//! shaped kernel (`advance_shaped`, up to four masses and four excitations) separates the
+//! two kinds of work: the normals of a block of steps are drawn first, one generator at a
+//! time (`fill_noise`), then the steps run over them as straight-line vector arithmetic,
+//! 16 lanes at a time in registers, with every link's ends known at compile time (the
+//! links are rewritten as one per pair of ends, `LaneModel::complete_links`). Each
 //! lane has its own `Xoshiro256PlusPlus`, seeded from `(seed, trajectory)`, so the output is
 //! bit-identical whatever the number of threads. Time advances in blocks of samples: in a
 //! block every lane group runs in parallel (rayon), then the block's samples are handed,
@@ -111,6 +113,9 @@ pub fn trajectory_seed(seed: u64, j: usize) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Advances a group by a number of steps.
+type Stepper<const D: usize> = fn(&mut Group, &LaneModel<D>, usize);
+
 /// The model compiled for lane stepping: every characteristic padded to degree `D` (a
 /// compile-time constant, so each link is one fused, vectorised lane loop with no branch),
 /// and the ground as a phantom mass `n` whose state stays 0.
@@ -126,9 +131,13 @@ struct LaneModel<const D: usize> {
     /// `h / m_i`.
     h_inv_mass: Vec<f64>,
     inv_mass: Vec<f64>,
-    /// Per white excitation: its index and `σ√h`.
+    /// Per white excitation: its index and `σ√h` (its impulse over a step per standard
+    /// normal).
     white: Vec<(usize, f64)>,
-    /// Per mass: (white-excitation slot, `1/m_i`) of the white forces acting on it.
+    /// Per excitation: `σ√h` if white, else 0.
+    impulse_scale: Vec<f64>,
+    /// Per mass: (white-excitation slot, `σ√h/m_i`) of the white forces acting on it: the
+    /// velocity change per standard normal.
     white_on: Vec<Vec<(usize, f64)>>,
     /// Per filtered excitation: index, exact-transition decay and standard deviation.
     ou: Vec<(usize, f64, f64)>,
@@ -138,16 +147,18 @@ struct LaneModel<const D: usize> {
     is_white: Vec<bool>,
     /// Per link: the number of stiffness and damping coefficients before padding.
     lens: Vec<(usize, usize)>,
-    /// `white_weight[i·n_white + slot] = 1/m_i` if white slot acts on mass `i`, else 0.
+    /// `white_weight[i·n_white + slot] = σ√h/m_i` if white slot acts on mass `i`, else 0.
     white_weight: Vec<f64>,
     /// `ou_weight[i·n_ou + slot] = 1` if filtered slot acts on mass `i`, else 0.
     ou_weight: Vec<f64>,
-    /// Advances a group by a number of steps: a fixed-shape kernel when one matches.
-    advance: fn(&mut Group, &LaneModel<D>, usize),
+    /// Advances a group by a number of steps: the shaped kernel when one fits.
+    advance: Stepper<D>,
 }
 
 impl<const D: usize> LaneModel<D> {
-    fn new(m: &Model, sim: &Simulation) -> Self {
+    /// The model compiled for stepping with the kernel `shaped` picks for its size (see
+    /// [`shaped_kernel`]), or the generic stepper.
+    fn new(m: &Model, sim: &Simulation, shaped: fn(&LaneModel<D>) -> Option<Stepper<D>>) -> Self {
         let n = m.masses();
         let h = sim.dt / sim.substeps as f64;
         let pad = |cs: &[f64]| {
@@ -166,6 +177,7 @@ impl<const D: usize> LaneModel<D> {
             h_inv_mass: m.inv_mass.iter().map(|im| h * im).collect(),
             inv_mass: m.inv_mass.clone(),
             white: Vec::new(),
+            impulse_scale: Vec::new(),
             white_on: vec![Vec::new(); n],
             ou: Vec::new(),
             ou_on: vec![Vec::new(); n],
@@ -179,9 +191,10 @@ impl<const D: usize> LaneModel<D> {
             match exc.process {
                 Process::White { sigma } => {
                     for &i in &exc.targets {
-                        lm.white_on[i].push((lm.white.len(), m.inv_mass[i]));
+                        lm.white_on[i].push((lm.white.len(), sigma * h.sqrt() * m.inv_mass[i]));
                     }
                     lm.white.push((e, sigma * h.sqrt()));
+                    lm.impulse_scale.push(sigma * h.sqrt());
                     lm.is_white.push(true);
                 }
                 Process::Filtered { a, b } => {
@@ -191,6 +204,7 @@ impl<const D: usize> LaneModel<D> {
                         lm.ou_on[i].push(e);
                     }
                     lm.ou.push((e, d, a * ((1.0 - d * d) / (2.0 * b)).sqrt()));
+                    lm.impulse_scale.push(0.0);
                     lm.is_white.push(false);
                 }
             }
@@ -207,23 +221,56 @@ impl<const D: usize> LaneModel<D> {
                 lm.ou_weight[i * no + slot] = 1.0;
             }
         }
-        lm.advance = match (n, m.links()) {
-            _ if lm.is_white.len() > MAX_KERNEL_EXCITATIONS => advance_generic::<D>,
-            (1, 1) => advance_fixed::<1, 1, D>,
-            (1, 2) => advance_fixed::<1, 2, D>,
-            (2, 2) => advance_fixed::<2, 2, D>,
-            (2, 3) => advance_fixed::<2, 3, D>,
-            (3, 3) => advance_fixed::<3, 3, D>,
-            (3, 4) => advance_fixed::<3, 4, D>,
-            (4, 5) => advance_fixed::<4, 5, D>,
-            _ => advance_generic::<D>,
-        };
+        if let Some(kernel) = shaped(&lm) {
+            lm.complete_links();
+            lm.advance = kernel;
+        }
         lm
     }
 }
 
-/// One step's noise for every lane: white increments into `dw` (and accumulated into the
-/// impulse in `p`), exact OU transitions of the filtered forces in `p`. The draw order is
+/// The shaped kernel for `lm`'s size, if there is one: up to [`SHAPED_MAX_MASSES`] masses
+/// and four excitations (white and filtered together). Only the padded degrees up to 5 have one
+/// (each degree instantiates the kernel for every size); higher ones step generically.
+fn shaped_kernel<const D: usize>(lm: &LaneModel<D>) -> Option<Stepper<D>> {
+    macro_rules! by_excitations {
+        ($n:literal) => {
+            match (lm.white.len(), lm.ou.len()) {
+                (1, 0) => Some(advance_shaped::<$n, D, 1, 0>),
+                (0, 1) => Some(advance_shaped::<$n, D, 0, 1>),
+                (2, 0) => Some(advance_shaped::<$n, D, 2, 0>),
+                (1, 1) => Some(advance_shaped::<$n, D, 1, 1>),
+                (0, 2) => Some(advance_shaped::<$n, D, 0, 2>),
+                (3, 0) => Some(advance_shaped::<$n, D, 3, 0>),
+                (2, 1) => Some(advance_shaped::<$n, D, 2, 1>),
+                (1, 2) => Some(advance_shaped::<$n, D, 1, 2>),
+                (0, 3) => Some(advance_shaped::<$n, D, 0, 3>),
+                (4, 0) => Some(advance_shaped::<$n, D, 4, 0>),
+                (3, 1) => Some(advance_shaped::<$n, D, 3, 1>),
+                (2, 2) => Some(advance_shaped::<$n, D, 2, 2>),
+                (1, 3) => Some(advance_shaped::<$n, D, 1, 3>),
+                (0, 4) => Some(advance_shaped::<$n, D, 0, 4>),
+                _ => None,
+            }
+        };
+    }
+    match lm.n {
+        1 => by_excitations!(1),
+        2 => by_excitations!(2),
+        3 => by_excitations!(3),
+        4 => by_excitations!(4),
+        _ => None,
+    }
+}
+
+/// For padded degrees without a shaped kernel.
+fn no_kernel<const D: usize>(_: &LaneModel<D>) -> Option<Stepper<D>> {
+    None
+}
+
+/// One step's noise for every lane: the white excitations' standard normals into `dw` (and
+/// summed in `p`: the impulse since the last sample in units of `σ√h`), exact OU
+/// transitions of the filtered forces in `p`. The draw order is
 /// fixed (white excitations, then filtered, in scenario order), so every stepper consumes
 /// each lane's generator identically.
 #[inline(always)]
@@ -233,11 +280,10 @@ fn draw_noise<const D: usize>(
     p: &mut [Lane],
     dw: &mut [Lane],
 ) {
-    for (slot, &(e, scale)) in lm.white.iter().enumerate() {
+    for (slot, &(e, _)) in lm.white.iter().enumerate() {
         let mut d = zero();
         for j in 0..LANES {
-            let z: f64 = StandardNormal.sample(&mut rng[j]);
-            d[j] = scale * z;
+            d[j] = StandardNormal.sample(&mut rng[j]);
         }
         for j in 0..LANES {
             p[e][j] += d[j];
@@ -281,38 +327,88 @@ fn fill_noise(rng: &mut [Xoshiro256PlusPlus; LANES], nz: usize, steps: usize, no
     }
 }
 
-/// Lanes the fixed kernel carries through a noise block at once: few enough that the
-/// state and the temporaries stay in vector registers (32 lanes spill), enough independent
-/// chains to overlap the step's latency (8 lanes wait on it); 16 measured fastest.
-const W: usize = 16;
-type Part = [f64; W];
-/// Excitations the fixed kernel keeps in registers (more go to the generic stepper).
-const MAX_KERNEL_EXCITATIONS: usize = 4;
+/// Masses the shaped kernel handles.
+const SHAPED_MAX_MASSES: usize = 4;
+/// Link slots of the shaped kernel: one per pair of ends among its masses and the ground.
+const SHAPED_LINK_SLOTS: usize = SHAPED_MAX_MASSES * (SHAPED_MAX_MASSES + 1) / 2;
 
-/// The fixed-shape kernel: `N` masses and `L` links known at compile time, so the loops
-/// over masses and links unroll and every lane array is addressed statically. Each link
-/// costs only its own flops: `u = x_a − x_b` (a ground end contributes nothing), Horner from
-/// the characteristic's own highest power, force into its two ends; each white force only
-/// into the masses it acts on. The arithmetic is that of [`Group::forces`] and
-/// [`Group::step`] operation for operation (the same fused multiply–adds in the same
-/// order; starting Horner at the highest non-padded power gives the padded evaluation's
-/// bits, `0·u + k = k`), so the kernel is bit-identical to the generic stepper (tested).
+/// The `l`-th link slot of `n` masses: `(a, b)` with `a < b ≤ n` (`n` is the ground), in
+/// lexicographic order, so slot `l` of a `n`-mass model is known at compile time.
+const fn link_slot(n: usize, l: usize) -> (usize, usize) {
+    let mut i = 0;
+    let mut a = 0;
+    while a < n {
+        let mut b = a + 1;
+        while b <= n {
+            if i == l {
+                return (a, b);
+            }
+            i += 1;
+            b += 1;
+        }
+        a += 1;
+    }
+    (usize::MAX, usize::MAX)
+}
+
+impl<const D: usize> LaneModel<D> {
+    /// Rewrites the links as the complete set of [`link_slot`]s of `n` masses, so a kernel
+    /// knows every link's ends at compile time. A link joining `b` to `a < b` is turned
+    /// round, exactly: with `u → −u`, `F̃(u) = −F(−u)` negates the even powers' coefficients
+    /// and gives the same forces bit for bit. Links joining the same two ends are summed
+    /// into one; a pair with no link is a slot with zero coefficients, which adds exact
+    /// zeros. Both steppers use the result, so they stay bit-identical.
+    fn complete_links(&mut self) {
+        let n = self.n;
+        let slots = n * (n + 1) / 2;
+        let (mut k, mut c) = (vec![[0.0; D]; slots], vec![[0.0; D]; slots]);
+        let mut lens = vec![(0, 0); slots];
+        for l in 0..self.a.len() {
+            let (a, b) = (self.a[l].min(self.b[l]), self.a[l].max(self.b[l]));
+            let turned = self.a[l] > self.b[l];
+            let slot = (0..slots)
+                .find(|&s| link_slot(n, s) == (a, b))
+                .expect("every pair has a slot");
+            lens[slot] = (lens[slot].0.max(self.lens[l].0), lens[slot].1.max(self.lens[l].1));
+            for q in 0..D {
+                // Power q + 1: even powers change sign when the link is turned round.
+                let sign = if turned && q % 2 == 1 { -1.0 } else { 1.0 };
+                k[slot][q] += sign * self.k[l][q];
+                c[slot][q] += sign * self.c[l][q];
+            }
+        }
+        (self.a, self.b) = (0..slots).map(|s| link_slot(n, s)).unzip();
+        (self.k, self.c) = (k, c);
+        self.lens = lens;
+    }
+}
+
+/// The shaped kernel: `N` masses, `NW` white and `NO` filtered excitations known at compile
+/// time, and the links in the complete set of [`link_slot`]s (see
+/// [`LaneModel::complete_links`]), so every link's ends are constants and the step is
+/// straight-line vector arithmetic on registers, with no branch: Horner over the padded
+/// degree, each excitation into every mass with its weight (zero where it does not act).
+/// The operations are those of [`Group::forces`] and [`Group::step`] in the same order, so
+/// the kernel is bit-identical to the generic stepper (tested).
 ///
-/// The normals are drawn [`NOISE_STEPS`] steps at a time by [`fill_noise`] (the
-/// generator's tight loop), then the steps run over the buffer, [`W`] lanes at a time, as
-/// pure vector arithmetic. The white impulse enters the velocity before the force does:
-/// it does not wait on the force's dependency chain.
-fn advance_fixed<const N: usize, const L: usize, const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usize) {
-    // Constant-size copies: the loops over masses and links are unrolled and every lane
-    // array is addressed statically.
-    let ends: [(usize, usize); L] = std::array::from_fn(|l| (lm.a[l], lm.b[l]));
-    let lens: [(usize, usize); L] = std::array::from_fn(|l| lm.lens[l]);
-    let k: [[f64; D]; L] = std::array::from_fn(|l| lm.k[l]);
-    let c: [[f64; D]; L] = std::array::from_fn(|l| lm.c[l]);
+/// The normals are drawn [`NOISE_STEPS`] steps at a time by [`fill_noise`], then the steps
+/// run over them, [`W`] lanes at a time. The white impulse enters the velocity before the
+/// force does: it does not wait on the force's dependency chain.
+fn advance_shaped<const N: usize, const D: usize, const NW: usize, const NO: usize>(
+    g: &mut Group,
+    lm: &LaneModel<D>,
+    steps: usize,
+) {
+    let k: [[f64; D]; SHAPED_LINK_SLOTS] = std::array::from_fn(|l| lm.k.get(l).copied().unwrap_or([0.0; D]));
+    let c: [[f64; D]; SHAPED_LINK_SLOTS] = std::array::from_fn(|l| lm.c.get(l).copied().unwrap_or([0.0; D]));
+    let lens: [(usize, usize); SHAPED_LINK_SLOTS] = std::array::from_fn(|l| lm.lens.get(l).copied().unwrap_or((0, 0)));
     let him: [f64; N] = std::array::from_fn(|i| lm.h_inv_mass[i]);
+    let white: [(usize, f64); NW] = std::array::from_fn(|s| lm.white[s]);
+    let white_weight: [[f64; NW]; N] = std::array::from_fn(|i| std::array::from_fn(|s| lm.white_weight[i * NW + s]));
+    let ou: [(usize, f64, f64); NO] = std::array::from_fn(|s| lm.ou[s]);
+    let ou_weight: [[f64; NO]; N] = std::array::from_fn(|i| std::array::from_fn(|s| lm.ou_weight[i * NO + s]));
     let (h, semi) = (lm.h, lm.semi_implicit);
-    let (nw, no) = (lm.white.len(), lm.ou.len());
-    let nz = nw + no;
+    let nz = NW + NO;
     let mut done = 0;
     while done < steps {
         let block = (steps - done).min(NOISE_STEPS);
@@ -321,76 +417,89 @@ fn advance_fixed<const N: usize, const L: usize, const D: usize>(g: &mut Group, 
             let part = |lane: &Lane| -> Part { lane[h0..h0 + W].try_into().expect("part") };
             let mut x: [Part; N] = std::array::from_fn(|i| part(&g.x[i]));
             let mut v: [Part; N] = std::array::from_fn(|i| part(&g.v[i]));
-            let mut p: [Part; MAX_KERNEL_EXCITATIONS] = std::array::from_fn(|e| g.p.get(e).map_or([0.0; W], part));
+            let mut pw: [Part; NW] = std::array::from_fn(|s| part(&g.p[white[s].0]));
+            let mut po: [Part; NO] = std::array::from_fn(|s| part(&g.p[ou[s].0]));
             for t in 0..block {
                 let noise = &g.noise;
+                // Used as a copied value (`*z(slot)`): read in place through the reference,
+                // LLVM sometimes leaves the lane loops that use it scalar.
                 let z = |slot: usize| -> &Part { noise[(t * nz + slot) * LANES + h0..][..W].try_into().expect("part") };
                 let mut f = [[0.0; W]; N];
-                for l in 0..L {
-                    let (a, b) = ends[l];
-                    let (mut u, mut w) = ([0.0; W], [0.0; W]);
-                    for i in 0..N {
-                        if i == a {
-                            (u, w) = (x[i], v[i]);
-                        }
-                    }
-                    for i in 0..N {
-                        if i == b {
+                // One link slot; `$l` is a literal, so its ends fold to constants.
+                macro_rules! link {
+                    ($l:literal) => {
+                        // From three masses on, an empty slot (no link between its ends) is
+                        // skipped, a branch on a constant of the run; below, the branch costs
+                        // more than the slot's few exact zeros.
+                        if $l < N * (N + 1) / 2 && (N < 3 || lens[$l] != (0, 0)) {
+                            let (a, b) = const { link_slot(N, $l) };
+                            let (mut u, mut w) = (x[a], v[a]);
+                            if b < N {
+                                for j in 0..W {
+                                    u[j] -= x[b][j];
+                                    w[j] -= v[b][j];
+                                }
+                            }
+                            let (dk, dc) = lens[$l];
+                            let (mut ku, mut cw) = ([0.0; W], [0.0; W]);
+                            for q in (0..D).rev() {
+                                if q + 1 == dk {
+                                    ku = [k[$l][q]; W];
+                                } else if q + 1 < dk {
+                                    for j in 0..W {
+                                        ku[j] = ku[j].mul_add(u[j], k[$l][q]);
+                                    }
+                                }
+                                if q + 1 == dc {
+                                    cw = [c[$l][q]; W];
+                                } else if q + 1 < dc {
+                                    for j in 0..W {
+                                        cw[j] = cw[j].mul_add(w[j], c[$l][q]);
+                                    }
+                                }
+                            }
                             for j in 0..W {
-                                u[j] -= x[i][j];
-                                w[j] -= v[i][j];
+                                let force = ku[j].mul_add(u[j], cw[j] * w[j]);
+                                f[a][j] -= force;
+                                if b < N {
+                                    f[b][j] += force;
+                                }
                             }
                         }
-                    }
-                    let (dk, dc) = lens[l];
-                    let (mut ku, mut cw) = ([0.0; W], [0.0; W]);
-                    for q in (0..D).rev() {
-                        if q + 1 == dk {
-                            ku = [k[l][q]; W];
-                        } else if q + 1 < dk {
-                            for j in 0..W {
-                                ku[j] = ku[j].mul_add(u[j], k[l][q]);
-                            }
-                        }
-                        if q + 1 == dc {
-                            cw = [c[l][q]; W];
-                        } else if q + 1 < dc {
-                            for j in 0..W {
-                                cw[j] = cw[j].mul_add(w[j], c[l][q]);
-                            }
-                        }
-                    }
-                    let mut force = [0.0; W];
-                    for j in 0..W {
-                        force[j] = ku[j].mul_add(u[j], cw[j] * w[j]);
-                    }
-                    for i in 0..N {
-                        if i == a {
-                            for j in 0..W {
-                                f[i][j] -= force[j];
-                            }
-                        }
-                        if i == b {
-                            for j in 0..W {
-                                f[i][j] += force[j];
-                            }
-                        }
-                    }
+                    };
                 }
-                for (slot, &(e, decay, sd)) in lm.ou.iter().enumerate() {
-                    for i in 0..N {
-                        let wgt = lm.ou_weight[i * no + slot];
-                        for j in 0..W {
-                            f[i][j] = wgt.mul_add(p[e][j], f[i][j]);
+                link!(0);
+                link!(1);
+                link!(2);
+                link!(3);
+                link!(4);
+                link!(5);
+                link!(6);
+                link!(7);
+                link!(8);
+                link!(9);
+                // Unrolled by hand like the links: as a loop, LLVM leaves it scalar from
+                // three filtered excitations on.
+                macro_rules! filtered {
+                    ($s:literal) => {
+                        if $s < NO {
+                            for i in 0..N {
+                                for j in 0..W {
+                                    f[i][j] = ou_weight[i][$s].mul_add(po[$s][j], f[i][j]);
+                                }
+                            }
+                            let (_, decay, sd) = ou[$s];
+                            let zo = *z(NW + $s);
+                            for j in 0..W {
+                                po[$s][j] = po[$s][j].mul_add(decay, sd * zo[j]);
+                            }
                         }
-                    }
-                    let zo = z(nw + slot);
-                    let mut pe = p[e];
-                    for j in 0..W {
-                        pe[j] = pe[j].mul_add(decay, sd * zo[j]);
-                    }
-                    p[e] = pe;
+                    };
                 }
+                filtered!(0);
+                filtered!(1);
+                filtered!(2);
+                filtered!(3);
                 if !semi {
                     for i in 0..N {
                         for j in 0..W {
@@ -399,21 +508,14 @@ fn advance_fixed<const N: usize, const L: usize, const D: usize>(g: &mut Group, 
                     }
                 }
                 // The white impulses first: they do not wait for this step's forces.
-                for (slot, &(e, scale)) in lm.white.iter().enumerate() {
-                    let zw = z(slot);
-                    let mut d = [0.0; W];
-                    let mut pe = p[e];
+                for s in 0..NW {
+                    let zw = *z(s);
                     for j in 0..W {
-                        d[j] = scale * zw[j];
-                        pe[j] += d[j];
+                        pw[s][j] += zw[j];
                     }
-                    p[e] = pe;
                     for i in 0..N {
-                        let im = lm.white_weight[i * nw + slot];
-                        if im != 0.0 {
-                            for j in 0..W {
-                                v[i][j] = im.mul_add(d[j], v[i][j]);
-                            }
+                        for j in 0..W {
+                            v[i][j] = white_weight[i][s].mul_add(zw[j], v[i][j]);
                         }
                     }
                 }
@@ -432,14 +534,22 @@ fn advance_fixed<const N: usize, const L: usize, const D: usize>(g: &mut Group, 
                 g.x[i][h0..h0 + W].copy_from_slice(&x[i]);
                 g.v[i][h0..h0 + W].copy_from_slice(&v[i]);
             }
-            for (e, pe) in g.p.iter_mut().enumerate() {
-                pe[h0..h0 + W].copy_from_slice(&p[e]);
+            for s in 0..NW {
+                g.p[white[s].0][h0..h0 + W].copy_from_slice(&pw[s]);
+            }
+            for s in 0..NO {
+                g.p[ou[s].0][h0..h0 + W].copy_from_slice(&po[s]);
             }
         }
         done += block;
     }
 }
 
+/// Lanes the shaped kernel carries through a noise block at once: few enough that the
+/// state and the temporaries stay in vector registers (32 lanes spill), enough independent
+/// chains to overlap the step's latency (8 lanes wait on it); 16 measured fastest.
+const W: usize = 16;
+type Part = [f64; W];
 /// `LANES` trajectories in struct-of-arrays form.
 struct Group {
     first: usize,
@@ -450,18 +560,17 @@ struct Group {
     v: Vec<Lane>,
     /// Scratch: force on each mass (and on the ground, ignored).
     f: Vec<Lane>,
-    /// Per excitation: OU force, or the white impulse accumulated since the last sample.
+    /// Per excitation: OU force, or the white impulse since the last sample in units of
+    /// `σ√h` (the sum of its standard normals).
     p: Vec<Lane>,
     /// Scratch: this step's white-noise increments, per white excitation.
     dw: Vec<Lane>,
-    /// Scratch: a block of standard normals for the fixed kernel (see [`fill_noise`]).
+    /// Scratch: a block of standard normals for the shaped kernel (see [`fill_noise`]).
     noise: Vec<f64>,
     /// Velocities at the previous sample (for `Δv ÷ interval`).
     v_mark: Vec<Lane>,
     /// Scratch: the displacements while a sample is taken at the velocity's instant.
     x_keep: Vec<Lane>,
-    /// This block's samples: `[k][lane][column]`.
-    buf: Vec<f64>,
 }
 
 #[inline(always)]
@@ -485,7 +594,6 @@ impl Group {
             noise: vec![0.0; NOISE_STEPS * ne * LANES],
             v_mark: vec![zero(); n],
             x_keep: vec![zero(); n],
-            buf: Vec::new(),
         }
     }
 
@@ -582,20 +690,25 @@ impl Group {
         })
     }
 
-    fn state_of(&self, m: &Model, j: usize) -> Vec<(String, f64)> {
+    /// Lane `j`'s state by name; a white excitation's `p` is its impulse since the last
+    /// sample (N·s), a filtered one's its force.
+    fn state_of<const D: usize>(&self, m: &Model, lm: &LaneModel<D>, j: usize) -> Vec<(String, f64)> {
         let mut s = Vec::new();
         for (i, n) in m.mass_names.iter().enumerate() {
             s.push((format!("x_{n}"), self.x[i][j]));
             s.push((format!("v_{n}"), self.v[i][j]));
         }
         for (e, n) in m.excitation_names.iter().enumerate() {
-            s.push((format!("p_{n}"), self.p[e][j]));
+            let scale = if lm.is_white[e] { lm.impulse_scale[e] } else { 1.0 };
+            s.push((format!("p_{n}"), self.p[e][j] * scale));
         }
         s
     }
 
-    /// Advance `samples` sample intervals of `steps` steps each, recording into `buf`
-    /// (when `record`), checking divergence after every interval.
+    /// Advance `samples` sample intervals of `steps` steps each, checking divergence after
+    /// every interval. When `out` is not empty, the sample at the end of interval `k` goes
+    /// into `out[k]`: the group's active lanes' rows, one after the other (the group's part
+    /// of the batch at that instant, so samples are written once, straight where they go).
     #[allow(clippy::too_many_arguments)]
     fn run<const D: usize>(
         &mut self,
@@ -605,15 +718,13 @@ impl Group {
         samples: usize,
         interval: f64,
         t0: f64,
-        record: bool,
+        out: &mut [&mut [f64]],
     ) -> Result<(), SimError> {
         let n = lm.n;
         let ne = lm.is_white.len();
         let cols = 3 * n + ne;
-        if record {
-            self.buf.clear();
-            self.buf.resize(samples * LANES * cols, 0.0);
-        }
+        let record = !out.is_empty();
+        debug_assert!(!record || out.len() == samples);
         for k in 0..samples {
             (lm.advance)(self, lm, steps);
             if let Some(j) = self.diverged_lane() {
@@ -621,7 +732,7 @@ impl Group {
                     trajectory: self.first + j,
                     t_from: t0 + k as f64 * interval,
                     t_to: t0 + (k + 1) as f64 * interval,
-                    state: self.state_of(m, j),
+                    state: self.state_of(m, lm, j),
                 });
             }
             if record {
@@ -641,9 +752,7 @@ impl Group {
                 }
                 // Instantaneous force balance for masses without white noise.
                 self.forces(lm);
-                let row0 = k * LANES * cols;
-                for j in 0..LANES {
-                    let row = &mut self.buf[row0 + j * cols..row0 + (j + 1) * cols];
+                for (j, row) in out[k].chunks_exact_mut(cols).enumerate() {
                     for i in 0..n {
                         row[3 * i] = self.x[i][j];
                         row[3 * i + 1] = self.v[i][j];
@@ -655,7 +764,7 @@ impl Group {
                     }
                     for e in 0..ne {
                         row[3 * n + e] = if lm.is_white[e] {
-                            self.p[e][j] / interval
+                            self.p[e][j] * lm.impulse_scale[e] / interval
                         } else {
                             self.p[e][j]
                         };
@@ -691,8 +800,8 @@ pub fn simulate(
     simulate_with(model, sim, sink, progress, false)
 }
 
-/// [`simulate`] with the generic stepper only (no fixed-shape kernel): the reference the
-/// kernels are tested against, bit for bit.
+/// [`simulate`] with the generic stepper only (no shaped kernel, but the same rewritten
+/// links): the reference the kernel is tested against, bit for bit.
 pub fn simulate_generic(
     model: &Model,
     sim: &Simulation,
@@ -715,12 +824,11 @@ fn simulate_with(
         .unwrap_or(1);
     // One monomorphised stepper per padded degree.
     match degree {
-        0 | 1 => simulate_padded::<1>(model, sim, sink, progress, generic),
-        2 => simulate_padded::<2>(model, sim, sink, progress, generic),
-        3 => simulate_padded::<3>(model, sim, sink, progress, generic),
-        4 | 5 => simulate_padded::<5>(model, sim, sink, progress, generic),
-        6 | 7 => simulate_padded::<7>(model, sim, sink, progress, generic),
-        _ => simulate_padded::<15>(model, sim, sink, progress, generic),
+        0 | 1 => simulate_padded::<1>(model, sim, sink, progress, generic, shaped_kernel),
+        2 | 3 => simulate_padded::<3>(model, sim, sink, progress, generic, shaped_kernel),
+        4 | 5 => simulate_padded::<5>(model, sim, sink, progress, generic, shaped_kernel),
+        6 | 7 => simulate_padded::<7>(model, sim, sink, progress, generic, no_kernel),
+        _ => simulate_padded::<15>(model, sim, sink, progress, generic, no_kernel),
     }
 }
 
@@ -730,8 +838,9 @@ fn simulate_padded<const D: usize>(
     sink: &mut dyn SampleSink,
     progress: &(dyn Fn(u64) + Sync),
     generic: bool,
+    shaped: fn(&LaneModel<D>) -> Option<Stepper<D>>,
 ) -> Result<RunStats, SimError> {
-    let mut lm = LaneModel::<D>::new(model, sim);
+    let mut lm = LaneModel::<D>::new(model, sim, shaped);
     if generic {
         lm.advance = advance_generic::<D>;
     }
@@ -749,9 +858,9 @@ fn simulate_padded<const D: usize>(
     let burn_rest = burn_steps % steps;
     let t_burn = -(burn_steps as f64) * lm.h;
     groups.par_iter_mut().try_for_each(|g| {
-        g.run(model, &lm, steps, burn_intervals, interval, t_burn, false)?;
+        g.run(model, &lm, steps, burn_intervals, interval, t_burn, &mut [])?;
         let t_rest = t_burn + burn_intervals as f64 * interval;
-        g.run(model, &lm, burn_rest, 1, burn_rest as f64 * lm.h, t_rest, false)?;
+        g.run(model, &lm, burn_rest, 1, burn_rest as f64 * lm.h, t_rest, &mut [])?;
         // The first sample's Δv and impulse start here.
         g.v_mark.copy_from_slice(&g.v[..model.masses()]);
         for (e, p) in g.p.iter_mut().enumerate() {
@@ -767,15 +876,8 @@ fn simulate_padded<const D: usize>(
     while done < total {
         let b = block.min(total - done);
         let t0 = done as f64 * interval;
-        let results: Vec<Result<(), SimError>> = groups
-            .par_iter_mut()
-            .map(|g| g.run(model, &lm, steps, b, interval, t0, true))
-            .collect();
-        // The first failing group in trajectory order, whatever the thread count.
-        results.into_iter().collect::<Result<Vec<()>, SimError>>()?;
-        // The block's samples in (time, trajectory) order, gathered in parallel (a serial
-        // copy here would idle the other cores between blocks). `vec![0.0; n]` is lazily
-        // zeroed memory, so the pages are first touched by the parallel writers too.
+        // `vec![0.0; n]` is lazily zeroed memory: its pages are first touched by the groups
+        // writing their samples, in parallel, straight into their rows of the batch.
         let per_k = sim.trajectories;
         let mut batch = SampleBatch {
             columns: cols,
@@ -783,23 +885,34 @@ fn simulate_padded<const D: usize>(
             time: vec![0.0; b * per_k],
             values: vec![0.0; b * per_k * cols],
         };
+        // Each group's rows at each instant of the block: contiguous in (time, trajectory)
+        // order, so the batch splits into disjoint slices, `b` per group.
+        let mut rows: Vec<Vec<&mut [f64]>> = groups.iter().map(|_| Vec::with_capacity(b)).collect();
+        for instant in batch.values.chunks_exact_mut(per_k * cols) {
+            let mut rest = instant;
+            for (g, r) in groups.iter().zip(rows.iter_mut()) {
+                let (mine, tail) = rest.split_at_mut(g.active * cols);
+                r.push(mine);
+                rest = tail;
+            }
+        }
+        let results: Vec<Result<(), SimError>> = groups
+            .par_iter_mut()
+            .zip(rows.par_iter_mut())
+            .map(|(g, out)| g.run(model, &lm, steps, b, interval, t0, out))
+            .collect();
+        drop(rows);
+        // The first failing group in trajectory order, whatever the thread count.
+        results.into_iter().collect::<Result<Vec<()>, SimError>>()?;
         batch
-            .values
-            .par_chunks_mut(per_k * cols)
-            .zip(batch.trajectory.par_chunks_mut(per_k))
+            .trajectory
+            .par_chunks_mut(per_k)
             .zip(batch.time.par_chunks_mut(per_k))
             .enumerate()
-            .for_each(|(k, ((values, trajectory), time))| {
-                let t = (done + k + 1) as f64 * interval;
-                time.fill(t);
-                let mut r = 0;
-                for g in &groups {
-                    let at = k * LANES * cols;
-                    values[r * cols..(r + g.active) * cols].copy_from_slice(&g.buf[at..at + g.active * cols]);
-                    for j in 0..g.active {
-                        trajectory[r + j] = (g.first + j) as u32;
-                    }
-                    r += g.active;
+            .for_each(|(k, (trajectory, time))| {
+                time.fill((done + k + 1) as f64 * interval);
+                for (j, r) in trajectory.iter_mut().enumerate() {
+                    *r = j as u32;
                 }
             });
         sink.write(batch).map_err(SimError::Sink)?;

@@ -261,7 +261,7 @@ fn diverging_simulation_reports_trajectory_time_and_state() {
     );
 }
 
-/// The fixed-shape kernel and the generic stepper give bit-identical samples for `s`.
+/// The shaped kernel and the generic stepper give bit-identical samples for `s`.
 fn assert_kernel_matches_generic(s: &Scenario, label: &str) {
     let m = Model::new(s);
     let (mut a, mut b) = (Collect::default(), Collect::default());
@@ -277,7 +277,7 @@ fn assert_kernel_matches_generic(s: &Scenario, label: &str) {
 }
 
 #[test]
-fn fixed_shape_kernel_is_bit_identical_to_the_generic_stepper() {
+fn shaped_kernel_is_bit_identical_to_the_generic_stepper() {
     for (file, scheme) in [
         ("scenarios/duffing2dof.toml", Scheme::SemiImplicit),
         ("scenarios/sdof_duffing.toml", Scheme::EulerMaruyama),
@@ -302,4 +302,80 @@ fn fixed_shape_kernel_is_bit_identical_to_the_generic_stepper() {
         "dt = 1e-3\nrecord_length = 20.0\nsample_interval = 0.1\ntrajectories = 33",
     );
     assert_kernel_matches_generic(&s, "filtered_sdof");
+    // Three and four masses: links turned round (`m2`–`m1`), even powers, parallel links,
+    // empty link slots (no `m1`–`m3` link), four excitations with a filtered one on two
+    // masses; both schemes.
+    for n in [3, 4] {
+        for scheme in [Scheme::SemiImplicit, Scheme::EulerMaruyama] {
+            let mut s = Scenario::parse(&odd_shapes(n), "odd_shapes.toml", "t").unwrap();
+            s.simulation.scheme = scheme;
+            assert_kernel_matches_generic(&s, &format!("{n} masses, {scheme:?}"));
+        }
+    }
+}
+
+/// A chain of `n` masses with awkward links: see its use.
+fn odd_shapes(n: usize) -> String {
+    let mut t = String::new();
+    for i in 1..=n {
+        t += &format!("[[mass]]\nname = \"m{i}\"\nvalue = {}\n", 1.0 + 0.5 * i as f64);
+    }
+    t += "[[link]]\nends = [\"ground\", \"m1\"]\nstiffness = { 1 = 10.0, 2 = 3.0, 3 = 20.0 }\ndamping = { 1 = 0.5, 3 = 0.1 }\n";
+    t += "[[link]]\nends = [\"m1\", \"ground\"]\nstiffness = { 1 = 4.0 }\n";
+    for i in 2..=n {
+        t += &format!(
+            "[[link]]\nends = [\"m{i}\", \"m{}\"]\nstiffness = {{ 1 = 5.0, 2 = 1.5, 3 = 2.0 }}\ndamping = {{ 1 = 0.3, 2 = 0.05 }}\n",
+            i - 1
+        );
+    }
+    t += &format!("[[link]]\nends = [\"m{n}\", \"ground\"]\nstiffness = {{ 1 = 8.0 }}\ndamping = {{ 1 = 0.4 }}\n");
+    t += "[[excitation]]\nkind = \"white\"\nsigma = 1.0\nacts_on = [\"m1\"]\n";
+    t += "[[excitation]]\nkind = \"filtered\"\nA = 4.0\nB = 5.0\nacts_on = [\"m1\", \"m2\"]\n";
+    t += "[[excitation]]\nkind = \"white\"\nsigma = 0.5\nacts_on = [\"m2\", \"m3\"]\n";
+    t += &format!("[[excitation]]\nkind = \"filtered\"\nA = 2.0\nB = 3.0\nacts_on = [\"m{n}\"]\n");
+    t += "[simulation]\ndt = 1e-3\nrecord_length = 20.0\nburn_in = 5.0\nsample_interval = 0.1\ntrajectories = 40\nseed = 3\n";
+    t
+}
+
+/// The rewriting of links into one per pair of ends changes no force: a link turned round
+/// (`m2`–`m1` with `F`) is the link `m1`–`m2` with `F̃(u) = −F(−u)` (even powers negated),
+/// and two parallel links are one with the summed coefficients, bit for bit.
+#[test]
+fn turned_round_and_parallel_links_are_their_rewritten_forms() {
+    let two = |links: &str| -> Vec<u64> {
+        let src = format!(
+            "[[mass]]\nname = \"m1\"\nvalue = 1.0\n[[mass]]\nname = \"m2\"\nvalue = 2.0\n{links}\
+             [[link]]\nends = [\"ground\", \"m2\"]\nstiffness = {{ 1 = 8.0 }}\ndamping = {{ 1 = 0.3 }}\n\
+             [[excitation]]\nkind = \"white\"\nsigma = 1.0\nacts_on = [\"m1\"]\n\
+             [simulation]\ndt = 1e-3\nrecord_length = 10.0\nburn_in = 1.0\nsample_interval = 0.1\ntrajectories = 8\nseed = 5\n"
+        );
+        let s = Scenario::parse(&src, "links.toml", "t").unwrap();
+        let mut c = Collect::default();
+        simulate(&Model::new(&s), &s.simulation, &mut c, &|_| {}).unwrap();
+        c.batches
+            .iter()
+            .flat_map(|b| b.values.iter().map(|v| v.to_bits()))
+            .collect()
+    };
+    let ground = "[[link]]\nends = [\"ground\", \"m1\"]\nstiffness = { 1 = 10.0 }\ndamping = { 1 = 0.5 }\n";
+    let turned = two(&format!(
+        "{ground}[[link]]\nends = [\"m2\", \"m1\"]\nstiffness = {{ 1 = 5.0, 2 = 3.0, 3 = 2.0 }}\ndamping = {{ 1 = 0.2, 2 = 0.25 }}\n"
+    ));
+    let rewritten = two(&format!(
+        "{ground}[[link]]\nends = [\"m1\", \"m2\"]\nstiffness = {{ 1 = 5.0, 2 = -3.0, 3 = 2.0 }}\ndamping = {{ 1 = 0.2, 2 = -0.25 }}\n"
+    ));
+    assert_eq!(turned, rewritten, "a turned-round link");
+    // Not the same dynamics without the sign change: the test can fail.
+    let unchanged = two(&format!(
+        "{ground}[[link]]\nends = [\"m1\", \"m2\"]\nstiffness = {{ 1 = 5.0, 2 = 3.0, 3 = 2.0 }}\ndamping = {{ 1 = 0.2, 2 = 0.25 }}\n"
+    ));
+    assert_ne!(turned, unchanged);
+    let parallel = two(&format!(
+        "{ground}[[link]]\nname = \"spring\"\nends = [\"m1\", \"m2\"]\nstiffness = {{ 1 = 4.5, 3 = 2.0 }}\n\
+         [[link]]\nname = \"damper\"\nends = [\"m1\", \"m2\"]\nstiffness = {{ 1 = 0.5 }}\ndamping = {{ 1 = 0.2 }}\n"
+    ));
+    let summed = two(&format!(
+        "{ground}[[link]]\nends = [\"m1\", \"m2\"]\nstiffness = {{ 1 = 5.0, 3 = 2.0 }}\ndamping = {{ 1 = 0.2 }}\n"
+    ));
+    assert_eq!(parallel, summed, "parallel links");
 }
