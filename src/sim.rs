@@ -131,10 +131,10 @@ struct LaneModel<const D: usize> {
     /// `h / m_i`.
     h_inv_mass: Vec<f64>,
     inv_mass: Vec<f64>,
-    /// Per white excitation: its index and `σ√h` (its impulse over a step per standard
-    /// normal).
-    white: Vec<(usize, f64)>,
-    /// Per excitation: `σ√h` if white, else 0.
+    /// Per white excitation (slot): its excitation index.
+    white: Vec<usize>,
+    /// Per excitation: `σ√h` (a white excitation's impulse over a step per standard
+    /// normal), 0 if filtered.
     impulse_scale: Vec<f64>,
     /// Per mass: (white-excitation slot, `σ√h/m_i`) of the white forces acting on it: the
     /// velocity change per standard normal.
@@ -193,7 +193,7 @@ impl<const D: usize> LaneModel<D> {
                     for &i in &exc.targets {
                         lm.white_on[i].push((lm.white.len(), sigma * h.sqrt() * m.inv_mass[i]));
                     }
-                    lm.white.push((e, sigma * h.sqrt()));
+                    lm.white.push(e);
                     lm.impulse_scale.push(sigma * h.sqrt());
                     lm.is_white.push(true);
                 }
@@ -280,7 +280,7 @@ fn draw_noise<const D: usize>(
     p: &mut [Lane],
     dw: &mut [Lane],
 ) {
-    for (slot, &(e, _)) in lm.white.iter().enumerate() {
+    for (slot, &e) in lm.white.iter().enumerate() {
         let mut d = zero();
         for j in 0..LANES {
             d[j] = StandardNormal.sample(&mut rng[j]);
@@ -403,7 +403,7 @@ fn advance_shaped<const N: usize, const D: usize, const NW: usize, const NO: usi
     let c: [[f64; D]; SHAPED_LINK_SLOTS] = std::array::from_fn(|l| lm.c.get(l).copied().unwrap_or([0.0; D]));
     let lens: [(usize, usize); SHAPED_LINK_SLOTS] = std::array::from_fn(|l| lm.lens.get(l).copied().unwrap_or((0, 0)));
     let him: [f64; N] = std::array::from_fn(|i| lm.h_inv_mass[i]);
-    let white: [(usize, f64); NW] = std::array::from_fn(|s| lm.white[s]);
+    let white: [usize; NW] = std::array::from_fn(|s| lm.white[s]);
     let white_weight: [[f64; NW]; N] = std::array::from_fn(|i| std::array::from_fn(|s| lm.white_weight[i * NW + s]));
     let ou: [(usize, f64, f64); NO] = std::array::from_fn(|s| lm.ou[s]);
     let ou_weight: [[f64; NO]; N] = std::array::from_fn(|i| std::array::from_fn(|s| lm.ou_weight[i * NO + s]));
@@ -417,7 +417,7 @@ fn advance_shaped<const N: usize, const D: usize, const NW: usize, const NO: usi
             let part = |lane: &Lane| -> Part { lane[h0..h0 + W].try_into().expect("part") };
             let mut x: [Part; N] = std::array::from_fn(|i| part(&g.x[i]));
             let mut v: [Part; N] = std::array::from_fn(|i| part(&g.v[i]));
-            let mut pw: [Part; NW] = std::array::from_fn(|s| part(&g.p[white[s].0]));
+            let mut pw: [Part; NW] = std::array::from_fn(|s| part(&g.p[white[s]]));
             let mut po: [Part; NO] = std::array::from_fn(|s| part(&g.p[ou[s].0]));
             for t in 0..block {
                 let noise = &g.noise;
@@ -535,7 +535,7 @@ fn advance_shaped<const N: usize, const D: usize, const NW: usize, const NO: usi
                 g.v[i][h0..h0 + W].copy_from_slice(&v[i]);
             }
             for s in 0..NW {
-                g.p[white[s].0][h0..h0 + W].copy_from_slice(&pw[s]);
+                g.p[white[s]][h0..h0 + W].copy_from_slice(&pw[s]);
             }
             for s in 0..NO {
                 g.p[ou[s].0][h0..h0 + W].copy_from_slice(&po[s]);
