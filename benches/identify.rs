@@ -21,16 +21,13 @@ fn main() {
     let mut c = Collect::default();
     simulate(&Model::new(&s), &s.simulation, &mut c, &|_| {}).unwrap();
     let mut rows: Vec<f64> = Vec::new();
+    let mut full_rows: Vec<(u32, f64, Vec<f64>)> = Vec::new();
     for b in &c.batches {
-        for i in 0..b.len() {
-            rows.extend(p.columns.iter().map(|&k| b.row(i)[k]));
-        }
+        b.for_each_sample(|j, t, row| {
+            rows.extend(p.columns.iter().map(|&k| row[k]));
+            full_rows.push((j, t, row.to_vec()));
+        });
     }
-    let full_rows: Vec<(u32, f64, Vec<f64>)> = c
-        .batches
-        .iter()
-        .flat_map(|b| (0..b.len()).map(move |i| (b.trajectory[i], b.time[i], b.row(i).to_vec())))
-        .collect();
     let n = rows.len() / 4;
     let deg = weak::moment_degree(&p);
 

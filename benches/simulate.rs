@@ -6,15 +6,16 @@
 //! - trajectory-steps/s per core ÷ (raw normal rate ÷ normals per step), target ≥ 0.8;
 //! - 2-thread ÷ 1-thread throughput, target ≥ 1.8, next to the same ratio for raw normal
 //!   generation (what this machine's two cores give to perfectly parallel work);
-//! - time with an MCAP log every 10th step ÷ time without logging, target ≤ 1.25, next to
-//!   a floor for any zstd-compressed log: zstd alone on the samples' bare payload bytes;
+//! - time with an MCAP log every 10th step ÷ time without logging, target ≤ 1.25, with the
+//!   sampling's own share, and the same with zstd chunks next to a floor for any
+//!   zstd-compressed log: zstd alone on the samples' bare payload bytes;
 //! - log bytes per sample.
 //!
 //! The machine is shared (a virtual machine's cores), so every ratio compares the fastest
 //! of many interleaved repetitions of each side: contention only ever adds time.
 
 use criterion::{Criterion, Throughput};
-use fpkbench::io::log::LogWriter;
+use fpkbench::io::log::{Compression, LogWriter};
 use fpkbench::model::Model;
 use fpkbench::sim::{simulate, SampleBatch, SampleSink, LANES};
 use fpkbench::Scenario;
@@ -24,15 +25,15 @@ use rand_distr::{Distribution, StandardNormal};
 use std::hint::black_box;
 use std::time::Instant;
 
-/// Keeps each sample's payload bytes (time and values, little-endian f64) as a log would
+/// Keeps each instant's payload bytes (time and values, little-endian f64) as a log would
 /// carry them, without any framing.
 #[derive(Default)]
 struct Payload(Vec<u8>);
 impl SampleSink for Payload {
     fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        for i in 0..b.len() {
-            self.0.extend_from_slice(&b.time[i].to_le_bytes());
-            for v in b.row(i) {
+        for k in 0..b.instants() {
+            self.0.extend_from_slice(&b.time[k].to_le_bytes());
+            for v in b.instant(k) {
                 self.0.extend_from_slice(&v.to_le_bytes());
             }
         }
@@ -56,11 +57,16 @@ fn zstd_seconds(bytes: &[u8], level: i32) -> (f64, usize) {
     (t, out)
 }
 
-struct Discard;
+/// Drops the samples, handing each batch back to be refilled (as the log writer does).
+#[derive(Default)]
+struct Discard(Option<SampleBatch>);
 impl SampleSink for Discard {
     fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        black_box(&b);
+        self.0 = Some(black_box(b));
         Ok(())
+    }
+    fn recycle(&mut self) -> Option<SampleBatch> {
+        self.0.take()
     }
 }
 
@@ -151,9 +157,13 @@ fn main() {
     let two = scenario(2 * LANES, 100.0, 100);
     let mut g = c.benchmark_group("simulator duffing2dof");
     g.throughput(Throughput::Elements(steps(&one)));
-    g.bench_function("1 thread, one lane group", |b| b.iter(|| run(&one, 1, &mut Discard)));
+    g.bench_function("1 thread, one lane group", |b| {
+        b.iter(|| run(&one, 1, &mut Discard::default()))
+    });
     g.throughput(Throughput::Elements(steps(&two)));
-    g.bench_function("2 threads, two lane groups", |b| b.iter(|| run(&two, 2, &mut Discard)));
+    g.bench_function("2 threads, two lane groups", |b| {
+        b.iter(|| run(&two, 2, &mut Discard::default()))
+    });
     g.finish();
     c.final_summary();
 
@@ -172,8 +182,8 @@ fn main() {
             &mut || {
                 pool2.install(|| rayon::join(|| black_box(normals_in_runs(n)), || black_box(normals_in_runs(n))));
             },
-            &mut || run(&one, 1, &mut Discard),
-            &mut || run(&two, 2, &mut Discard),
+            &mut || run(&one, 1, &mut Discard::default()),
+            &mut || run(&two, 2, &mut Discard::default()),
         ],
     )
     .try_into()
@@ -190,26 +200,50 @@ fn main() {
     let logged = scenario(2 * LANES, 100.0, 10);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bench.mcap");
+    // The same log in RAM (tmpfs), where there is one: what the filesystem's writeback costs.
+    let shm = std::path::Path::new("/dev/shm");
+    let ram = shm.is_dir().then(|| tempfile::tempdir_in(shm).unwrap());
+    let ram_path = ram.as_ref().map_or(path.clone(), |d| d.path().join("bench.mcap"));
     let m = Model::new(&logged);
     let mut bytes = 0;
-    let [t_quiet, t_logged]: [f64; 2] = fastest(
+    let mut zstd_bytes = 0;
+    let log = |p: &std::path::Path, threads: usize, c: Compression| {
+        let mut w = LogWriter::create_with(p, &logged, &m, c).unwrap();
+        run(&logged, threads, &mut w);
+        w.finish().unwrap().bytes
+    };
+    let [t_quiet, t_sampled, t_logged, t_ram, t_zstd, t_quiet1, t_logged1, t_ram1]: [f64; 8] = fastest(
         5,
-        &mut [&mut || run(&quiet, 2, &mut Discard), &mut || {
-            let mut w = LogWriter::create(&path, &logged, &m).unwrap();
-            run(&logged, 2, &mut w);
-            bytes = w.finish().unwrap().bytes;
-        }],
+        &mut [
+            &mut || run(&quiet, 2, &mut Discard::default()),
+            &mut || run(&logged, 2, &mut Discard::default()),
+            &mut || bytes = log(&path, 2, Compression::None),
+            &mut || {
+                black_box(log(&ram_path, 2, Compression::None));
+            },
+            &mut || zstd_bytes = log(&path, 2, Compression::Zstd),
+            &mut || run(&quiet, 1, &mut Discard::default()),
+            &mut || {
+                black_box(log(&path, 1, Compression::None));
+            },
+            &mut || {
+                black_box(log(&ram_path, 1, Compression::None));
+            },
+        ],
     )
     .try_into()
     .unwrap();
     let samples = (logged.simulation.trajectories * logged.simulation.samples_per_trajectory()) as f64;
 
-    // The writer alone, fed pre-made batches shaped like duffing2dof's.
+    // The writer alone, fed pre-made batches shaped like the logged run's.
+    let (trajectories, instants) = (logged.simulation.trajectories, 1024);
     let batch = SampleBatch {
         columns: 8,
-        trajectory: (0..16 * 4096).map(|i| (i % 16) as u32).collect(),
-        time: (0..16 * 4096).map(|i| (i / 16) as f64 * 0.01).collect(),
-        values: (0..16 * 4096 * 8).map(|i| ((i as f64) * 0.618).sin()).collect(),
+        trajectories,
+        time: (0..instants).map(|k| k as f64 * 0.01).collect(),
+        values: (0..instants * 8 * trajectories)
+            .map(|i| ((i as f64) * 0.618).sin())
+            .collect(),
     };
     let writer_secs = fastest(
         3,
@@ -253,10 +287,35 @@ fn main() {
         ceiling2
     );
     println!(
-        "MCAP log every 10th step        {:>10.3} s vs {:.3} s unlogged = {:.2}x (target <= 1.25)",
+        "MCAP log every 10th step        {:>10.3} s vs {:.3} s unlogged = {:.2}x (target <= 1.25), \
+         2 simulating threads",
         t_logged,
         t_quiet,
         t_logged / t_quiet
+    );
+    println!(
+        "  the log in RAM (tmpfs)         {:>9.3} s = {:.2}x (no filesystem writeback)",
+        t_ram,
+        t_ram / t_quiet
+    );
+    println!(
+        "  sampling alone                 {:>9.3} s = {:.2}x (samples taken, then discarded)",
+        t_sampled,
+        t_sampled / t_quiet
+    );
+    println!(
+        "  1 simulating thread, the writer on the other core: {:.3} s vs {:.3} s = {:.2}x on disk, \
+         {:.2}x in RAM",
+        t_logged1,
+        t_quiet1,
+        t_logged1 / t_quiet1,
+        t_ram1 / t_quiet1
+    );
+    println!(
+        "MCAP log with zstd chunks       {:>10.3} s = {:.2}x ({:.1} bytes/sample)",
+        t_zstd,
+        t_zstd / t_quiet,
+        zstd_bytes as f64 / samples
     );
     println!(
         "  floor: zstd alone on the bare payload ({:.0} B/sample), one core: level 1 {:.3} s \

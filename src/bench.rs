@@ -270,9 +270,7 @@ impl Marginals {
 
 impl SampleSink for Marginals {
     fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        for i in 0..b.len() {
-            self.push(b.row(i));
-        }
+        b.for_each_sample(|_, _, row| self.push(row));
         Ok(())
     }
 }

@@ -22,9 +22,7 @@
 //! let problem = Problem::new(&s).unwrap(); // k1 and c1 unknown
 //! let mut data = StationaryData::new(&problem, weak::moment_degree(&problem), 2000.0, 8);
 //! for b in &samples.batches {
-//!     for i in 0..b.len() {
-//!         data.push(b.trajectory[i], b.time[i], b.row(i));
-//!     }
+//!     b.for_each_sample(|trajectory, t, values| data.push(trajectory, t, values));
 //! }
 //! data.finish();
 //! let estimate = identify_weak(&problem, &data).unwrap();

@@ -53,33 +53,67 @@ pub enum SimError {
     Sink(#[source] Box<dyn std::error::Error + Send + Sync>),
 }
 
-/// Samples of one block, in (time, trajectory) order.
+/// Samples of every trajectory at consecutive sampling instants (one block of a run).
+///
+/// Per instant the values are column-major, as the log's messages carry them: for each
+/// column (see [`columns`]) one value per trajectory, so trajectory `j`'s value of column `c`
+/// at instant `k` is `values[(k * columns + c) * trajectories + j]`.
 #[derive(Debug, Clone, Default)]
 pub struct SampleBatch {
     /// Values per sample (see [`columns`]).
     pub columns: usize,
-    pub trajectory: Vec<u32>,
-    /// Time after burn-in, s.
+    /// Trajectories per instant (all of the run's, in order).
+    pub trajectories: usize,
+    /// Time after burn-in of each instant, s.
     pub time: Vec<f64>,
-    /// Row-major, `columns` values per sample.
+    /// `instants × columns × trajectories` values.
     pub values: Vec<f64>,
 }
 
 impl SampleBatch {
-    pub fn len(&self) -> usize {
+    /// Sampling instants in the batch.
+    pub fn instants(&self) -> usize {
         self.time.len()
     }
-    pub fn is_empty(&self) -> bool {
-        self.time.is_empty()
+    /// Samples in the batch (instants × trajectories).
+    pub fn len(&self) -> usize {
+        self.time.len() * self.trajectories
     }
-    pub fn row(&self, i: usize) -> &[f64] {
-        &self.values[i * self.columns..(i + 1) * self.columns]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Instant `k`'s values: `columns` runs of `trajectories` values.
+    pub fn instant(&self, k: usize) -> &[f64] {
+        let n = self.columns * self.trajectories;
+        &self.values[k * n..(k + 1) * n]
+    }
+    /// Trajectory `j`'s value of column `c` at instant `k`.
+    pub fn value(&self, k: usize, c: usize, j: usize) -> f64 {
+        self.values[(k * self.columns + c) * self.trajectories + j]
+    }
+    /// Every sample as `f(trajectory, t, values)`, in (time, trajectory) order.
+    pub fn for_each_sample(&self, mut f: impl FnMut(u32, f64, &[f64])) {
+        let mut row = vec![0.0; self.columns];
+        for (k, &t) in self.time.iter().enumerate() {
+            let instant = self.instant(k);
+            for j in 0..self.trajectories {
+                for (c, r) in row.iter_mut().enumerate() {
+                    *r = instant[c * self.trajectories + j];
+                }
+                f(j as u32, t, &row);
+            }
+        }
     }
 }
 
 /// Where samples go.
 pub trait SampleSink {
     fn write(&mut self, batch: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>>;
+    /// A batch the sink is done with, for the simulator to fill again instead of allocating
+    /// (and first touching) a new one.
+    fn recycle(&mut self) -> Option<SampleBatch> {
+        None
+    }
 }
 
 /// Names of the logged values per sample: `x_<mass>`, `v_<mass>`, `a_<mass>` for every mass,
@@ -681,6 +715,18 @@ impl Group {
 
     /// First lane (if any) whose state is non-finite or beyond [`DIVERGENCE_LIMIT`].
     fn diverged_lane(&self) -> Option<usize> {
+        // Whole lanes first (vector compares, no branch per value; a NaN fails `<`):
+        // padding lanes count here, so a flagged group is searched lane by lane over its
+        // active ones.
+        let mut ok = [true; LANES];
+        for s in self.x.iter().chain(&self.v).chain(&self.p) {
+            for j in 0..LANES {
+                ok[j] &= s[j].abs() < DIVERGENCE_LIMIT;
+            }
+        }
+        if !ok.contains(&false) {
+            return None;
+        }
         (0..self.active).find(|&j| {
             self.x
                 .iter()
@@ -707,8 +753,9 @@ impl Group {
 
     /// Advance `samples` sample intervals of `steps` steps each, checking divergence after
     /// every interval. When `out` is not empty, the sample at the end of interval `k` goes
-    /// into `out[k]`: the group's active lanes' rows, one after the other (the group's part
-    /// of the batch at that instant, so samples are written once, straight where they go).
+    /// into `out[k * columns .. (k + 1) * columns]`: per column, the group's active lanes'
+    /// values (its part of the batch at that instant, so samples are written once, straight
+    /// where they go).
     #[allow(clippy::too_many_arguments)]
     fn run<const D: usize>(
         &mut self,
@@ -723,8 +770,11 @@ impl Group {
         let n = lm.n;
         let ne = lm.is_white.len();
         let cols = 3 * n + ne;
+        let act = self.active;
         let record = !out.is_empty();
-        debug_assert!(!record || out.len() == samples);
+        debug_assert!(!record || out.len() == samples * cols);
+        // Masses with no white force get their acceleration from the force balance.
+        let balance = lm.white_on.iter().any(|w| w.is_empty());
         for k in 0..samples {
             (lm.advance)(self, lm, steps);
             if let Some(j) = self.diverged_lane() {
@@ -742,35 +792,49 @@ impl Group {
                 // one instant's state, and the stationary moments lose the scheme's O(h)
                 // displacement–velocity correlation (E[x v] = h E[v²] / 2 otherwise, which biases
                 // damping estimates by k h / 2c).
-                self.x_keep.copy_from_slice(&self.x[..n]);
-                if lm.semi_implicit {
+                let o = &mut out[k * cols..(k + 1) * cols];
+                for i in 0..n {
+                    let (x, v) = (&self.x[i], &self.v[i]);
+                    if lm.semi_implicit {
+                        for ((y, &x), &v) in o[3 * i].iter_mut().zip(x).zip(v) {
+                            *y = x - 0.5 * lm.h * v;
+                        }
+                    } else {
+                        o[3 * i].copy_from_slice(&x[..act]);
+                    }
+                    o[3 * i + 1].copy_from_slice(&v[..act]);
+                }
+                if balance {
+                    // Instantaneous force balance, at the logged displacements.
+                    self.x_keep.copy_from_slice(&self.x[..n]);
                     for i in 0..n {
-                        for j in 0..LANES {
-                            self.x[i][j] -= 0.5 * lm.h * self.v[i][j];
+                        self.x[i][..act].copy_from_slice(o[3 * i]);
+                    }
+                    self.forces(lm);
+                    self.x[..n].copy_from_slice(&self.x_keep);
+                }
+                for i in 0..n {
+                    let a = &mut o[3 * i + 2];
+                    if lm.white_on[i].is_empty() {
+                        for (a, &f) in a.iter_mut().zip(&self.f[i]) {
+                            *a = f * lm.inv_mass[i];
+                        }
+                    } else {
+                        for ((a, &v), &v0) in a.iter_mut().zip(&self.v[i]).zip(&self.v_mark[i]) {
+                            *a = (v - v0) / interval;
                         }
                     }
                 }
-                // Instantaneous force balance for masses without white noise.
-                self.forces(lm);
-                for (j, row) in out[k].chunks_exact_mut(cols).enumerate() {
-                    for i in 0..n {
-                        row[3 * i] = self.x[i][j];
-                        row[3 * i + 1] = self.v[i][j];
-                        row[3 * i + 2] = if lm.white_on[i].is_empty() {
-                            self.f[i][j] * lm.inv_mass[i]
-                        } else {
-                            (self.v[i][j] - self.v_mark[i][j]) / interval
-                        };
-                    }
-                    for e in 0..ne {
-                        row[3 * n + e] = if lm.is_white[e] {
-                            self.p[e][j] * lm.impulse_scale[e] / interval
-                        } else {
-                            self.p[e][j]
-                        };
+                for e in 0..ne {
+                    let p = &mut o[3 * n + e];
+                    if lm.is_white[e] {
+                        for (y, &z) in p.iter_mut().zip(&self.p[e]) {
+                            *y = z * lm.impulse_scale[e] / interval;
+                        }
+                    } else {
+                        p.copy_from_slice(&self.p[e][..act]);
                     }
                 }
-                self.x[..n].copy_from_slice(&self.x_keep);
             }
             self.v_mark.copy_from_slice(&self.v[..n]);
             for e in 0..ne {
@@ -783,10 +847,14 @@ impl Group {
     }
 }
 
-/// Samples per block so that a group's block is about `2e5` steps (bounded memory, cheap
-/// synchronisation).
-fn block_samples(steps_per_sample: usize, total: usize) -> usize {
-    (200_000 / steps_per_sample.max(1)).clamp(1, 4096).min(total.max(1))
+/// Instants per block: a group's block is at most about `2e5` steps (cheap
+/// synchronisation), and a batch at most about 2 MB of values (it stays in the caches
+/// between the simulator and the sink, and recycled batches come back quickly).
+fn block_samples(steps_per_sample: usize, values_per_instant: usize, total: usize) -> usize {
+    (200_000 / steps_per_sample.max(1))
+        .min((1 << 18) / values_per_instant.max(1))
+        .clamp(1, 4096)
+        .min(total.max(1))
 }
 
 /// Simulate every trajectory of `sim` and hand the samples to `sink`, block by block, in
@@ -871,50 +939,49 @@ fn simulate_padded<const D: usize>(
         Ok::<(), SimError>(())
     })?;
 
-    let block = block_samples(steps, total);
+    let block = block_samples(steps, cols * sim.trajectories, total);
     let mut done = 0usize;
     while done < total {
         let b = block.min(total - done);
         let t0 = done as f64 * interval;
-        // `vec![0.0; n]` is lazily zeroed memory: its pages are first touched by the groups
-        // writing their samples, in parallel, straight into their rows of the batch.
         let per_k = sim.trajectories;
-        let mut batch = SampleBatch {
-            columns: cols,
-            trajectory: vec![0; b * per_k],
-            time: vec![0.0; b * per_k],
-            values: vec![0.0; b * per_k * cols],
+        let len = b * cols * per_k;
+        // A batch the sink has finished with is refilled as it is (every value is
+        // overwritten); a new one is lazily zeroed memory, its pages first touched by the
+        // groups writing their samples, in parallel, straight into their parts of it.
+        let mut batch = match sink.recycle() {
+            Some(mut r) if r.values.len() >= len => {
+                r.values.truncate(len);
+                r
+            }
+            _ => SampleBatch {
+                values: vec![0.0; len],
+                ..SampleBatch::default()
+            },
         };
-        // Each group's rows at each instant of the block: contiguous in (time, trajectory)
-        // order, so the batch splits into disjoint slices, `b` per group.
-        let mut rows: Vec<Vec<&mut [f64]>> = groups.iter().map(|_| Vec::with_capacity(b)).collect();
-        for instant in batch.values.chunks_exact_mut(per_k * cols) {
-            let mut rest = instant;
-            for (g, r) in groups.iter().zip(rows.iter_mut()) {
-                let (mine, tail) = rest.split_at_mut(g.active * cols);
-                r.push(mine);
+        batch.columns = cols;
+        batch.trajectories = per_k;
+        batch.time.clear();
+        batch.time.extend((1..=b).map(|k| (done + k) as f64 * interval));
+        // Each group's lanes of each column at each instant: contiguous, so the batch
+        // splits into disjoint slices, `b × cols` per group.
+        let mut parts: Vec<Vec<&mut [f64]>> = groups.iter().map(|_| Vec::with_capacity(b * cols)).collect();
+        for column in batch.values.chunks_exact_mut(per_k) {
+            let mut rest = column;
+            for (g, part) in groups.iter().zip(parts.iter_mut()) {
+                let (mine, tail) = rest.split_at_mut(g.active);
+                part.push(mine);
                 rest = tail;
             }
         }
         let results: Vec<Result<(), SimError>> = groups
             .par_iter_mut()
-            .zip(rows.par_iter_mut())
+            .zip(parts.par_iter_mut())
             .map(|(g, out)| g.run(model, &lm, steps, b, interval, t0, out))
             .collect();
-        drop(rows);
+        drop(parts);
         // The first failing group in trajectory order, whatever the thread count.
         results.into_iter().collect::<Result<Vec<()>, SimError>>()?;
-        batch
-            .trajectory
-            .par_chunks_mut(per_k)
-            .zip(batch.time.par_chunks_mut(per_k))
-            .enumerate()
-            .for_each(|(k, (trajectory, time))| {
-                time.fill((done + k + 1) as f64 * interval);
-                for (j, r) in trajectory.iter_mut().enumerate() {
-                    *r = j as u32;
-                }
-            });
         sink.write(batch).map_err(SimError::Sink)?;
         done += b;
         progress((done * sim.trajectories) as u64);
@@ -931,9 +998,7 @@ pub struct ForEach<F: FnMut(u32, f64, &[f64])>(pub F);
 
 impl<F: FnMut(u32, f64, &[f64])> SampleSink for ForEach<F> {
     fn write(&mut self, batch: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        for i in 0..batch.len() {
-            (self.0)(batch.trajectory[i], batch.time[i], batch.row(i));
-        }
+        batch.for_each_sample(&mut self.0);
         Ok(())
     }
 }
@@ -981,15 +1046,14 @@ impl Moments {
 impl SampleSink for Moments {
     fn write(&mut self, batch: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         let n = self.sum.len();
-        for r in 0..batch.len() {
-            let row = batch.row(r);
+        batch.for_each_sample(|_, _, row| {
             for i in 0..n {
                 self.sum[i] += row[i];
                 for j in 0..n {
                     self.cross[i * n + j] += row[i] * row[j];
                 }
             }
-        }
+        });
         self.count += batch.len() as u64;
         Ok(())
     }

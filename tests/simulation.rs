@@ -6,7 +6,7 @@
 
 use fpkbench::model::Model;
 use fpkbench::scenario::Scheme;
-use fpkbench::sim::{columns, simulate, Collect, Moments, SimError};
+use fpkbench::sim::{columns, simulate, Collect, Moments, SampleBatch, SampleSink, SimError};
 use fpkbench::{zoo, Scenario};
 
 fn moments(s: &Scenario) -> Moments {
@@ -187,10 +187,11 @@ fn samples_with_threads(s: &Scenario, threads: usize) -> Vec<(u32, f64, Vec<f64>
     let m = Model::new(s);
     let mut c = Collect::default();
     pool.install(|| simulate(&m, &s.simulation, &mut c, &|_| {})).unwrap();
-    c.batches
-        .iter()
-        .flat_map(|b| (0..b.len()).map(move |i| (b.trajectory[i], b.time[i], b.row(i).to_vec())))
-        .collect()
+    let mut samples = Vec::new();
+    for b in &c.batches {
+        b.for_each_sample(|j, t, row| samples.push((j, t, row.to_vec())));
+    }
+    samples
 }
 
 #[test]
@@ -222,6 +223,51 @@ fn same_seed_gives_bit_identical_samples_whatever_the_thread_count() {
             .collect()
     };
     assert_eq!(t3(&one), t3(&few));
+}
+
+/// Keeps a copy of every batch, then hands it back for refilling poisoned with NaN, so a
+/// value the simulator fails to overwrite shows.
+#[derive(Default)]
+struct PoisonedRecycling {
+    kept: Collect,
+    spent: Option<SampleBatch>,
+    recycled: usize,
+}
+impl SampleSink for PoisonedRecycling {
+    fn write(&mut self, mut b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        self.kept.write(b.clone())?;
+        b.values.fill(f64::NAN);
+        b.time.fill(f64::NAN);
+        self.spent = Some(b);
+        Ok(())
+    }
+    fn recycle(&mut self) -> Option<SampleBatch> {
+        self.recycled += usize::from(self.spent.is_some());
+        self.spent.take()
+    }
+}
+
+#[test]
+fn recycled_batches_are_wholly_overwritten() {
+    let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
+    let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+    s.simulation.record_length = 300.0;
+    s.simulation.sample_interval = 0.01; // several blocks, the last one short
+    s.simulation.trajectories = fpkbench::sim::LANES + 5; // a partial lane group
+    let m = Model::new(&s);
+    let mut fresh = Collect::default();
+    simulate(&m, &s.simulation, &mut fresh, &|_| {}).unwrap();
+    let mut recycling = PoisonedRecycling::default();
+    simulate(&m, &s.simulation, &mut recycling, &|_| {}).unwrap();
+    assert!(recycling.recycled >= 2, "batches were refilled: {}", recycling.recycled);
+    let flat = |c: &Collect| -> Vec<u64> {
+        c.batches
+            .iter()
+            .flat_map(|b| b.time.iter().chain(&b.values).map(|v| v.to_bits()))
+            .collect()
+    };
+    assert_eq!(flat(&fresh), flat(&recycling.kept));
+    assert_eq!(fresh.batches.len(), recycling.kept.batches.len());
 }
 
 #[test]

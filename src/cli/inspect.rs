@@ -62,7 +62,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         );
         s += &format!("channel    {} (ros2msg/cdr)\n", fpkbench::io::log::TOPIC);
         let units = info.channel_metadata.get("units").cloned().unwrap_or_default();
-        s += &format!("columns    trajectory, {}\n", units.replace(',', ", "));
+        s += &format!(
+            "columns    {} (one message per instant; each column but t an array over the trajectories)\n",
+            units.replace(',', ", ")
+        );
         let unmeasured = info.channel_metadata.get("unmeasured").cloned().unwrap_or_default();
         s += &format!(
             "unmeasured {}\n",

@@ -26,7 +26,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| super::default_output(&scenario.name, ""));
     let log = dir.join("run.mcap");
-    let sim = super::simulate::simulate_to(&scenario, &log)?;
+    let sim = super::simulate::simulate_to(&scenario, &log, fpkbench::io::log::Compression::None)?;
     if !args.identify.json {
         eprintln!(
             "simulated {} samples in {:.2} s -> {} ({:.1} MB)",

@@ -1,7 +1,7 @@
 //! `fpkbench simulate`: scenario in, MCAP log out.
 
 use anyhow::Context;
-use fpkbench::io::log::LogWriter;
+use fpkbench::io::log::{Compression, LogWriter};
 use fpkbench::sim::simulate;
 use fpkbench::{Model, Scenario};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -17,9 +17,29 @@ pub struct Args {
     /// Output log [default: out/<scenario name>/run.mcap].
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// Chunk compression of the log. zstd saves little on 8-byte floats and costs several
+    /// times the simulation's own time; uncompressed logs are the fast default.
+    #[arg(long, value_enum, default_value_t = Compress::None)]
+    pub compress: Compress,
     /// Print a JSON summary on stdout instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Chunk compression choices.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum Compress {
+    None,
+    Zstd,
+}
+
+impl From<Compress> for Compression {
+    fn from(c: Compress) -> Compression {
+        match c {
+            Compress::None => Compression::None,
+            Compress::Zstd => Compression::Zstd,
+        }
+    }
 }
 
 /// What a simulation wrote.
@@ -32,7 +52,7 @@ pub struct Simulated {
 }
 
 /// Simulate `scenario` into `output` with a progress bar on stderr.
-pub fn simulate_to(scenario: &Scenario, output: &Path) -> anyhow::Result<Simulated> {
+pub fn simulate_to(scenario: &Scenario, output: &Path, compression: Compression) -> anyhow::Result<Simulated> {
     let model = Model::new(scenario);
     let sim = &scenario.simulation;
     let total = (sim.trajectories * sim.samples_per_trajectory()) as u64;
@@ -42,7 +62,7 @@ pub fn simulate_to(scenario: &Scenario, output: &Path) -> anyhow::Result<Simulat
             .expect("valid template"),
     );
     let start = Instant::now();
-    let mut writer = LogWriter::create(output, scenario, &model)?;
+    let mut writer = LogWriter::create_with(output, scenario, &model, compression)?;
     let stats = simulate(&model, sim, &mut writer, &|n| bar.set_position(n))
         .with_context(|| format!("simulating {}", scenario.name))?;
     let summary = writer.finish()?;
@@ -61,7 +81,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let output = args
         .output
         .unwrap_or_else(|| super::default_output(&scenario.name, "run.mcap"));
-    let s = simulate_to(&scenario, &output)?;
+    let s = simulate_to(&scenario, &output, args.compress.into())?;
     let sim = &scenario.simulation;
     let text = if args.json {
         serde_json::json!({

@@ -3,6 +3,7 @@
 
 use super::simulate::simulate_to;
 use fpkbench::bench::{identify_log, Options, Sweep, SweepPoint};
+use fpkbench::io::log::Compression;
 use fpkbench::{report, Scenario};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -58,7 +59,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     for &level in &levels {
         let s = scenario.with_disturbance_level(level)?;
         let log = dir.join(format!("level-{level}.mcap"));
-        let sim = simulate_to(&s, &log)?;
+        let sim = simulate_to(&s, &log, Compression::None)?;
         let r = identify_log(
             &log,
             &Options {

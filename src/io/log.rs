@@ -7,12 +7,16 @@
 //! - before any sample: the scenario TOML as attachment [`SCENARIO_ATTACHMENT`], the true
 //!   parameters as metadata record [`TRUTH_METADATA`], the run facts as [`RUN_METADATA`] —
 //!   so even a truncated log describes itself;
-//! - one message per sample, `log_time` = time after burn-in in ns, payload CDR
-//!   little-endian: 4-byte encapsulation header, `uint32 trajectory`, 4 bytes padding,
-//!   `float64 t`, then one `float64` per column.
+//! - one message per sampling instant carrying every trajectory, `log_time` = time after
+//!   burn-in in ns, payload CDR little-endian: 4-byte encapsulation header, `float64 t`,
+//!   then per column a `float64[]` with one value per trajectory (`uint32` length, 4 bytes
+//!   padding, the values) — element `j` of every array is trajectory `j`;
+//! - chunks uncompressed by default (a sample's 8-byte values barely compress, and zstd
+//!   would cost several times the simulation itself), or zstd on request.
 //!
-//! The writer encodes and compresses on its own thread, fed whole batches through a
-//! bounded channel, writes to `<name>.partial` and renames only after `finish()`.
+//! The writer encodes (and compresses) on its own thread, fed whole batches through a
+//! bounded channel and handing them back for the simulator to refill; it writes to
+//! `<name>.partial` and renames only after `finish()`.
 
 use crate::model::Model;
 use crate::scenario::{Scenario, ScenarioError};
@@ -23,7 +27,7 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Read};
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{sync_channel, SyncSender};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::thread::JoinHandle;
 
 pub const TOPIC: &str = "/fpkbench/samples";
@@ -33,6 +37,21 @@ pub const TRUTH_METADATA: &str = "fpkbench.truth";
 pub const RUN_METADATA: &str = "fpkbench.run";
 const CDR_HEADER: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
 
+/// Chunk compression of a log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Compression {
+    /// Plain chunks: the fastest to write and read.
+    #[default]
+    None,
+    /// zstd level 1, compressed on the writer thread (`compression_threads(0)`).
+    Zstd,
+}
+
+/// Bytes of one instant's message: header, `t`, then per column a length, padding and
+/// one `float64` per trajectory.
+fn message_len(columns: usize, trajectories: usize) -> usize {
+    4 + 8 + columns * (8 + 8 * trajectories)
+}
 /// Errors reading or writing a log.
 #[derive(Debug, thiserror::Error)]
 pub enum LogError {
@@ -94,11 +113,12 @@ pub fn run_facts(s: &Scenario) -> BTreeMap<String, String> {
 
 fn schema_text(cols: &[String]) -> String {
     let mut s = String::from(
-        "# One sample of one trajectory of an fpkbench run (SI units; see channel metadata).\n\
-         uint32 trajectory\nfloat64 t\n",
+        "# One sampling instant of every trajectory of an fpkbench run (SI units; see channel\n\
+         # metadata): element j of each array is trajectory j.\n\
+         float64 t\n",
     );
     for c in cols {
-        s.push_str(&format!("float64 {c}\n"));
+        s.push_str(&format!("float64[] {c}\n"));
     }
     s
 }
@@ -162,14 +182,27 @@ type WriterResult = Result<u64, LogError>;
 /// Writes a run log; a [`SampleSink`] for the simulator.
 pub struct LogWriter {
     tx: Option<SyncSender<SampleBatch>>,
+    /// Batches the writer thread has finished with.
+    spent: Receiver<SampleBatch>,
     thread: Option<JoinHandle<WriterResult>>,
     tmp: PathBuf,
     dest: PathBuf,
 }
 
 impl LogWriter {
-    /// Start a log at `dest` (written as `dest.partial` until [`finish`](Self::finish)).
+    /// Start an uncompressed log at `dest` (written as `dest.partial` until
+    /// [`finish`](Self::finish)).
     pub fn create(dest: &Path, s: &Scenario, model: &Model) -> Result<LogWriter, LogError> {
+        Self::create_with(dest, s, model, Compression::None)
+    }
+
+    /// Start a log at `dest` with the given chunk compression.
+    pub fn create_with(
+        dest: &Path,
+        s: &Scenario,
+        model: &Model,
+        compression: Compression,
+    ) -> Result<LogWriter, LogError> {
         let label = dest.display().to_string();
         let io = |source| LogError::Io {
             path: label.clone(),
@@ -187,7 +220,10 @@ impl LogWriter {
         let mut w = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("fpkbench {}", env!("CARGO_PKG_VERSION")))
-            .compression(Some(mcap::Compression::Zstd))
+            .compression(match compression {
+                Compression::None => None,
+                Compression::Zstd => Some(mcap::Compression::Zstd),
+            })
             .compression_threads(0)
             .compression_level(1)
             .chunk_size(Some(1 << 20))
@@ -221,24 +257,33 @@ impl LogWriter {
         .map_err(mc)?;
 
         let (tx, rx) = sync_channel::<SampleBatch>(2);
+        let (spent_tx, spent) = sync_channel::<SampleBatch>(2);
         let path = label.clone();
+        let trajectories = s.simulation.trajectories;
         let thread = std::thread::spawn(move || -> WriterResult {
             let mc = |source| LogError::Mcap {
                 path: path.clone(),
                 source,
             };
-            // Fixed layout: header, trajectory, padding, t, then the columns.
-            let mut payload = vec![0u8; 20 + 8 * cols.len()];
+            // Fixed layout: header, t, then per column its length, padding and values.
+            let stride = 8 + 8 * trajectories;
+            let mut payload = vec![0u8; message_len(cols.len(), trajectories)];
             payload[..4].copy_from_slice(&CDR_HEADER);
+            for c in 0..cols.len() {
+                let at = 12 + c * stride;
+                payload[at..at + 4].copy_from_slice(&(trajectories as u32).to_le_bytes());
+            }
             let mut seq: u32 = 0;
             for batch in rx {
-                for r in 0..batch.len() {
-                    payload[4..8].copy_from_slice(&batch.trajectory[r].to_le_bytes());
-                    payload[12..20].copy_from_slice(&batch.time[r].to_le_bytes());
-                    for (out, v) in payload[20..].chunks_exact_mut(8).zip(batch.row(r)) {
-                        out.copy_from_slice(&v.to_le_bytes());
+                for (k, &t) in batch.time.iter().enumerate() {
+                    payload[4..12].copy_from_slice(&t.to_le_bytes());
+                    let values = batch.instant(k).chunks_exact(trajectories);
+                    for (column, v) in payload[12..].chunks_exact_mut(stride).zip(values) {
+                        for (out, v) in column[8..].chunks_exact_mut(8).zip(v) {
+                            out.copy_from_slice(&v.to_le_bytes());
+                        }
                     }
-                    let ns = (batch.time[r] * 1e9).round() as u64;
+                    let ns = (t * 1e9).round() as u64;
                     let header = MessageHeader {
                         channel_id: channel,
                         sequence: seq,
@@ -248,6 +293,8 @@ impl LogWriter {
                     w.write_to_known_channel(&header, &payload).map_err(mc)?;
                     seq = seq.wrapping_add(1);
                 }
+                // The simulator refills it, if it wants it before the next one is spent.
+                let _ = spent_tx.try_send(batch);
             }
             w.finish().map_err(mc)?;
             let mut inner = w.into_inner();
@@ -255,10 +302,11 @@ impl LogWriter {
                 path: path.clone(),
                 source,
             })?;
-            Ok(seq as u64)
+            Ok(seq as u64 * trajectories as u64)
         });
         Ok(LogWriter {
             tx: Some(tx),
+            spent,
             thread: Some(thread),
             tmp,
             dest: dest.to_path_buf(),
@@ -312,6 +360,9 @@ impl SampleSink for LogWriter {
         } else {
             Err(Box::new(self.thread_error()))
         }
+    }
+    fn recycle(&mut self) -> Option<SampleBatch> {
+        self.spent.try_recv().ok()
     }
 }
 
@@ -506,26 +557,42 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
 pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Result<u64, LogError> {
     let label = info.path.display().to_string();
     let cols = info.columns.len();
-    let size = 20 + 8 * cols;
+    let trajectories = info.scenario.simulation.trajectories;
+    let size = message_len(cols, trajectories);
+    let stride = 8 + 8 * trajectories;
     let mut values = vec![0.0; cols];
     let mut count = 0u64;
     let mut bad: Option<String> = None;
     let res = stream_records(&info.path, |rec| {
         if let Record::Message { data, .. } = rec {
+            let instant = count / trajectories.max(1) as u64;
             if data.len() != size || data[..4] != CDR_HEADER {
                 bad = Some(format!(
-                    "sample {count} has {} bytes, expected {size} (CDR little-endian)",
+                    "instant {instant} has {} bytes, expected {size} (CDR little-endian, {cols} arrays of \
+                     {trajectories} trajectories)",
                     data.len()
                 ));
                 return Ok(false);
             }
-            let traj = u32::from_le_bytes(data[4..8].try_into().unwrap());
-            let t = f64::from_le_bytes(data[12..20].try_into().unwrap());
-            for (i, v) in values.iter_mut().enumerate() {
-                *v = f64::from_le_bytes(data[20 + 8 * i..28 + 8 * i].try_into().unwrap());
+            let f64_at = |at: usize| f64::from_le_bytes(data[at..at + 8].try_into().unwrap());
+            if let Some(c) = (0..cols).find(|c| {
+                let at = 12 + c * stride;
+                u32::from_le_bytes(data[at..at + 4].try_into().unwrap()) as usize != trajectories
+            }) {
+                bad = Some(format!(
+                    "instant {instant}: array {} does not hold {trajectories} values",
+                    info.columns[c]
+                ));
+                return Ok(false);
             }
-            f(traj, t, &values);
-            count += 1;
+            let t = f64_at(4);
+            for j in 0..trajectories {
+                for (c, v) in values.iter_mut().enumerate() {
+                    *v = f64_at(20 + c * stride + 8 * j);
+                }
+                f(j as u32, t, &values);
+            }
+            count += trajectories as u64;
         }
         Ok(true)
     });

@@ -26,20 +26,26 @@ def main(log_path: str, csv_path: str) -> int:
         assert channel.topic == "/fpkbench/samples" and channel.message_encoding == "cdr"
         assert channel.metadata["columns"].split(",") == header[2:], (channel.metadata["columns"], header)
         n = 0
-        # File order (log_time_order=False) is the order the Rust reader streams.
+        # One message per sampling instant, element j of each array being trajectory j; file
+        # order (log_time_order=False) is the order the Rust reader streams.
         for _schema, _channel, message, decoded in reader.iter_decoded_messages(log_time_order=False):
-            row = rows[n]
-            assert decoded.trajectory == int(row[0]), (n, decoded.trajectory, row[0])
-            assert decoded.t == float(row[1]), (n, decoded.t, row[1])
             assert message.log_time == round(decoded.t * 1e9)
-            for name, text in zip(header[2:], row[2:]):
-                value = getattr(decoded, name)
-                assert value == float(text), (n, name, value, text)
-            n += 1
+            arrays = {name: getattr(decoded, name) for name in header[2:]}
+            trajectories = {len(a) for a in arrays.values()}
+            assert len(trajectories) == 1, trajectories
+            for j in range(trajectories.pop()):
+                row = rows[n]
+                assert j == int(row[0]), (n, j, row[0])
+                assert decoded.t == float(row[1]), (n, decoded.t, row[1])
+                for name, text in zip(header[2:], row[2:]):
+                    value = arrays[name][j]
+                    assert value == float(text), (n, name, value, text)
+                n += 1
     assert n == len(rows), (n, len(rows))
     truth = metadata["fpkbench.truth"]
-    print(f"python interop: {n} samples x {len(header)} fields decoded by mcap-ros2-support equal the Rust reader; "
-          f"truth {len(truth)} parameters (k1[ground-m1] = {truth.get('k1[ground-m1]')})")
+    compression = ",".join(sorted({c.compression or "none" for c in summary.chunk_indexes}))
+    print(f"python interop ({log_path}, chunks: {compression}): {n} samples x {len(header)} "
+          f"fields decoded by mcap-ros2-support equal the Rust reader; truth {len(truth)} parameters (k1[ground-m1] = {truth.get('k1[ground-m1]')})")
     return 0
 
 
