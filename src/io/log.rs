@@ -52,6 +52,7 @@ pub enum Compression {
 fn message_len(columns: usize, trajectories: usize) -> usize {
     4 + 8 + columns * (8 + 8 * trajectories)
 }
+
 /// Errors reading or writing a log.
 #[derive(Debug, thiserror::Error)]
 pub enum LogError {
@@ -275,6 +276,18 @@ impl LogWriter {
             }
             let mut seq: u32 = 0;
             for batch in rx {
+                if (batch.columns, batch.trajectories) != (cols.len(), trajectories) {
+                    return Err(LogError::Invalid {
+                        path: path.clone(),
+                        reason: format!(
+                            "a batch of {} columns x {} trajectories was written to a log of {} x {}",
+                            batch.columns,
+                            batch.trajectories,
+                            cols.len(),
+                            trajectories
+                        ),
+                    });
+                }
                 for (k, &t) in batch.time.iter().enumerate() {
                     payload[4..12].copy_from_slice(&t.to_le_bytes());
                     let values = batch.instant(k).chunks_exact(trajectories);
