@@ -7,6 +7,7 @@
 //! (strong forms) and the histograms behind the plots.
 
 use crate::ident::data::StationaryData;
+use crate::ident::disturbance::SingleMass;
 use crate::ident::poly::Poly;
 use crate::ident::strong::{DensityGrid, GridOptions};
 use crate::ident::{
@@ -14,7 +15,7 @@ use crate::ident::{
 };
 use crate::io::log::{read_info, read_samples, LogError, LogInfo};
 use crate::model::{Characteristic, Coefficient, Model};
-use crate::scenario::{Method, Polynomial, Process, Scenario};
+use crate::scenario::{Method, Polynomial, Process, Scenario, ITERATED_FORCE};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
 use crate::stats;
 use serde::Serialize;
@@ -211,8 +212,10 @@ pub struct Report {
     pub filters: Vec<FilterReport>,
     pub methods: Vec<MethodReport>,
     pub validation: Option<Validation>,
-    /// The paper's iterative procedure for an unmeasured disturbance (section 4).
-    pub iteration: Option<IterationReport>,
+    /// The iterative procedure for an unmeasured disturbance (paper section 4): the
+    /// paper's sequence (spectral single-mass step, method `iterated`), then the one with
+    /// the measured-force step (`iterated-force`). Empty without `[identify.disturbance]`.
+    pub iterations: Vec<IterationReport>,
     pub passed: bool,
     #[serde(skip)]
     pub plot: PlotData,
@@ -404,7 +407,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         }
         reports.push(method_report(
             m.name(),
-            Some(s.accept.threshold(*m)),
+            Some(s.accept.threshold(m.name())),
             est,
             s,
             &reported,
@@ -458,7 +461,7 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
         filter_reports,
         reports,
         validation,
-        None,
+        Vec::new(),
         dist.into_plot(spectra),
     ))
 }
@@ -466,6 +469,8 @@ fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Re
 /// The iterative procedure's sequence with its accuracy at every step.
 #[derive(Debug, Clone, Serialize)]
 pub struct IterationReport {
+    /// The report method of the final iterate (`iterated`, `iterated-force`).
+    pub method: String,
     #[serde(flatten)]
     pub iteration: disturbance::Iteration,
     /// Per step: the relative error of every parameter (as in `methods[]`).
@@ -474,8 +479,10 @@ pub struct IterationReport {
     pub step_worst_rel_error: Vec<f64>,
     pub step0_worst_rel_error: f64,
     pub final_worst_rel_error: f64,
-    /// The bound: the identification given the disturbance as if it were measured (NaN
-    /// when that failed).
+    /// The report method of this sequence's bound: the identification given the
+    /// disturbance as if it were measured, in the same model of the forces.
+    pub bound: String,
+    /// The bound's worst error (NaN when it failed).
     pub bound_worst_rel_error: f64,
 }
 
@@ -484,15 +491,26 @@ pub struct IterationReport {
 pub struct SweepPoint {
     /// Standard deviation of the disturbance over that of the measured force.
     pub level: f64,
+    pub step0_worst_rel_error: f64,
+    /// Per sequence (the paper's, then the measured-force one): its final iterate and bound.
+    pub sequences: Vec<SweepSequence>,
+    pub step0: Vec<f64>,
+}
+
+/// One sequence's outcome at one sweep level.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepSequence {
+    /// `iterated` or `iterated-force`.
+    pub method: String,
     pub steps: usize,
     pub stopped_by: String,
     pub monotone: bool,
-    pub step0_worst_rel_error: f64,
     pub final_worst_rel_error: f64,
-    pub bound_worst_rel_error: f64,
-    pub step0: Vec<f64>,
     #[serde(rename = "final")]
     pub last: Vec<f64>,
+    /// The sequence's bound (the disturbance given as measured) and its worst error.
+    pub bound_method: String,
+    pub bound_worst_rel_error: f64,
     pub bound: Vec<f64>,
 }
 
@@ -508,7 +526,7 @@ pub struct Sweep {
 impl SweepPoint {
     /// The sweep's entry for a report of the disturbed scenario at `level`.
     pub fn from_report(level: f64, r: &Report) -> Option<SweepPoint> {
-        let it = r.iteration.as_ref()?;
+        let first = r.iterations.first()?;
         let values = |m: &str| {
             r.methods
                 .iter()
@@ -518,15 +536,23 @@ impl SweepPoint {
         };
         Some(SweepPoint {
             level,
-            steps: it.iteration.steps.len() - 1,
-            stopped_by: it.iteration.stopped_by.clone(),
-            monotone: it.iteration.monotone,
-            step0_worst_rel_error: it.step0_worst_rel_error,
-            final_worst_rel_error: it.final_worst_rel_error,
-            bound_worst_rel_error: it.bound_worst_rel_error,
+            step0_worst_rel_error: first.step0_worst_rel_error,
+            sequences: r
+                .iterations
+                .iter()
+                .map(|it| SweepSequence {
+                    method: it.method.clone(),
+                    steps: it.iteration.steps.len() - 1,
+                    stopped_by: it.iteration.stopped_by.clone(),
+                    monotone: it.iteration.monotone,
+                    final_worst_rel_error: it.final_worst_rel_error,
+                    last: values(&it.method),
+                    bound_method: it.bound.clone(),
+                    bound_worst_rel_error: it.bound_worst_rel_error,
+                    bound: values(&it.bound),
+                })
+                .collect(),
             step0: values("step-0"),
-            last: values("iterated"),
-            bound: values("pz-measured"),
         })
     }
 }
@@ -575,15 +601,33 @@ fn identify_disturbed(
         sim.record_length,
         options.batches,
     );
+    let force_structure = disturbance::force_problem(s, &st, 1.0)?;
+    let force_bound = disturbance::force_bound_problem(s, &st)?;
+    let mut bound_data = StationaryData::new(
+        &force_bound,
+        weak::moment_degree(&force_bound),
+        sim.record_length,
+        options.batches,
+    );
+    let mut force = StationaryData::new(
+        &force_structure,
+        weak::moment_degree(&force_structure),
+        sim.record_length,
+        options.batches,
+    );
     let (x1, x2) = (3 * st.free, 3 * st.driven);
     let mut forces = ForceSpectra::new(s, &fitted);
     read_samples(info, |traj, t, row| {
         white.push(traj, t, row);
         driven.push(traj, t, &row[x2..x2 + 3]);
+        force.push(traj, t, &disturbance::force_row(s, &st, row));
+        bound_data.push(traj, t, row);
         forces.push_lag(traj, row);
     })?;
     white.finish();
     driven.finish();
+    force.finish();
+    bound_data.finish();
     let total = white.total();
 
     // Pass 2: force spectra, P3's pieces, histograms.
@@ -625,81 +669,125 @@ fn identify_disturbed(
     // Filters: P2 as the identifier uses it; the disturbances' for the bound.
     let (filters, filter_reports, mut spectra) = forces.filters(s);
     let p2 = filters.iter().copied().find(|f| f.excitation == st.measured);
-    let it = disturbance::iterate(&disturbance::Inputs {
+    let inputs = disturbance::Inputs {
         scenario: s,
         settings,
         p2,
         white: &white,
         driven: &driven,
         p3: &p3,
-    })?;
-    let problem = it.problem.clone();
-    if let Some(last) = it.steps.last().filter(|l| l.step > 0) {
+        force: &force,
+    };
+    let paper = disturbance::iterate(&inputs, SingleMass::Spectral)?;
+    let measured_force = disturbance::iterate(&inputs, SingleMass::Force)?;
+    let problem = paper.problem.clone();
+    if let Some(last) = paper.steps.last().filter(|l| l.step > 0) {
         let k1 = last.p3_k1.expect("steps >= 1 have one");
         spectra.push((
             format!("3 (step {}, k1 = {k1:.4})", last.step),
             p3.spectrum_of(2.0 * k1),
-            last.p3_fit.expect("steps >= 1 have one"),
+            last.p3_fit.expect("spectral steps have one"),
             (f64::NAN, f64::NAN),
         ));
     }
 
-    // Reports: step 0, the final iterate (gated), the bound.
+    // Reports: step 0, the final iterate of each sequence (gated), the bound.
     let ranges = &white.link_ranges;
     let t = Instant::now();
-    let at = |values: &[f64]| ident::Estimate {
-        values: values.to_vec(),
-        std_error: vec![f64::NAN; values.len()],
-        ..it.step0.clone()
-    };
-    let step_reports: Vec<MethodReport> = it
-        .steps
-        .iter()
-        .map(|st_| method_report("step", None, Ok(at(&st_.values)), s, &problem, ranges, t))
-        .collect();
-    let mut final_est = at(it.last());
-    final_est.facts = vec![
-        ("steps".into(), (it.steps.len() - 1).to_string()),
-        ("stopped by".into(), it.stopped_by.clone()),
-        ("monotone differences".into(), it.monotone.to_string()),
-    ];
+    // The bounds: the disturbance given as if measured, in the paper's white-noise model
+    // of the forces (as step 0 sees them) and in the measured-force weak form.
     let bound_problem = Problem::new(&disturbance::bound_scenario(s, &st, &filters))?;
-    let bound = ident::identify_weak(&bound_problem, &white);
-    let mut reports = vec![
-        method_report("step-0", None, Ok(it.step0.clone()), s, &problem, ranges, t),
+    let mut bounds = [
         method_report(
-            "iterated",
-            Some(s.accept.threshold(Method::Weak)),
+            "pz-measured",
+            None,
+            ident::identify_weak(&bound_problem, &white),
+            s,
+            &bound_problem,
+            ranges,
+            t,
+        ),
+        method_report(
+            "pz-measured-force",
+            None,
+            ident::identify_weak(&force_bound, &bound_data),
+            s,
+            &force_bound,
+            ranges,
+            t,
+        ),
+    ];
+    bounds[0].facts.insert(
+        "P_z".into(),
+        "given as if measured, filtered forces as white noise of their low-frequency density (the paper's model): the bound of the paper's sequence".into(),
+    );
+    bounds[1].facts.insert(
+        "P_z".into(),
+        "given as if measured, every filtered force a measured input of the weak form: the bound of the measured-force sequence".into(),
+    );
+    let mut reports = vec![method_report(
+        "step-0",
+        None,
+        Ok(paper.step0.clone()),
+        s,
+        &problem,
+        ranges,
+        t,
+    )];
+    reports[0]
+        .facts
+        .insert("P_z".into(), "ignored (the paper's step 0)".into());
+    let mut iterations = Vec::new();
+    for ((method, it), bound) in [("iterated", paper), (ITERATED_FORCE, measured_force)]
+        .into_iter()
+        .zip(&bounds)
+    {
+        let at = |values: &[f64]| ident::Estimate {
+            values: values.to_vec(),
+            std_error: vec![f64::NAN; values.len()],
+            ..it.step0.clone()
+        };
+        let step_reports: Vec<MethodReport> = it
+            .steps
+            .iter()
+            .map(|st_| method_report("step", None, Ok(at(&st_.values)), s, &problem, ranges, t))
+            .collect();
+        let mut final_est = at(it.last());
+        final_est.facts = vec![
+            ("single-mass step".into(), it.single_mass.name().into()),
+            ("steps".into(), (it.steps.len() - 1).to_string()),
+            ("stopped by".into(), it.stopped_by.clone()),
+            ("monotone differences".into(), it.monotone.to_string()),
+        ];
+        let rep = method_report(
+            method,
+            Some(s.accept.threshold(method)),
             Ok(final_est),
             s,
             &problem,
             ranges,
             t,
-        ),
-        method_report("pz-measured", None, bound, s, &bound_problem, ranges, t),
-    ];
-    reports[0]
-        .facts
-        .insert("P_z".into(), "ignored (the paper's step 0)".into());
-    reports[2].facts.insert(
-        "P_z".into(),
-        "given as if measured: the bound on what is achievable".into(),
-    );
-    let iteration = IterationReport {
-        step_rel_errors: step_reports
-            .iter()
-            .map(|r| r.parameters.iter().map(|p| p.rel_error).collect())
-            .collect(),
-        step_worst_rel_error: step_reports.iter().map(|r| r.worst_rel_error).collect(),
-        step0_worst_rel_error: reports[0].worst_rel_error,
-        final_worst_rel_error: reports[1].worst_rel_error,
-        bound_worst_rel_error: reports[2].worst_rel_error,
-        iteration: it,
-    };
+        );
+        iterations.push(IterationReport {
+            method: method.into(),
+            step_rel_errors: step_reports
+                .iter()
+                .map(|r| r.parameters.iter().map(|p| p.rel_error).collect())
+                .collect(),
+            step_worst_rel_error: step_reports.iter().map(|r| r.worst_rel_error).collect(),
+            step0_worst_rel_error: reports[0].worst_rel_error,
+            final_worst_rel_error: rep.worst_rel_error,
+            bound: bound.method.clone(),
+            bound_worst_rel_error: bound.worst_rel_error,
+            iteration: it,
+        });
+        reports.push(rep);
+    }
+    reports.extend(bounds);
 
     let validation = options
         .validate
-        .then(|| dist.validate(s, &problem, iteration.iteration.last(), "iterated"));
+        .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ITERATED_FORCE));
     Ok(assemble(
         info,
         white.samples(),
@@ -707,7 +795,7 @@ fn identify_disturbed(
         filter_reports,
         reports,
         validation,
-        Some(iteration),
+        iterations,
         dist.into_plot(spectra),
     ))
 }
@@ -826,7 +914,7 @@ fn assemble(
     filters: Vec<FilterReport>,
     methods: Vec<MethodReport>,
     validation: Option<Validation>,
-    iteration: Option<IterationReport>,
+    iterations: Vec<IterationReport>,
     plot: PlotData,
 ) -> Report {
     let s = &info.scenario;
@@ -852,7 +940,7 @@ fn assemble(
         filters,
         methods,
         validation,
-        iteration,
+        iterations,
         passed,
         plot,
         scenario_def: Some(s.clone()),

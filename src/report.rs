@@ -171,7 +171,7 @@ pub fn summary(r: &Report) -> String {
             worst.map(|p| format!(" ({} off by {})", p.name, fmt_err(p.rel_error))).unwrap_or_default()
         );
     }
-    if let Some(it) = &r.iteration {
+    for it in &r.iterations {
         s += &iteration_summary(it);
     }
     if let Some(v) = &r.validation {
@@ -215,8 +215,11 @@ pub fn summary(r: &Report) -> String {
 /// worst error, the fit of `P3s`, the changes, and how it stopped.
 fn iteration_summary(r: &crate::bench::IterationReport) -> String {
     let it = &r.iteration;
-    let mut s = String::from(
-        "\niterative procedure for the unmeasured disturbance (paper section 4, weak form in every step)\n",
+    let mut s = format!(
+        "\niterative procedure for the unmeasured disturbance (paper section 4, weak form in every step), \
+         single-mass step: {} (method {})\n",
+        it.single_mass.name(),
+        r.method
     );
     s += &format!("| {:>4} |", "step");
     for n in &it.names {
@@ -263,9 +266,10 @@ fn iteration_summary(r: &crate::bench::IterationReport) -> String {
         if it.converged { "converged" } else { "not converged" }
     );
     s += &format!(
-        "worst error: step 0 {}, final {}, with the disturbance given as measured (bound) {}\n",
+        "worst error: step 0 {}, final {}, with the disturbance given as measured (bound, {}) {}\n",
         fmt_err(r.step0_worst_rel_error),
         fmt_err(r.final_worst_rel_error),
+        r.bound,
         fmt_err(r.bound_worst_rel_error)
     );
     s
@@ -277,22 +281,46 @@ pub fn sweep_summary(sw: &crate::bench::Sweep) -> String {
         "disturbance sweep of {} (level = std of the unmeasured force / std of the measured one)\n",
         sw.scenario
     );
-    s += &format!(
-        "| {:>6} | {:>12} | {:>12} | {:>12} | {:>5} | {:>8} | {:<12} |\n",
-        "level", "step 0", "final", "Pz measured", "steps", "monotone", "stopped by"
-    );
-    s += "|--------|--------------|--------------|--------------|-------|----------|--------------|\n";
-    for p in &sw.points {
+    let methods: Vec<&str> = sw
+        .points
+        .first()
+        .map(|p| p.sequences.iter().map(|q| q.method.as_str()).collect())
+        .unwrap_or_default();
+    s += &format!("| {:>6} | {:>12} |", "level", "step 0");
+    for m in &methods {
         s += &format!(
-            "| {:>6} | {:>12} | {:>12} | {:>12} | {:>5} | {:>8} | {:<12} |\n",
-            p.level,
-            fmt_err(p.step0_worst_rel_error),
-            fmt_err(p.final_worst_rel_error),
-            fmt_err(p.bound_worst_rel_error),
-            p.steps,
-            p.monotone,
-            p.stopped_by
+            " {m:>14} | {:>5} | {:>8} | {:<12} | {:>17} |",
+            "steps", "monotone", "stopped by", "its bound"
         );
+    }
+    s += "\n|--------|--------------|";
+    for _ in &methods {
+        s += "----------------|-------|----------|--------------|-------------------|";
+    }
+    s += "\n";
+    for p in &sw.points {
+        s += &format!("| {:>6} | {:>12} |", p.level, fmt_err(p.step0_worst_rel_error));
+        for q in &p.sequences {
+            s += &format!(
+                " {:>14} | {:>5} | {:>8} | {:<12} | {:>17} |",
+                fmt_err(q.final_worst_rel_error),
+                q.steps,
+                q.monotone,
+                q.stopped_by,
+                fmt_err(q.bound_worst_rel_error)
+            );
+        }
+        s += "\n";
+    }
+    if let Some(p) = sw.points.first() {
+        s += "(bounds: ";
+        s += &p
+            .sequences
+            .iter()
+            .map(|q| format!("{} for {}", q.bound_method, q.method))
+            .collect::<Vec<_>>()
+            .join(", ");
+        s += ": the disturbance given as if measured)\n";
     }
     s += "(worst relative error over every parameter and curve, as in the run reports)\n";
     s
@@ -325,23 +353,42 @@ pub fn write_sweep(sw: &crate::bench::Sweep, dir: &Path) -> std::io::Result<Vec<
     Ok(files)
 }
 
-/// Worst error of step 0, of the final iterate and of the bound against the disturbance
+/// Worst error of step 0, of each sequence's final iterate and of its bound against the disturbance
 /// level (log scale).
 pub fn plot_sweep(sw: &crate::bench::Sweep, path: &Path) -> PlotResult {
     svg_to_file(path, (900, 520), |root| {
         let pts = &sw.points;
-        let all: Vec<f64> = pts
-            .iter()
-            .flat_map(|p| {
-                [
-                    p.step0_worst_rel_error,
-                    p.final_worst_rel_error,
-                    p.bound_worst_rel_error,
-                ]
-            })
-            .filter(|e| e.is_finite() && *e > 0.0)
-            .map(|e| 100.0 * e)
-            .collect();
+        // (label, worst error per level): step 0, each sequence's final iterate, the bound.
+        let mut curves: Vec<(String, Vec<(f64, f64)>)> = vec![(
+            "step 0 (P_z ignored)".into(),
+            pts.iter().map(|p| (p.level, p.step0_worst_rel_error)).collect(),
+        )];
+        let methods: Vec<String> = pts
+            .first()
+            .map(|p| p.sequences.iter().map(|q| q.method.clone()).collect())
+            .unwrap_or_default();
+        for (k, m) in methods.iter().enumerate() {
+            curves.push((
+                format!("final iterate, {m}"),
+                pts.iter()
+                    .map(|p| (p.level, p.sequences[k].final_worst_rel_error))
+                    .collect(),
+            ));
+        }
+        for (k, m) in methods.iter().enumerate() {
+            let bound = pts.first().map_or("", |p| p.sequences[k].bound_method.as_str());
+            curves.push((
+                format!("P_z given as measured ({bound}): bound of {m}"),
+                pts.iter()
+                    .map(|p| (p.level, p.sequences[k].bound_worst_rel_error))
+                    .collect(),
+            ));
+        }
+        for (_, c) in &mut curves {
+            c.iter_mut().for_each(|(_, e)| *e *= 100.0);
+            c.retain(|(_, e)| e.is_finite() && *e > 0.0);
+        }
+        let all: Vec<f64> = curves.iter().flat_map(|(_, c)| c.iter().map(|p| p.1)).collect();
         let lo = all.iter().copied().fold(f64::INFINITY, f64::min).min(1.0) * 0.5;
         let hi = all.iter().copied().fold(0.0, f64::max).max(10.0) * 2.0;
         let xmax = pts.iter().map(|p| p.level).fold(0.0, f64::max).max(1e-3) * 1.05;
@@ -359,23 +406,8 @@ pub fn plot_sweep(sw: &crate::bench::Sweep, path: &Path) -> PlotResult {
             .x_desc("disturbance level: std(P_z) / std(P_2)")
             .y_desc("worst relative error (%)")
             .draw()?;
-        for (k, (label, get)) in [
-            (
-                "step 0 (P_z ignored)",
-                (|p: &crate::bench::SweepPoint| p.step0_worst_rel_error) as fn(&crate::bench::SweepPoint) -> f64,
-            ),
-            ("final iterate", |p| p.final_worst_rel_error),
-            ("P_z given as measured (bound)", |p| p.bound_worst_rel_error),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let color = COLORS[k];
-            let data: Vec<(f64, f64)> = pts
-                .iter()
-                .map(|p| (p.level, 100.0 * get(p)))
-                .filter(|(_, e)| e.is_finite() && *e > 0.0)
-                .collect();
+        for (k, (label, data)) in curves.into_iter().enumerate() {
+            let color = COLORS[k % COLORS.len()];
             chart
                 .draw_series(LineSeries::new(data.clone(), color.stroke_width(2)))?
                 .label(label)
@@ -390,32 +422,51 @@ pub fn plot_sweep(sw: &crate::bench::Sweep, path: &Path) -> PlotResult {
     })
 }
 
-/// Every parameter of the iterative procedure against the step number, with the true
-/// value (dashed) and the estimate with the disturbance given as measured (dotted).
+/// Every parameter of the iterative procedure against the step number, one line per
+/// sequence, with the true value (dashed) and each sequence's bound, the estimate with the
+/// disturbance given as measured (dotted, in the sequence's colour).
 pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
-    let Some(it) = &r.iteration else { return Ok(()) };
-    let names = &it.iteration.names;
+    let Some(first) = r.iterations.first() else {
+        return Ok(());
+    };
+    let names = &first.iteration.names;
     let rows = names.len().div_ceil(2);
-    let bound: Vec<f64> = r
-        .methods
+    // Each sequence's bound: (its colour index, label, estimates).
+    let bounds: Vec<(usize, String, Vec<f64>)> = r
+        .iterations
         .iter()
-        .find(|m| m.method == "pz-measured")
-        .map(|m| m.parameters.iter().map(|p| p.estimate).collect())
-        .unwrap_or_default();
+        .enumerate()
+        .filter_map(|(j, it)| {
+            let m = r.methods.iter().find(|m| m.method == it.bound && m.error.is_none())?;
+            Some((j, it.bound.clone(), m.parameters.iter().map(|p| p.estimate).collect()))
+        })
+        .collect();
     svg_to_file(path, (1000, 300 * rows as u32), |root| {
         for (k, area) in root.split_evenly((rows, 2)).into_iter().enumerate().take(names.len()) {
-            let values: Vec<(f64, f64)> = it
-                .iteration
-                .steps
+            let sequences: Vec<(&str, Vec<(f64, f64)>)> = r
+                .iterations
                 .iter()
-                .map(|s| (s.step as f64, s.values[k]))
+                .map(|it| {
+                    let v = it
+                        .iteration
+                        .steps
+                        .iter()
+                        .map(|s| (s.step as f64, s.values[k]))
+                        .collect();
+                    (it.method.as_str(), v)
+                })
                 .collect();
-            let truth = it.iteration.truth[k];
-            let b = bound.get(k).copied().unwrap_or(f64::NAN);
-            let ys = values.iter().map(|v| v.1).chain([truth, b]).filter(|y| y.is_finite());
+            let truth = first.iteration.truth[k];
+            let ys = sequences
+                .iter()
+                .flat_map(|(_, v)| v.iter().map(|p| p.1))
+                .chain([truth])
+                .chain(bounds.iter().map(|b| b.2[k]))
+                .filter(|y| y.is_finite());
             let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(y), h.max(y)));
             let pad = 0.1 * (hi - lo).max(1e-3 * truth.abs().max(1e-12));
-            let last = values.len().max(2) as f64 - 1.0;
+            let steps = sequences.iter().map(|(_, v)| v.len()).max().unwrap_or(0);
+            let last = steps.max(2) as f64 - 1.0;
             let mut chart = ChartBuilder::on(&area)
                 .caption(&names[k], ("sans-serif", 16))
                 .margin(10)
@@ -426,14 +477,16 @@ pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
                 .configure_mesh()
                 .x_desc("step")
                 .y_desc("estimate")
-                .x_labels(values.len().clamp(2, 12))
+                .x_labels(steps.clamp(2, 12))
                 .draw()?;
-            let c = COLORS[0];
-            chart
-                .draw_series(LineSeries::new(values.clone(), c.stroke_width(2)))?
-                .label("iterate")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
-            chart.draw_series(values.iter().map(|&(x, y)| Circle::new((x, y), 4, c.filled())))?;
+            for (j, (method, values)) in sequences.into_iter().enumerate() {
+                let c = COLORS[j];
+                chart
+                    .draw_series(LineSeries::new(values.clone(), c.stroke_width(2)))?
+                    .label(method)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+                chart.draw_series(values.iter().map(|&(x, y)| Circle::new((x, y), 4, c.filled())))?;
+            }
             let tstyle = ShapeStyle {
                 color: BLACK.to_rgba(),
                 filled: false,
@@ -448,11 +501,15 @@ pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
                 ))?
                 .label(format!("true {truth}"))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], tstyle));
-            if b.is_finite() {
-                let bstyle = COLORS[2].stroke_width(1);
+            for (j, label, values) in &bounds {
+                let b = values[k];
+                if !b.is_finite() {
+                    continue;
+                }
+                let bstyle = COLORS[*j].stroke_width(1);
                 chart
                     .draw_series(DashedLineSeries::new(vec![(-0.2, b), (last + 0.2, b)], 2, 3, bstyle))?
-                    .label(format!("P_z measured {b:.4}"))
+                    .label(format!("{label} {b:.4}"))
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], bstyle));
             }
             legend_box(&mut chart, SeriesLabelPosition::UpperRight)?;
@@ -479,7 +536,7 @@ pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let p = dir.join("characteristics.svg");
     plot_characteristics(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
     files.push(p);
-    if r.iteration.is_some() {
+    if !r.iterations.is_empty() {
         let p = dir.join("iteration.svg");
         plot_iteration(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
         files.push(p);

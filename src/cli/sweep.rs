@@ -71,17 +71,28 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             std::fs::remove_file(&log)?;
         }
         let p = SweepPoint::from_report(level, &r).expect("the scenario has [identify.disturbance]");
-        if let Some(it) = &r.iteration {
+        if let Some(it) = r.iterations.first() {
             sweep.names = it.iteration.names.clone();
             sweep.truth = it.iteration.truth.clone();
         }
+        let finals: Vec<String> = p
+            .sequences
+            .iter()
+            .map(|q| {
+                format!(
+                    "{} {:.2} % after {} steps ({}; bound {:.2} %)",
+                    q.method,
+                    100.0 * q.final_worst_rel_error,
+                    q.steps,
+                    q.stopped_by,
+                    100.0 * q.bound_worst_rel_error
+                )
+            })
+            .collect();
         eprintln!(
-            "level {level}: step 0 {:.2} %, final {:.2} % after {} steps ({}), P_z measured {:.2} % ({:.1} s)",
+            "level {level}: step 0 {:.2} %, {} ({:.1} s)",
             100.0 * p.step0_worst_rel_error,
-            100.0 * p.final_worst_rel_error,
-            p.steps,
-            p.stopped_by,
-            100.0 * p.bound_worst_rel_error,
+            finals.join(", "),
             sim.seconds + r.timings_s.identify
         );
         sweep.points.push(p);

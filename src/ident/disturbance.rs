@@ -1,5 +1,5 @@
 //! The paper's successive approximations when part of the excitation is not measured
-//! (section 4, (4.3)–(4.15)).
+//! (section 4, (4.3)–(4.15)), and a variant of its single-mass step.
 //!
 //! The system is the paper's (4.3): `m1 ẍ1 + k1 (x1 − x2) = P_z`,
 //! `m2 ẍ2 + K2(x2) + C2(ẋ2) − k1 (x1 − x2) = P2 + P_z`, with `P2` measured, `P_z` not, the
@@ -10,10 +10,20 @@
 //!   low-frequency density, `σ = A/B`).
 //! - Step s ≥ 1: subtracting the equations (4.8) removes `P_z`:
 //!   `m2 ẍ2 + K2 + C2 = P3 = P2 + m1 ẍ1 + 2 k1 (x1 − x2)`. With `k1^(s−1)` in place of `k1`,
-//!   `P3s` is known (4.9); its spectrum is fitted by the rational density (4.10), and
-//!   `K2`, `C2` are identified from the single-mass system (4.11) driven by that filtered
-//!   force, in the state `(x2, ẋ2, ẍ2)` (4.12)–(4.15). Then `K2`, `C2` go into the `k1`
-//!   equation of (4.7), which gives `k1^(s)`.
+//!   `P3s` is known (4.9), and `K2`, `C2` are identified from the single-mass system (4.11)
+//!   driven by it — by one of two [`SingleMass`] steps:
+//!   - [`SingleMass::Spectral`], the paper's: the spectrum of `P3s` is fitted by the
+//!     rational density (4.10), and the single-mass system is identified as driven by that
+//!     filtered noise, in the state `(x2, ẋ2, ẍ2)` (4.12)–(4.15);
+//!   - [`SingleMass::Force`], fpkbench's: `P3s` is a measured force, and the weak form of
+//!     `(x2, ẋ2)` alone holds for it exactly — `E[ψ_x ẋ2 + ψ_v (P3 − K2 − C2)/m2] = 0` for
+//!     any test function `ψ(x2, ẋ2)`, by stationarity of `E[ψ]`, whatever `P3`'s law (a
+//!     white `P2` adds its Itô term `½ ψ_vv σ²/m2²`). The spectral step's model is not:
+//!     `P3` contains the spring force `k1 (x1 − x2)`, fed back from the state, so it is not
+//!     a filtered noise independent of `(x2, ẋ2)` and `(x2, ẋ2, P3)` is not Markov; its
+//!     sequence drifts away from the truth even with no disturbance at all.
+//!
+//!   Then `K2`, `C2` go into the `k1` equation of (4.7), which gives `k1^(s)`.
 //! - Stop after a given number of steps, or when every coefficient changed by less than a
 //!   tolerance (the paper's two rules); whether the successive differences decrease
 //!   monotonically (the paper's convergence criterion) is reported either way.
@@ -21,7 +31,8 @@
 //! Every identification here is the weak form (the bench's default estimator) instead of
 //! the paper's density grid. The spectrum of `P3s` for any `k1` comes from the spectra and
 //! cross-spectrum of `P2 + m1 ẍ1` and `x1 − x2`, accumulated once; the moments of both
-//! states are accumulated once too, so each step costs milliseconds.
+//! states, and of `(x2, ẋ2)` with those two forces, are accumulated once too, so each step
+//! costs milliseconds.
 //!
 //! The procedure is specific to this structure — the subtraction (4.8) removes `P_z` only
 //! because the same disturbance acts on both masses and `m1` has no other link — and
@@ -29,6 +40,7 @@
 //! unmeasured excitations anywhere; the ordinary methods simply never see them.
 
 use super::data::StationaryData;
+use super::poly::Poly;
 use super::spectrum::{fit_ou, CrossWelch, OuFit};
 use super::{identify_weak, Estimate, Filter, IdentError, Problem, Unknown};
 use crate::model::Characteristic;
@@ -96,6 +108,105 @@ pub fn driven_scenario(s: &Scenario, st: &PaperStructure, a: f64, b: f64) -> Sce
     }
 }
 
+/// Which identification step s ≥ 1 uses for the single-mass system (4.11).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum SingleMass {
+    /// The paper's (4.10)–(4.15): `P3s` as filtered noise of its fitted spectrum.
+    Spectral,
+    /// `P3s` as a measured force in the weak form of `(x2, ẋ2)`.
+    Force,
+}
+
+impl SingleMass {
+    pub fn name(self) -> &'static str {
+        match self {
+            SingleMass::Spectral => "spectral (the paper's (4.10)-(4.15))",
+            SingleMass::Force => "measured force",
+        }
+    }
+}
+
+/// Whether the measured force `P2` is white (it is then noise with an Itô term in the
+/// measured-force step; a filtered one is part of the measured input).
+fn p2_is_white(s: &Scenario, st: &PaperStructure) -> bool {
+    matches!(s.excitations[st.measured].process, Process::White { .. })
+}
+
+/// The row the measured-force step's moments are accumulated over, from a log row:
+/// `(x2, ẋ2, q, r)` with `q = m1 ẍ1` (plus `P2` when it is filtered) and `r = x1 − x2`,
+/// so that `P3 = q + 2 k1 r` (+ a white `P2`). `n`: masses (log columns `x_i = 3i`,
+/// forces after the `3n` kinematic columns).
+pub fn force_row(s: &Scenario, st: &PaperStructure, row: &[f64]) -> [f64; 4] {
+    let n = s.masses.len();
+    let (x1, x2) = (3 * st.free, 3 * st.driven);
+    let mut q = s.masses[st.free].value * row[x1 + 2];
+    if !p2_is_white(s, st) {
+        q += row[3 * n + st.measured];
+    }
+    [row[x2], row[x2 + 1], q, row[x1] - row[x2]]
+}
+
+/// The single-mass system (4.11) with `P3s = q + 2 k1 r` (see [`force_row`]) as a measured
+/// input: the state `(x2, ẋ2)` and the inputs `q`, `r`; a white `P2` stays noise at its
+/// declared intensity.
+pub fn force_problem(s: &Scenario, st: &PaperStructure, k1: f64) -> Result<Problem, IdentError> {
+    let mut single = driven_scenario(s, st, 1.0, 1.0);
+    single.identify.known_filters.clear();
+    let sigma = match s.excitations[st.measured].process {
+        Process::White { sigma } => sigma,
+        Process::Filtered { .. } => 1.0,
+    };
+    single.excitations[0].process = Process::White { sigma };
+    let mut p = Problem::new(&single)?;
+    if !p2_is_white(s, st) {
+        p.white.clear();
+    }
+    let (q, r) = (p.dim(), p.dim() + 1);
+    p.inputs = 2;
+    p.known_force[0].add(&Poly::linear(&[(q, 1.0), (r, 2.0 * k1)]), 1.0);
+    p.columns = (0..4).collect();
+    p.state_names
+        .extend(["q = P2 + m1 a1".to_string(), "r = x1 - x2".to_string()]);
+    Ok(p)
+}
+
+/// The bound of the measured-force sequence: the two-mass system with every force given as
+/// measured, identified by the measured-force weak form of `(x1, ẋ1, x2, ẋ2)` — filtered
+/// forces as measured inputs (their log columns), white ones as noise at their declared
+/// intensity. Unlike [`bound_scenario`]'s, it makes no white-noise approximation of a
+/// band-limited force.
+pub fn force_bound_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem, IdentError> {
+    let mut w = step0_scenario(s, st, None);
+    let filtered: Vec<usize> = (0..w.excitations.len())
+        .filter(|&e| matches!(w.excitations[e].process, Process::Filtered { .. }))
+        .collect();
+    for e in &mut w.excitations {
+        e.measured = true;
+        if matches!(e.process, Process::Filtered { .. }) {
+            e.process = Process::White { sigma: 1.0 };
+        }
+    }
+    let mut p = Problem::new(&w)?;
+    // Every excitation is measured, so noise source k is excitation k.
+    p.white = std::mem::take(&mut p.white)
+        .into_iter()
+        .enumerate()
+        .filter(|(e, _)| !filtered.contains(e))
+        .map(|(_, source)| source)
+        .collect();
+    let n = s.masses.len();
+    let first = p.dim();
+    for (k, &e) in filtered.iter().enumerate() {
+        for &i in &s.excitations[e].acts_on {
+            p.known_force[i].add(&Poly::linear(&[(first + k, 1.0)]), 1.0);
+        }
+        p.columns.push(3 * n + e);
+        p.state_names.push(format!("P_{}", s.excitations[e].name));
+    }
+    p.inputs = filtered.len();
+    Ok(p)
+}
+
 /// The `k1` equation of (4.7): the step-0 scenario with `K2`, `C2` fixed at `values`
 /// (step-0 unknown order) and only `k1` unknown.
 fn k1_scenario(step0: &Scenario, st: &PaperStructure, problem: &Problem, values: &[f64]) -> Scenario {
@@ -141,6 +252,8 @@ pub struct Inputs<'a> {
     pub driven: &'a StationaryData,
     /// Spectra of `q = P2 + m1 ẍ1` and `r = x1 − x2` and their cross-spectrum.
     pub p3: &'a CrossWelch,
+    /// Moments of [`force_row`] for [`force_problem`].
+    pub force: &'a StationaryData,
 }
 
 /// One step of the procedure.
@@ -149,7 +262,8 @@ pub struct Step {
     pub step: usize,
     /// Estimates in the order of [`Iteration::names`].
     pub values: Vec<f64>,
-    /// Steps ≥ 1: `A`, `B` of (4.10) fitted to the spectrum of `P3s`, and the `k1` it used.
+    /// Steps ≥ 1: `A`, `B` of (4.10) fitted to the spectrum of `P3s` (the spectral step),
+    /// and the `k1` `P3s` used.
     pub p3_fit: Option<OuFit>,
     pub p3_k1: Option<f64>,
     /// Steps ≥ 1: change from the previous step per group (`k1`, `K2`, `C2`), each the
@@ -163,6 +277,8 @@ pub struct Step {
 /// The whole sequence.
 #[derive(Debug, Clone, Serialize)]
 pub struct Iteration {
+    /// The single-mass step of steps ≥ 1.
+    pub single_mass: SingleMass,
     pub names: Vec<String>,
     pub truth: Vec<f64>,
     pub steps: Vec<Step>,
@@ -200,7 +316,7 @@ fn group(problem: &Problem, st: &PaperStructure, k: usize) -> &'static str {
 /// Run the procedure. An error at step 0 (e.g. the unknowns are not identifiable) is
 /// returned; a failure at a later step ends the sequence there and is reported in
 /// `stopped_by`.
-pub fn iterate(inp: &Inputs) -> Result<Iteration, IdentError> {
+pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, IdentError> {
     let s = inp.scenario;
     let st = &inp.settings.structure;
     let step0_s = step0_scenario(s, st, inp.p2);
@@ -222,20 +338,29 @@ pub fn iterate(inp: &Inputs) -> Result<Iteration, IdentError> {
     for step in 1..=inp.settings.max_steps {
         let prev = &steps[step - 1].values;
         let k1 = prev[k1_index];
-        // (4.9)–(4.10): P3s = (P2 + m1 ẍ1) + 2 k1 (x1 − x2), its rational spectrum.
-        let fit = fit_ou(&inp.p3.spectrum_of(2.0 * k1));
-        // (4.11)–(4.15): K2, C2 of the single-mass system driven by P3s.
-        let driven = driven_scenario(s, st, fit.a, fit.b);
-        let result = Problem::with_filters(
-            &driven,
-            &[Filter {
-                excitation: 0,
-                a: fit.a,
-                b: fit.b,
-            }],
-        )
-        .and_then(|p| identify_weak(&p, inp.driven).map(|e| (p, e)))
-        .and_then(|(dp, de)| {
+        // (4.9): P3s = (P2 + m1 ẍ1) + 2 k1 (x1 − x2); (4.10)–(4.15) or the measured-force
+        // weak form: K2, C2 of the single-mass system driven by P3s.
+        let (fit, single) = match single_mass {
+            SingleMass::Spectral => {
+                let fit = fit_ou(&inp.p3.spectrum_of(2.0 * k1));
+                let driven = driven_scenario(s, st, fit.a, fit.b);
+                let filter = Filter {
+                    excitation: 0,
+                    a: fit.a,
+                    b: fit.b,
+                };
+                (
+                    Some(fit),
+                    Problem::with_filters(&driven, &[filter])
+                        .and_then(|p| identify_weak(&p, inp.driven).map(|e| (p, e))),
+                )
+            }
+            SingleMass::Force => (
+                None,
+                force_problem(s, st, k1).and_then(|p| identify_weak(&p, inp.force).map(|e| (p, e))),
+            ),
+        };
+        let result = single.and_then(|(dp, de)| {
             let mut values = prev.clone();
             for (k, u) in problem.unknowns.iter().enumerate() {
                 if let Unknown::Coefficient(c) = u {
@@ -285,7 +410,7 @@ pub fn iterate(inp: &Inputs) -> Result<Iteration, IdentError> {
         steps.push(Step {
             step,
             values,
-            p3_fit: Some(fit),
+            p3_fit: fit,
             p3_k1: Some(k1),
             changes,
             sv_ratio,
@@ -297,6 +422,7 @@ pub fn iterate(inp: &Inputs) -> Result<Iteration, IdentError> {
     }
     let monotone = (0..group_names.len()).all(|g| steps[1..].windows(2).all(|w| w[1].changes[g].1 < w[0].changes[g].1));
     Ok(Iteration {
+        single_mass,
         names: problem.names.clone(),
         truth: problem.truth.clone(),
         converged: monotone && stopped_by == "tolerance",

@@ -135,6 +135,11 @@ pub struct Problem {
     pub state_names: Vec<String>,
     /// Per link: its ends (mass indices; `None` for the ground) for ranges.
     pub link_ends: Vec<(usize, Option<usize>)>,
+    /// Measured inputs appended to the state after the masses' variables: forces known at
+    /// every sample that enter `known_force` but have no dynamics of their own, so test
+    /// functions never depend on them (see [`disturbance`]'s measured-force step). 0 for a
+    /// problem built from a scenario.
+    pub inputs: usize,
 }
 
 /// State variable index of `x_i` and `v_i` in the white layout.
@@ -498,6 +503,7 @@ impl Problem {
             columns,
             state_names,
             link_ends,
+            inputs: 0,
         })
     }
 
@@ -555,8 +561,13 @@ impl Problem {
         out
     }
 
-    /// Number of state variables.
+    /// Number of state variables, measured inputs included.
     pub fn dim(&self) -> usize {
+        self.width() * self.n + self.inputs
+    }
+
+    /// Number of the masses' own state variables (those test functions depend on).
+    pub fn dynamic_dim(&self) -> usize {
         self.width() * self.n
     }
 

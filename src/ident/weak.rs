@@ -22,7 +22,7 @@ use super::{Pieces, Problem};
 
 /// The test functions' monomials.
 pub fn test_functions(problem: &Problem) -> Vec<super::poly::Exponents> {
-    let all = monomials(problem.dim(), test_degree(problem));
+    let all = monomials(problem.dynamic_dim(), test_degree(problem));
     match problem.layout {
         super::Layout::White => all,
         // At most linear in the accelerations: higher powers of a heavy-tailed acceleration
