@@ -390,7 +390,7 @@ pub fn plot_sweep(sw: &crate::bench::Sweep, path: &Path) -> PlotResult {
         }
         let all: Vec<f64> = curves.iter().flat_map(|(_, c)| c.iter().map(|p| p.1)).collect();
         let lo = all.iter().copied().fold(f64::INFINITY, f64::min).min(1.0) * 0.5;
-        let hi = all.iter().copied().fold(0.0, f64::max).max(10.0) * 2.0;
+        let hi = all.iter().copied().fold(0.0, f64::max).max(10.0) * 8.0; // headroom for the legend
         let xmax = pts.iter().map(|p| p.level).fold(0.0, f64::max).max(1e-3) * 1.05;
         let mut chart = ChartBuilder::on(&root)
             .caption(

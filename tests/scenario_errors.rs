@@ -286,3 +286,16 @@ fn disturbance_tolerance_must_be_positive() {
         "> 0",
     );
 }
+
+#[test]
+fn iterated_force_gate_needs_the_disturbance_procedure() {
+    // `iterated-force` is a report method only with [identify.disturbance].
+    let text = format!("{GOOD}\n[accept]\nmethods = {{ iterated-force = 0.05 }}\n");
+    run_bad(
+        "iterated_force_gate",
+        &text,
+        31,
+        "accept.methods.iterated-force",
+        "methods are weak, strong, strong-marginals",
+    );
+}

@@ -3,7 +3,8 @@
 //! unknown coefficients and needing only sample means — here raw moments accumulated in
 //! one pass ([`RawMoments`]), so no density, no differentiated data, constant memory.
 //!
-//! Test functions: every monomial of the state of degree 1..=`p_max + 1` (degree ≤ 3
+//! Test functions: every monomial of the state (never of measured inputs, see
+//! [`super::Problem::inputs`]) of degree 1..=`p_max + 1` (degree ≤ 3
 //! cannot separate `k1` from `k3` when cubic terms are present). Each is written in the
 //! standardised variables `y_j / s_j` — a fixed, data-derived weighting by natural scale;
 //! equations are never normalised by their own norm (rows that vanish by symmetry would
