@@ -134,8 +134,8 @@ fn p2_is_white(s: &Scenario, st: &PaperStructure) -> bool {
 
 /// The row the measured-force step's moments are accumulated over, from a log row:
 /// `(x2, ẋ2, q, r)` with `q = m1 ẍ1` (plus `P2` when it is filtered) and `r = x1 − x2`,
-/// so that `P3 = q + 2 k1 r` (+ a white `P2`). `n`: masses (log columns `x_i = 3i`,
-/// forces after the `3n` kinematic columns).
+/// so that `P3 = q + 2 k1 r` (+ a white `P2`). Log columns: `x_i, v_i, a_i` at `3i`, the
+/// forces after the `3n` kinematic columns.
 pub fn force_row(s: &Scenario, st: &PaperStructure, row: &[f64]) -> [f64; 4] {
     let n = s.masses.len();
     let (x1, x2) = (3 * st.free, 3 * st.driven);
