@@ -1,7 +1,8 @@
 //! Spread over seeds of each method's worst relative error on a scenario at a given
 //! record length, through the real pipeline (log written, identified back). The CI
 //! accuracy regression's thresholds come from this:
-//! `cargo run --release --example gate_spread -- SCENARIO RECORD_LENGTH SEEDS`.
+//! `cargo run --release --example gate_spread -- SCENARIO RECORD_LENGTH SEEDS [LEVEL]`
+//! (LEVEL: the disturbance level of a scenario with `[identify.disturbance]`).
 
 use fpkbench::bench::{identify_log, Options};
 use fpkbench::io::log::LogWriter;
@@ -13,6 +14,9 @@ fn main() {
     let mut s = Scenario::from_file(std::path::Path::new(&a[1])).unwrap();
     s.simulation.record_length = a[2].parse().unwrap();
     let seeds: u64 = a[3].parse().unwrap();
+    if let Some(level) = a.get(4) {
+        s = s.with_disturbance_level(level.parse().unwrap()).unwrap();
+    }
     let dir = tempfile::tempdir().unwrap();
     let mut worst: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
     for seed in 0..seeds {
@@ -40,8 +44,9 @@ fn main() {
         let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
         v.sort_by(|a, b| a.partial_cmp(b).unwrap());
         println!(
-            "{m:<17} worst rel error over {} seeds: median {:.4}, mean {:.4}, sd {:.4}, max {:.4}",
+            "{m:<17} worst rel error over {} seeds: min {:.4}, median {:.4}, mean {:.4}, sd {:.4}, max {:.4}",
             v.len(),
+            v[0],
             v[v.len() / 2],
             mean,
             sd,

@@ -15,7 +15,7 @@ use crate::ident::{
 };
 use crate::io::log::{read_info, read_samples, LogError, LogInfo};
 use crate::model::{Characteristic, Coefficient, Model};
-use crate::scenario::{Method, Polynomial, Process, Scenario, ITERATED_FORCE};
+use crate::scenario::{Method, Polynomial, Process, Scenario, DIRECT_FORCE, ITERATED_FORCE};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
 use crate::stats;
 use serde::Serialize;
@@ -495,6 +495,10 @@ pub struct SweepPoint {
     /// Per sequence (the paper's, then the measured-force one): its final iterate and bound.
     pub sequences: Vec<SweepSequence>,
     pub step0: Vec<f64>,
+    /// The one-step solve of (4.8) (`direct-force`): worst error (NaN when it failed) and
+    /// estimates.
+    pub direct_worst_rel_error: f64,
+    pub direct: Vec<f64>,
 }
 
 /// One sequence's outcome at one sweep level.
@@ -553,6 +557,12 @@ impl SweepPoint {
                 })
                 .collect(),
             step0: values("step-0"),
+            direct_worst_rel_error: r
+                .methods
+                .iter()
+                .find(|x| x.method == DIRECT_FORCE)
+                .map_or(f64::NAN, |x| x.worst_rel_error),
+            direct: values(DIRECT_FORCE),
         })
     }
 }
@@ -783,6 +793,21 @@ fn identify_disturbed(
         });
         reports.push(rep);
     }
+    // No iteration: k1, K2, C2 in one solve of the subtracted equation (4.8).
+    let mut direct = method_report(
+        DIRECT_FORCE,
+        Some(s.accept.threshold(DIRECT_FORCE)),
+        disturbance::direct(&inputs, &problem),
+        s,
+        &problem,
+        ranges,
+        t,
+    );
+    direct.facts.insert(
+        "P_z".into(),
+        "eliminated by (4.8); k1, K2, C2 in one linear solve of the measured-force weak form of (x2, v2), no iteration".into(),
+    );
+    reports.push(direct);
     reports.extend(bounds);
 
     let validation = options
@@ -1247,7 +1272,7 @@ pub fn identified_scenario(
                     *b = values[k];
                 }
             }
-            Unknown::Coefficient(_) | Unknown::CornerProduct(..) | Unknown::Monomial(..) => {}
+            Unknown::Coefficient(_) | Unknown::CornerProduct(..) | Unknown::Monomial(..) | Unknown::InputGain(_) => {}
         }
     }
     out

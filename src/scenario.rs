@@ -393,14 +393,18 @@ pub struct PaperStructure {
 pub struct Accept {
     /// Largest allowed worst relative error (DESIGN §7), for every method without its own.
     pub worst_rel_error: f64,
-    /// Per report method (a [`Method`]'s name, or [`ITERATED_FORCE`] with
-    /// `[identify.disturbance]`): its own threshold.
+    /// Per report method (a [`Method`]'s name, or [`ITERATED_FORCE`] or [`DIRECT_FORCE`]
+    /// with `[identify.disturbance]`): its own threshold.
     pub methods: BTreeMap<String, f64>,
 }
 
 /// The report method of the iterative procedure with the measured-force single-mass step
 /// (`[identify.disturbance]`; the paper's own is `iterated`).
 pub const ITERATED_FORCE: &str = "iterated-force";
+
+/// The report method of the one-step solve of the subtracted equation (4.8) for `k1`,
+/// `K2`, `C2` with `P3` as a measured force (`[identify.disturbance]`).
+pub const DIRECT_FORCE: &str = "direct-force";
 
 impl Accept {
     /// The threshold of report method `method` (e.g. `weak`, `iterated-force`).
@@ -1077,7 +1081,7 @@ impl Scenario {
             }
             let mut allowed: Vec<&str> = Method::ALL.iter().map(|x| x.name()).collect();
             if identify.disturbance.is_some() {
-                allowed.push(ITERATED_FORCE);
+                allowed.extend([ITERATED_FORCE, DIRECT_FORCE]);
             }
             for (m, v) in a.methods.iter().flatten() {
                 let key = format!("accept.methods.{m}");
@@ -1111,7 +1115,8 @@ impl Scenario {
     /// This scenario with every unmeasured excitation scaled so that its standard deviation
     /// is `level` times the measured force's (at level 0 they are removed) — the source
     /// text is rewritten too, so a log of it describes what was simulated. White noise
-    /// counts at the sample interval (it is logged as interval means).
+    /// counts at the sample interval (it is logged as interval means). `[simulation]` is
+    /// kept as it is in memory, so changes made to it before or after both hold.
     pub fn with_disturbance_level(&self, level: f64) -> Result<Scenario, ScenarioError> {
         let dt = self.simulation.sample_interval;
         let std = |p: Process| match p {
@@ -1162,7 +1167,11 @@ impl Scenario {
                 message: e.to_string(),
             })?
         );
-        Scenario::parse(&src, &format!("{} at disturbance level {level}", self.name), &self.name)
+        let mut out = Scenario::parse(&src, &format!("{} at disturbance level {level}", self.name), &self.name)?;
+        // `[simulation]` as this scenario has it, edits made since parsing included (a log's
+        // run facts record them).
+        out.simulation = self.simulation.clone();
+        Ok(out)
     }
 
     /// The true value of every parameter, by its human-readable name

@@ -24,6 +24,9 @@
 //!     sequence drifts away from the truth even with no disturbance at all.
 //!
 //!   Then `K2`, `C2` go into the `k1` equation of (4.7), which gives `k1^(s)`.
+//! - Beside the sequences, [`direct`]: in (4.8) `k1` is one more linear unknown (the gain
+//!   of the input `x1 − x2`), so the measured-force weak form gives `k1`, `K2`, `C2` in one
+//!   solve — no iteration, and no use of the `k1` equation of (4.7), which ignores `P_z`.
 //! - Stop after a given number of steps, or when every coefficient changed by less than a
 //!   tolerance (the paper's two rules); whether the successive differences decrease
 //!   monotonically (the paper's convergence criterion) is reported either way.
@@ -168,6 +171,52 @@ pub fn force_problem(s: &Scenario, st: &PaperStructure, k1: f64) -> Result<Probl
     p.state_names
         .extend(["q = P2 + m1 a1".to_string(), "r = x1 - x2".to_string()]);
     Ok(p)
+}
+
+/// The subtracted equation (4.8) as one linear problem: [`force_problem`] with `k1` an
+/// unknown too — the gain of the input `r = x1 − x2`, whose force is `2 k1 r` — so `k1`,
+/// `K2`, `C2` come out of one solve, with no iteration and no use of the `k1` equation of
+/// (4.7) (which ignores `P_z`). Unknown order: `K2`, `C2` as in [`force_problem`], then `k1`.
+pub fn direct_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem, IdentError> {
+    let mut p = force_problem(s, st, 0.0)?;
+    let r = p.dynamic_dim() + 1;
+    let at = p.coefficient_count();
+    p.unknowns.insert(at, Unknown::InputGain(1));
+    p.unit_force.insert(at, vec![Poly::linear(&[(r, 2.0)])]);
+    p.names.insert(at, format!("k1[{}]", s.links[st.coupling].name));
+    p.truth.insert(at, s.links[st.coupling].stiffness.coefficient(1));
+    p.start.insert(at, 0.0);
+    Ok(p)
+}
+
+/// The one-step estimate of [`direct_problem`], in the unknown order of step 0 (`problem`).
+pub fn direct(inp: &Inputs, problem: &Problem) -> Result<Estimate, IdentError> {
+    let st = &inp.settings.structure;
+    let dp = direct_problem(inp.scenario, st)?;
+    let de = identify_weak(&dp, inp.force)?;
+    let order: Vec<usize> = problem
+        .unknowns
+        .iter()
+        .map(|u| match u {
+            Unknown::Coefficient(c) if c.link == st.coupling => dp
+                .unknowns
+                .iter()
+                .position(|x| matches!(x, Unknown::InputGain(_)))
+                .expect("k1 is an input gain"),
+            Unknown::Coefficient(c) => dp
+                .unknowns
+                .iter()
+                .position(|x| matches!(x, Unknown::Coefficient(d) if d.kind == c.kind && d.power == c.power))
+                .expect("same powers"),
+            _ => unreachable!("step 0 has coefficients only"),
+        })
+        .collect();
+    Ok(Estimate {
+        names: problem.names.clone(),
+        values: order.iter().map(|&k| de.values[k]).collect(),
+        std_error: order.iter().map(|&k| de.std_error[k]).collect(),
+        ..de
+    })
 }
 
 /// The bound of the measured-force sequence: the two-mass system with every force given as

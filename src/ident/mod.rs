@@ -46,6 +46,10 @@ pub enum Unknown {
     /// The coefficient of one monomial in the unknown part of mass `i`'s drift (the
     /// linear stage of a bilinear identification).
     Monomial(usize, poly::Exponents),
+    /// The gain of measured input `j` (state variable `dim() − inputs + j`): its force per
+    /// unit gain is the unknown's `unit_force`, set by whoever adds the input (e.g. the
+    /// `2 k1 (x1 − x2)` of [`disturbance::direct_problem`]). Never built from a scenario.
+    InputGain(usize),
 }
 
 /// Errors of identification.
@@ -414,6 +418,7 @@ impl Problem {
                     start.push(0.0);
                 }
                 Unknown::Monomial(..) => unreachable!("monomial unknowns come from monomial_form"),
+                Unknown::InputGain(_) => unreachable!("input gains are added to a built problem"),
                 Unknown::Mass(i) => {
                     if layout == Layout::Augmented {
                         return Err(IdentError::Unsupported(
@@ -579,7 +584,11 @@ impl Problem {
             .filter(|u| {
                 matches!(
                     u,
-                    Unknown::Coefficient(_) | Unknown::CornerProduct(..) | Unknown::Corner(_) | Unknown::Monomial(..)
+                    Unknown::Coefficient(_)
+                        | Unknown::CornerProduct(..)
+                        | Unknown::Corner(_)
+                        | Unknown::Monomial(..)
+                        | Unknown::InputGain(_)
                 )
             })
             .count()
@@ -737,6 +746,15 @@ impl Problem {
                 Unknown::Coefficient(c) => coef_scale(c),
                 Unknown::CornerProduct(c, e) => coef_scale(c) * corner(e),
                 Unknown::Corner(e) => corner(e),
+                Unknown::InputGain(j) => {
+                    let u = self.dynamic_dim() + j;
+                    let e = y(u).mul(&y(u)).expectation(|e| mom.moment(e));
+                    if e > 0.0 {
+                        1.0 / e.sqrt()
+                    } else {
+                        1.0
+                    }
+                }
                 _ => s.abs(),
             })
             .collect()
