@@ -805,7 +805,8 @@ fn identify_disturbed(
     );
     direct.facts.insert(
         "P_z".into(),
-        "eliminated by (4.8); k1, K2, C2 in one linear solve of the measured-force weak form of (x2, v2), no iteration".into(),
+        "eliminated by (4.8); k1, K2, C2 in one linear solve of the measured-force weak form of (x2, v2), no iteration"
+            .into(),
     );
     reports.push(direct);
     reports.extend(bounds);

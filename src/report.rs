@@ -5,8 +5,8 @@
 use crate::bench::{Histogram, Report};
 use crate::io::partial_path;
 use crate::model::Characteristic;
-use crate::stats;
 use crate::scenario::DIRECT_FORCE;
+use crate::stats;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 

@@ -109,7 +109,11 @@ fn step_0_is_the_ordinary_identification_when_nothing_is_unmeasured() {
     let direct = estimates(&r, "direct-force");
     for (k, p) in step0_report.parameters.iter().enumerate().skip(1) {
         let moved = (direct[k] - step0[k]) / p.std_error;
-        assert!(moved.abs() <= 4.0, "direct-force {} moved {moved:+.2} standard errors", p.name);
+        assert!(
+            moved.abs() <= 4.0,
+            "direct-force {} moved {moved:+.2} standard errors",
+            p.name
+        );
     }
     assert_eq!(step0_report.parameters[0].name, "k1[m1-m2]");
     let k1_error = (direct[0] / step0_report.parameters[0].true_value - 1.0).abs();
@@ -179,7 +183,11 @@ fn the_one_step_solve_stays_accurate_where_the_iteration_diverges() {
     let r = identify_log(&path, &quiet(None, None)).unwrap();
     let worst = |m: &str| r.methods.iter().find(|x| x.method == m).unwrap().worst_rel_error;
     assert!(worst("direct-force") <= 0.085, "direct-force {}", worst("direct-force"));
-    assert!(worst("iterated-force") >= 0.77, "iterated-force {}", worst("iterated-force"));
+    assert!(
+        worst("iterated-force") >= 0.77,
+        "iterated-force {}",
+        worst("iterated-force")
+    );
 }
 
 #[test]
