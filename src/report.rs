@@ -435,7 +435,7 @@ pub fn plot_sweep(sw: &crate::bench::Sweep, path: &Path) -> PlotResult {
 /// Every parameter of the iterative procedure against the step number, one line per
 /// sequence, with the true value (dashed), each sequence's bound — the estimate with the
 /// disturbance given as measured (dotted, in the sequence's colour) — and the one-step
-/// `direct-force` estimate (dash-dotted); one legend for all panels in a cell of its own.
+/// `direct-force` estimate (long dashes); one legend for all panels in a cell of its own.
 pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
     let Some(first) = r.iterations.first() else {
         return Ok(());
