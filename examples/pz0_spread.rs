@@ -1,12 +1,13 @@
 //! Spread over seeds of the iterative procedure with no disturbance (`P_z = 0`): how far
 //! each sequence's final iterate (and the one-step `direct-force` estimate) moves from step
-//! 0, per parameter, in units of the seed standard deviation of step 0. The tolerance of the test
-//! `tests/disturbance.rs::with_no_disturbance_the_measured_force_sequence_stays_at_step_0`
+//! 0, per parameter, in units of the seed standard deviation of step 0. The tolerance of
+//! the test `tests/disturbance.rs::with_no_disturbance_the_measured_force_sequence_stays_at_step_0`
 //! comes from this:
 //! `cargo run --release --example pz0_spread -- SCENARIO RECORD_LENGTH SEEDS`.
 
 use fpkbench::bench::{identify_log, Options};
 use fpkbench::io::log::LogWriter;
+use fpkbench::scenario::DIRECT_FORCE;
 use fpkbench::sim::simulate;
 use fpkbench::{Model, Scenario};
 
@@ -38,14 +39,10 @@ fn main() {
         .unwrap();
         names = r.iterations[0].iteration.names.clone();
         methods = r.iterations.iter().map(|it| it.method.clone()).collect();
-        methods.push(fpkbench::scenario::DIRECT_FORCE.to_string());
+        methods.push(DIRECT_FORCE.to_string());
         let mut run = vec![r.iterations[0].iteration.steps[0].values.clone()];
         run.extend(r.iterations.iter().map(|it| it.iteration.last().to_vec()));
-        let direct = r
-            .methods
-            .iter()
-            .find(|m| m.method == methods[methods.len() - 1])
-            .unwrap();
+        let direct = r.methods.iter().find(|m| m.method == DIRECT_FORCE).unwrap();
         run.push(direct.parameters.iter().map(|p| p.estimate).collect());
         runs.push(run);
     }
