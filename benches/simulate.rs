@@ -7,8 +7,10 @@
 //! - 2-thread ÷ 1-thread throughput, target ≥ 1.8, next to the same ratio for raw normal
 //!   generation (what this machine's two cores give to perfectly parallel work);
 //! - time with an MCAP log every 10th step ÷ time without logging, target ≤ 1.25, with the
-//!   sampling's own share, and the same with zstd chunks next to a floor for any
-//!   zstd-compressed log: zstd alone on the samples' bare payload bytes;
+//!   sampling's own share; next to it, what writing these samples costs at all (their bare
+//!   payload bytes copied once and written by a writer thread, no MCAP, on disk and in
+//!   RAM), and the same with zstd chunks next to a floor for any zstd-compressed log: zstd
+//!   alone on the samples' bare payload bytes;
 //! - log bytes per sample.
 //!
 //! The machine is shared (a virtual machine's cores), so every ratio compares the fastest
@@ -23,6 +25,9 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use std::hint::black_box;
+use std::io::Write;
+use std::path::Path;
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::time::Instant;
 
 /// Keeps each instant's payload bytes (time and values, little-endian f64) as a log would
@@ -38,6 +43,63 @@ impl SampleSink for Payload {
             }
         }
         Ok(())
+    }
+}
+
+/// The floor for any log of these samples in a file: each instant's bare payload bytes
+/// (time and values, little-endian f64) copied once into a 1 MiB buffer on a writer thread
+/// and written with plain `write`s to `<path>.partial`, renamed over `path` at the end, as
+/// the log is — no framing, no index, no checksum. Batches go back to the simulator.
+struct BareFile {
+    tx: Option<SyncSender<SampleBatch>>,
+    spent: Receiver<SampleBatch>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl BareFile {
+    fn create(path: &Path) -> BareFile {
+        let (tx, rx) = sync_channel::<SampleBatch>(2);
+        let (spent_tx, spent) = sync_channel::<SampleBatch>(2);
+        let (tmp, dest) = (path.with_extension("partial"), path.to_path_buf());
+        let thread = std::thread::spawn(move || {
+            let mut file = std::fs::File::create(&tmp).unwrap();
+            let mut buf: Vec<u8> = Vec::with_capacity(1 << 20);
+            for b in rx {
+                for k in 0..b.instants() {
+                    buf.extend_from_slice(&b.time[k].to_le_bytes());
+                    for v in b.instant(k) {
+                        buf.extend_from_slice(&v.to_le_bytes());
+                    }
+                    if buf.len() >= (1 << 20) - 8 * b.instant(k).len() - 8 {
+                        file.write_all(&buf).unwrap();
+                        buf.clear();
+                    }
+                }
+                let _ = spent_tx.try_send(b);
+            }
+            file.write_all(&buf).unwrap();
+            drop(file);
+            std::fs::rename(&tmp, &dest).unwrap();
+        });
+        BareFile {
+            tx: Some(tx),
+            spent,
+            thread: Some(thread),
+        }
+    }
+    fn finish(mut self) {
+        drop(self.tx.take());
+        self.thread.take().unwrap().join().unwrap();
+    }
+}
+
+impl SampleSink for BareFile {
+    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        self.tx.as_ref().unwrap().send(b).unwrap();
+        Ok(())
+    }
+    fn recycle(&mut self) -> Option<SampleBatch> {
+        self.spent.try_recv().ok()
     }
 }
 
@@ -131,13 +193,21 @@ fn seconds<F: FnMut()>(mut f: F) -> f64 {
 
 /// The fastest of `reps` repetitions of each job, the jobs interleaved round by round.
 fn fastest(reps: usize, jobs: &mut [&mut dyn FnMut()]) -> Vec<f64> {
+    fastest_tidied(reps, jobs, &mut || {})
+}
+
+/// [`fastest`], with `tidy` run after every job, untimed (removing the files it wrote, so
+/// no job pays for deleting or replacing an earlier job's file).
+fn fastest_tidied(reps: usize, jobs: &mut [&mut dyn FnMut()], tidy: &mut dyn FnMut()) -> Vec<f64> {
     for job in jobs.iter_mut() {
         job();
+        tidy();
     }
     let mut best = vec![f64::INFINITY; jobs.len()];
     for _ in 0..reps {
         for (b, job) in best.iter_mut().zip(jobs.iter_mut()) {
             *b = b.min(seconds(&mut **job));
+            tidy();
         }
     }
     best
@@ -196,8 +266,10 @@ fn main() {
     let rate2 = steps(&two) as f64 / t2;
     let ceiling2 = 2.0 * t_runs / t_runs2;
 
-    let quiet = scenario(2 * LANES, 100.0, 100_000); // one sample at the end: no logging to speak of
-    let logged = scenario(2 * LANES, 100.0, 10);
+    // Long enough (0.07 s on two cores) that a log's fixed costs (the file, the writer thread)
+    // do not dominate.
+    let quiet = scenario(2 * LANES, 300.0, 100_000); // one sample at the end: no logging to speak of
+    let logged = scenario(2 * LANES, 300.0, 10);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bench.mcap");
     // The same log in RAM (tmpfs), where there is one: what the filesystem's writeback costs.
@@ -212,8 +284,23 @@ fn main() {
         run(&logged, threads, &mut w);
         w.finish().unwrap().bytes
     };
-    let [t_quiet, t_sampled, t_logged, t_ram, t_zstd, t_quiet1, t_logged1, t_ram1]: [f64; 8] = fastest(
-        5,
+    let bare = |p: &Path| {
+        let mut w = BareFile::create(p);
+        run(&logged, 2, &mut w);
+        w.finish();
+    };
+    let (bare_path, bare_ram_path) = (path.with_file_name("bare.bin"), ram_path.with_file_name("bare.bin"));
+    // The default scenario's sampling, every 100th step.
+    let sparse = scenario(2 * LANES, 300.0, 100);
+    let m_sparse = Model::new(&sparse);
+    let log_sparse = || {
+        let mut w = LogWriter::create(&path, &sparse, &m_sparse).unwrap();
+        run(&sparse, 2, &mut w);
+        black_box(w.finish().unwrap());
+    };
+    let [t_quiet, t_sampled, t_logged, t_ram, t_zstd, t_quiet1, t_logged1, t_ram1, t_bare, t_bare_ram, t_sparse]: [f64;
+        11] = fastest_tidied(
+        7,
         &mut [
             &mut || run(&quiet, 2, &mut Discard::default()),
             &mut || run(&logged, 2, &mut Discard::default()),
@@ -229,7 +316,15 @@ fn main() {
             &mut || {
                 black_box(log(&ram_path, 1, Compression::None));
             },
+            &mut || bare(&bare_path),
+            &mut || bare(&bare_ram_path),
+            &mut || log_sparse(),
         ],
+        &mut || {
+            for p in [&path, &ram_path, &bare_path, &bare_ram_path] {
+                let _ = std::fs::remove_file(p);
+            }
+        },
     )
     .try_into()
     .unwrap();
@@ -310,6 +405,17 @@ fn main() {
         t_quiet1,
         t_logged1 / t_quiet1,
         t_ram1 / t_quiet1
+    );
+    println!(
+        "  reference: the bare payload copied once and written by a writer thread (no MCAP, no \
+         framing): {:.2}x on disk, {:.2}x in RAM",
+        t_bare / t_quiet,
+        t_bare_ram / t_quiet
+    );
+    println!(
+        "MCAP log every 100th step       {:>10.3} s = {:.2}x (the default scenario's sampling)",
+        t_sparse,
+        t_sparse / t_quiet
     );
     println!(
         "MCAP log with zstd chunks       {:>10.3} s = {:.2}x ({:.1} bytes/sample)",
