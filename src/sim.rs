@@ -147,6 +147,9 @@ pub fn trajectory_seed(seed: u64, j: usize) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Mixed into a trajectory's seed for its bridge generator (see [`Group::run`]).
+const BRIDGE_STREAM: u64 = 0x4252_4944_4745_5f31;
+
 /// Advances a group by a number of steps.
 type Stepper<const D: usize> = fn(&mut Group, &LaneModel<D>, usize);
 
@@ -605,6 +608,12 @@ struct Group {
     v_mark: Vec<Lane>,
     /// Scratch: the displacements while a sample is taken at the velocity's instant.
     x_keep: Vec<Lane>,
+    /// Per excitation: a filtered force one step before the sample, then its value at the
+    /// sample's instant (see [`Group::run`]).
+    p_mid: Vec<Lane>,
+    /// Per lane: the generator of the filtered forces' bridge normals at sampling instants,
+    /// a stream of its own so the trajectories do not depend on the sampling.
+    bridge: [Xoshiro256PlusPlus; LANES],
 }
 
 #[inline(always)]
@@ -628,6 +637,10 @@ impl Group {
             noise: vec![0.0; NOISE_STEPS * ne * LANES],
             v_mark: vec![zero(); n],
             x_keep: vec![zero(); n],
+            p_mid: vec![zero(); ne],
+            bridge: std::array::from_fn(|l| {
+                Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l) ^ BRIDGE_STREAM)
+            }),
         }
     }
 
@@ -775,8 +788,18 @@ impl Group {
         debug_assert!(!record || out.len() == samples * cols);
         // Masses with no white force get their acceleration from the force balance.
         let balance = lm.white_on.iter().any(|w| w.is_empty());
+        let bridged = record && !lm.ou.is_empty();
         for k in 0..samples {
-            (lm.advance)(self, lm, steps);
+            if bridged {
+                // The filtered forces one step before the sample, for their bridge below.
+                (lm.advance)(self, lm, steps - 1);
+                for &(e, ..) in &lm.ou {
+                    self.p_mid[e] = self.p[e];
+                }
+                (lm.advance)(self, lm, 1);
+            } else {
+                (lm.advance)(self, lm, steps);
+            }
             if let Some(j) = self.diverged_lane() {
                 return Err(SimError::Diverged {
                     trajectory: self.first + j,
@@ -792,6 +815,25 @@ impl Group {
                 // one instant's state, and the stationary moments lose the scheme's O(h)
                 // displacement–velocity correlation (E[x v] = h E[v²] / 2 otherwise, which biases
                 // damping estimates by k h / 2c).
+                //
+                // A filtered force at that instant, the step's midpoint: the step used P_n
+                // and ended at P_(n+1) = ρ P_n + sd z, so either end is h/2 off the state and
+                // biases the cross-moments E[x P], E[v P] by ∓Bh/2 (which reads as a damping
+                // bias of the same size). The sample is drawn from the exact Ornstein–Uhlenbeck
+                // bridge instead: given both ends, P(t_n + h/2) is normal with mean
+                // √ρ (P_n + P_(n+1)) / (1 + ρ) and standard deviation sd / (1 + ρ), so its
+                // variance stays exactly A²/2B and the cross-moments keep only the scheme's
+                // own discretisation error (tested against the recursion's exact covariance).
+                if bridged {
+                    for &(e, decay, sd) in &lm.ou {
+                        let (w, s) = (decay.sqrt() / (1.0 + decay), sd / (1.0 + decay));
+                        let (mid, end) = (&mut self.p_mid[e], &self.p[e]);
+                        for j in 0..LANES {
+                            let z: f64 = StandardNormal.sample(&mut self.bridge[j]);
+                            mid[j] = w * (mid[j] + end[j]) + s * z;
+                        }
+                    }
+                }
                 let o = &mut out[k * cols..(k + 1) * cols];
                 for i in 0..n {
                     let (x, v) = (&self.x[i], &self.v[i]);
@@ -805,12 +847,18 @@ impl Group {
                     o[3 * i + 1].copy_from_slice(&v[..act]);
                 }
                 if balance {
-                    // Instantaneous force balance, at the logged displacements.
+                    // Instantaneous force balance, at the logged displacements and forces.
                     self.x_keep.copy_from_slice(&self.x[..n]);
                     for i in 0..n {
                         self.x[i][..act].copy_from_slice(o[3 * i]);
                     }
+                    for &(e, ..) in &lm.ou {
+                        std::mem::swap(&mut self.p[e], &mut self.p_mid[e]);
+                    }
                     self.forces(lm);
+                    for &(e, ..) in &lm.ou {
+                        std::mem::swap(&mut self.p[e], &mut self.p_mid[e]);
+                    }
                     self.x[..n].copy_from_slice(&self.x_keep);
                 }
                 for i in 0..n {
@@ -832,7 +880,7 @@ impl Group {
                             *y = z * lm.impulse_scale[e] / interval;
                         }
                     } else {
-                        p.copy_from_slice(&self.p[e][..act]);
+                        p.copy_from_slice(&self.p_mid[e][..act]);
                     }
                 }
             }

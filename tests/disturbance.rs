@@ -174,17 +174,17 @@ fn with_no_disturbance_the_measured_force_sequence_stays_at_step_0() {
 fn the_one_step_solve_stays_accurate_where_the_iteration_diverges() {
     // At disturbance level 2 the k1 equation of (4.7), which ignores P_z, pulls both
     // sequences away; the one-step solve of (4.8) never uses it. At 32 × 375 s over seeds
-    // 1000–1011: direct-force worst error 0.029 ± 0.014 (max 0.055), the measured-force
-    // sequence's final iterate 4.4 ± 0.9 (min 3.1). Bounds: mean + 4 sd, and mean − 4 sd.
+    // 1000–1011: direct-force worst error 0.030 ± 0.016 (max 0.063), the measured-force
+    // sequence's final iterate 4.6 ± 1.0 (min 3.2). Bounds: mean + 4 sd, and mean − 4 sd.
     let dir = tempfile::tempdir().unwrap();
     let s = disturbed(375.0).with_disturbance_level(2.0).unwrap();
     let path = dir.path().join("run.mcap");
     log_of(&s, &path);
     let r = identify_log(&path, &quiet(None, None)).unwrap();
     let worst = |m: &str| r.methods.iter().find(|x| x.method == m).unwrap().worst_rel_error;
-    assert!(worst("direct-force") <= 0.085, "direct-force {}", worst("direct-force"));
+    assert!(worst("direct-force") <= 0.095, "direct-force {}", worst("direct-force"));
     assert!(
-        worst("iterated-force") >= 0.77,
+        worst("iterated-force") >= 0.71,
         "iterated-force {}",
         worst("iterated-force")
     );

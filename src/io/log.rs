@@ -164,7 +164,9 @@ fn channel_metadata(s: &Scenario, model: &Model, cols: &[String]) -> BTreeMap<St
          preceding sample interval (impulse / interval, dv / interval), as a band-limited sensor \
          would give. Other accelerations are the force balance at the sample instant. With the \
          semi-implicit scheme the sample instant is the midpoint of the last integration step \
-         (t − dt/2): its velocity is the step's mean, and the displacement is the step's mean too."
+         (t − dt/2): its velocity is the step's mean, and the displacement is the step's mean too. \
+         A filtered force is sampled at that instant as well, drawn from the exact \
+         Ornstein-Uhlenbeck bridge between its values at the step's two ends."
             .into(),
     );
     m
