@@ -46,10 +46,11 @@ impl SampleSink for Payload {
     }
 }
 
-/// The floor for any log of these samples in a file: each instant's bare payload bytes
-/// (time and values, little-endian f64) copied once into a 1 MiB buffer on a writer thread
-/// and written with plain `write`s to `<path>.partial`, renamed over `path` at the end, as
-/// the log is — no framing, no index, no checksum. Batches go back to the simulator.
+/// A reference for what any log of these samples costs in a file: each instant's bare
+/// payload bytes (time and values, little-endian f64) copied once into a 1 MiB buffer on a
+/// writer thread and written with plain `write`s to `<path>.partial`, renamed to `path` at
+/// the end, as the log is — no framing, no index, no checksum. Batches go back to the
+/// simulator.
 struct BareFile {
     tx: Option<SyncSender<SampleBatch>>,
     spent: Receiver<SampleBatch>,
