@@ -9,8 +9,9 @@
 //! - time with an MCAP log every 10th step ÷ time without logging, target ≤ 1.25, with the
 //!   sampling's own share; next to it, what writing these samples costs at all (their bare
 //!   payload bytes copied once and written by a writer thread, no MCAP, on disk and in
-//!   RAM), and the same with zstd chunks next to a floor for any zstd-compressed log: zstd
-//!   alone on the samples' bare payload bytes;
+//!   RAM), a floor for any file of these bytes (the kernel taking them from a ready buffer,
+//!   the simulation's time added), and the same with zstd chunks next to a floor for any
+//!   zstd-compressed log: zstd alone on the samples' bare payload bytes;
 //! - log bytes per sample.
 //!
 //! The machine is shared (a virtual machine's cores), so every ratio compares the fastest
@@ -331,6 +332,37 @@ fn main() {
     .unwrap();
     let samples = (logged.simulation.trajectories * logged.simulation.samples_per_trajectory()) as f64;
 
+    // A floor for any file of these bytes: the kernel taking the logged run's byte count
+    // from a ready buffer, in plain 1 MiB writes on one core, with no simulation running.
+    let ready: Vec<u8> = (0..1 << 20).map(|i| (i * 131 % 251) as u8).collect();
+    let write_bytes = |p: &Path| {
+        let tmp = p.with_extension("partial");
+        let mut file = std::fs::File::create(&tmp).unwrap();
+        let mut left = bytes as usize;
+        while left > 0 {
+            let n = left.min(ready.len());
+            file.write_all(&ready[..n]).unwrap();
+            left -= n;
+        }
+        drop(file);
+        std::fs::rename(&tmp, p).unwrap();
+    };
+    let (raw_path, raw_ram_path) = (path.with_file_name("raw.bin"), ram_path.with_file_name("raw.bin"));
+    let [t_kernel, t_kernel_ram]: [f64; 2] = fastest_tidied(
+        7,
+        &mut [&mut || write_bytes(&raw_path), &mut || write_bytes(&raw_ram_path)],
+        &mut || {
+            for p in [&raw_path, &raw_ram_path] {
+                let _ = std::fs::remove_file(p);
+            }
+        },
+    )
+    .try_into()
+    .unwrap();
+    // Both cores already simulate (and sample) for `t_sampled`; the kernel's work can at
+    // best be shared between them.
+    let kernel_floor = |t: f64| (t_sampled + t / 2.0) / t_quiet;
+
     // The writer alone, fed pre-made batches shaped like the logged run's.
     let (trajectories, instants) = (logged.simulation.trajectories, 1024);
     let batch = SampleBatch {
@@ -412,6 +444,19 @@ fn main() {
          framing): {:.2}x on disk, {:.2}x in RAM",
         t_bare / t_quiet,
         t_bare_ram / t_quiet
+    );
+    println!(
+        "  floor: the kernel taking the log's {:.0} MB from a ready buffer (1 MiB writes, one core, \
+         no simulation): {:.3} s = {:.1} GB/s on disk, {:.3} s = {:.1} GB/s in RAM; with two \
+         simulating cores the ratio is at least (sampling + that / 2) / unlogged = {:.2}x on \
+         disk, {:.2}x in RAM",
+        bytes as f64 / 1e6,
+        t_kernel,
+        bytes as f64 / t_kernel / 1e9,
+        t_kernel_ram,
+        bytes as f64 / t_kernel_ram / 1e9,
+        kernel_floor(t_kernel),
+        kernel_floor(t_kernel_ram)
     );
     println!(
         "MCAP log every 100th step       {:>10.3} s = {:.2}x (the default scenario's sampling)",
