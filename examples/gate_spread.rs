@@ -4,10 +4,9 @@
 //! `cargo run --release --example gate_spread -- SCENARIO RECORD_LENGTH SEEDS [LEVEL]`
 //! (LEVEL: the disturbance level of a scenario with `[identify.disturbance]`).
 
-use fpkbench::bench::{identify_log, Options};
-use fpkbench::io::log::LogWriter;
-use fpkbench::sim::simulate;
-use fpkbench::{Model, Scenario};
+use fpkbench::bench::{identify_log, simulate_log, Options};
+use fpkbench::io::log::Compression;
+use fpkbench::Scenario;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
@@ -21,11 +20,8 @@ fn main() {
     let mut worst: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
     for seed in 0..seeds {
         s.simulation.seed = 1000 + seed;
-        let m = Model::new(&s);
         let path = dir.path().join("run.mcap");
-        let mut w = LogWriter::create(&path, &s, &m).unwrap();
-        simulate(&m, &s.simulation, &mut w, &|_| {}).unwrap();
-        w.finish().unwrap();
+        simulate_log(&s, &path, Compression::None, &|_| {}).unwrap();
         let r = identify_log(
             &path,
             &Options {

@@ -5,11 +5,10 @@
 //! comes from this:
 //! `cargo run --release --example pz0_spread -- SCENARIO RECORD_LENGTH SEEDS`.
 
-use fpkbench::bench::{identify_log, Options};
-use fpkbench::io::log::LogWriter;
+use fpkbench::bench::{identify_log, simulate_log, Options};
+use fpkbench::io::log::Compression;
 use fpkbench::scenario::DIRECT_FORCE;
-use fpkbench::sim::simulate;
-use fpkbench::{Model, Scenario};
+use fpkbench::Scenario;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
@@ -24,11 +23,8 @@ fn main() {
     let mut methods = Vec::new();
     for seed in 0..seeds {
         s.simulation.seed = 1000 + seed;
-        let m = Model::new(&s);
         let path = dir.path().join("run.mcap");
-        let mut w = LogWriter::create(&path, &s, &m).unwrap();
-        simulate(&m, &s.simulation, &mut w, &|_| {}).unwrap();
-        w.finish().unwrap();
+        simulate_log(&s, &path, Compression::None, &|_| {}).unwrap();
         let r = identify_log(
             &path,
             &Options {

@@ -1,6 +1,7 @@
 //! The bench's main job: identify the unknowns of a run log with the requested methods,
 //! measure the accuracy against the truth stored in the log, check dissipativity, and
-//! validate by re-simulating the identified model (DESIGN §7).
+//! validate by re-simulating the identified model (DESIGN §7). Its first half, a scenario
+//! simulated into a log, is [`simulate_log`].
 //!
 //! Two streaming passes over the log, constant memory: pass 1 accumulates raw moments per
 //! time batch and the links' observed ranges (weak form); pass 2 fills the density grid
@@ -13,14 +14,14 @@ use crate::ident::strong::{DensityGrid, GridOptions};
 use crate::ident::{
     self, disturbance, lsq::Diagnostics, spectrum, spectrum::Welch, weak, Filter, IdentError, Problem, Unknown,
 };
-use crate::io::log::{read_info, read_samples, LogError, LogInfo};
+use crate::io::log::{read_info, read_samples, Compression, LogError, LogInfo, LogWriter};
 use crate::model::{Characteristic, Coefficient, Model};
 use crate::scenario::{Method, Polynomial, Process, Scenario, DIRECT_FORCE, ITERATED_FORCE};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
 use crate::stats;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Errors of the bench pipeline.
@@ -279,6 +280,44 @@ impl SampleSink for Marginals {
 }
 
 const HIST_BINS: usize = 80;
+
+/// What [`simulate_log`] wrote.
+#[derive(Debug, Clone)]
+pub struct Simulated {
+    /// The complete log.
+    pub log: PathBuf,
+    /// Samples (trajectories × instants).
+    pub samples: u64,
+    /// The log's size.
+    pub bytes: u64,
+    /// Integration steps over all trajectories, burn-in included.
+    pub steps: u64,
+    /// Wall-clock time from the start to the renamed log.
+    pub seconds: f64,
+}
+
+/// The bench's first half: simulate `scenario` into a log at `path` (written as
+/// `<path>.partial` and renamed only when complete), calling `progress` with the samples
+/// written so far.
+pub fn simulate_log(
+    scenario: &Scenario,
+    path: &Path,
+    compression: Compression,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Simulated, BenchError> {
+    let start = Instant::now();
+    let model = Model::new(scenario);
+    let mut writer = LogWriter::create_with(path, scenario, &model, compression)?;
+    let stats = simulate(&model, &scenario.simulation, &mut writer, progress)?;
+    let summary = writer.finish()?;
+    Ok(Simulated {
+        log: summary.path,
+        samples: stats.samples,
+        bytes: summary.bytes,
+        steps: stats.steps,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
 
 /// Identify the log at `path`.
 pub fn identify_log(path: &Path, options: &Options) -> Result<Report, BenchError> {

@@ -1,10 +1,9 @@
 //! The paper's iterative procedure for an unmeasured disturbance (section 4): step 0 is the
 //! ordinary identification, the sequence is reproducible, and its two stopping rules work.
 
-use fpkbench::bench::{identify_log, Options, Report};
-use fpkbench::io::log::LogWriter;
-use fpkbench::sim::simulate;
-use fpkbench::{Model, Scenario};
+use fpkbench::bench::{identify_log, simulate_log, Options, Report};
+use fpkbench::io::log::Compression;
+use fpkbench::Scenario;
 use std::path::Path;
 
 /// The paper's structure with a white measured force and no disturbance.
@@ -46,10 +45,7 @@ ground-m2 = { stiffness = [1, 3], damping = [1, 3] }
 "#;
 
 fn log_of(s: &Scenario, path: &Path) {
-    let m = Model::new(s);
-    let mut w = LogWriter::create(path, s, &m).unwrap();
-    simulate(&m, &s.simulation, &mut w, &|_| {}).unwrap();
-    w.finish().unwrap();
+    simulate_log(s, path, Compression::None, &|_| {}).unwrap();
 }
 
 fn estimates(r: &Report, method: &str) -> Vec<f64> {

@@ -1,13 +1,12 @@
 //! `fpkbench simulate`: scenario in, MCAP log out.
 
 use anyhow::Context;
-use fpkbench::io::log::{Compression, LogWriter};
-use fpkbench::sim::simulate;
-use fpkbench::{Model, Scenario};
+use fpkbench::bench::{simulate_log, Simulated};
+use fpkbench::io::log::Compression;
+use fpkbench::Scenario;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
 
 /// Simulate a scenario and write its stationary response as an MCAP log.
 #[derive(clap::Args)]
@@ -42,18 +41,8 @@ impl From<Compress> for Compression {
     }
 }
 
-/// What a simulation wrote.
-pub struct Simulated {
-    pub log: PathBuf,
-    pub samples: u64,
-    pub bytes: u64,
-    pub seconds: f64,
-    pub steps: u64,
-}
-
 /// Simulate `scenario` into `output` with a progress bar on stderr.
 pub fn simulate_to(scenario: &Scenario, output: &Path, compression: Compression) -> anyhow::Result<Simulated> {
-    let model = Model::new(scenario);
     let sim = &scenario.simulation;
     let total = (sim.trajectories * sim.samples_per_trajectory()) as u64;
     let bar = ProgressBar::new(total);
@@ -61,19 +50,10 @@ pub fn simulate_to(scenario: &Scenario, output: &Path, compression: Compression)
         ProgressStyle::with_template("simulating {bar:40} {percent:>3}% {human_pos}/{human_len} samples, eta {eta}")
             .expect("valid template"),
     );
-    let start = Instant::now();
-    let mut writer = LogWriter::create_with(output, scenario, &model, compression)?;
-    let stats = simulate(&model, sim, &mut writer, &|n| bar.set_position(n))
+    let s = simulate_log(scenario, output, compression, &|n| bar.set_position(n))
         .with_context(|| format!("simulating {}", scenario.name))?;
-    let summary = writer.finish()?;
     bar.finish_and_clear();
-    Ok(Simulated {
-        log: summary.path,
-        samples: stats.samples,
-        bytes: summary.bytes,
-        seconds: start.elapsed().as_secs_f64(),
-        steps: stats.steps,
-    })
+    Ok(s)
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
