@@ -644,26 +644,12 @@ fn identify_disturbed(
         sim.record_length,
         options.batches,
     );
-    let mut driven = StationaryData::new(
-        &driven_structure,
-        weak::moment_degree(&driven_structure),
-        sim.record_length,
-        options.batches,
-    );
+    let data_for = |p: &Problem| StationaryData::new(p, weak::moment_degree(p), sim.record_length, options.batches);
+    let mut driven = data_for(&driven_structure);
     let force_structure = disturbance::force_problem(s, &st, 1.0)?;
     let force_bound = disturbance::force_bound_problem(s, &st)?;
-    let mut bound_data = StationaryData::new(
-        &force_bound,
-        weak::moment_degree(&force_bound),
-        sim.record_length,
-        options.batches,
-    );
-    let mut force = StationaryData::new(
-        &force_structure,
-        weak::moment_degree(&force_structure),
-        sim.record_length,
-        options.batches,
-    );
+    let mut bound_data = data_for(&force_bound);
+    let mut force = data_for(&force_structure);
     let (x1, x2) = (3 * st.free, 3 * st.driven);
     let mut forces = ForceSpectra::new(s, &fitted);
     read_samples(info, |traj, t, row| {
