@@ -170,9 +170,9 @@ impl Histogram {
         }
     }
     pub fn push(&mut self, z: f64) {
-        let b = ((z - self.lo) / (self.hi - self.lo) * self.counts.len() as f64).floor();
-        if b >= 0.0 && (b as usize) < self.counts.len() {
-            self.counts[b as usize] += 1.0;
+        let q = (z - self.lo) / (self.hi - self.lo) * self.counts.len() as f64;
+        if let Some(b) = stats::bin(q, self.counts.len()) {
+            self.counts[b] += 1.0;
         }
     }
     /// Probability density per bin (normalised by the count given).

@@ -81,16 +81,6 @@ fn poly(coefs: &[f64], z: f64) -> f64 {
     acc * z
 }
 
-/// Derivative of [`poly`]: `Σ p coefs[p−1] z^(p−1)`.
-#[inline(always)]
-fn poly_derivative(coefs: &[f64], z: f64) -> f64 {
-    let mut acc = 0.0;
-    for (i, &c) in coefs.iter().enumerate().rev() {
-        acc = acc * z + (i + 1) as f64 * c;
-    }
-    acc
-}
-
 impl Model {
     /// Compile a scenario's true system.
     pub fn new(s: &Scenario) -> Model {
@@ -178,14 +168,6 @@ impl Model {
         poly(self.stiffness(l), u) + poly(self.damping(l), w)
     }
 
-    /// `K'(u)` and `C'(w)` of link `l`.
-    pub fn link_force_derivatives(&self, l: usize, u: f64, w: f64) -> (f64, f64) {
-        (
-            poly_derivative(self.stiffness(l), u),
-            poly_derivative(self.damping(l), w),
-        )
-    }
-
     /// Net force on every mass from the links alone: `−Σ_ℓ s_iℓ F_ℓ` (no excitation).
     pub fn link_forces(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         out.iter_mut().for_each(|f| *f = 0.0);
@@ -204,59 +186,6 @@ impl Model {
         self.excitations
             .iter()
             .any(|e| matches!(e.process, Process::White { .. }) && e.targets.contains(&i))
-    }
-
-    /// Feature of one coefficient: the power of the relative displacement or velocity,
-    /// `u^p` or `w^q`. The drift of `v_i` changes by `−s_iℓ θ feature / m_i` per unit of
-    /// the coefficient `θ` (DESIGN §2: `g_ir = −s_iℓ z^p / m_i`).
-    #[inline]
-    pub fn feature(&self, c: Coefficient, x: &[f64], v: &[f64]) -> f64 {
-        let z = match c.kind {
-            Characteristic::Stiffness => self.relative(c.link, x),
-            Characteristic::Damping => self.relative(c.link, v),
-        };
-        z.powi(c.power as i32)
-    }
-
-    /// Drift of every velocity, `a_i(y) = (P_i − Σ s F)/m_i`, with the filtered forces
-    /// given in `ou` (one value per excitation; white ones are ignored, their mean is 0).
-    pub fn drift(&self, x: &[f64], v: &[f64], ou: &[f64], out: &mut [f64]) {
-        self.link_forces(x, v, out);
-        for (e, p) in self.excitations.iter().zip(ou) {
-            if let Process::Filtered { .. } = e.process {
-                for &i in &e.targets {
-                    out[i] += p;
-                }
-            }
-        }
-        for (o, im) in out.iter_mut().zip(&self.inv_mass) {
-            *o *= im;
-        }
-    }
-
-    /// Every coefficient the model has, with its true value, in link order.
-    pub fn coefficients(&self) -> Vec<(Coefficient, f64)> {
-        let mut out = Vec::new();
-        for l in 0..self.links() {
-            for (kind, cs) in [
-                (Characteristic::Stiffness, self.stiffness(l)),
-                (Characteristic::Damping, self.damping(l)),
-            ] {
-                for (i, &c) in cs.iter().enumerate() {
-                    if c != 0.0 {
-                        out.push((
-                            Coefficient {
-                                link: l,
-                                kind,
-                                power: i as u32 + 1,
-                            },
-                            c,
-                        ));
-                    }
-                }
-            }
-        }
-        out
     }
 
     /// Human-readable name of a coefficient, e.g. `k3[ground-m1]`.

@@ -242,13 +242,6 @@ impl Polynomial {
     pub fn eval(&self, z: f64) -> f64 {
         self.terms.iter().map(|&(p, c)| c * z.powi(p as i32)).sum()
     }
-    /// Derivative `Σ p c_p z^(p-1)`.
-    pub fn derivative(&self, z: f64) -> f64 {
-        self.terms
-            .iter()
-            .map(|&(p, c)| p as f64 * c * z.powi(p as i32 - 1))
-            .sum()
-    }
     pub fn max_power(&self) -> u32 {
         self.terms.last().map_or(0, |t| t.0)
     }

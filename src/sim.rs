@@ -19,6 +19,7 @@
 
 use crate::model::{Model, GROUND};
 use crate::scenario::{Process, Scheme, Simulation};
+use multiversion::multiversion;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -86,10 +87,6 @@ impl SampleBatch {
     pub fn instant(&self, k: usize) -> &[f64] {
         let n = self.columns * self.trajectories;
         &self.values[k * n..(k + 1) * n]
-    }
-    /// Trajectory `j`'s value of column `c` at instant `k`.
-    pub fn value(&self, k: usize, c: usize, j: usize) -> f64 {
-        self.values[(k * self.columns + c) * self.trajectories + j]
     }
     /// Every sample as `f(trajectory, t, values)`, in (time, trajectory) order.
     pub fn for_each_sample(&self, mut f: impl FnMut(u32, f64, &[f64])) {
@@ -338,6 +335,10 @@ fn draw_noise<const D: usize>(
 }
 
 /// The generic stepper: any shape, intermediates in memory.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
 fn advance_generic<const D: usize>(g: &mut Group, lm: &LaneModel<D>, steps: usize) {
     for _ in 0..steps {
         g.step(lm);
@@ -431,6 +432,10 @@ impl<const D: usize> LaneModel<D> {
 /// The normals are drawn [`NOISE_STEPS`] steps at a time by [`fill_noise`], then the steps
 /// run over them, [`W`] lanes at a time. The white impulse enters the velocity before the
 /// force does: it does not wait on the force's dependency chain.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
 fn advance_shaped<const N: usize, const D: usize, const NW: usize, const NO: usize>(
     g: &mut Group,
     lm: &LaneModel<D>,

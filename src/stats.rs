@@ -5,6 +5,14 @@
 use crate::model::{Characteristic, Coefficient};
 use crate::scenario::{Polynomial, Scenario};
 
+/// The bin of a value at `q` bin widths from the low edge of `bins` bins, if inside.
+/// Equal to `⌊q⌋` where `0 ≤ ⌊q⌋ < bins`, computed without `floor` (a library call on
+/// baseline x86-64, and histograms bin every sample); NaN falls outside.
+#[inline]
+pub fn bin(q: f64, bins: usize) -> Option<usize> {
+    (q >= 0.0 && q < bins as f64).then_some(q as usize)
+}
+
 /// A polynomial characteristic from `(power, coefficient)` terms.
 pub fn characteristic(terms: &[(u32, f64)]) -> Polynomial {
     let mut t = terms.to_vec();

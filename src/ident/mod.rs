@@ -146,14 +146,6 @@ pub struct Problem {
     pub inputs: usize,
 }
 
-/// State variable index of `x_i` and `v_i` in the white layout.
-pub fn xi(i: usize) -> usize {
-    2 * i
-}
-pub fn vi(i: usize) -> usize {
-    2 * i + 1
-}
-
 impl Problem {
     /// Build the problem from a scenario's `[identify]` section and true system. With
     /// filtered excitations the filters are taken as known at their true values; use

@@ -7,6 +7,7 @@
 //! samples at a time so the inner loop vectorises.
 
 use super::poly::{exponent, monomials, var, Exponents};
+use multiversion::multiversion;
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -130,7 +131,7 @@ impl RawMoments {
         let d = self.vars;
         let n = rows.len() / d;
         let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> =
-            rows.par_chunks(CHUNK * d).map(|c| self.chunk_sums(c)).collect();
+            rows.par_chunks(CHUNK * d).map(|c| chunk_sums(self, c)).collect();
         for (k, (s, lo, hi)) in parts.iter().enumerate() {
             let samples = (n - k * CHUNK).min(CHUNK);
             self.absorb(s, lo, hi, samples as u64);
@@ -158,7 +159,7 @@ impl RawMoments {
         }
         let sums: Vec<_> = pieces
             .par_iter()
-            .map(|&(_, a, b)| first.chunk_sums(&rows[a * d..b * d]))
+            .map(|&(_, a, b)| chunk_sums(first, &rows[a * d..b * d]))
             .collect();
         for (&(id, a, b), (s, lo, hi)) in pieces.iter().zip(sums) {
             batches[id].absorb(&s, &lo, &hi, (b - a) as u64);
@@ -186,85 +187,92 @@ impl RawMoments {
     pub fn index_of(&self, e: Exponents) -> Option<usize> {
         self.index.get(&e).copied()
     }
+}
 
-    fn chunk_sums(&self, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        let d = self.vars;
-        let m = self.monomials.len();
-        let mut lo = vec![f64::INFINITY; d];
-        let mut hi = vec![f64::NEG_INFINITY; d];
-        // vals[k][s]: monomial k of the block's samples; acc[k][l]: per-lane partial sums,
-        // reduced once per chunk (the order is fixed, so results do not depend on threads).
-        let mut vals = vec![[0.0f64; BLOCK]; m];
-        let mut acc = vec![[0.0f64; CHUNK_LANES]; m];
-        let mut y = vec![[0.0f64; BLOCK]; d];
-        let n = rows.len() / d;
-        let mut start = 0;
-        while start < n {
-            let len = (n - start).min(BLOCK);
-            for j in 0..d {
-                if len == BLOCK {
-                    for (s, v) in y[j].iter_mut().enumerate() {
-                        *v = rows[(start + s) * d + j];
-                    }
-                } else {
-                    for s in 0..BLOCK {
-                        y[j][s] = if s < len { rows[(start + s) * d + j] } else { 0.0 };
-                    }
+/// Sums of every monomial of `moments` over `rows`, with the per-variable extremes.
+/// Dispatched at run time to the widest vector unit the CPU has (the lanes are
+/// explicit, so the sums are the same on every machine).
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
+fn chunk_sums(moments: &RawMoments, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let d = moments.vars;
+    let m = moments.monomials.len();
+    let mut lo = vec![f64::INFINITY; d];
+    let mut hi = vec![f64::NEG_INFINITY; d];
+    // vals[k][s]: monomial k of the block's samples; acc[k][l]: per-lane partial sums,
+    // reduced once per chunk (the order is fixed, so results do not depend on threads).
+    let mut vals = vec![[0.0f64; BLOCK]; m];
+    let mut acc = vec![[0.0f64; CHUNK_LANES]; m];
+    let mut y = vec![[0.0f64; BLOCK]; d];
+    let n = rows.len() / d;
+    let mut start = 0;
+    while start < n {
+        let len = (n - start).min(BLOCK);
+        for j in 0..d {
+            if len == BLOCK {
+                for (s, v) in y[j].iter_mut().enumerate() {
+                    *v = rows[(start + s) * d + j];
                 }
-                // Per-lane extremes over whole 8-sample chunks (vectorises), then the tail.
-                let full = len / CHUNK_LANES * CHUNK_LANES;
-                let (mut lo8, mut hi8) = ([lo[j]; CHUNK_LANES], [hi[j]; CHUNK_LANES]);
-                for c in y[j][..full].chunks_exact(CHUNK_LANES) {
-                    for l in 0..CHUNK_LANES {
-                        lo8[l] = if c[l] < lo8[l] { c[l] } else { lo8[l] };
-                        hi8[l] = if c[l] > hi8[l] { c[l] } else { hi8[l] };
-                    }
+            } else {
+                for s in 0..BLOCK {
+                    y[j][s] = if s < len { rows[(start + s) * d + j] } else { 0.0 };
                 }
-                for &v in &y[j][full..len] {
-                    lo8[0] = lo8[0].min(v);
-                    hi8[0] = hi8[0].max(v);
-                }
-                lo[j] = lo8.iter().fold(lo[j], |a, &b| a.min(b));
-                hi[j] = hi8.iter().fold(hi[j], |a, &b| a.max(b));
             }
-            for s in 0..BLOCK {
-                vals[0][s] = if s < len { 1.0 } else { 0.0 };
-            }
-            for k in 1..m {
-                let (p, j) = (self.parent[k], self.var[k]);
-                let (head, tail) = vals.split_at_mut(k);
-                let (pv, out) = (&head[p], &mut tail[0]);
-                let yj = &y[j];
-                let mut a = acc[k];
-                if self.is_parent[k] {
-                    // Two plain loops (product, then lane sums) vectorise; a fused loop with
-                    // the store did not.
-                    for ((o, &p), &y) in out.iter_mut().zip(pv.iter()).zip(yj.iter()) {
-                        *o = p * y;
-                    }
-                    for c in out.chunks_exact(CHUNK_LANES) {
-                        for l in 0..CHUNK_LANES {
-                            a[l] += c[l];
-                        }
-                    }
-                } else {
-                    // A leaf: accumulate the product directly.
-                    for (pc, yc) in pv.chunks_exact(CHUNK_LANES).zip(yj.chunks_exact(CHUNK_LANES)) {
-                        for l in 0..CHUNK_LANES {
-                            a[l] += pc[l] * yc[l];
-                        }
-                    }
-                }
-                acc[k] = a;
-            }
-            for c in vals[0].chunks_exact(CHUNK_LANES) {
+            // Per-lane extremes over whole 8-sample chunks (vectorises), then the tail.
+            let full = len / CHUNK_LANES * CHUNK_LANES;
+            let (mut lo8, mut hi8) = ([lo[j]; CHUNK_LANES], [hi[j]; CHUNK_LANES]);
+            for c in y[j][..full].chunks_exact(CHUNK_LANES) {
                 for l in 0..CHUNK_LANES {
-                    acc[0][l] += c[l];
+                    lo8[l] = if c[l] < lo8[l] { c[l] } else { lo8[l] };
+                    hi8[l] = if c[l] > hi8[l] { c[l] } else { hi8[l] };
                 }
             }
-            start += len;
+            for &v in &y[j][full..len] {
+                lo8[0] = lo8[0].min(v);
+                hi8[0] = hi8[0].max(v);
+            }
+            lo[j] = lo8.iter().fold(lo[j], |a, &b| a.min(b));
+            hi[j] = hi8.iter().fold(hi[j], |a, &b| a.max(b));
         }
-        let sums = acc.iter().map(|a| a.iter().sum()).collect();
-        (sums, lo, hi)
+        for s in 0..BLOCK {
+            vals[0][s] = if s < len { 1.0 } else { 0.0 };
+        }
+        for k in 1..m {
+            let (p, j) = (moments.parent[k], moments.var[k]);
+            let (head, tail) = vals.split_at_mut(k);
+            let (pv, out) = (&head[p], &mut tail[0]);
+            let yj = &y[j];
+            let mut a = acc[k];
+            if moments.is_parent[k] {
+                // Two plain loops (product, then lane sums) vectorise; a fused loop with
+                // the store did not.
+                for ((o, &p), &y) in out.iter_mut().zip(pv.iter()).zip(yj.iter()) {
+                    *o = p * y;
+                }
+                for c in out.chunks_exact(CHUNK_LANES) {
+                    for l in 0..CHUNK_LANES {
+                        a[l] += c[l];
+                    }
+                }
+            } else {
+                // A leaf: accumulate the product directly.
+                for (pc, yc) in pv.chunks_exact(CHUNK_LANES).zip(yj.chunks_exact(CHUNK_LANES)) {
+                    for l in 0..CHUNK_LANES {
+                        a[l] += pc[l] * yc[l];
+                    }
+                }
+            }
+            acc[k] = a;
+        }
+        for c in vals[0].chunks_exact(CHUNK_LANES) {
+            for l in 0..CHUNK_LANES {
+                acc[0][l] += c[l];
+            }
+        }
+        start += len;
     }
+    let sums = acc.iter().map(|a| a.iter().sum()).collect();
+    (sums, lo, hi)
 }

@@ -115,12 +115,12 @@ impl DensityGrid {
         let mut idx = 0;
         let mut inside = true;
         for j in 0..self.dim {
-            let b = ((row[self.columns[j]] - self.lo[j]) / self.h[j]).floor();
-            if b >= 0.0 && b < self.options.bins as f64 {
-                self.marginals[j][b as usize] += 1;
-                idx += b as usize * self.stride[j];
-            } else {
-                inside = false;
+            match crate::stats::bin((row[self.columns[j]] - self.lo[j]) / self.h[j], self.options.bins) {
+                Some(b) => {
+                    self.marginals[j][b] += 1;
+                    idx += b * self.stride[j];
+                }
+                None => inside = false,
             }
         }
         if inside {

@@ -416,9 +416,6 @@ impl LogInfo {
         let s = &self.scenario.simulation;
         (s.trajectories * s.samples_per_trajectory()) as u64
     }
-    pub fn column(&self, name: &str) -> Option<usize> {
-        self.columns.iter().position(|c| c == name)
-    }
 }
 
 /// Stream every record of an MCAP file through `f`, in constant memory. `f` returns
