@@ -4,8 +4,8 @@
 //! `cargo run --release --example gate_spread -- SCENARIO RECORD_LENGTH SEEDS [LEVEL]`
 //! (LEVEL: the disturbance level of a scenario with `[identify.disturbance]`).
 
-use fpkbench::bench::{identify_log, simulate_log, Options};
 use fpkbench::io::log::Compression;
+use fpkbench::pipeline::{identify_log, simulate_log, Options};
 use fpkbench::Scenario;
 
 fn main() {

@@ -5,8 +5,8 @@
 //! comes from this:
 //! `cargo run --release --example pz0_spread -- SCENARIO RECORD_LENGTH SEEDS`.
 
-use fpkbench::bench::{identify_log, simulate_log, Options};
 use fpkbench::io::log::Compression;
+use fpkbench::pipeline::{identify_log, simulate_log, Options};
 use fpkbench::scenario::DIRECT_FORCE;
 use fpkbench::Scenario;
 

@@ -33,10 +33,10 @@
 // Numeric kernels index several same-length arrays by one index on purpose.
 #![allow(clippy::needless_range_loop)]
 
-pub mod bench;
 pub mod ident;
 pub mod io;
 pub mod model;
+pub mod pipeline;
 pub mod report;
 pub mod scenario;
 pub mod sim;

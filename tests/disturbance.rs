@@ -1,8 +1,9 @@
 //! The paper's iterative procedure for an unmeasured disturbance (section 4): step 0 is the
 //! ordinary identification, the sequence is reproducible, and its two stopping rules work.
 
-use fpkbench::bench::{identify_log, simulate_log, Options, Report};
 use fpkbench::io::log::Compression;
+use fpkbench::pipeline::{identify_log, simulate_log, Options};
+use fpkbench::report::Report;
 use fpkbench::Scenario;
 use std::path::Path;
 

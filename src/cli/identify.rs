@@ -1,8 +1,9 @@
 //! `fpkbench identify`: identify the unknowns of a run log and report the accuracy.
 
-use fpkbench::bench::{identify_log, Options, Report};
 use fpkbench::ident::strong::GridOptions;
+use fpkbench::pipeline::{identify_log, Options};
 use fpkbench::report;
+use fpkbench::report::Report;
 use fpkbench::scenario::Method;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -1,7 +1,7 @@
 //! `fpkbench run`: simulate, log, identify, report — the bench's main job.
 
 use super::identify::{finish, IdentifyArgs};
-use fpkbench::bench::identify_log;
+use fpkbench::pipeline::identify_log;
 use fpkbench::Scenario;
 use std::path::PathBuf;
 use std::process::ExitCode;

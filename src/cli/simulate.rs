@@ -1,8 +1,8 @@
 //! `fpkbench simulate`: scenario in, MCAP log out.
 
 use anyhow::Context;
-use fpkbench::bench::{simulate_log, Simulated};
 use fpkbench::io::log::Compression;
+use fpkbench::pipeline::{simulate_log, Simulated};
 use fpkbench::Scenario;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};

@@ -2,8 +2,9 @@
 //! unmeasured disturbance — one simulated log per level, identified like `run` does.
 
 use super::simulate::simulate_to;
-use fpkbench::bench::{identify_log, Options, Sweep, SweepPoint};
 use fpkbench::io::log::Compression;
+use fpkbench::pipeline::{identify_log, Options};
+use fpkbench::report::{Sweep, SweepPoint};
 use fpkbench::{report, Scenario};
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -2,6 +2,10 @@
 //! relative L2 errors over the observed range, and the dissipativity check (3.4) of
 //! identified characteristics over the observed ranges (3.16)–(3.17).
 
+mod histogram;
+
+pub use histogram::Histogram;
+
 use crate::model::{Characteristic, Coefficient};
 use crate::scenario::{Polynomial, Scenario};
 

@@ -1,0 +1,261 @@
+//! The iterative procedure for an unmeasured disturbance (paper section 4, (4.2)–(4.15)):
+//! both sequences (the paper's spectral single-mass step and the measured-force step),
+//! with their accuracy at every step. See `docs/theory.md` §4.
+
+use super::grading::{assemble, method_report};
+use super::spectra::ForceSpectra;
+use super::validation::Distributions;
+use super::{Options, PipelineError};
+use crate::ident::data::StationaryData;
+use crate::ident::disturbance::SingleMass;
+use crate::ident::poly::Poly;
+use crate::ident::{self, disturbance, spectrum, spectrum::Welch, weak, Filter, IdentError, Problem};
+use crate::io::log::{read_samples, LogInfo};
+use crate::report::{IterationReport, MethodReport, Report};
+use crate::scenario::{Method, Process, DIRECT_FORCE, ITERATED_FORCE};
+use std::time::Instant;
+
+/// Identify a log of the paper's structure with an unmeasured disturbance by its
+/// iterative procedure ([`disturbance`]): step 0, every step, the final estimate (gated)
+/// and the bound with the disturbance given as measured.
+pub(crate) fn identify_disturbed(
+    info: &LogInfo,
+    settings: &crate::scenario::Disturbance,
+    options: &Options,
+    start: Instant,
+) -> Result<Report, PipelineError> {
+    let s = &info.scenario;
+    if options.methods.iter().any(|m| *m != Method::Weak) {
+        return Err(IdentError::Unsupported(
+            "the iterative procedure ([identify.disturbance]) uses the weak form in every step; other methods do not apply".into(),
+        )
+        .into());
+    }
+    let sim = &s.simulation;
+    let st = settings.structure;
+    let n = s.masses.len();
+    let force_col = |e: usize| 3 * n + e;
+    let filtered = |e: usize| matches!(s.excitations[e].process, Process::Filtered { .. });
+    // Forces whose spectra are fitted: P2 (if filtered), and the filtered disturbances
+    // (for the bound only).
+    let fitted: Vec<usize> = (0..s.excitations.len()).filter(|&e| filtered(e)).collect();
+    let placeholder = |e: usize| Filter {
+        excitation: e,
+        a: 1.0,
+        b: 1.0,
+    };
+    let p2_placeholder = filtered(st.measured).then(|| placeholder(st.measured));
+    let white_structure = Problem::new(&disturbance::step0_scenario(s, &st, p2_placeholder))?;
+    let driven_structure = Problem::with_filters(&disturbance::driven_scenario(s, &st, 1.0, 1.0), &[placeholder(0)])?;
+    let mut white = StationaryData::with_all_moments(
+        &white_structure,
+        weak::moment_degree(&white_structure),
+        sim.record_length,
+        options.batches,
+    );
+    let data_for = |p: &Problem| StationaryData::new(p, weak::moment_degree(p), sim.record_length, options.batches);
+    let mut driven = data_for(&driven_structure);
+    let force_structure = disturbance::force_problem(s, &st, 1.0)?;
+    let force_bound = disturbance::force_bound_problem(s, &st)?;
+    let mut bound_data = data_for(&force_bound);
+    let mut force = data_for(&force_structure);
+    let (x1, x2) = (3 * st.free, 3 * st.driven);
+    let mut forces = ForceSpectra::new(s, &fitted);
+    read_samples(info, |traj, t, row| {
+        white.push(traj, t, row);
+        driven.push(traj, t, &row[x2..x2 + 3]);
+        force.push(traj, t, &disturbance::force_row(s, &st, row));
+        bound_data.push(traj, t, row);
+        forces.push_lag(traj, row);
+    })?;
+    white.finish();
+    driven.finish();
+    force.finish();
+    bound_data.finish();
+    let total = white.total();
+
+    // Pass 2: force spectra, P3's pieces, histograms.
+    forces.start_welch(sim);
+    // P3's spectrum must resolve the responses' frequencies: 32 bins below the lowest
+    // apparent frequency √(E[ẋ²]/E[x²]) of x2 and of x1 − x2.
+    let apparent = |x: Poly, v: Poly| {
+        let ex = x.mul(&x).expectation(|e| total.moment(e));
+        let ev = v.mul(&v).expectation(|e| total.moment(e));
+        (ev / ex).sqrt()
+    };
+    let (wx1, wv1, wx2, wv2) = (
+        white_structure.x(st.free),
+        white_structure.v(st.free),
+        white_structure.x(st.driven),
+        white_structure.v(st.driven),
+    );
+    let w_low = apparent(ident::y(wx2), ident::y(wv2)).min(apparent(
+        Poly::linear(&[(wx1, 1.0), (wx2, -1.0)]),
+        Poly::linear(&[(wv1, 1.0), (wv2, -1.0)]),
+    ));
+    let mut p3 = spectrum::CrossWelch::new(
+        Welch::segment_for(w_low, sim.sample_interval, sim.samples_per_trajectory()),
+        sim.sample_interval,
+        sim.trajectories,
+    );
+    let m1 = s.masses[st.free].value;
+    let mut dist = Distributions::new(s, &white_structure, &white);
+    read_samples(info, |traj, _, row| {
+        forces.push(traj, row);
+        p3.push(
+            traj as usize,
+            row[force_col(st.measured)] + m1 * row[x1 + 2],
+            row[x1] - row[x2],
+        );
+        dist.push(row);
+    })?;
+
+    // Filters: P2 as the identifier uses it; the disturbances' for the bound.
+    let (filters, filter_reports, mut spectra) = forces.filters(s);
+    let p2 = filters.iter().copied().find(|f| f.excitation == st.measured);
+    let inputs = disturbance::Inputs {
+        scenario: s,
+        settings,
+        p2,
+        white: &white,
+        driven: &driven,
+        p3: &p3,
+        force: &force,
+    };
+    let paper = disturbance::iterate(&inputs, SingleMass::Spectral)?;
+    let measured_force = disturbance::iterate(&inputs, SingleMass::Force)?;
+    let problem = paper.problem.clone();
+    if let Some(last) = paper.steps.last().filter(|l| l.step > 0) {
+        let k1 = last.p3_k1.expect("steps >= 1 have one");
+        spectra.push((
+            format!("3 (step {}, k1 = {k1:.4})", last.step),
+            p3.spectrum_of(2.0 * k1),
+            last.p3_fit.expect("spectral steps have one"),
+            (f64::NAN, f64::NAN),
+        ));
+    }
+
+    // Reports: step 0, the final iterate of each sequence (gated), the bound.
+    let ranges = &white.link_ranges;
+    let t = Instant::now();
+    // The bounds: the disturbance given as if measured, in the paper's white-noise model
+    // of the forces (as step 0 sees them) and in the measured-force weak form.
+    let bound_problem = Problem::new(&disturbance::bound_scenario(s, &st, &filters))?;
+    let mut bounds = [
+        method_report(
+            "pz-measured",
+            None,
+            ident::identify_weak(&bound_problem, &white),
+            s,
+            &bound_problem,
+            ranges,
+            t,
+        ),
+        method_report(
+            "pz-measured-force",
+            None,
+            ident::identify_weak(&force_bound, &bound_data),
+            s,
+            &force_bound,
+            ranges,
+            t,
+        ),
+    ];
+    bounds[0].facts.insert(
+        "P_z".into(),
+        "given as if measured, filtered forces as white noise of their low-frequency density (the paper's model): the bound of the paper's sequence".into(),
+    );
+    bounds[1].facts.insert(
+        "P_z".into(),
+        "given as if measured, every filtered force a measured input of the weak form: the bound of the measured-force sequence".into(),
+    );
+    let mut reports = vec![method_report(
+        "step-0",
+        None,
+        Ok(paper.step0.clone()),
+        s,
+        &problem,
+        ranges,
+        t,
+    )];
+    reports[0]
+        .facts
+        .insert("P_z".into(), "ignored (the paper's step 0)".into());
+    let mut iterations = Vec::new();
+    for ((method, it), bound) in [("iterated", paper), (ITERATED_FORCE, measured_force)]
+        .into_iter()
+        .zip(&bounds)
+    {
+        let at = |values: &[f64]| ident::Estimate {
+            values: values.to_vec(),
+            std_error: vec![f64::NAN; values.len()],
+            ..it.step0.clone()
+        };
+        let step_reports: Vec<MethodReport> = it
+            .steps
+            .iter()
+            .map(|st_| method_report("step", None, Ok(at(&st_.values)), s, &problem, ranges, t))
+            .collect();
+        let mut final_est = at(it.last());
+        final_est.facts = vec![
+            ("single-mass step".into(), it.single_mass.name().into()),
+            ("steps".into(), (it.steps.len() - 1).to_string()),
+            ("stopped by".into(), it.stopped_by.clone()),
+            ("monotone differences".into(), it.monotone.to_string()),
+        ];
+        let rep = method_report(
+            method,
+            Some(s.accept.threshold(method)),
+            Ok(final_est),
+            s,
+            &problem,
+            ranges,
+            t,
+        );
+        iterations.push(IterationReport {
+            method: method.into(),
+            step_rel_errors: step_reports
+                .iter()
+                .map(|r| r.parameters.iter().map(|p| p.rel_error).collect())
+                .collect(),
+            step_worst_rel_error: step_reports.iter().map(|r| r.worst_rel_error).collect(),
+            step0_worst_rel_error: reports[0].worst_rel_error,
+            final_worst_rel_error: rep.worst_rel_error,
+            bound: bound.method.clone(),
+            bound_worst_rel_error: bound.worst_rel_error,
+            iteration: it,
+        });
+        reports.push(rep);
+    }
+    // No iteration: k1, K2, C2 in one solve of the subtracted equation (4.8).
+    let mut direct = method_report(
+        DIRECT_FORCE,
+        Some(s.accept.threshold(DIRECT_FORCE)),
+        disturbance::direct(&inputs, &problem),
+        s,
+        &problem,
+        ranges,
+        t,
+    );
+    direct.facts.insert(
+        "P_z".into(),
+        "eliminated by (4.8); k1, K2, C2 in one linear solve of the measured-force weak form of (x2, v2), no iteration"
+            .into(),
+    );
+    reports.push(direct);
+    reports.extend(bounds);
+
+    let validation = options
+        .validate
+        .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ITERATED_FORCE));
+    Ok(assemble(
+        info,
+        white.samples(),
+        start,
+        filter_reports,
+        reports,
+        validation,
+        iterations,
+        dist.into_plot(spectra),
+    ))
+}

@@ -1,0 +1,197 @@
+//! Grading an estimate against the truth: per-parameter and per-curve errors over the
+//! observed ranges (`docs/methods.md`, accuracy), dissipativity (3.4), and the report's
+//! assembly.
+
+use crate::ident::{self, IdentError, Problem, Unknown};
+use crate::io::log::LogInfo;
+use crate::model::{Characteristic, Coefficient};
+use crate::report::{
+    Curve, FilterReport, IterationReport, MethodReport, Parameter, PlotData, Report, Timings, Validation,
+};
+use crate::scenario::Scenario;
+use crate::stats;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// The report of an identification of `info`'s log; passed when there is a gated method
+/// and every gated method passed.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn assemble(
+    info: &LogInfo,
+    samples: u64,
+    start: Instant,
+    filters: Vec<FilterReport>,
+    methods: Vec<MethodReport>,
+    validation: Option<Validation>,
+    iterations: Vec<IterationReport>,
+    plot: PlotData,
+) -> Report {
+    let s = &info.scenario;
+    let sim = &s.simulation;
+    let passed = methods.iter().any(|r| r.gated) && methods.iter().filter(|r| r.gated).all(|r| r.passed);
+    let identify_s = start.elapsed().as_secs_f64();
+    Report {
+        scenario: s.name.clone(),
+        log: info.path.display().to_string(),
+        record_length_s: sim.record_length,
+        total_record_s: sim.record_length * sim.trajectories as f64,
+        samples,
+        sample_interval_s: sim.sample_interval,
+        trajectories: sim.trajectories,
+        seed: sim.seed,
+        scheme: sim.scheme.name().to_string(),
+        dt_s: sim.dt,
+        timings_s: Timings {
+            simulate: 0.0,
+            identify: identify_s,
+            total: identify_s,
+        },
+        filters,
+        methods,
+        validation,
+        iterations,
+        passed,
+        plot,
+        scenario_def: Some(s.clone()),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fill_accuracy(
+    rep: &mut MethodReport,
+    s: &Scenario,
+    problem: &Problem,
+    coef_of: &[Option<Coefficient>],
+    values: &[f64],
+    std_error: &[f64],
+    ranges: &[[f64; 4]],
+) {
+    let range = |c: Coefficient| match c.kind {
+        Characteristic::Stiffness => (ranges[c.link][0], ranges[c.link][1]),
+        Characteristic::Damping => (ranges[c.link][2], ranges[c.link][3]),
+    };
+    let mut worst: f64 = 0.0;
+    for (k, name) in problem.names.iter().enumerate() {
+        let t = problem.truth[k];
+        let rel = match coef_of[k] {
+            Some(c) => {
+                let (lo, hi) = range(c);
+                stats::coefficient_error(
+                    values[k],
+                    t,
+                    c.power,
+                    &stats::true_characteristic(s, c.link, c.kind),
+                    lo,
+                    hi,
+                )
+            }
+            None => ((values[k] - t) / t).abs(),
+        };
+        worst = worst.max(rel);
+        rep.parameters.push(Parameter {
+            name: name.clone(),
+            true_value: t,
+            estimate: values[k],
+            std_error: std_error[k],
+            rel_error: rel,
+        });
+    }
+    for l in 0..s.links.len() {
+        for kind in [Characteristic::Stiffness, Characteristic::Damping] {
+            let (est, unknown) = stats::estimated_characteristic(s, coef_of, values, l, kind);
+            if !unknown {
+                continue;
+            }
+            let truth = stats::true_characteristic(s, l, kind);
+            let (lo, hi) = range(Coefficient {
+                link: l,
+                kind,
+                power: 1,
+            });
+            let e = stats::rel_l2(&est, &truth, lo, hi);
+            worst = worst.max(e);
+            rep.curves.push(Curve {
+                link: s.links[l].name.clone(),
+                kind: kind.name(),
+                rel_l2_error: e,
+                range: [lo, hi],
+                identified: est.terms.clone(),
+            });
+            rep.dissipativity
+                .push(stats::dissipativity(&s.links[l].name, kind, &est, lo, hi));
+        }
+    }
+    rep.worst_rel_error = worst;
+    rep.passed = worst <= rep.threshold;
+}
+
+/// The coefficient behind each unknown (`None` for masses and intensities).
+pub(crate) fn coefficients_of(problem: &Problem) -> Vec<Option<Coefficient>> {
+    problem
+        .unknowns
+        .iter()
+        .map(|u| {
+            if let Unknown::Coefficient(c) = u {
+                Some(*c)
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// One method's report: estimates, accuracy, dissipativity; `threshold` `None` for an
+/// ungated baseline or comparison.
+pub(crate) fn method_report(
+    method: &str,
+    threshold: Option<f64>,
+    est: Result<ident::Estimate, IdentError>,
+    s: &Scenario,
+    problem: &Problem,
+    ranges: &[[f64; 4]],
+    started: Instant,
+) -> MethodReport {
+    let mut rep = MethodReport {
+        method: method.to_string(),
+        gated: threshold.is_some(),
+        parameters: Vec::new(),
+        curves: Vec::new(),
+        worst_rel_error: f64::NAN,
+        threshold: threshold.unwrap_or(f64::NAN),
+        passed: false,
+        diagnostics: None,
+        weakly_determined: false,
+        facts: BTreeMap::new(),
+        dissipativity: Vec::new(),
+        error: None,
+        seconds: 0.0,
+    };
+    match est {
+        Err(e) => rep.error = Some(e.to_string()),
+        Ok(e) => {
+            fill_accuracy(
+                &mut rep,
+                s,
+                problem,
+                &coefficients_of(problem),
+                &e.values,
+                &e.std_error,
+                ranges,
+            );
+            if threshold.is_none() {
+                rep.passed = true;
+            }
+            rep.diagnostics = Some(e.diagnostics.clone());
+            rep.weakly_determined = e.weakly_determined;
+            rep.facts = e.facts.into_iter().collect();
+            for (name, direct, from_product) in problem.recovered(&e.values) {
+                rep.facts.insert(
+                    format!("physical {name}"),
+                    format!("{direct:.6} directly, {from_product:.6} from (B*{name})/B"),
+                );
+            }
+        }
+    }
+    rep.seconds = started.elapsed().as_secs_f64();
+    rep
+}

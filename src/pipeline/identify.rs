@@ -1,0 +1,205 @@
+//! The ordinary path: every requested method on one log, the naive white-noise baseline
+//! for filtered forces, the `[identify.compare]` alternatives, and the validation.
+
+use super::disturbed::identify_disturbed;
+use super::grading::{assemble, method_report};
+use super::spectra::ForceSpectra;
+use super::validation::Distributions;
+use super::{Options, PipelineError};
+use crate::ident::data::StationaryData;
+use crate::ident::strong::{DensityGrid, GridOptions};
+use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
+use crate::io::log::{read_samples, LogInfo};
+use crate::report::Report;
+use crate::scenario::{Method, Process, Scenario};
+use std::time::Instant;
+
+pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, PipelineError> {
+    let s = &info.scenario;
+    if let Some(d) = &s.identify.disturbance {
+        let mut d = d.clone();
+        d.max_steps = options.max_steps.unwrap_or(d.max_steps);
+        d.tolerance = options.tolerance.unwrap_or(d.tolerance);
+        return identify_disturbed(info, &d, options, start);
+    }
+    let sim = &s.simulation;
+    let methods = if options.methods.is_empty() {
+        s.identify.methods.clone()
+    } else {
+        options.methods.clone()
+    };
+    // Measured filtered excitations: their A, B come from the force spectrum unless known.
+    let filtered: Vec<usize> = (0..s.excitations.len())
+        .filter(|&e| s.excitations[e].measured && matches!(s.excitations[e].process, Process::Filtered { .. }))
+        .collect();
+    // The problem's structure (state, columns, moments needed) does not depend on A and B.
+    let placeholder: Vec<Filter> = filtered
+        .iter()
+        .map(|&e| Filter {
+            excitation: e,
+            a: 1.0,
+            b: 1.0,
+        })
+        .collect();
+    let structure = Problem::with_filters(s, &placeholder)?;
+    let naive_scenario = (!filtered.is_empty()).then(|| whitened(s, &placeholder));
+    let naive_structure = naive_scenario.as_ref().map(Problem::new).transpose()?;
+
+    // Pass 1: moments per batch, link ranges, lag-1 correlation of each filtered force.
+    let mut data = StationaryData::new(
+        &structure,
+        weak::moment_degree(&structure),
+        sim.record_length,
+        options.batches,
+    );
+    let mut naive_data = naive_structure
+        .as_ref()
+        .map(|p| StationaryData::new(p, weak::moment_degree(p), sim.record_length, options.batches));
+    let mut forces = ForceSpectra::new(s, &filtered);
+    read_samples(info, |traj, t, row| {
+        data.push(traj, t, row);
+        if let Some(d) = naive_data.as_mut() {
+            d.push(traj, t, row);
+        }
+        forces.push_lag(traj, row);
+    })?;
+    data.finish();
+    if let Some(d) = naive_data.as_mut() {
+        d.finish();
+    }
+    let total = data.total();
+
+    // Pass 2: grid, histograms, force spectra.
+    let want_grid = methods
+        .iter()
+        .any(|m| matches!(m, Method::Strong | Method::StrongMarginals));
+    let mut grid = match want_grid {
+        true => Some(DensityGrid::new(
+            &structure,
+            &total,
+            options.grid.unwrap_or_else(|| GridOptions::auto(structure.dim())),
+        )),
+        false => None,
+    };
+    let mut dist = Distributions::new(s, &structure, &data);
+    forces.start_welch(sim);
+    read_samples(info, |traj, _, row| {
+        if let Some(Ok(g)) = grid.as_mut() {
+            g.push(row);
+        }
+        dist.push(row);
+        forces.push(traj, row);
+    })?;
+
+    // Filters: fitted to the spectra, or known.
+    let (filters, filter_reports, spectra) = forces.filters(s);
+    let problem = Problem::with_filters(s, &filters)?;
+    let typical = problem.typical(&total);
+    // Identifiability is a property of the unknowns and the data: measured once, with the
+    // weak form's batches, whatever methods were asked for (no estimates on failure).
+    let bilinear = problem.unknowns.iter().any(|u| matches!(u, Unknown::Corner(_)));
+    let weak_estimate = if bilinear {
+        ident::identify_weak_bilinear(&problem, &data)
+    } else {
+        ident::identify_weak(&problem, &data)
+    };
+    // What the reports are about: with an unknown corner, the physical coefficients and corners.
+    let reported = if bilinear { problem.physical() } else { problem.clone() };
+    if let Err(e @ IdentError::NotIdentifiable { .. }) = weak_estimate {
+        return Err(e.into());
+    }
+
+    // Methods.
+    let mut reports = Vec::new();
+    let mut first_ok: Option<Vec<f64>> = None;
+    let mut first_method = "";
+    for m in &methods {
+        let t = Instant::now();
+        let est = match (m, &grid) {
+            (Method::Weak, _) => weak_estimate.clone(),
+            (Method::Strong | Method::StrongMarginals, Some(Err(e))) => Err(e.clone()),
+            (Method::Strong | Method::StrongMarginals, _) if bilinear => Err(IdentError::Unsupported(
+                "an unknown corner B makes the drift bilinear; the strong form here solves linear problems only".into(),
+            )),
+            (Method::Strong, Some(Ok(g))) => ident::identify_strong(&problem, g, false, &typical),
+            (Method::StrongMarginals, Some(Ok(g))) => ident::identify_strong(&problem, g, true, &typical),
+            (_, None) => unreachable!("grid requested"),
+        };
+        if let Err(e @ IdentError::NotIdentifiable { .. }) = est {
+            return Err(e.into());
+        }
+        if let (Ok(e), None) = (&est, &first_ok) {
+            first_ok = Some(e.values.clone());
+            first_method = m.name();
+        }
+        reports.push(method_report(
+            m.name(),
+            Some(s.accept.threshold(m.name())),
+            est,
+            s,
+            &reported,
+            &data.link_ranges,
+            t,
+        ));
+    }
+    // The naive baseline: the white-noise identification applied to filtered data, with
+    // each filtered force taken as white of the same low-frequency density (σ = A/B).
+    if let (Some(d), false) = (&naive_data, filtered.is_empty()) {
+        let t = Instant::now();
+        let naive = Problem::new(&whitened(s, &filters))?;
+        let est = ident::identify_weak(&naive, d);
+        reports.push(method_report(
+            "weak-white-naive",
+            None,
+            est,
+            s,
+            &naive,
+            &data.link_ranges,
+            t,
+        ));
+    }
+    // Alternative models for comparison (e.g. the paper's linear case 1).
+    for (name, links) in &s.identify.compare {
+        let t = Instant::now();
+        let mut alt = s.clone();
+        alt.identify.links = links.clone();
+        let p = Problem::with_filters(&alt, &filters)?;
+        let est = ident::identify_weak(&p, &data);
+        reports.push(method_report(
+            &format!("weak [{name}]"),
+            None,
+            est,
+            s,
+            &p,
+            &data.link_ranges,
+            t,
+        ));
+    }
+
+    // Validation by re-simulation of the first identified model.
+    let validation = match (&first_ok, options.validate) {
+        (Some(values), true) => Some(dist.validate(s, &reported, values, first_method)),
+        _ => None,
+    };
+    Ok(assemble(
+        info,
+        data.samples(),
+        start,
+        filter_reports,
+        reports,
+        validation,
+        Vec::new(),
+        dist.into_plot(spectra),
+    ))
+}
+
+/// The scenario with every filtered excitation replaced by white noise of the same
+/// low-frequency density (`σ = A/B`): what ignoring the filter amounts to.
+pub(crate) fn whitened(s: &Scenario, filters: &[Filter]) -> Scenario {
+    let mut w = s.clone();
+    w.identify.unknown_corners.clear();
+    for f in filters {
+        w.excitations[f.excitation].process = Process::White { sigma: f.a / f.b };
+    }
+    w
+}

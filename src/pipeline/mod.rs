@@ -1,0 +1,114 @@
+//! The bench's pipeline: a scenario simulated into a complete log ([`simulate_log`]), and a
+//! log identified with the requested methods and graded against the truth it carries
+//! ([`identify_log`]). See `docs/methods.md` for what a run reports.
+//!
+//! Two streaming passes over the log, constant memory: pass 1 accumulates raw moments per
+//! time batch and the links' observed ranges (weak form); pass 2 fills the density grid
+//! (strong forms) and the histograms behind the plots. The numerics live in `ident` and
+//! `sim`; this module only wires them to the log and to the report types.
+
+mod disturbed;
+mod grading;
+mod identify;
+mod spectra;
+mod validation;
+
+pub use validation::identified_scenario;
+
+use self::identify::identify_info;
+use crate::ident::strong::GridOptions;
+use crate::ident::IdentError;
+use crate::io::log::{read_info, Compression, LogError, LogWriter};
+use crate::model::Model;
+use crate::report::Report;
+use crate::scenario::{Method, Scenario};
+use crate::sim::{simulate, SimError};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Errors of the bench pipeline.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    #[error(transparent)]
+    Log(#[from] LogError),
+    #[error(transparent)]
+    Ident(#[from] IdentError),
+    #[error(transparent)]
+    Sim(#[from] SimError),
+}
+
+/// Settings of an identification.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Methods to run; empty: the scenario's `[identify] methods`.
+    pub methods: Vec<Method>,
+    /// Strong-form grid; `None`: automatic.
+    pub grid: Option<GridOptions>,
+    /// Batches (groups of the fine trajectory-group × time batches) for standard errors and
+    /// the identifiability spread.
+    pub batches: usize,
+    /// Re-simulate the identified model for the validation table.
+    pub validate: bool,
+    /// Override `[identify.disturbance] max_steps` of the iterative procedure.
+    pub max_steps: Option<usize>,
+    /// Override `[identify.disturbance] tolerance` of the iterative procedure.
+    pub tolerance: Option<f64>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            methods: Vec::new(),
+            grid: None,
+            batches: 8,
+            validate: true,
+            max_steps: None,
+            tolerance: None,
+        }
+    }
+}
+
+/// What [`simulate_log`] wrote.
+#[derive(Debug, Clone)]
+pub struct Simulated {
+    /// The complete log.
+    pub log: PathBuf,
+    /// Samples (trajectories × instants).
+    pub samples: u64,
+    /// The log's size.
+    pub bytes: u64,
+    /// Integration steps over all trajectories, burn-in included.
+    pub steps: u64,
+    /// Wall-clock time from the start to the renamed log.
+    pub seconds: f64,
+}
+
+/// The bench's first half: simulate `scenario` into a log at `path` (written as
+/// `<path>.partial` and renamed only when complete), calling `progress` with the samples
+/// written so far.
+pub fn simulate_log(
+    scenario: &Scenario,
+    path: &Path,
+    compression: Compression,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Simulated, PipelineError> {
+    let start = Instant::now();
+    let model = Model::new(scenario);
+    let mut writer = LogWriter::create_with(path, scenario, &model, compression)?;
+    let stats = simulate(&model, &scenario.simulation, &mut writer, progress)?;
+    let summary = writer.finish()?;
+    Ok(Simulated {
+        log: summary.path,
+        samples: stats.samples,
+        bytes: summary.bytes,
+        steps: stats.steps,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Identify the log at `path`.
+pub fn identify_log(path: &Path, options: &Options) -> Result<Report, PipelineError> {
+    let start = Instant::now();
+    let info = read_info(path)?;
+    identify_info(&info, options, start)
+}

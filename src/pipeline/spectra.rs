@@ -1,0 +1,110 @@
+//! Spectra of the measured filtered forces: lag-1 correlation in pass 1, Welch estimates in
+//! pass 2, and the rational-spectrum fit (3.20) that gives each filter's `A` and `B`.
+
+use crate::ident::{spectrum, spectrum::Welch, Filter};
+use crate::report::FilterReport;
+use crate::scenario::{Process, Scenario};
+
+/// The measured forces whose spectra are fitted: lag-1 sums in pass 1 (an AR(1) guess of
+/// the corner sets the Welch segment length), Welch estimates in pass 2.
+pub(crate) struct ForceSpectra {
+    excitations: Vec<usize>,
+    columns: Vec<usize>,
+    /// Per force: `Σ p²`, `Σ p·p_prev`, the last value per trajectory.
+    lag: Vec<(f64, f64, Vec<f64>)>,
+    welch: Vec<Welch>,
+}
+
+impl ForceSpectra {
+    pub(crate) fn new(s: &Scenario, excitations: &[usize]) -> ForceSpectra {
+        let n = s.masses.len();
+        ForceSpectra {
+            excitations: excitations.to_vec(),
+            columns: excitations.iter().map(|e| 3 * n + e).collect(),
+            lag: vec![(0.0, 0.0, vec![f64::NAN; s.simulation.trajectories]); excitations.len()],
+            welch: Vec::new(),
+        }
+    }
+
+    pub(crate) fn push_lag(&mut self, traj: u32, row: &[f64]) {
+        for (k, &c) in self.columns.iter().enumerate() {
+            let p = row[c];
+            let (s0, s1, last) = &mut self.lag[k];
+            if let Some(prev) = last.get_mut(traj as usize) {
+                if prev.is_finite() {
+                    *s0 += p * p;
+                    *s1 += p * *prev;
+                }
+                *prev = p;
+            }
+        }
+    }
+
+    pub(crate) fn start_welch(&mut self, sim: &crate::scenario::Simulation) {
+        self.welch = self
+            .lag
+            .iter()
+            .map(|(s0, s1, _)| {
+                let phi = (s1 / s0).clamp(1e-6, 1.0 - 1e-9);
+                let b_guess = -phi.ln() / sim.sample_interval;
+                Welch::new(
+                    Welch::segment_for(b_guess, sim.sample_interval, sim.samples_per_trajectory()),
+                    sim.sample_interval,
+                    sim.trajectories,
+                )
+            })
+            .collect();
+    }
+
+    pub(crate) fn push(&mut self, traj: u32, row: &[f64]) {
+        for (w, &c) in self.welch.iter_mut().zip(&self.columns) {
+            w.push(traj as usize, row[c]);
+        }
+    }
+
+    /// Fit (3.20) to every spectrum: the filters the identifier uses (the fit, or the true
+    /// values where the scenario declares them known), their reports and the plot data.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn filters(
+        &self,
+        s: &Scenario,
+    ) -> (
+        Vec<Filter>,
+        Vec<FilterReport>,
+        Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>,
+    ) {
+        let mut filters = Vec::new();
+        let mut reports = Vec::new();
+        let mut spectra = Vec::new();
+        for (&e, w) in self.excitations.iter().zip(&self.welch) {
+            let spec = w.spectrum();
+            let fit = spectrum::fit_ou(&spec);
+            let Process::Filtered { a: ta, b: tb } = s.excitations[e].process else {
+                unreachable!("only filtered forces are fitted")
+            };
+            let known = s.identify.known_filters.contains(&e);
+            let (a, b) = if known { (ta, tb) } else { (fit.a, fit.b) };
+            filters.push(Filter { excitation: e, a, b });
+            reports.push(FilterReport {
+                excitation: s.excitations[e].name.clone(),
+                used: match (s.excitations[e].measured, known) {
+                    (false, _) => "fitted (disturbance: the bound only)",
+                    (true, true) => "known",
+                    (true, false) => "fitted",
+                },
+                a,
+                b,
+                fitted_a: fit.a,
+                fitted_b: fit.b,
+                true_a: ta,
+                true_b: tb,
+                rms_log_residual: fit.rms_log_residual,
+                expected_rms_log_residual: fit.expected_rms,
+                segments: spec.segments,
+                segment_len: spec.segment_len,
+            });
+            spectra.push((s.excitations[e].name.clone(), spec, fit, (ta, tb)));
+        }
+        (filters, reports, spectra)
+    }
+}

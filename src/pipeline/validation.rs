@@ -1,0 +1,284 @@
+//! Validation by re-simulation: the identified model is simulated again (another seed) and
+//! its std, kurtosis and marginal densities are compared with the data's.
+
+use super::grading::coefficients_of;
+use crate::ident::data::StationaryData;
+use crate::ident::{spectrum, Problem, Unknown};
+use crate::model::{Characteristic, Coefficient, Model};
+use crate::report::{PlotData, Validation, ValidationRow};
+use crate::scenario::{Polynomial, Process, Scenario};
+use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
+use crate::stats;
+use crate::stats::Histogram;
+
+/// Per-variable sums for std and kurtosis plus a histogram, from any sample source.
+pub(crate) struct Marginals {
+    cols: Vec<usize>,
+    s1: Vec<f64>,
+    s2: Vec<f64>,
+    s3: Vec<f64>,
+    s4: Vec<f64>,
+    n: f64,
+    hist: Vec<Histogram>,
+}
+
+impl Marginals {
+    pub(crate) fn new(cols: Vec<usize>, hist: Vec<Histogram>) -> Marginals {
+        let d = cols.len();
+        Marginals {
+            cols,
+            s1: vec![0.0; d],
+            s2: vec![0.0; d],
+            s3: vec![0.0; d],
+            s4: vec![0.0; d],
+            n: 0.0,
+            hist,
+        }
+    }
+    pub(crate) fn push(&mut self, row: &[f64]) {
+        for (j, &c) in self.cols.iter().enumerate() {
+            let z = row[c];
+            self.s1[j] += z;
+            self.s2[j] += z * z;
+            self.s3[j] += z * z * z;
+            self.s4[j] += z * z * z * z;
+            self.hist[j].push(z);
+        }
+        self.n += 1.0;
+    }
+    /// (std, kurtosis) of variable `j`.
+    pub(crate) fn std_kurtosis(&self, j: usize) -> (f64, f64) {
+        let n = self.n;
+        let m = self.s1[j] / n;
+        let m2 = self.s2[j] / n;
+        let m3 = self.s3[j] / n;
+        let m4 = self.s4[j] / n;
+        let var = m2 - m * m;
+        let c4 = m4 - 4.0 * m * m3 + 6.0 * m * m * m2 - 3.0 * m.powi(4);
+        (var.max(0.0).sqrt(), c4 / (var * var))
+    }
+}
+
+impl SampleSink for Marginals {
+    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        b.for_each_sample(|_, _, row| self.push(row));
+        Ok(())
+    }
+}
+
+pub(crate) const HIST_BINS: usize = 80;
+
+/// The data's distributions behind the plots and the validation, filled in pass 2:
+/// histograms of every link's relative displacement and velocity, and moments and
+/// histograms of every state variable of `problem`; after [`Distributions::validate`],
+/// the re-simulated model's too.
+pub(crate) struct Distributions {
+    model: Model,
+    xs: Vec<f64>,
+    vs: Vec<f64>,
+    link_hist: Vec<(Histogram, Histogram)>,
+    /// Empty histograms over the data's ranges (the validation fills copies).
+    state_hist: Vec<Histogram>,
+    marg: Marginals,
+    /// Per state variable: name, unit, data histogram, model histogram.
+    names: Vec<(String, String)>,
+    model_marg: Option<Marginals>,
+}
+
+impl Distributions {
+    pub(crate) fn new(s: &Scenario, problem: &Problem, data: &StationaryData) -> Distributions {
+        let total = data.total();
+        let state_hist: Vec<Histogram> = (0..problem.dim())
+            .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
+            .collect();
+        let units = s.motion.units();
+        let names = problem
+            .state_names
+            .iter()
+            .map(|name| {
+                let unit = units[if name.starts_with("x_") {
+                    0
+                } else if name.starts_with("v_") {
+                    1
+                } else {
+                    2
+                }];
+                (name.clone(), unit.to_string())
+            })
+            .collect();
+        Distributions {
+            model: problem.model.clone(),
+            xs: vec![0.0; problem.n],
+            vs: vec![0.0; problem.n],
+            link_hist: data
+                .link_ranges
+                .iter()
+                .map(|r| {
+                    (
+                        Histogram::new(r[0], r[1], HIST_BINS),
+                        Histogram::new(r[2], r[3], HIST_BINS),
+                    )
+                })
+                .collect(),
+            marg: Marginals::new(problem.columns.clone(), state_hist.clone()),
+            state_hist,
+            names,
+            model_marg: None,
+        }
+    }
+
+    pub(crate) fn push(&mut self, row: &[f64]) {
+        for i in 0..self.xs.len() {
+            self.xs[i] = row[3 * i];
+            self.vs[i] = row[3 * i + 1];
+        }
+        for (l, h) in self.link_hist.iter_mut().enumerate() {
+            h.0.push(self.model.relative(l, &self.xs));
+            h.1.push(self.model.relative(l, &self.vs));
+        }
+        self.marg.push(row);
+    }
+
+    /// The validation table for `values` (keeping the re-simulated distributions).
+    pub(crate) fn validate(
+        &mut self,
+        s: &Scenario,
+        problem: &Problem,
+        values: &[f64],
+        method: &'static str,
+    ) -> Validation {
+        match validate(
+            s,
+            problem,
+            &coefficients_of(problem),
+            values,
+            method,
+            &self.marg,
+            &self.state_hist,
+        ) {
+            Ok((val, m)) => {
+                self.model_marg = Some(m);
+                val
+            }
+            Err(e) => Validation {
+                method,
+                record_length_s: 0.0,
+                trajectories: 0,
+                seed: 0,
+                rows: Vec::new(),
+                error: Some(format!("the identified model could not be simulated: {e}")),
+            },
+        }
+    }
+
+    pub(crate) fn into_plot(self, spectra: Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>) -> PlotData {
+        let model_hist = |j: usize| self.model_marg.as_ref().map(|m| m.hist[j].clone());
+        PlotData {
+            marginals: self
+                .names
+                .iter()
+                .enumerate()
+                .map(|(j, (name, unit))| (name.clone(), unit.clone(), self.marg.hist[j].clone(), model_hist(j)))
+                .collect(),
+            samples: self.marg.n,
+            model_samples: self.model_marg.as_ref().map_or(0.0, |m| m.n),
+            link_hist: self.link_hist,
+            spectra,
+        }
+    }
+}
+
+/// The scenario with the identified values in place of the unknowns.
+pub fn identified_scenario(
+    s: &Scenario,
+    problem: &Problem,
+    coef_of: &[Option<Coefficient>],
+    values: &[f64],
+) -> Scenario {
+    let mut out = s.clone();
+    for l in 0..s.links.len() {
+        for kind in [Characteristic::Stiffness, Characteristic::Damping] {
+            let (est, unknown) = stats::estimated_characteristic(s, coef_of, values, l, kind);
+            if unknown {
+                let est = Polynomial {
+                    terms: est.terms.into_iter().filter(|t| t.1 != 0.0).collect(),
+                };
+                match kind {
+                    Characteristic::Stiffness => out.links[l].stiffness = est,
+                    Characteristic::Damping => out.links[l].damping = est,
+                }
+            }
+        }
+    }
+    for (k, u) in problem.unknowns.iter().enumerate() {
+        match *u {
+            Unknown::Mass(i) => out.masses[i].value = values[k],
+            Unknown::Intensity(e) => {
+                if let crate::scenario::Process::White { sigma } = &mut out.excitations[e].process {
+                    *sigma = values[k];
+                }
+            }
+            Unknown::Corner(e) => {
+                if let Process::Filtered { b, .. } = &mut out.excitations[e].process {
+                    *b = values[k];
+                }
+            }
+            Unknown::Coefficient(_) | Unknown::CornerProduct(..) | Unknown::Monomial(..) | Unknown::InputGain(_) => {}
+        }
+    }
+    out
+}
+
+/// Re-simulate the identified model with the same excitation (another seed) and compare
+/// std and kurtosis of every response with the data's.
+pub(crate) fn validate(
+    s: &Scenario,
+    problem: &Problem,
+    coef_of: &[Option<Coefficient>],
+    values: &[f64],
+    method: &'static str,
+    data: &Marginals,
+    hist: &[Histogram],
+) -> Result<(Validation, Marginals), SimError> {
+    let mut sc = identified_scenario(s, problem, coef_of, values);
+    // At most 1e5 s of trajectory time: enough for std and kurtosis to a few per cent.
+    let traj = sc.simulation.trajectories;
+    sc.simulation.record_length = sc
+        .simulation
+        .record_length
+        .min(1e5 / traj as f64)
+        .max(sc.simulation.sample_interval);
+    sc.simulation.seed = sc.simulation.seed.wrapping_add(1_000_003);
+    let model = Model::new(&sc);
+    let mut m = Marginals::new(
+        problem.columns.clone(),
+        hist.iter()
+            .map(|h| Histogram::new(h.lo, h.hi, h.counts.len()))
+            .collect(),
+    );
+    simulate(&model, &sc.simulation, &mut m, &|_| {})?;
+    let rows = (0..problem.dim())
+        .map(|j| {
+            let (ds, dk) = data.std_kurtosis(j);
+            let (ms, mk) = m.std_kurtosis(j);
+            ValidationRow {
+                variable: problem.state_names[j].clone(),
+                data_std: ds,
+                model_std: ms,
+                data_kurtosis: dk,
+                model_kurtosis: mk,
+            }
+        })
+        .collect();
+    Ok((
+        Validation {
+            method,
+            record_length_s: sc.simulation.record_length,
+            trajectories: traj,
+            seed: sc.simulation.seed,
+            rows,
+            error: None,
+        },
+        m,
+    ))
+}

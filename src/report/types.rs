@@ -1,0 +1,237 @@
+//! The result types of a run, serialised as `report.json` (fields in `docs/methods.md`).
+
+use crate::ident::{disturbance, lsq::Diagnostics, spectrum};
+use crate::scenario::{Scenario, DIRECT_FORCE};
+use crate::stats;
+use crate::stats::Histogram;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Parameter {
+    pub name: String,
+    pub true_value: f64,
+    pub estimate: f64,
+    pub std_error: f64,
+    pub rel_error: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Curve {
+    pub link: String,
+    pub kind: &'static str,
+    pub rel_l2_error: f64,
+    /// Observed range of the relative displacement or velocity.
+    pub range: [f64; 2],
+    /// `(power, coefficient)` of the identified characteristic.
+    pub identified: Vec<(u32, f64)>,
+}
+
+/// A filtered excitation's `A`, `B`: the fit to the measured force spectrum (3.20) and
+/// what the identifier used.
+#[derive(Debug, Clone, Serialize)]
+pub struct FilterReport {
+    pub excitation: String,
+    /// `fitted` or `known`.
+    pub used: &'static str,
+    pub a: f64,
+    pub b: f64,
+    pub fitted_a: f64,
+    pub fitted_b: f64,
+    pub true_a: f64,
+    pub true_b: f64,
+    pub rms_log_residual: f64,
+    pub expected_rms_log_residual: f64,
+    pub segments: usize,
+    pub segment_len: usize,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct MethodReport {
+    pub method: String,
+    /// Whether this method has an acceptance gate (baselines and comparisons do not).
+    pub gated: bool,
+    pub parameters: Vec<Parameter>,
+    pub curves: Vec<Curve>,
+    pub worst_rel_error: f64,
+    pub threshold: f64,
+    pub passed: bool,
+    pub diagnostics: Option<Diagnostics>,
+    pub weakly_determined: bool,
+    pub facts: BTreeMap<String, String>,
+    pub dissipativity: Vec<stats::Dissipativity>,
+    /// Why the method gave no estimate (then `passed` is false).
+    pub error: Option<String>,
+    pub seconds: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ValidationRow {
+    pub variable: String,
+    pub data_std: f64,
+    pub model_std: f64,
+    pub data_kurtosis: f64,
+    pub model_kurtosis: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Validation {
+    /// The method whose model was re-simulated.
+    pub method: &'static str,
+    pub record_length_s: f64,
+    pub trajectories: usize,
+    pub seed: u64,
+    pub rows: Vec<ValidationRow>,
+    /// Set when the identified model could not be simulated (e.g. not dissipative).
+    pub error: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Timings {
+    pub simulate: f64,
+    pub identify: f64,
+    pub total: f64,
+}
+
+/// What the plots need beyond the report.
+#[derive(Debug, Clone, Default)]
+pub struct PlotData {
+    /// Per link: histograms of `u` and `w`.
+    pub link_hist: Vec<(Histogram, Histogram)>,
+    /// Per state variable: (name, unit, data histogram, re-simulated model histogram).
+    pub marginals: Vec<(String, String, Histogram, Option<Histogram>)>,
+    pub samples: f64,
+    pub model_samples: f64,
+    /// Per filtered excitation: name, estimated spectrum, fit, true (A, B).
+    pub spectra: Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>,
+}
+
+/// The result of identifying one log.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub scenario: String,
+    pub log: String,
+    pub record_length_s: f64,
+    pub total_record_s: f64,
+    pub samples: u64,
+    pub sample_interval_s: f64,
+    pub trajectories: usize,
+    pub seed: u64,
+    pub scheme: String,
+    pub dt_s: f64,
+    pub timings_s: Timings,
+    /// Filtered excitations: fitted and used `A`, `B`.
+    pub filters: Vec<FilterReport>,
+    pub methods: Vec<MethodReport>,
+    pub validation: Option<Validation>,
+    /// The iterative procedure for an unmeasured disturbance (paper section 4): the
+    /// paper's sequence (spectral single-mass step, method `iterated`), then the one with
+    /// the measured-force step (`iterated-force`). Empty without `[identify.disturbance]`.
+    pub iterations: Vec<IterationReport>,
+    pub passed: bool,
+    #[serde(skip)]
+    pub plot: PlotData,
+    #[serde(skip)]
+    pub scenario_def: Option<Scenario>,
+}
+
+/// The iterative procedure's sequence with its accuracy at every step.
+#[derive(Debug, Clone, Serialize)]
+pub struct IterationReport {
+    /// The report method of the final iterate (`iterated`, `iterated-force`).
+    pub method: String,
+    #[serde(flatten)]
+    pub iteration: disturbance::Iteration,
+    /// Per step: the relative error of every parameter (as in `methods[]`).
+    pub step_rel_errors: Vec<Vec<f64>>,
+    /// Per step: the worst relative error, curves included.
+    pub step_worst_rel_error: Vec<f64>,
+    pub step0_worst_rel_error: f64,
+    pub final_worst_rel_error: f64,
+    /// The report method of this sequence's bound: the identification given the
+    /// disturbance as if it were measured, in the same model of the forces.
+    pub bound: String,
+    /// The bound's worst error (NaN when it failed).
+    pub bound_worst_rel_error: f64,
+}
+
+/// One level of a disturbance-strength sweep.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepPoint {
+    /// Standard deviation of the disturbance over that of the measured force.
+    pub level: f64,
+    pub step0_worst_rel_error: f64,
+    /// Per sequence (the paper's, then the measured-force one): its final iterate and bound.
+    pub sequences: Vec<SweepSequence>,
+    pub step0: Vec<f64>,
+    /// The one-step solve of (4.8) (`direct-force`): worst error (NaN when it failed) and
+    /// estimates.
+    pub direct_worst_rel_error: f64,
+    pub direct: Vec<f64>,
+}
+
+/// One sequence's outcome at one sweep level.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepSequence {
+    /// `iterated` or `iterated-force`.
+    pub method: String,
+    pub steps: usize,
+    pub stopped_by: String,
+    pub monotone: bool,
+    pub final_worst_rel_error: f64,
+    #[serde(rename = "final")]
+    pub last: Vec<f64>,
+    /// The sequence's bound (the disturbance given as measured) and its worst error.
+    pub bound_method: String,
+    pub bound_worst_rel_error: f64,
+    pub bound: Vec<f64>,
+}
+
+/// A disturbance-strength sweep: the procedure's accuracy against the disturbance level.
+#[derive(Debug, Clone, Serialize)]
+pub struct Sweep {
+    pub scenario: String,
+    pub names: Vec<String>,
+    pub truth: Vec<f64>,
+    pub points: Vec<SweepPoint>,
+}
+
+impl SweepPoint {
+    /// The sweep's entry for a report of the disturbed scenario at `level`.
+    pub fn from_report(level: f64, r: &Report) -> Option<SweepPoint> {
+        let first = r.iterations.first()?;
+        let values = |m: &str| {
+            r.methods
+                .iter()
+                .find(|x| x.method == m)
+                .map(|x| x.parameters.iter().map(|p| p.estimate).collect())
+                .unwrap_or_default()
+        };
+        Some(SweepPoint {
+            level,
+            step0_worst_rel_error: first.step0_worst_rel_error,
+            sequences: r
+                .iterations
+                .iter()
+                .map(|it| SweepSequence {
+                    method: it.method.clone(),
+                    steps: it.iteration.steps.len() - 1,
+                    stopped_by: it.iteration.stopped_by.clone(),
+                    monotone: it.iteration.monotone,
+                    final_worst_rel_error: it.final_worst_rel_error,
+                    last: values(&it.method),
+                    bound_method: it.bound.clone(),
+                    bound_worst_rel_error: it.bound_worst_rel_error,
+                    bound: values(&it.bound),
+                })
+                .collect(),
+            step0: values("step-0"),
+            direct_worst_rel_error: r
+                .methods
+                .iter()
+                .find(|x| x.method == DIRECT_FORCE)
+                .map_or(f64::NAN, |x| x.worst_rel_error),
+            direct: values(DIRECT_FORCE),
+        })
+    }
+}
