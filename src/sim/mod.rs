@@ -1,0 +1,237 @@
+//! Stochastic simulation of a [`Model`]: semi-implicit or explicit Euler–Maruyama steps,
+//! exact Ornstein–Uhlenbeck transitions, burn-in, sampling, parallel trajectories.
+//!
+//! Performance design: trajectories are stepped [`LANES`] at a time in struct-of-arrays
+//! lanes, so the CPU always has independent work while one lane waits on its state's
+//! dependency chain, and the per-link polynomial loop is amortised over the lanes. The
+//! shaped kernel (`advance_shaped`, up to four masses and four excitations) separates the
+//! two kinds of work: the normals of a block of steps are drawn first, one generator at a
+//! time (`fill_noise`), then the steps run over them as straight-line vector arithmetic,
+//! 16 lanes at a time in registers, with every link's ends known at compile time (the
+//! links are rewritten as one per pair of ends, `LaneModel::complete_links`). Each
+//! lane has its own `Xoshiro256PlusPlus`, seeded from `(seed, trajectory)`, so the output is
+//! bit-identical whatever the number of threads. Time advances in blocks of samples: in a
+//! block every lane group runs in parallel (rayon), then the block's samples are handed,
+//! in (time, trajectory) order, to a [`SampleSink`] — memory is bounded by one block.
+//!
+//! This module knows nothing of files: sinks (the MCAP writer, moment accumulators in
+//! tests) are supplied by the caller.
+
+mod lanes;
+mod shaped;
+mod sinks;
+
+pub use sinks::{Collect, ForEach, Moments, SampleBatch, SampleSink};
+
+use crate::model::Model;
+use crate::scenario::Simulation;
+use lanes::{advance_generic, no_kernel, zero, Group, LaneModel, Stepper};
+use rayon::prelude::*;
+use shaped::shaped_kernel;
+
+/// Trajectories stepped together in one group (a group is the unit of parallel work:
+/// multiples of `2 × LANES` trajectories keep two cores busy).
+pub const LANES: usize = 32;
+
+pub(crate) type Lane = [f64; LANES];
+
+/// States whose magnitude passes this are taken as diverged.
+pub const DIVERGENCE_LIMIT: f64 = 1e10;
+
+/// Errors of a simulation run.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// The state became non-finite or exploded (usually `dt` too large for the stiffness).
+    #[error(
+        "simulation diverged in trajectory {trajectory} between t = {t_from:.6} s and t = {t_to:.6} s \
+         (time after burn-in; negative = during burn-in): state {}. Reduce dt (or raise substeps) \
+         or check the stiffness and damping signs",
+        .state.iter().map(|(n, v)| format!("{n} = {v:e}")).collect::<Vec<_>>().join(", ")
+    )]
+    Diverged {
+        trajectory: usize,
+        t_from: f64,
+        t_to: f64,
+        state: Vec<(String, f64)>,
+    },
+    /// The sink refused a batch (e.g. the log file could not be written).
+    #[error("writing samples failed")]
+    Sink(#[source] Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// Names of the logged values per sample: `x_<mass>`, `v_<mass>`, `a_<mass>` for every mass,
+/// then `p_<excitation>` for every excitation.
+pub fn columns(model: &Model) -> Vec<String> {
+    let mut c = Vec::new();
+    for m in &model.mass_names {
+        c.push(format!("x_{m}"));
+        c.push(format!("v_{m}"));
+        c.push(format!("a_{m}"));
+    }
+    for e in &model.excitation_names {
+        c.push(format!("p_{e}"));
+    }
+    c
+}
+
+/// What a finished run did.
+#[derive(Debug, Clone, Copy)]
+pub struct RunStats {
+    pub samples: u64,
+    /// Integration steps summed over trajectories (including burn-in and sub-steps).
+    pub steps: u64,
+}
+
+/// The seed of trajectory `j`'s generator: a SplitMix64 mix of the master seed and `j`.
+pub fn trajectory_seed(seed: u64, j: usize) -> u64 {
+    let mut z = seed ^ (j as u64).wrapping_add(1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_133f_11eb);
+    z ^ (z >> 31)
+}
+
+/// Instants per block: a group's block is at most about `2e5` steps (cheap
+/// synchronisation), and a batch at most about 2 MB of values (it stays in the caches
+/// between the simulator and the sink, and recycled batches come back quickly).
+pub(crate) fn block_samples(steps_per_sample: usize, values_per_instant: usize, total: usize) -> usize {
+    (200_000 / steps_per_sample.max(1))
+        .min((1 << 18) / values_per_instant.max(1))
+        .clamp(1, 4096)
+        .min(total.max(1))
+}
+
+/// Simulate every trajectory of `sim` and hand the samples to `sink`, block by block, in
+/// (time, trajectory) order. `progress` is called with the number of samples written so far.
+pub fn simulate(
+    model: &Model,
+    sim: &Simulation,
+    sink: &mut dyn SampleSink,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RunStats, SimError> {
+    simulate_with(model, sim, sink, progress, false)
+}
+
+/// [`simulate`] with the generic stepper only (no shaped kernel, but the same rewritten
+/// links): the reference the kernel is tested against, bit for bit.
+pub fn simulate_generic(
+    model: &Model,
+    sim: &Simulation,
+    sink: &mut dyn SampleSink,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RunStats, SimError> {
+    simulate_with(model, sim, sink, progress, true)
+}
+
+pub(crate) fn simulate_with(
+    model: &Model,
+    sim: &Simulation,
+    sink: &mut dyn SampleSink,
+    progress: &(dyn Fn(u64) + Sync),
+    generic: bool,
+) -> Result<RunStats, SimError> {
+    let degree = (0..model.links())
+        .map(|l| model.k_len[l].max(model.c_len[l]))
+        .max()
+        .unwrap_or(1);
+    // One monomorphised stepper per padded degree.
+    match degree {
+        0 | 1 => simulate_padded::<1>(model, sim, sink, progress, generic, shaped_kernel),
+        2 | 3 => simulate_padded::<3>(model, sim, sink, progress, generic, shaped_kernel),
+        4 | 5 => simulate_padded::<5>(model, sim, sink, progress, generic, shaped_kernel),
+        6 | 7 => simulate_padded::<7>(model, sim, sink, progress, generic, no_kernel),
+        _ => simulate_padded::<15>(model, sim, sink, progress, generic, no_kernel),
+    }
+}
+
+pub(crate) fn simulate_padded<const D: usize>(
+    model: &Model,
+    sim: &Simulation,
+    sink: &mut dyn SampleSink,
+    progress: &(dyn Fn(u64) + Sync),
+    generic: bool,
+    shaped: fn(&LaneModel<D>) -> Option<Stepper<D>>,
+) -> Result<RunStats, SimError> {
+    let mut lm = LaneModel::<D>::new(model, sim, shaped);
+    if generic {
+        lm.advance = advance_generic::<D>;
+    }
+    let steps = sim.steps_per_sample() * sim.substeps;
+    let interval = sim.sample_interval;
+    let total = sim.samples_per_trajectory();
+    let cols = 3 * model.masses() + model.excitations.len();
+    let mut groups: Vec<Group> = (0..sim.trajectories.div_ceil(LANES))
+        .map(|g| Group::new(model, sim.seed, g * LANES, (sim.trajectories - g * LANES).min(LANES)))
+        .collect();
+
+    // Burn-in, in whole sample intervals (plus the remainder) so divergence is caught early.
+    let burn_steps = sim.burn_in_steps() * sim.substeps;
+    let burn_intervals = burn_steps / steps;
+    let burn_rest = burn_steps % steps;
+    let t_burn = -(burn_steps as f64) * lm.h;
+    groups.par_iter_mut().try_for_each(|g| {
+        g.run(model, &lm, steps, burn_intervals, interval, t_burn, &mut [])?;
+        let t_rest = t_burn + burn_intervals as f64 * interval;
+        g.run(model, &lm, burn_rest, 1, burn_rest as f64 * lm.h, t_rest, &mut [])?;
+        // The first sample's Δv and impulse start here.
+        g.v_mark.copy_from_slice(&g.v[..model.masses()]);
+        for (e, p) in g.p.iter_mut().enumerate() {
+            if lm.is_white[e] {
+                *p = zero();
+            }
+        }
+        Ok::<(), SimError>(())
+    })?;
+
+    let block = block_samples(steps, cols * sim.trajectories, total);
+    let mut done = 0usize;
+    while done < total {
+        let b = block.min(total - done);
+        let t0 = done as f64 * interval;
+        let per_k = sim.trajectories;
+        let len = b * cols * per_k;
+        // A batch the sink has finished with is refilled as it is (every value is
+        // overwritten); a new one is lazily zeroed memory, its pages first touched by the
+        // groups writing their samples, in parallel, straight into their parts of it.
+        let mut batch = match sink.recycle() {
+            Some(mut r) if r.values.len() >= len => {
+                r.values.truncate(len);
+                r
+            }
+            _ => SampleBatch {
+                values: vec![0.0; len],
+                ..SampleBatch::default()
+            },
+        };
+        batch.columns = cols;
+        batch.trajectories = per_k;
+        batch.time.clear();
+        batch.time.extend((1..=b).map(|k| (done + k) as f64 * interval));
+        // Each group's lanes of each column at each instant: contiguous, so the batch
+        // splits into disjoint slices, `b × cols` per group.
+        let mut parts: Vec<Vec<&mut [f64]>> = groups.iter().map(|_| Vec::with_capacity(b * cols)).collect();
+        for column in batch.values.chunks_exact_mut(per_k) {
+            let mut rest = column;
+            for (g, part) in groups.iter().zip(parts.iter_mut()) {
+                let (mine, tail) = rest.split_at_mut(g.active);
+                part.push(mine);
+                rest = tail;
+            }
+        }
+        let results: Vec<Result<(), SimError>> = groups
+            .par_iter_mut()
+            .zip(parts.par_iter_mut())
+            .map(|(g, out)| g.run(model, &lm, steps, b, interval, t0, out))
+            .collect();
+        drop(parts);
+        // The first failing group in trajectory order, whatever the thread count.
+        results.into_iter().collect::<Result<Vec<()>, SimError>>()?;
+        sink.write(batch).map_err(SimError::Sink)?;
+        done += b;
+        progress((done * sim.trajectories) as u64);
+    }
+    let steps_total = (groups.len() * LANES) as u64 * (burn_steps + total * steps) as u64;
+    Ok(RunStats {
+        samples: (total * sim.trajectories) as u64,
+        steps: steps_total,
+    })
+}
