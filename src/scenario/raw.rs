@@ -1,0 +1,125 @@
+//! The scenario file as written: serde structs that mirror the TOML, with spans for error
+//! locations. Nothing here is checked; [`super::validate`] turns it into a [`super::Scenario`].
+
+use super::{Method, Motion, Scheme};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use toml::Spanned;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawScenario {
+    pub(super) name: Option<Spanned<String>>,
+    pub(super) description: Option<String>,
+    #[serde(default)]
+    pub(super) motion: Motion,
+    #[serde(default)]
+    pub(super) mass: Vec<RawMass>,
+    #[serde(default)]
+    pub(super) link: Vec<RawLink>,
+    #[serde(default)]
+    pub(super) excitation: Vec<RawExcitation>,
+    pub(super) simulation: Option<RawSimulation>,
+    pub(super) identify: Option<RawIdentify>,
+    pub(super) accept: Option<RawAccept>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawMass {
+    pub(super) name: Spanned<String>,
+    pub(super) value: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawLink {
+    pub(super) name: Option<Spanned<String>>,
+    pub(super) ends: Spanned<Vec<Spanned<String>>>,
+    pub(super) stiffness: Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
+    pub(super) damping: Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq, Debug)]
+#[serde(rename_all = "kebab-case")]
+pub(crate) enum RawKind {
+    White,
+    Filtered,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawExcitation {
+    pub(super) name: Option<Spanned<String>>,
+    pub(super) kind: Spanned<RawKind>,
+    pub(super) sigma: Option<Spanned<f64>>,
+    #[serde(rename = "A")]
+    pub(super) a: Option<Spanned<f64>>,
+    #[serde(rename = "B")]
+    pub(super) b: Option<Spanned<f64>>,
+    pub(super) acts_on: Spanned<Vec<Spanned<String>>>,
+    #[serde(default = "yes")]
+    pub(super) measured: bool,
+}
+
+pub(crate) fn yes() -> bool {
+    true
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawSimulation {
+    pub(super) dt: Spanned<f64>,
+    pub(super) record_length: Spanned<f64>,
+    pub(super) burn_in: Option<Spanned<f64>>,
+    pub(super) sample_interval: Spanned<f64>,
+    pub(super) trajectories: Option<Spanned<i64>>,
+    pub(super) seed: Option<Spanned<i64>>,
+    #[serde(default)]
+    pub(super) scheme: Scheme,
+    pub(super) substeps: Option<Spanned<i64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawIdentify {
+    pub(super) methods: Option<Vec<Method>>,
+    pub(super) unknown_masses: Option<Vec<Spanned<String>>>,
+    pub(super) unknown_intensities: Option<Vec<Spanned<String>>>,
+    pub(super) known_filters: Option<Vec<Spanned<String>>>,
+    pub(super) unknown_corners: Option<Vec<Spanned<String>>>,
+    pub(super) links: Option<BTreeMap<String, Spanned<RawIdentifyLink>>>,
+    pub(super) compare: Option<BTreeMap<String, Spanned<RawCompare>>>,
+    pub(super) disturbance: Option<Spanned<RawDisturbance>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawDisturbance {
+    pub(super) max_steps: Option<Spanned<i64>>,
+    pub(super) tolerance: Option<Spanned<f64>>,
+    pub(super) sweep: Option<Spanned<Vec<Spanned<f64>>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawCompare {
+    pub(super) links: BTreeMap<String, Spanned<RawIdentifyLink>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawIdentifyLink {
+    pub(super) stiffness: Option<Vec<Spanned<i64>>>,
+    pub(super) damping: Option<Vec<Spanned<i64>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawAccept {
+    pub(super) worst_rel_error: Option<Spanned<f64>>,
+    pub(super) methods: Option<BTreeMap<String, Spanned<f64>>>,
+}
+
+// ---------------------------------------------------------------------------------------
+// Checked scenario.

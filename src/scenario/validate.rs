@@ -1,0 +1,755 @@
+//! Validation: the raw TOML checked section by section into a [`Scenario`], every error
+//! located by file, line, column and key, with what is allowed.
+
+use super::paper::paper_structure;
+use super::raw::*;
+use super::*;
+use std::collections::BTreeMap;
+use std::ops::Range;
+use toml::Spanned;
+
+/// Byte-offset → line/column and key lookup for error messages.
+pub(crate) struct Locator<'a> {
+    path: &'a str,
+    src: &'a str,
+}
+
+impl Locator<'_> {
+    pub(super) fn at(&self, span: Range<usize>, key: impl Into<String>, message: impl Into<String>) -> ScenarioError {
+        let offset = span.start.min(self.src.len());
+        let before = &self.src[..offset];
+        let line = before.matches('\n').count() + 1;
+        let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+        ScenarioError::Invalid {
+            path: self.path.to_string(),
+            line,
+            column,
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    /// Best-effort dotted key at an offset: the last `[table]` header above it and the key
+    /// left of `=` on its line.
+    pub(super) fn key_at(&self, offset: usize) -> String {
+        let offset = offset.min(self.src.len());
+        let line_start = self.src[..offset].rfind('\n').map_or(0, |i| i + 1);
+        let line_end = self.src[offset..].find('\n').map_or(self.src.len(), |i| offset + i);
+        let line = &self.src[line_start..line_end];
+        let header = self.src[..line_start]
+            .lines()
+            .rev()
+            .map(str::trim)
+            .find(|l| l.starts_with('['))
+            .map(|l| l.trim_matches(|c| c == '[' || c == ']').trim().to_string());
+        let local = line.split_once('=').map(|(k, _)| k.trim().to_string());
+        match (header, local) {
+            (Some(h), Some(k)) => format!("{h}.{k}"),
+            (Some(h), None) => h,
+            (None, Some(k)) => k,
+            (None, None) => "(top level)".into(),
+        }
+    }
+}
+
+pub(crate) fn finite_positive(loc: &Locator, v: &Spanned<f64>, key: &str, what: &str) -> Result<f64, ScenarioError> {
+    let x = *v.get_ref();
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(loc.at(v.span(), key, format!("must be a finite number > 0 ({what}), got {x}")))
+    }
+}
+
+/// Check a name. Mass and excitation names become log field names (`x_<mass>`,
+/// `p_<excitation>`), which ROS 2 message definitions restrict to `[a-z][a-z0-9_]*` with no
+/// `__` and no trailing `_`; link names may also use `-`.
+pub(crate) fn check_name(loc: &Locator, s: &Spanned<String>, key: &str, field: bool) -> Result<String, ScenarioError> {
+    let n = s.get_ref();
+    let ok_char = |c: char| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || (!field && c == '-');
+    let ok = n.chars().next().is_some_and(|c| c.is_ascii_lowercase())
+        && n.chars().all(ok_char)
+        && !n.contains("__")
+        && !n.ends_with('_')
+        && n.len() <= 40;
+    if ok && n != "ground" {
+        Ok(n.clone())
+    } else {
+        let allowed = if field {
+            "lower-case letters, digits and single `_`"
+        } else {
+            "lower-case letters, digits, single `_` and `-`"
+        };
+        Err(loc.at(
+            s.span(),
+            key,
+            format!("invalid name {n:?}: names start with a lower-case letter and use only {allowed} (at most 40 characters, not ending in `_`); `ground` is reserved"),
+        ))
+    }
+}
+
+pub(crate) fn polynomial(
+    loc: &Locator,
+    raw: &Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
+    key: &str,
+) -> Result<Polynomial, ScenarioError> {
+    let Some(map) = raw else {
+        return Ok(Polynomial::default());
+    };
+    let mut terms = Vec::new();
+    for (p, c) in map.get_ref() {
+        let power: u32 = match p.parse::<u32>() {
+            Ok(p) if (1..=15).contains(&p) => p,
+            _ => {
+                return Err(loc.at(
+                    c.span(),
+                    format!("{key}.{p}"),
+                    format!(
+                        "power {p:?} is not allowed: powers are whole numbers 1..=15, e.g. {{ 1 = 10.0, 3 = 20.0 }}"
+                    ),
+                ))
+            }
+        };
+        let v = *c.get_ref();
+        if !v.is_finite() {
+            return Err(loc.at(
+                c.span(),
+                format!("{key}.{p}"),
+                format!("coefficient must be a finite number, got {v}"),
+            ));
+        }
+        terms.push((power, v));
+    }
+    if terms.is_empty() {
+        return Err(loc.at(
+            map.span(),
+            key,
+            "empty: give at least one power, e.g. { 1 = 10.0 }, or leave the key out",
+        ));
+    }
+    terms.sort_by_key(|t| t.0);
+    Ok(Polynomial { terms })
+}
+
+pub(crate) fn powers(
+    loc: &Locator,
+    raw: &Option<Vec<Spanned<i64>>>,
+    key: &str,
+) -> Result<Option<Vec<u32>>, ScenarioError> {
+    let Some(list) = raw else { return Ok(None) };
+    let mut out = Vec::new();
+    for p in list {
+        let v = *p.get_ref();
+        if !(1..=15).contains(&v) {
+            return Err(loc.at(
+                p.span(),
+                key,
+                format!("power {v} is not allowed: powers are whole numbers 1..=15"),
+            ));
+        }
+        if out.contains(&(v as u32)) {
+            return Err(loc.at(p.span(), key, format!("power {v} is listed twice")));
+        }
+        out.push(v as u32);
+    }
+    if out.is_empty() {
+        return Ok(None);
+    }
+    out.sort_unstable();
+    Ok(Some(out))
+}
+
+impl Scenario {
+    /// Validate scenario text. `path` labels error messages; `default_name` is used when
+    /// the file has no `name`.
+    pub fn parse(src: &str, path: &str, default_name: &str) -> Result<Scenario, ScenarioError> {
+        let loc = Locator { path, src };
+        let raw: RawScenario = toml::from_str(src).map_err(|e| {
+            let span = e.span().unwrap_or(0..0);
+            let msg = e.message().trim().to_string();
+            // serde reports an unknown key at the key itself: name it as written.
+            let key = if msg.starts_with("unknown field") {
+                let k = src.get(span.clone()).unwrap_or("").trim().to_string();
+                let full = loc.key_at(span.start);
+                if full.ends_with(&k) {
+                    full
+                } else {
+                    k
+                }
+            } else {
+                loc.key_at(span.start)
+            };
+            loc.at(span, key, msg)
+        })?;
+
+        let name = match &raw.name {
+            Some(n) => check_name(&loc, n, "name", false)?,
+            None => default_name.to_string(),
+        };
+
+        let masses = check_masses(&loc, &raw)?;
+        let links = check_links(&loc, &raw, &masses)?;
+        let excitations = check_excitations(&loc, &raw, &masses)?;
+        let simulation = check_simulation(&loc, &raw, &masses, &links)?;
+        let identify = check_identify(&loc, &raw, &masses, &links, &excitations)?;
+        let accept = check_accept(&loc, &raw, &identify)?;
+
+        Ok(Scenario {
+            name,
+            description: raw.description.clone().unwrap_or_default(),
+            motion: raw.motion,
+            masses,
+            links,
+            excitations,
+            simulation,
+            identify,
+            accept,
+            source: src.to_string(),
+        })
+    }
+}
+
+/// `[[mass]]`: names unique, values positive.
+pub(crate) fn check_masses(loc: &Locator, raw: &RawScenario) -> Result<Vec<Mass>, ScenarioError> {
+    if raw.mass.is_empty() {
+        return Err(loc.at(
+            0..0,
+            "mass",
+            "no masses: add at least one [[mass]] with `name` and `value`",
+        ));
+    }
+    let mut masses: Vec<Mass> = Vec::new();
+    for (i, m) in raw.mass.iter().enumerate() {
+        let key = format!("mass[{i}]");
+        let n = check_name(loc, &m.name, &format!("{key}.name"), true)?;
+        if masses.iter().any(|x| x.name == n) {
+            return Err(loc.at(
+                m.name.span(),
+                format!("{key}.name"),
+                format!("duplicate mass name {n:?}: names must be unique"),
+            ));
+        }
+        let v = finite_positive(loc, &m.value, &format!("{key}.value"), raw.motion.units()[4])?;
+        masses.push(Mass { name: n, value: v });
+    }
+    Ok(masses)
+}
+
+/// The mass named by `s` (or the ground, where allowed).
+pub(crate) fn mass_index(
+    loc: &Locator,
+    masses: &[Mass],
+    s: &Spanned<String>,
+    key: &str,
+    allow_ground: bool,
+) -> Result<End, ScenarioError> {
+    let n = s.get_ref();
+    if allow_ground && n == "ground" {
+        return Ok(End::Ground);
+    }
+    masses.iter().position(|m| &m.name == n).map(End::Mass).ok_or_else(|| {
+        let names: Vec<_> = masses.iter().map(|m| m.name.as_str()).collect();
+        loc.at(
+            s.span(),
+            key,
+            format!(
+                "unknown mass {n:?}: allowed are {}{}",
+                if allow_ground { "`ground`, " } else { "" },
+                names.join(", ")
+            ),
+        )
+    })
+}
+
+/// `[[link]]`: two distinct ends (a ground end put second), polynomials, unique names.
+pub(crate) fn check_links(loc: &Locator, raw: &RawScenario, masses: &[Mass]) -> Result<Vec<Link>, ScenarioError> {
+    let mut links: Vec<Link> = Vec::new();
+    for (i, l) in raw.link.iter().enumerate() {
+        let key = format!("link[{i}]");
+        let ends_raw = l.ends.get_ref();
+        if ends_raw.len() != 2 {
+            return Err(loc.at(
+                l.ends.span(),
+                format!("{key}.ends"),
+                "a link has exactly two ends, e.g. [\"ground\", \"m1\"]",
+            ));
+        }
+        let e0 = mass_index(loc, masses, &ends_raw[0], &format!("{key}.ends"), true)?;
+        let e1 = mass_index(loc, masses, &ends_raw[1], &format!("{key}.ends"), true)?;
+        if e0 == e1 {
+            return Err(loc.at(
+                l.ends.span(),
+                format!("{key}.ends"),
+                "the two ends of a link must differ",
+            ));
+        }
+        // A ground end always goes second, so that `u = x_i − 0` is the mass's own
+        // displacement whichever way round the file lists the ends (this matters for
+        // even powers).
+        let ends = match (e0, e1) {
+            (End::Ground, m) => [m, End::Ground],
+            _ => [e0, e1],
+        };
+        let default_name = format!("{}-{}", ends_raw[0].get_ref(), ends_raw[1].get_ref());
+        let n = match &l.name {
+            Some(n) => check_name(loc, n, &format!("{key}.name"), false)?,
+            None => default_name,
+        };
+        if links.iter().any(|x| x.name == n) {
+            return Err(loc.at(
+                l.name.as_ref().map_or(l.ends.span(), |s| s.span()),
+                format!("{key}.name"),
+                format!("duplicate link name {n:?}: give the links distinct `name`s"),
+            ));
+        }
+        let stiffness = polynomial(loc, &l.stiffness, &format!("{key}.stiffness"))?;
+        let damping = polynomial(loc, &l.damping, &format!("{key}.damping"))?;
+        if stiffness.is_empty() && damping.is_empty() {
+            return Err(loc.at(l.ends.span(), &key, "a link needs `stiffness` or `damping` (or both)"));
+        }
+        links.push(Link {
+            name: n,
+            ends,
+            stiffness,
+            damping,
+        });
+    }
+    Ok(links)
+}
+
+/// `[[excitation]]`: white or filtered processes on named masses.
+pub(crate) fn check_excitations(
+    loc: &Locator,
+    raw: &RawScenario,
+    masses: &[Mass],
+) -> Result<Vec<Excitation>, ScenarioError> {
+    let mut excitations: Vec<Excitation> = Vec::new();
+    for (i, e) in raw.excitation.iter().enumerate() {
+        let key = format!("excitation[{i}]");
+        let targets = e.acts_on.get_ref();
+        if targets.is_empty() {
+            return Err(loc.at(
+                e.acts_on.span(),
+                format!("{key}.acts_on"),
+                "list at least one mass, e.g. [\"m1\"]",
+            ));
+        }
+        let mut acts_on = Vec::new();
+        for t in targets {
+            let End::Mass(m) = mass_index(loc, masses, t, &format!("{key}.acts_on"), false)? else {
+                unreachable!()
+            };
+            if acts_on.contains(&m) {
+                return Err(loc.at(t.span(), format!("{key}.acts_on"), "mass listed twice"));
+            }
+            acts_on.push(m);
+        }
+        let process = match *e.kind.get_ref() {
+            RawKind::White => {
+                if let Some(x) = e.a.as_ref().or(e.b.as_ref()) {
+                    return Err(loc.at(
+                        x.span(),
+                        key.to_string(),
+                        "`A` and `B` belong to kind = \"filtered\"; white noise takes `sigma`",
+                    ));
+                }
+                let s = e
+                    .sigma
+                    .as_ref()
+                    .ok_or_else(|| loc.at(e.kind.span(), format!("{key}.sigma"), "white noise needs `sigma` (> 0)"))?;
+                Process::White {
+                    sigma: finite_positive(loc, s, &format!("{key}.sigma"), "noise intensity")?,
+                }
+            }
+            RawKind::Filtered => {
+                if let Some(s) = &e.sigma {
+                    return Err(loc.at(
+                        s.span(),
+                        format!("{key}.sigma"),
+                        "`sigma` belongs to kind = \"white\"; filtered noise takes `A` and `B`",
+                    ));
+                }
+                let a = e.a.as_ref().ok_or_else(|| {
+                    loc.at(
+                        e.kind.span(),
+                        format!("{key}.A"),
+                        "filtered noise needs `A` (> 0) and `B` (> 0, 1/s)",
+                    )
+                })?;
+                let b = e.b.as_ref().ok_or_else(|| {
+                    loc.at(
+                        e.kind.span(),
+                        format!("{key}.B"),
+                        "filtered noise needs `A` (> 0) and `B` (> 0, 1/s)",
+                    )
+                })?;
+                Process::Filtered {
+                    a: finite_positive(loc, a, &format!("{key}.A"), "filter gain")?,
+                    b: finite_positive(loc, b, &format!("{key}.B"), "corner frequency, 1/s")?,
+                }
+            }
+        };
+        let default_name = targets
+            .iter()
+            .map(|t| t.get_ref().as_str())
+            .collect::<Vec<_>>()
+            .join("_");
+        let n = match &e.name {
+            Some(n) => check_name(loc, n, &format!("{key}.name"), true)?,
+            None => default_name,
+        };
+        if excitations.iter().any(|x| x.name == n) {
+            return Err(loc.at(
+                e.name.as_ref().map_or(e.acts_on.span(), |s| s.span()),
+                format!("{key}.name"),
+                format!("duplicate excitation name {n:?}: give the excitations distinct `name`s"),
+            ));
+        }
+        excitations.push(Excitation {
+            name: n,
+            process,
+            acts_on,
+            measured: e.measured,
+        });
+    }
+    if excitations.is_empty() {
+        return Err(loc.at(0..0, "excitation", "no excitation: add at least one [[excitation]]"));
+    }
+    Ok(excitations)
+}
+
+/// `[simulation]`: step, record, sampling, burn-in, trajectories, scheme.
+pub(crate) fn check_simulation(
+    loc: &Locator,
+    raw: &RawScenario,
+    masses: &[Mass],
+    links: &[Link],
+) -> Result<Simulation, ScenarioError> {
+    let s = raw.simulation.as_ref().ok_or_else(|| {
+        loc.at(
+            loc.src.len()..loc.src.len(),
+            "simulation",
+            "missing [simulation] section (dt, record_length, sample_interval)",
+        )
+    })?;
+    let dt = finite_positive(loc, &s.dt, "simulation.dt", "s")?;
+    let record_length = finite_positive(loc, &s.record_length, "simulation.record_length", "s per trajectory")?;
+    let sample_interval = finite_positive(loc, &s.sample_interval, "simulation.sample_interval", "s")?;
+    let ratio = sample_interval / dt;
+    if (ratio - ratio.round()).abs() > 1e-6 * ratio.max(1.0) || ratio.round() < 1.0 {
+        return Err(loc.at(
+            s.sample_interval.span(),
+            "simulation.sample_interval",
+            format!("must be a whole multiple of dt = {dt} s (got {sample_interval} s = {ratio} dt)"),
+        ));
+    }
+    if record_length < sample_interval {
+        return Err(loc.at(
+            s.record_length.span(),
+            "simulation.record_length",
+            format!("must be at least one sample_interval ({sample_interval} s)"),
+        ));
+    }
+    let burn_in = match &s.burn_in {
+        Some(b) => {
+            let v = *b.get_ref();
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(loc.at(
+                    b.span(),
+                    "simulation.burn_in",
+                    format!("must be a finite number >= 0 (s), got {v}"),
+                ));
+            }
+            v
+        }
+        None => default_burn_in(masses, links),
+    };
+    let count = |v: &Option<Spanned<i64>>, key: &str, default: usize, max: i64| -> Result<usize, ScenarioError> {
+        match v {
+            None => Ok(default),
+            Some(x) if (1..=max).contains(x.get_ref()) => Ok(*x.get_ref() as usize),
+            Some(x) => Err(loc.at(
+                x.span(),
+                key,
+                format!("must be a whole number 1..={max}, got {}", x.get_ref()),
+            )),
+        }
+    };
+    let trajectories = count(&s.trajectories, "simulation.trajectories", 16, 1 << 20)?;
+    let substeps = count(&s.substeps, "simulation.substeps", 1, 1000)?;
+    let seed = match &s.seed {
+        None => 1,
+        Some(x) if *x.get_ref() >= 0 => *x.get_ref() as u64,
+        Some(x) => return Err(loc.at(x.span(), "simulation.seed", "must be a whole number >= 0")),
+    };
+    let steps = record_length / dt * trajectories as f64 * substeps as f64;
+    if steps > 1e13 {
+        return Err(loc.at(
+            s.record_length.span(),
+            "simulation.record_length",
+            format!("{steps:.1e} integration steps in total is beyond what this tool will run (1e13)"),
+        ));
+    }
+    let simulation = Simulation {
+        dt,
+        record_length,
+        burn_in,
+        sample_interval,
+        trajectories,
+        seed,
+        scheme: s.scheme,
+        substeps,
+    };
+    Ok(simulation)
+}
+
+/// `[identify]`: methods, the unknowns, comparison models and the section-4 procedure.
+pub(crate) fn check_identify(
+    loc: &Locator,
+    raw: &RawScenario,
+    masses: &[Mass],
+    links: &[Link],
+    excitations: &[Excitation],
+) -> Result<Identify, ScenarioError> {
+    let ident = raw.identify.as_ref();
+    let methods = ident
+        .and_then(|i| i.methods.clone())
+        .unwrap_or_else(|| vec![Method::Weak]);
+    let parse_links =
+        |map: &BTreeMap<String, Spanned<RawIdentifyLink>>, prefix: &str| -> Result<Vec<IdentifyLink>, ScenarioError> {
+            let mut out = Vec::new();
+            for (lname, spec) in map {
+                let key = format!("{prefix}.{lname}");
+                let link = links.iter().position(|l| &l.name == lname).ok_or_else(|| {
+                    let names: Vec<_> = links.iter().map(|l| l.name.as_str()).collect();
+                    loc.at(
+                        spec.span(),
+                        &key,
+                        format!("unknown link {lname:?}: links are {}", names.join(", ")),
+                    )
+                })?;
+                let sp = spec.get_ref();
+                out.push(IdentifyLink {
+                    link,
+                    stiffness: powers(loc, &sp.stiffness, &format!("{key}.stiffness"))?,
+                    damping: powers(loc, &sp.damping, &format!("{key}.damping"))?,
+                });
+            }
+            out.sort_by_key(|l| l.link);
+            Ok(out)
+        };
+    let id_links = match ident.and_then(|i| i.links.as_ref()) {
+        Some(map) => parse_links(map, "identify.links")?,
+        None => links
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let ps = |p: &Polynomial| (!p.is_empty()).then(|| p.terms.iter().map(|t| t.0).collect());
+                IdentifyLink {
+                    link: i,
+                    stiffness: ps(&l.stiffness),
+                    damping: ps(&l.damping),
+                }
+            })
+            .collect(),
+    };
+    let mut compare = Vec::new();
+    for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
+        compare.push((
+            name.clone(),
+            parse_links(&c.get_ref().links, &format!("identify.compare.{name}.links"))?,
+        ));
+    }
+    // Names of filtered excitations in an `[identify]` list.
+    let filtered_list = |list: Option<&Vec<Spanned<String>>>, key: &str| -> Result<Vec<usize>, ScenarioError> {
+        let mut out = Vec::new();
+        for e in list.into_iter().flatten() {
+            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+                loc.at(
+                    e.span(),
+                    key,
+                    format!(
+                        "unknown excitation {:?}: excitations are {}",
+                        e.get_ref(),
+                        names.join(", ")
+                    ),
+                )
+            })?;
+            if !matches!(excitations[k].process, Process::Filtered { .. }) {
+                return Err(loc.at(
+                    e.span(),
+                    key,
+                    format!(
+                        "excitation {:?} is white: only filtered excitations have A and B",
+                        e.get_ref()
+                    ),
+                ));
+            }
+            out.push(k);
+        }
+        Ok(out)
+    };
+    let known_filters = filtered_list(ident.and_then(|i| i.known_filters.as_ref()), "identify.known_filters")?;
+    let unknown_corners = filtered_list(
+        ident.and_then(|i| i.unknown_corners.as_ref()),
+        "identify.unknown_corners",
+    )?;
+    let mut unknown_masses = Vec::new();
+    for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {
+        let End::Mass(k) = mass_index(loc, masses, m, "identify.unknown_masses", false)? else {
+            unreachable!()
+        };
+        unknown_masses.push(k);
+    }
+    let mut unknown_intensities = Vec::new();
+    for e in ident.and_then(|i| i.unknown_intensities.as_ref()).into_iter().flatten() {
+        let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+            let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+            loc.at(
+                e.span(),
+                "identify.unknown_intensities",
+                format!(
+                    "unknown excitation {:?}: excitations are {}",
+                    e.get_ref(),
+                    names.join(", ")
+                ),
+            )
+        })?;
+        unknown_intensities.push(k);
+    }
+    let disturbance = match ident.and_then(|i| i.disturbance.as_ref()) {
+        None => None,
+        Some(d) => Some(check_disturbance(loc, d, || {
+            paper_structure(
+                masses,
+                links,
+                excitations,
+                &id_links,
+                &unknown_masses,
+                &unknown_intensities,
+                &unknown_corners,
+            )
+        })?),
+    };
+    let identify = Identify {
+        methods,
+        links: id_links,
+        unknown_masses,
+        unknown_intensities,
+        known_filters,
+        unknown_corners,
+        compare,
+        disturbance,
+    };
+    Ok(identify)
+}
+
+/// `[identify.disturbance]`: the section-4 procedure's stopping rules and sweep levels,
+/// and the paper's structure (4.3) found by `structure`.
+pub(crate) fn check_disturbance(
+    loc: &Locator,
+    d: &Spanned<RawDisturbance>,
+    structure: impl FnOnce() -> Result<PaperStructure, String>,
+) -> Result<Disturbance, ScenarioError> {
+    let raw_d = d.get_ref();
+    let max_steps = match &raw_d.max_steps {
+        None => 10,
+        Some(v) if (1..=1000).contains(v.get_ref()) => *v.get_ref() as usize,
+        Some(v) => {
+            return Err(loc.at(
+                v.span(),
+                "identify.disturbance.max_steps",
+                format!("must be a whole number 1..=1000, got {}", v.get_ref()),
+            ))
+        }
+    };
+    let tolerance = match &raw_d.tolerance {
+        None => 1e-3,
+        Some(v) => finite_positive(
+            loc,
+            v,
+            "identify.disturbance.tolerance",
+            "largest relative change of any coefficient in the last step, e.g. 1e-3",
+        )?,
+    };
+    let sweep = match &raw_d.sweep {
+        None => vec![0.0, 0.25, 0.5, 1.0, 2.0],
+        Some(list) => {
+            let mut out = Vec::new();
+            for v in list.get_ref() {
+                let x = *v.get_ref();
+                if !(x.is_finite() && x >= 0.0) {
+                    return Err(loc.at(
+                        v.span(),
+                        "identify.disturbance.sweep",
+                        format!("levels are finite numbers >= 0 (std of the disturbance over std of the measured force), got {x}"),
+                    ));
+                }
+                out.push(x);
+            }
+            if out.is_empty() {
+                return Err(loc.at(
+                    list.span(),
+                    "identify.disturbance.sweep",
+                    "empty: give the levels, e.g. [0, 0.25, 0.5, 1, 2]",
+                ));
+            }
+            out
+        }
+    };
+    let structure = structure().map_err(|m| loc.at(d.span(), "identify.disturbance", m))?;
+    Ok(Disturbance {
+        max_steps,
+        tolerance,
+        sweep,
+        structure,
+    })
+}
+
+/// `[accept]`: the worst relative error allowed, overall and per method.
+pub(crate) fn check_accept(loc: &Locator, raw: &RawScenario, identify: &Identify) -> Result<Accept, ScenarioError> {
+    let mut accept = Accept {
+        worst_rel_error: 0.05,
+        methods: BTreeMap::new(),
+    };
+    if let Some(a) = &raw.accept {
+        if let Some(w) = &a.worst_rel_error {
+            accept.worst_rel_error = finite_positive(loc, w, "accept.worst_rel_error", "relative error, e.g. 0.03")?;
+        }
+        let mut allowed: Vec<&str> = Method::ALL.iter().map(|x| x.name()).collect();
+        if identify.disturbance.is_some() {
+            allowed.extend([ITERATED_FORCE, DIRECT_FORCE]);
+        }
+        for (m, v) in a.methods.iter().flatten() {
+            let key = format!("accept.methods.{m}");
+            if !allowed.contains(&m.as_str()) {
+                return Err(loc.at(
+                    v.span(),
+                    &key,
+                    format!("unknown method {m:?}: methods are {}", allowed.join(", ")),
+                ));
+            }
+            accept
+                .methods
+                .insert(m.clone(), finite_positive(loc, v, &key, "relative error")?);
+        }
+    }
+    Ok(accept)
+}
+
+/// Ten times the slowest modal decay time estimated per mass from its own links
+/// (`2m / Σc1`), at least 20 s: enough to forget the zero initial state.
+pub(crate) fn default_burn_in(masses: &[Mass], links: &[Link]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (i, m) in masses.iter().enumerate() {
+        let c: f64 = links
+            .iter()
+            .filter(|l| l.ends.contains(&End::Mass(i)))
+            .map(|l| l.damping.coefficient(1).abs())
+            .sum();
+        let tau = if c > 0.0 { 2.0 * m.value / c } else { 100.0 };
+        worst = worst.max(tau);
+    }
+    (10.0 * worst).max(20.0)
+}
