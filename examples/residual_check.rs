@@ -12,6 +12,7 @@ fn main() {
     let a: Vec<String> = std::env::args().collect();
     let s = Scenario::from_file(std::path::Path::new(&a[1])).unwrap();
     let p = Problem::new(&s).unwrap();
+    let truth = fpkbench::zoo::true_values(&s, &p);
     let mut d = StationaryData::new(&p, weak::moment_degree(&p), s.simulation.record_length, 16);
     simulate(
         &Model::new(&s),
@@ -22,11 +23,11 @@ fn main() {
     .unwrap();
     d.finish();
     let total = weak::pieces(&p, &d.total());
-    let (r, _) = p.residual(&total, &p.truth);
+    let (r, _) = p.residual(&total, &truth);
     let per: Vec<Vec<f64>> = d
         .batches()
         .iter()
-        .map(|b| p.residual(&weak::pieces(&p, b), &p.truth).0.iter().copied().collect())
+        .map(|b| p.residual(&weak::pieces(&p, b), &truth).0.iter().copied().collect())
         .collect();
     let tests = monomials(p.dim(), weak::test_degree(&p));
     let nb = per.len() as f64;

@@ -8,7 +8,7 @@ use fpkbench::zoo;
 
 fn var(s: &fpkbench::Scenario) -> Moments {
     let m = Model::new(s);
-    let mut mo = Moments::new(fpkbench::sim::columns(&m).len());
+    let mut mo = Moments::new(m.column_names().len());
     simulate(&m, &s.simulation, &mut mo, &|_| {}).unwrap();
     mo
 }

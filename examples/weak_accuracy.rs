@@ -15,6 +15,7 @@ fn main() {
     }
     let seeds: u64 = args[3].parse().unwrap();
     let p = Problem::new(&s).unwrap();
+    let truth = fpkbench::zoo::true_values(&s, &p);
     let mut worst_all = vec![];
     let mut signed_all: Vec<Vec<f64>> = vec![];
     for seed in 0..seeds {
@@ -31,7 +32,7 @@ fn main() {
         .unwrap();
         d.finish();
         let e = identify_weak(&p, &d).unwrap();
-        let signed: Vec<f64> = e.values.iter().zip(&p.truth).map(|(v, t)| (v - t) / t).collect();
+        let signed: Vec<f64> = e.values.iter().zip(&truth).map(|(v, t)| (v - t) / t).collect();
         let errs: Vec<f64> = signed.iter().map(|x| x.abs()).collect();
         signed_all.push(signed.clone());
         let worst = errs.iter().cloned().fold(0.0, f64::max);

@@ -10,7 +10,7 @@
 //!
 //! State order everywhere here: `x_1..x_n, v_1..v_n`, then one entry per filtered force.
 
-use crate::model::{Model, GROUND};
+use crate::model::Model;
 use crate::scenario::{Process, Scenario, Scheme};
 use nalgebra::{DMatrix, DVector};
 
@@ -74,10 +74,11 @@ pub fn linear_system(model: &Model) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
     for l in 0..model.links() {
         let k = model.stiffness(l).first().copied().unwrap_or(0.0);
         let c = model.damping(l).first().copied().unwrap_or(0.0);
-        let ends = [model.link_a[l], model.link_b[l]];
-        for &i in ends.iter().filter(|&&i| i != GROUND) {
+        let (first, second) = model.ends(l);
+        let ends = [Some(first), second];
+        for i in ends.into_iter().flatten() {
             let si = model.sign(l, i);
-            for &j in ends.iter().filter(|&&j| j != GROUND) {
+            for j in ends.into_iter().flatten() {
                 let sj = model.sign(l, j);
                 // u = Σ_j s_j x_j; force on i is −s_i (k u + c w).
                 a[(n + i, j)] -= si * sj * k / model.mass[i];
@@ -191,4 +192,11 @@ pub fn duffing_displacement_moments(k1: f64, k3: f64, c: f64, sigma: f64, max: u
     }
     let z = m[0];
     m.iter().map(|v| v / z).collect()
+}
+
+/// The true value of every unknown of `problem`, from the truth of the scenario it was
+/// built from (what a log of that scenario records).
+pub fn true_values(s: &Scenario, problem: &crate::ident::Problem) -> Vec<f64> {
+    let truth = crate::model::Truth::from_pairs(&s.truth()).expect("a scenario's own truth parses");
+    problem.true_values(&truth)
 }

@@ -32,12 +32,13 @@ fn sdof_exact(deg: u32) -> RawMoments {
 
 #[test]
 fn weak_form_with_exact_expectations_recovers_sdof_duffing() {
-    let p = Problem::new(&sdof_duffing("")).unwrap();
+    let s = sdof_duffing("");
+    let p = Problem::new(&s).unwrap();
     assert_eq!(p.names, ["k1[ground-m1]", "k3[ground-m1]", "c1[ground-m1]"]);
     let mom = sdof_exact(weak::moment_degree(&p));
     let pc = weak::pieces(&p, &mom);
     let (est, diag) = p.solve(&pc, &p.typical(&mom), None);
-    for (e, t) in est.iter().zip(&p.truth) {
+    for (e, t) in est.iter().zip(&zoo::true_values(&s, &p)) {
         assert!(((e - t) / t).abs() < 1e-7, "estimate {e} vs truth {t}");
     }
     assert_eq!(diag.rank, 3);
@@ -55,7 +56,7 @@ fn weak_form_with_exact_gaussian_moments_recovers_linear_2dof() {
     let mom = RawMoments::exact(4, weak::moment_degree(&p), |e| zoo::gaussian_moment(&cov, e));
     let pc = weak::pieces(&p, &mom);
     let (est, _) = p.solve(&pc, &p.typical(&mom), None);
-    for ((e, t), n) in est.iter().zip(&p.truth).zip(&p.names) {
+    for ((e, t), n) in est.iter().zip(&zoo::true_values(&s, &p)).zip(&p.names) {
         assert!(((e - t) / t).abs() < 1e-10, "{n}: estimate {e} vs truth {t}");
     }
 }
@@ -63,7 +64,8 @@ fn weak_form_with_exact_gaussian_moments_recovers_linear_2dof() {
 /// Exact SDOF Duffing density (linear damping) on a grid of `bins²` cells over ±4.5 std.
 fn sdof_strong_errors(bins: usize) -> Vec<f64> {
     use fpkbench::ident::strong::DensityGrid;
-    let p = Problem::new(&sdof_duffing("")).unwrap();
+    let s = sdof_duffing("");
+    let p = Problem::new(&s).unwrap();
     let (k1, k3, c, sigma, m) = (10.0, 20.0, 0.5, 1.0, 1.0);
     let beta = 2.0 * c / (sigma * sigma);
     let mom = sdof_exact(6);
@@ -75,7 +77,7 @@ fn sdof_strong_errors(bins: usize) -> Vec<f64> {
     let e = fpkbench::ident::identify_strong(&p, &grid, false, &p.typical(&mom)).unwrap();
     e.values
         .iter()
-        .zip(&p.truth)
+        .zip(&zoo::true_values(&s, &p))
         .map(|(v, t)| ((v - t) / t).abs())
         .collect()
 }
@@ -167,15 +169,13 @@ fn coefficients_alone_are_identifiable() {
 #[test]
 fn extra_power_in_the_model_comes_out_near_zero() {
     // Identify {1, 2, 3} on a {1, 3} truth, exact expectations: k2 ≈ 0.
-    let p = Problem::new(&sdof_duffing(
-        "[identify]\nlinks.ground-m1 = { stiffness = [1, 2, 3], damping = [1] }\n",
-    ))
-    .unwrap();
+    let s = sdof_duffing("[identify]\nlinks.ground-m1 = { stiffness = [1, 2, 3], damping = [1] }\n");
+    let p = Problem::new(&s).unwrap();
     assert_eq!(
         p.names,
         ["k1[ground-m1]", "k2[ground-m1]", "k3[ground-m1]", "c1[ground-m1]"]
     );
-    assert_eq!(p.truth[1], 0.0);
+    assert_eq!(zoo::true_values(&s, &p)[1], 0.0);
     let mom = sdof_exact(weak::moment_degree(&p));
     let (est, _) = p.solve(&weak::pieces(&p, &mom), &p.typical(&mom), None);
     assert!(est[1].abs() < 1e-6, "k2 = {}", est[1]);
@@ -224,7 +224,8 @@ fn accumulated_moments_equal_brute_force_sums() {
 
 #[test]
 fn the_compiled_pieces_map_equals_direct_assembly_and_exact_moments_stay_exact_under_any_weighting() {
-    let p = Problem::new(&sdof_duffing("")).unwrap();
+    let s = sdof_duffing("");
+    let p = Problem::new(&s).unwrap();
     let mom = sdof_exact(weak::moment_degree(&p));
     let direct = weak::pieces(&p, &mom);
     let mapped = weak::PiecesMap::new(&p, &mom).apply(&mom);
@@ -249,7 +250,7 @@ fn the_compiled_pieces_map_equals_direct_assembly_and_exact_moments_stay_exact_u
         }
     });
     let (est, diag) = p.solve(&direct, &p.typical(&mom), Some(&t));
-    for (e, tr) in est.iter().zip(&p.truth) {
+    for (e, tr) in est.iter().zip(&zoo::true_values(&s, &p)) {
         assert!(((e - tr) / tr).abs() < 1e-7, "weighted estimate {e} vs truth {tr}");
     }
     assert_eq!(diag.rank, 3);

@@ -6,12 +6,12 @@
 
 use fpkbench::model::Model;
 use fpkbench::scenario::Scheme;
-use fpkbench::sim::{columns, simulate, Collect, Moments, SampleBatch, SampleSink, SimError};
+use fpkbench::sim::{simulate, Collect, Moments, SampleBatch, SampleSink, SimError};
 use fpkbench::{zoo, Scenario};
 
 fn moments(s: &Scenario) -> Moments {
     let m = Model::new(s);
-    let mut mo = Moments::new(columns(&m).len());
+    let mut mo = Moments::new(m.column_names().len());
     simulate(&m, &s.simulation, &mut mo, &|_| {}).unwrap();
     mo
 }

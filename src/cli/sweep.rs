@@ -74,7 +74,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let p = SweepPoint::from_report(level, &r).expect("the scenario has [identify.disturbance]");
         if let Some(it) = r.iterations.first() {
             sweep.names = it.iteration.names.clone();
-            sweep.truth = it.iteration.truth.clone();
+            sweep.truth = it.truth.clone();
         }
         let finals: Vec<String> = p
             .sequences

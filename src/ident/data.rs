@@ -46,8 +46,13 @@ pub struct StationaryData {
     sorted_ids: Vec<u32>,
     /// Per link: `[u_min, u_max, w_min, w_max]`.
     pub link_ranges: Vec<[f64; 4]>,
-    link_ends: Vec<(usize, Option<usize>)>,
+    /// Per link: the log columns of `x` and `v` of its first end and of its second (none
+    /// for the ground).
+    link_columns: Vec<(XvColumns, Option<XvColumns>)>,
 }
+
+/// The log columns of `x` and `v` of one mass.
+type XvColumns = (usize, usize);
 
 impl StationaryData {
     /// `degree`: highest moment degree; `record_length`: time span of `t` per trajectory;
@@ -81,9 +86,15 @@ impl StationaryData {
             sorted_ids: Vec::new(),
             link_ranges: vec![
                 [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
-                problem.link_ends.len()
+                problem.model.links()
             ],
-            link_ends: problem.link_ends.clone(),
+            link_columns: (0..problem.model.links())
+                .map(|l| {
+                    let (a, b) = problem.model.ends(l);
+                    let cols = problem.model.columns();
+                    ((cols.x(a), cols.v(a)), b.map(|b| (cols.x(b), cols.v(b))))
+                })
+                .collect(),
         }
     }
 
@@ -97,10 +108,9 @@ impl StationaryData {
             self.buffer.push(row[c]);
         }
         self.ids.push(b as u32);
-        for (l, &(a, bb)) in self.link_ends.iter().enumerate() {
-            // Log columns: x_i = 3i, v_i = 3i + 1.
-            let u = row[3 * a] - bb.map_or(0.0, |b| row[3 * b]);
-            let w = row[3 * a + 1] - bb.map_or(0.0, |b| row[3 * b + 1]);
+        for (l, &((xa, va), b)) in self.link_columns.iter().enumerate() {
+            let u = row[xa] - b.map_or(0.0, |(xb, _)| row[xb]);
+            let w = row[va] - b.map_or(0.0, |(_, vb)| row[vb]);
             let r = &mut self.link_ranges[l];
             r[0] = r[0].min(u);
             r[1] = r[1].max(u);

@@ -47,6 +47,7 @@ use super::poly::Poly;
 use super::spectrum::{fit_ou, CrossWelch, OuFit};
 use super::{identify_weak, Estimate, Filter, IdentError, Problem, Unknown};
 use crate::model::Characteristic;
+use crate::model::Columns;
 use crate::scenario::{Disturbance, End, Excitation, Identify, Method, PaperStructure, Polynomial, Process, Scenario};
 use serde::Serialize;
 
@@ -137,16 +138,15 @@ fn p2_is_white(s: &Scenario, st: &PaperStructure) -> bool {
 
 /// The row the measured-force step's moments are accumulated over, from a log row:
 /// `(x2, ẋ2, q, r)` with `q = m1 ẍ1` (plus `P2` when it is filtered) and `r = x1 − x2`,
-/// so that `P3 = q + 2 k1 r` (+ a white `P2`). Log columns: `x_i, v_i, a_i` at `3i`, the
-/// forces after the `3n` kinematic columns.
+/// so that `P3 = q + 2 k1 r` (+ a white `P2`).
 pub fn force_row(s: &Scenario, st: &PaperStructure, row: &[f64]) -> [f64; 4] {
-    let n = s.masses.len();
-    let (x1, x2) = (3 * st.free, 3 * st.driven);
-    let mut q = s.masses[st.free].value * row[x1 + 2];
+    let log = Columns::new(s.masses.len(), s.excitations.len());
+    let (x1, x2) = (log.x(st.free), log.x(st.driven));
+    let mut q = s.masses[st.free].value * row[log.a(st.free)];
     if !p2_is_white(s, st) {
-        q += row[3 * n + st.measured];
+        q += row[log.force(st.measured)];
     }
-    [row[x2], row[x2 + 1], q, row[x1] - row[x2]]
+    [row[x2], row[log.v(st.driven)], q, row[x1] - row[x2]]
 }
 
 /// The single-mass system (4.11) with `P3s = q + 2 k1 r` (see [`force_row`]) as a measured
@@ -184,7 +184,6 @@ pub fn direct_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem, Iden
     p.unknowns.insert(at, Unknown::InputGain(1));
     p.unit_force.insert(at, vec![Poly::linear(&[(r, 2.0)])]);
     p.names.insert(at, format!("k1[{}]", s.links[st.coupling].name));
-    p.truth.insert(at, s.links[st.coupling].stiffness.coefficient(1));
     p.start.insert(at, 0.0);
     Ok(p)
 }
@@ -243,13 +242,13 @@ pub fn force_bound_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem,
         .filter(|(e, _)| !filtered.contains(e))
         .map(|(_, source)| source)
         .collect();
-    let n = s.masses.len();
+    let log = Columns::new(s.masses.len(), s.excitations.len());
     let first = p.dim();
     for (k, &e) in filtered.iter().enumerate() {
         for &i in &s.excitations[e].acts_on {
             p.known_force[i].add(&Poly::linear(&[(first + k, 1.0)]), 1.0);
         }
-        p.columns.push(3 * n + e);
+        p.columns.push(log.force(e));
         p.state_names.push(format!("P_{}", s.excitations[e].name));
     }
     p.inputs = filtered.len();
@@ -329,7 +328,6 @@ pub struct Iteration {
     /// The single-mass step of steps ≥ 1.
     pub single_mass: SingleMass,
     pub names: Vec<String>,
-    pub truth: Vec<f64>,
     pub steps: Vec<Step>,
     /// `tolerance`, `max_steps`, or why a step failed.
     pub stopped_by: String,
@@ -341,7 +339,7 @@ pub struct Iteration {
     pub converged: bool,
     #[serde(skip)]
     pub step0: Estimate,
-    /// The step-0 problem (names, truth, unknown order of every step).
+    /// The step-0 problem (names and unknown order of every step).
     #[serde(skip)]
     pub problem: Problem,
 }
@@ -473,7 +471,6 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
     Ok(Iteration {
         single_mass,
         names: problem.names.clone(),
-        truth: problem.truth.clone(),
         converged: monotone && stopped_by == "tolerance",
         stopped_by,
         max_steps: inp.settings.max_steps,

@@ -26,7 +26,7 @@ pub mod spectrum;
 pub mod strong;
 pub mod weak;
 
-use crate::model::{Characteristic, Coefficient, Model, GROUND};
+use crate::model::{Characteristic, Coefficient, Model, ParameterName, Quantity, Truth};
 use crate::scenario::{Process, Scenario};
 use nalgebra::{DMatrix, DVector};
 use poly::{var, Poly};
@@ -109,8 +109,6 @@ pub struct Problem {
     pub layout: Layout,
     pub unknowns: Vec<Unknown>,
     pub names: Vec<String>,
-    /// True value of each unknown (0 for a power the truth does not have).
-    pub truth: Vec<f64>,
     /// Value each unknown starts Gauss–Newton from: the log's nominal mass or intensity;
     /// 0 for coefficients (they enter linearly, so their start does not matter).
     pub start: Vec<f64>,
@@ -137,8 +135,6 @@ pub struct Problem {
     /// Log column of each state variable.
     pub columns: Vec<usize>,
     pub state_names: Vec<String>,
-    /// Per link: its ends (mass indices; `None` for the ground) for ranges.
-    pub link_ends: Vec<(usize, Option<usize>)>,
     /// Measured inputs appended to the state after the masses' variables: forces known at
     /// every sample that enter `known_force` but have no dynamics of their own, so test
     /// functions never depend on them (see [`disturbance`]'s measured-force step). 0 for a
@@ -255,9 +251,8 @@ impl Problem {
             .collect();
         for &e in &id.unknown_corners {
             for c in &coefs {
-                let touches = [model.link_a[c.link], model.link_b[c.link]]
-                    .iter()
-                    .any(|&m| m != GROUND && corner_unknown[m] == Some(e));
+                let (a, b) = model.ends(c.link);
+                let touches = [Some(a), b].into_iter().flatten().any(|m| corner_unknown[m] == Some(e));
                 if touches {
                     unknowns.push(Unknown::CornerProduct(*c, e));
                 }
@@ -275,9 +270,9 @@ impl Problem {
         }
 
         let rel = |l: usize, base: &dyn Fn(usize) -> usize| -> Poly {
-            let (a, b) = (model.link_a[l], model.link_b[l]);
+            let (a, b) = model.ends(l);
             let mut p = vec![(base(a), 1.0)];
-            if b != GROUND {
+            if let Some(b) = b {
                 p.push((base(b), -1.0));
             }
             Poly::linear(&p)
@@ -335,19 +330,13 @@ impl Problem {
         }
         let mut unit_force = Vec::new();
         let mut names = Vec::new();
-        let mut truth = Vec::new();
         let mut start = Vec::new();
         for u in &unknowns {
             match *u {
                 Unknown::Coefficient(c) => {
                     pmax = pmax.max(c.power);
                     unit_force.push((0..n).map(|i| term(c.link, c.kind, c.power, i)).collect());
-                    names.push(model.coefficient_name(c));
-                    let t = match c.kind {
-                        Characteristic::Stiffness => s.links[c.link].stiffness.coefficient(c.power),
-                        Characteristic::Damping => s.links[c.link].damping.coefficient(c.power),
-                    };
-                    truth.push(t);
+                    names.push(model.coefficient_name(c).to_string());
                     start.push(0.0);
                 }
                 Unknown::CornerProduct(c, e) => {
@@ -367,14 +356,6 @@ impl Problem {
                         model.excitation_names[e],
                         model.coefficient_name(c)
                     ));
-                    let t = match c.kind {
-                        Characteristic::Stiffness => s.links[c.link].stiffness.coefficient(c.power),
-                        Characteristic::Damping => s.links[c.link].damping.coefficient(c.power),
-                    };
-                    let Process::Filtered { b, .. } = s.excitations[e].process else {
-                        unreachable!()
-                    };
-                    truth.push(b * t);
                     start.push(0.0);
                 }
                 Unknown::Corner(e) => {
@@ -402,11 +383,7 @@ impl Problem {
                             })
                             .collect(),
                     );
-                    names.push(format!("B[{}]", model.excitation_names[e]));
-                    let Process::Filtered { b, .. } = s.excitations[e].process else {
-                        unreachable!()
-                    };
-                    truth.push(b);
+                    names.push(ParameterName::Corner(model.excitation_names[e].clone()).to_string());
                     start.push(0.0);
                 }
                 Unknown::Monomial(..) => unreachable!("monomial unknowns come from monomial_form"),
@@ -417,8 +394,7 @@ impl Problem {
                             "unknown masses with filtered excitation are not supported".into(),
                         ));
                     }
-                    names.push(format!("m[{}]", model.mass_names[i]));
-                    truth.push(model.mass[i]);
+                    names.push(ParameterName::Mass(model.mass_names[i].clone()).to_string());
                     start.push(model.mass[i]);
                 }
                 Unknown::Intensity(e) => {
@@ -428,8 +404,7 @@ impl Problem {
                             model.excitation_names[e]
                         )));
                     };
-                    names.push(format!("sigma[{}]", model.excitation_names[e]));
-                    truth.push(sigma);
+                    names.push(ParameterName::Intensity(model.excitation_names[e].clone()).to_string());
                     start.push(sigma);
                 }
             }
@@ -465,29 +440,27 @@ impl Problem {
         let noise_var = (0..n)
             .map(|i| if layout == Layout::Augmented { as_(i) } else { vs(i) })
             .collect();
-        let columns = match layout {
-            Layout::White => (0..2 * n).map(|j| 3 * (j / 2) + j % 2).collect(),
-            Layout::Augmented => (0..3 * n).collect(),
+        // Per mass, in the state's order: x, v (and a when augmented).
+        let quantities: &[Quantity] = match layout {
+            Layout::White => &[Quantity::Displacement, Quantity::Velocity],
+            Layout::Augmented => &[Quantity::Displacement, Quantity::Velocity, Quantity::Acceleration],
         };
+        let log = model.columns();
+        let columns = (0..n)
+            .flat_map(|i| quantities.iter().map(move |&q| log.of_mass(q, i)))
+            .collect();
         let state_names = (0..n)
             .flat_map(|i| {
-                let m = &model.mass_names[i];
-                let mut v = vec![format!("x_{m}"), format!("v_{m}")];
-                if layout == Layout::Augmented {
-                    v.push(format!("a_{m}"));
-                }
-                v
+                let name = &model.mass_names[i];
+                quantities.iter().map(move |&q| q.column_name(name))
             })
             .collect();
-        let link_ends = (0..model.links())
-            .map(|l| (model.link_a[l], (model.link_b[l] != GROUND).then_some(model.link_b[l])))
-            .collect();
         Ok(Problem {
-            model,
+            // The known system only: the unknown coefficients are zero in it.
+            model: known,
             layout,
             unknowns,
             names,
-            truth,
             start,
             n,
             pmax,
@@ -499,9 +472,22 @@ impl Problem {
             filters: filters.to_vec(),
             columns,
             state_names,
-            link_ends,
             inputs: 0,
         })
+    }
+
+    /// The true value of every unknown, looked up by its name in `truth` (for grading; the
+    /// identifier itself never sees a truth). A product of unknowns (`B[P]*k1[…]`) is the
+    /// product of its factors' values; NaN where the truth has none (e.g. a monomial).
+    pub fn true_values(&self, truth: &Truth) -> Vec<f64> {
+        self.names
+            .iter()
+            .map(|name| {
+                name.split('*')
+                    .map(|factor| truth.of(factor).unwrap_or(f64::NAN))
+                    .product()
+            })
+            .collect()
     }
 
     /// Index of `x_i` in the state.
@@ -552,7 +538,7 @@ impl Problem {
                     .iter()
                     .position(|x| *x == Unknown::Corner(e))
                     .map_or(f64::NAN, |j| values[j]);
-                out.push((self.model.coefficient_name(c), direct, values[k] / b));
+                out.push((self.model.coefficient_name(c).to_string(), direct, values[k] / b));
             }
         }
         out
@@ -718,9 +704,9 @@ impl Problem {
                 Characteristic::Stiffness => self.x(i),
                 Characteristic::Damping => self.v(i),
             };
-            let (a, b) = (self.model.link_a[c.link], self.model.link_b[c.link]);
+            let (a, b) = self.model.ends(c.link);
             let mut z = Poly::monomial(var(base(a)), 1.0);
-            if b != GROUND {
+            if let Some(b) = b {
                 z.add_term(var(base(b)), -1.0);
             }
             let ez2 = z.mul(&z).expectation(|e| mom.moment(e));
@@ -1031,9 +1017,6 @@ impl Problem {
                     .collect()
             })
             .collect();
-        let truth_phi = DVector::from_column_slice(&self.truth[..rc]);
-        let truth_mono: DVector<f64> = &map * truth_phi;
-        out.truth = truth_mono.iter().copied().collect();
         out.start = vec![0.0; keys.len()];
         out.names = keys
             .iter()
@@ -1064,7 +1047,6 @@ impl Problem {
         let mut out = self.clone();
         out.unknowns = keep.iter().map(|&k| self.unknowns[k]).collect();
         out.names = keep.iter().map(|&k| self.names[k].clone()).collect();
-        out.truth = keep.iter().map(|&k| self.truth[k]).collect();
         out.start = keep.iter().map(|&k| self.start[k]).collect();
         out.unit_force = keep
             .iter()
@@ -1183,8 +1165,8 @@ pub fn identify_weak_bilinear(problem: &Problem, data: &data::StationaryData) ->
         })
         .collect();
     let mut facts = linear.facts.clone();
-    for ((n, v), t) in mono.names.iter().zip(&linear.values).zip(&mono.truth) {
-        facts.push((format!("monomial {n}"), format!("{v:.6} (true {t:.6})")));
+    for (n, v) in mono.names.iter().zip(&linear.values) {
+        facts.push((format!("monomial {n}"), format!("{v:.6}")));
     }
     facts.push((
         "recovery".into(),

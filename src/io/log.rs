@@ -19,8 +19,9 @@
 //! `<name>.partial` and renames only after `finish()`.
 
 use crate::model::Model;
+use crate::model::Quantity;
 use crate::scenario::{Scenario, ScenarioError};
-use crate::sim::{columns, SampleBatch, SampleSink};
+use crate::sim::{SampleBatch, SampleSink};
 use mcap::records::{MessageHeader, Metadata, Record};
 use mcap::sans_io::{LinearReadEvent, LinearReader};
 use std::collections::BTreeMap;
@@ -125,17 +126,11 @@ fn schema_text(cols: &[String]) -> String {
 }
 
 fn channel_metadata(s: &Scenario, model: &Model, cols: &[String]) -> BTreeMap<String, String> {
-    let [ux, uv, ua, uf, _] = s.motion.units();
     let mut m = BTreeMap::new();
     m.insert("columns".into(), cols.join(","));
     let mut units = vec!["t:s".to_string()];
     for c in cols {
-        let u = match &c[..2] {
-            "x_" => ux,
-            "v_" => uv,
-            "a_" => ua,
-            _ => uf,
-        };
+        let u = Quantity::of_column(c).unwrap_or(Quantity::Force).unit(s.motion);
         units.push(format!("{c}:{u}"));
     }
     m.insert("units".into(), units.join(","));
@@ -143,18 +138,18 @@ fn channel_metadata(s: &Scenario, model: &Model, cols: &[String]) -> BTreeMap<St
         .excitations
         .iter()
         .filter(|e| !e.measured)
-        .map(|e| format!("p_{}", e.name))
+        .map(|e| Quantity::Force.column_name(&e.name))
         .collect();
     m.insert("unmeasured".into(), unmeasured.join(","));
     let mut averaged = Vec::new();
     for (i, name) in model.mass_names.iter().enumerate() {
         if model.white_on(i) {
-            averaged.push(format!("a_{name}"));
+            averaged.push(Quantity::Acceleration.column_name(name));
         }
     }
     for e in &s.excitations {
         if matches!(e.process, crate::scenario::Process::White { .. }) {
-            averaged.push(format!("p_{}", e.name));
+            averaged.push(Quantity::Force.column_name(&e.name));
         }
     }
     m.insert("interval_averaged".into(), averaged.join(","));
@@ -232,7 +227,7 @@ impl LogWriter {
             .chunk_size(Some(1 << 20))
             .create(BufWriter::with_capacity(1 << 20, file))
             .map_err(mc)?;
-        let cols = columns(model);
+        let cols = model.column_names();
         let schema = w
             .add_schema(SCHEMA_NAME, "ros2msg", schema_text(&cols).as_bytes())
             .map_err(mc)?;

@@ -2,7 +2,7 @@
 //! both sequences (the paper's spectral single-mass step and the measured-force step),
 //! with their accuracy at every step. See `docs/theory.md` §4.
 
-use super::grading::{assemble, method_report};
+use super::grading::{assemble, method_report, Grader};
 use super::spectra::ForceSpectra;
 use super::validation::Distributions;
 use super::{Options, PipelineError};
@@ -11,6 +11,7 @@ use crate::ident::disturbance::SingleMass;
 use crate::ident::poly::Poly;
 use crate::ident::{self, disturbance, spectrum, spectrum::Welch, weak, Filter, IdentError, Problem};
 use crate::io::log::{read_samples, LogInfo};
+use crate::model::Columns;
 use crate::report::{IterationReport, MethodReport, Report};
 use crate::scenario::{Method, Process, DIRECT_FORCE, ITERATED_FORCE};
 use std::time::Instant;
@@ -25,6 +26,7 @@ pub(crate) fn identify_disturbed(
     start: Instant,
 ) -> Result<Report, PipelineError> {
     let s = &info.scenario;
+    let grader = Grader::of_log(info)?;
     if options.methods.iter().any(|m| *m != Method::Weak) {
         return Err(IdentError::Unsupported(
             "the iterative procedure ([identify.disturbance]) uses the weak form in every step; other methods do not apply".into(),
@@ -33,8 +35,7 @@ pub(crate) fn identify_disturbed(
     }
     let sim = &s.simulation;
     let st = settings.structure;
-    let n = s.masses.len();
-    let force_col = |e: usize| 3 * n + e;
+    let log = Columns::new(s.masses.len(), s.excitations.len());
     let filtered = |e: usize| matches!(s.excitations[e].process, Process::Filtered { .. });
     // Forces whose spectra are fitted: P2 (if filtered), and the filtered disturbances
     // (for the bound only).
@@ -59,11 +60,10 @@ pub(crate) fn identify_disturbed(
     let force_bound = disturbance::force_bound_problem(s, &st)?;
     let mut bound_data = data_for(&force_bound);
     let mut force = data_for(&force_structure);
-    let (x1, x2) = (3 * st.free, 3 * st.driven);
     let mut forces = ForceSpectra::new(s, &fitted);
     read_samples(info, |traj, t, row| {
         white.push(traj, t, row);
-        driven.push(traj, t, &row[x2..x2 + 3]);
+        driven.push(traj, t, &row[log.kinematics(st.driven)]);
         force.push(traj, t, &disturbance::force_row(s, &st, row));
         bound_data.push(traj, t, row);
         forces.push_lag(traj, row);
@@ -104,8 +104,8 @@ pub(crate) fn identify_disturbed(
         forces.push(traj, row);
         p3.push(
             traj as usize,
-            row[force_col(st.measured)] + m1 * row[x1 + 2],
-            row[x1] - row[x2],
+            row[log.force(st.measured)] + m1 * row[log.a(st.free)],
+            row[log.x(st.free)] - row[log.x(st.driven)],
         );
         dist.push(row);
     })?;
@@ -146,7 +146,7 @@ pub(crate) fn identify_disturbed(
             "pz-measured",
             None,
             ident::identify_weak(&bound_problem, &white),
-            s,
+            &grader,
             &bound_problem,
             ranges,
             t,
@@ -155,7 +155,7 @@ pub(crate) fn identify_disturbed(
             "pz-measured-force",
             None,
             ident::identify_weak(&force_bound, &bound_data),
-            s,
+            &grader,
             &force_bound,
             ranges,
             t,
@@ -173,7 +173,7 @@ pub(crate) fn identify_disturbed(
         "step-0",
         None,
         Ok(paper.step0.clone()),
-        s,
+        &grader,
         &problem,
         ranges,
         t,
@@ -194,7 +194,7 @@ pub(crate) fn identify_disturbed(
         let step_reports: Vec<MethodReport> = it
             .steps
             .iter()
-            .map(|st_| method_report("step", None, Ok(at(&st_.values)), s, &problem, ranges, t))
+            .map(|st_| method_report("step", None, Ok(at(&st_.values)), &grader, &problem, ranges, t))
             .collect();
         let mut final_est = at(it.last());
         final_est.facts = vec![
@@ -207,7 +207,7 @@ pub(crate) fn identify_disturbed(
             method,
             Some(s.accept.threshold(method)),
             Ok(final_est),
-            s,
+            &grader,
             &problem,
             ranges,
             t,
@@ -223,6 +223,7 @@ pub(crate) fn identify_disturbed(
             final_worst_rel_error: rep.worst_rel_error,
             bound: bound.method.clone(),
             bound_worst_rel_error: bound.worst_rel_error,
+            truth: it.problem.true_values(&grader.truth),
             iteration: it,
         });
         reports.push(rep);
@@ -232,7 +233,7 @@ pub(crate) fn identify_disturbed(
         DIRECT_FORCE,
         Some(s.accept.threshold(DIRECT_FORCE)),
         disturbance::direct(&inputs, &problem),
-        s,
+        &grader,
         &problem,
         ranges,
         t,

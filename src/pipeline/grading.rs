@@ -4,7 +4,7 @@
 
 use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
-use crate::model::{Characteristic, Coefficient};
+use crate::model::{Characteristic, Coefficient, Truth};
 use crate::report::{
     Curve, FilterReport, IterationReport, MethodReport, Parameter, PlotData, Report, Timings, Validation,
 };
@@ -12,6 +12,24 @@ use crate::scenario::Scenario;
 use crate::stats;
 use std::collections::BTreeMap;
 use std::time::Instant;
+
+/// What estimates are graded against: the truth, from the log's own truth record (never
+/// from the identifier's problem), and the scenario for the links' names and the known
+/// characteristics.
+pub(crate) struct Grader<'a> {
+    pub scenario: &'a Scenario,
+    pub truth: Truth,
+}
+
+impl<'a> Grader<'a> {
+    /// The grader of a log: its scenario and its truth record.
+    pub fn of_log(info: &'a LogInfo) -> Result<Grader<'a>, super::PipelineError> {
+        Ok(Grader {
+            scenario: &info.scenario,
+            truth: Truth::from_pairs(&info.truth).map_err(super::PipelineError::Truth)?,
+        })
+    }
+}
 
 /// The report of an identification of `info`'s log; passed when there is a gated method
 /// and every gated method passed.
@@ -59,7 +77,7 @@ pub(crate) fn assemble(
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fill_accuracy(
     rep: &mut MethodReport,
-    s: &Scenario,
+    g: &Grader,
     problem: &Problem,
     coef_of: &[Option<Coefficient>],
     values: &[f64],
@@ -70,20 +88,16 @@ pub(crate) fn fill_accuracy(
         Characteristic::Stiffness => (ranges[c.link][0], ranges[c.link][1]),
         Characteristic::Damping => (ranges[c.link][2], ranges[c.link][3]),
     };
+    let s = g.scenario;
+    let true_curve = |l: usize, kind| g.truth.characteristic(&s.links[l].name, kind);
+    let true_values = problem.true_values(&g.truth);
     let mut worst: f64 = 0.0;
     for (k, name) in problem.names.iter().enumerate() {
-        let t = problem.truth[k];
+        let t = true_values[k];
         let rel = match coef_of[k] {
             Some(c) => {
                 let (lo, hi) = range(c);
-                stats::coefficient_error(
-                    values[k],
-                    t,
-                    c.power,
-                    &stats::true_characteristic(s, c.link, c.kind),
-                    lo,
-                    hi,
-                )
+                stats::coefficient_error(values[k], t, c.power, &true_curve(c.link, c.kind), lo, hi)
             }
             None => ((values[k] - t) / t).abs(),
         };
@@ -102,7 +116,7 @@ pub(crate) fn fill_accuracy(
             if !unknown {
                 continue;
             }
-            let truth = stats::true_characteristic(s, l, kind);
+            let truth = true_curve(l, kind);
             let (lo, hi) = range(Coefficient {
                 link: l,
                 kind,
@@ -146,7 +160,7 @@ pub(crate) fn method_report(
     method: &str,
     threshold: Option<f64>,
     est: Result<ident::Estimate, IdentError>,
-    s: &Scenario,
+    g: &Grader,
     problem: &Problem,
     ranges: &[[f64; 4]],
     started: Instant,
@@ -171,7 +185,7 @@ pub(crate) fn method_report(
         Ok(e) => {
             fill_accuracy(
                 &mut rep,
-                s,
+                g,
                 problem,
                 &coefficients_of(problem),
                 &e.values,

@@ -2,7 +2,7 @@
 //! for filtered forces, the `[identify.compare]` alternatives, and the validation.
 
 use super::disturbed::identify_disturbed;
-use super::grading::{assemble, method_report};
+use super::grading::{assemble, method_report, Grader};
 use super::spectra::ForceSpectra;
 use super::validation::Distributions;
 use super::{Options, PipelineError};
@@ -22,6 +22,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         d.tolerance = options.tolerance.unwrap_or(d.tolerance);
         return identify_disturbed(info, &d, options, start);
     }
+    let grader = Grader::of_log(info)?;
     let sim = &s.simulation;
     let methods = if options.methods.is_empty() {
         s.identify.methods.clone()
@@ -136,7 +137,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
             m.name(),
             Some(s.accept.threshold(m.name())),
             est,
-            s,
+            &grader,
             &reported,
             &data.link_ranges,
             t,
@@ -152,7 +153,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
             "weak-white-naive",
             None,
             est,
-            s,
+            &grader,
             &naive,
             &data.link_ranges,
             t,
@@ -169,7 +170,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
             &format!("weak [{name}]"),
             None,
             est,
-            s,
+            &grader,
             &p,
             &data.link_ranges,
             t,

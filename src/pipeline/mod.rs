@@ -35,6 +35,9 @@ pub enum PipelineError {
     Ident(#[from] IdentError),
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The log's truth record names a parameter that does not exist.
+    #[error("the log's truth record (`fpkbench.truth`): {0}")]
+    Truth(String),
 }
 
 /// Settings of an identification.

@@ -2,6 +2,7 @@
 //! pass 2, and the rational-spectrum fit (3.20) that gives each filter's `A` and `B`.
 
 use crate::ident::{spectrum, spectrum::Welch, Filter};
+use crate::model::Columns;
 use crate::report::FilterReport;
 use crate::scenario::{Process, Scenario};
 
@@ -17,10 +18,10 @@ pub(crate) struct ForceSpectra {
 
 impl ForceSpectra {
     pub(crate) fn new(s: &Scenario, excitations: &[usize]) -> ForceSpectra {
-        let n = s.masses.len();
+        let log = Columns::new(s.masses.len(), s.excitations.len());
         ForceSpectra {
             excitations: excitations.to_vec(),
-            columns: excitations.iter().map(|e| 3 * n + e).collect(),
+            columns: excitations.iter().map(|&e| log.force(e)).collect(),
             lag: vec![(0.0, 0.0, vec![f64::NAN; s.simulation.trajectories]); excitations.len()],
             welch: Vec::new(),
         }

@@ -4,6 +4,7 @@
 use super::grading::coefficients_of;
 use crate::ident::data::StationaryData;
 use crate::ident::{spectrum, Problem, Unknown};
+use crate::model::Quantity;
 use crate::model::{Characteristic, Coefficient, Model};
 use crate::report::{PlotData, Validation, ValidationRow};
 use crate::scenario::{Polynomial, Process, Scenario};
@@ -74,8 +75,6 @@ pub(crate) const HIST_BINS: usize = 80;
 /// the re-simulated model's too.
 pub(crate) struct Distributions {
     model: Model,
-    xs: Vec<f64>,
-    vs: Vec<f64>,
     link_hist: Vec<(Histogram, Histogram)>,
     /// Empty histograms over the data's ranges (the validation fills copies).
     state_hist: Vec<Histogram>,
@@ -91,25 +90,16 @@ impl Distributions {
         let state_hist: Vec<Histogram> = (0..problem.dim())
             .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
             .collect();
-        let units = s.motion.units();
         let names = problem
             .state_names
             .iter()
             .map(|name| {
-                let unit = units[if name.starts_with("x_") {
-                    0
-                } else if name.starts_with("v_") {
-                    1
-                } else {
-                    2
-                }];
-                (name.clone(), unit.to_string())
+                let q = Quantity::of_column(name).unwrap_or(Quantity::Acceleration);
+                (name.clone(), q.unit(s.motion).to_string())
             })
             .collect();
         Distributions {
             model: problem.model.clone(),
-            xs: vec![0.0; problem.n],
-            vs: vec![0.0; problem.n],
             link_hist: data
                 .link_ranges
                 .iter()
@@ -128,13 +118,10 @@ impl Distributions {
     }
 
     pub(crate) fn push(&mut self, row: &[f64]) {
-        for i in 0..self.xs.len() {
-            self.xs[i] = row[3 * i];
-            self.vs[i] = row[3 * i + 1];
-        }
         for (l, h) in self.link_hist.iter_mut().enumerate() {
-            h.0.push(self.model.relative(l, &self.xs));
-            h.1.push(self.model.relative(l, &self.vs));
+            let (u, w) = self.model.link_motion(l, row);
+            h.0.push(u);
+            h.1.push(w);
         }
         self.marg.push(row);
     }

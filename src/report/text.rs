@@ -219,7 +219,7 @@ pub(crate) fn iteration_summary(r: &crate::report::IterationReport) -> String {
     }
     s += &format!("{}|{}|{}|\n", "-".repeat(11), "-".repeat(24), "-".repeat(30));
     s += &format!("| {:>4} |", "true");
-    for t in &it.truth {
+    for t in &r.truth {
         s += &format!(" {t:>14.5} |");
     }
     s += &format!(" {:>9} | {:>22} | {:>28} |\n", "", "", "");

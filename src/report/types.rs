@@ -142,6 +142,8 @@ pub struct IterationReport {
     pub method: String,
     #[serde(flatten)]
     pub iteration: disturbance::Iteration,
+    /// The true value of every parameter (`iteration.names`), from the log's truth record.
+    pub truth: Vec<f64>,
     /// Per step: the relative error of every parameter (as in `methods[]`).
     pub step_rel_errors: Vec<Vec<f64>>,
     /// Per step: the worst relative error, curves included.

@@ -386,27 +386,31 @@ impl Scenario {
     /// The true value of every parameter, by its human-readable name
     /// (`m[m1]`, `k3[ground-m1]`, `c1[m1-m2]`, `sigma[m1]`, `A[P]`, `B[P]`).
     pub fn truth(&self) -> Vec<(String, f64)> {
+        use crate::model::{Characteristic, ParameterName as N};
         let mut out = Vec::new();
         for m in &self.masses {
-            out.push((format!("m[{}]", m.name), m.value));
+            out.push((N::Mass(m.name.clone()), m.value));
         }
         for l in &self.links {
-            for &(p, c) in &l.stiffness.terms {
-                out.push((format!("k{p}[{}]", l.name), c));
-            }
-            for &(p, c) in &l.damping.terms {
-                out.push((format!("c{p}[{}]", l.name), c));
+            for (kind, poly) in [
+                (Characteristic::Stiffness, &l.stiffness),
+                (Characteristic::Damping, &l.damping),
+            ] {
+                for &(power, c) in &poly.terms {
+                    let link = l.name.clone();
+                    out.push((N::Coefficient { kind, power, link }, c));
+                }
             }
         }
         for e in &self.excitations {
             match e.process {
-                Process::White { sigma } => out.push((format!("sigma[{}]", e.name), sigma)),
+                Process::White { sigma } => out.push((N::Intensity(e.name.clone()), sigma)),
                 Process::Filtered { a, b } => {
-                    out.push((format!("A[{}]", e.name), a));
-                    out.push((format!("B[{}]", e.name), b));
+                    out.push((N::FilterGain(e.name.clone()), a));
+                    out.push((N::Corner(e.name.clone()), b));
                 }
             }
         }
-        out
+        out.into_iter().map(|(n, v)| (n.to_string(), v)).collect()
     }
 }

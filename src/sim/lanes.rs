@@ -3,7 +3,7 @@
 //! with sampling and the divergence check.
 
 use super::{trajectory_seed, Lane, SimError, DIVERGENCE_LIMIT, LANES};
-use crate::model::{Model, GROUND};
+use crate::model::{Model, Quantity, GROUND};
 use crate::scenario::{Process, Scheme, Simulation};
 use multiversion::multiversion;
 use rand::rngs::Xoshiro256PlusPlus;
@@ -365,12 +365,12 @@ impl Group {
     pub(super) fn state_of<const D: usize>(&self, m: &Model, lm: &LaneModel<D>, j: usize) -> Vec<(String, f64)> {
         let mut s = Vec::new();
         for (i, n) in m.mass_names.iter().enumerate() {
-            s.push((format!("x_{n}"), self.x[i][j]));
-            s.push((format!("v_{n}"), self.v[i][j]));
+            s.push((Quantity::Displacement.column_name(n), self.x[i][j]));
+            s.push((Quantity::Velocity.column_name(n), self.v[i][j]));
         }
         for (e, n) in m.excitation_names.iter().enumerate() {
             let scale = if lm.is_white[e] { lm.impulse_scale[e] } else { 1.0 };
-            s.push((format!("p_{n}"), self.p[e][j] * scale));
+            s.push((Quantity::Force.column_name(n), self.p[e][j] * scale));
         }
         s
     }
@@ -393,7 +393,8 @@ impl Group {
     ) -> Result<(), SimError> {
         let n = lm.n;
         let ne = lm.is_white.len();
-        let cols = 3 * n + ne;
+        let layout = m.columns();
+        let cols = layout.len();
         let act = self.active;
         let record = !out.is_empty();
         debug_assert!(!record || out.len() == samples * cols);
@@ -452,19 +453,19 @@ impl Group {
                 for i in 0..n {
                     let (x, v) = (&self.x[i], &self.v[i]);
                     if lm.semi_implicit {
-                        for ((y, &x), &v) in o[3 * i].iter_mut().zip(x).zip(v) {
+                        for ((y, &x), &v) in o[layout.x(i)].iter_mut().zip(x).zip(v) {
                             *y = x - 0.5 * lm.h * v;
                         }
                     } else {
-                        o[3 * i].copy_from_slice(&x[..act]);
+                        o[layout.x(i)].copy_from_slice(&x[..act]);
                     }
-                    o[3 * i + 1].copy_from_slice(&v[..act]);
+                    o[layout.v(i)].copy_from_slice(&v[..act]);
                 }
                 if balance {
                     // Instantaneous force balance, at the logged displacements and forces.
                     self.x_keep.copy_from_slice(&self.x[..n]);
                     for i in 0..n {
-                        self.x[i][..act].copy_from_slice(o[3 * i]);
+                        self.x[i][..act].copy_from_slice(o[layout.x(i)]);
                     }
                     for &(e, ..) in &lm.ou {
                         std::mem::swap(&mut self.p[e], &mut self.p_mid[e]);
@@ -476,7 +477,7 @@ impl Group {
                     self.x[..n].copy_from_slice(&self.x_keep);
                 }
                 for i in 0..n {
-                    let a = &mut o[3 * i + 2];
+                    let a = &mut o[layout.a(i)];
                     if lm.white_on[i].is_empty() {
                         for (a, &f) in a.iter_mut().zip(&self.f[i]) {
                             *a = f * lm.inv_mass[i];
@@ -488,7 +489,7 @@ impl Group {
                     }
                 }
                 for e in 0..ne {
-                    let p = &mut o[3 * n + e];
+                    let p = &mut o[layout.force(e)];
                     if lm.is_white[e] {
                         for (y, &z) in p.iter_mut().zip(&self.p[e]) {
                             *y = z * lm.impulse_scale[e] / interval;

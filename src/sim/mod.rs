@@ -59,21 +59,6 @@ pub enum SimError {
     Sink(#[source] Box<dyn std::error::Error + Send + Sync>),
 }
 
-/// Names of the logged values per sample: `x_<mass>`, `v_<mass>`, `a_<mass>` for every mass,
-/// then `p_<excitation>` for every excitation.
-pub fn columns(model: &Model) -> Vec<String> {
-    let mut c = Vec::new();
-    for m in &model.mass_names {
-        c.push(format!("x_{m}"));
-        c.push(format!("v_{m}"));
-        c.push(format!("a_{m}"));
-    }
-    for e in &model.excitation_names {
-        c.push(format!("p_{e}"));
-    }
-    c
-}
-
 /// What a finished run did.
 #[derive(Debug, Clone, Copy)]
 pub struct RunStats {
@@ -158,7 +143,7 @@ pub(crate) fn simulate_padded<const D: usize>(
     let steps = sim.steps_per_sample() * sim.substeps;
     let interval = sim.sample_interval;
     let total = sim.samples_per_trajectory();
-    let cols = 3 * model.masses() + model.excitations.len();
+    let cols = model.columns().len();
     let mut groups: Vec<Group> = (0..sim.trajectories.div_ceil(LANES))
         .map(|g| Group::new(model, sim.seed, g * LANES, (sim.trajectories - g * LANES).min(LANES)))
         .collect();

@@ -58,7 +58,7 @@ pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
                         .collect()
                 })
                 .collect();
-            let truth = first.iteration.truth[k];
+            let truth = first.truth[k];
             let ys = sequences
                 .iter()
                 .flat_map(|v| v.iter().map(|p| p.1))

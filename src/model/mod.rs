@@ -5,6 +5,12 @@
 //! "features" `g_ir(y)` of DESIGN §2). Coefficients live in one contiguous array, dense
 //! by power, so evaluation needs no allocation. Depends only on `scenario`.
 
+mod columns;
+mod names;
+
+pub use columns::{Columns, Quantity};
+pub use names::{ParameterName, Truth};
+
 use crate::scenario::{End, Process, Scenario};
 
 /// Marks a link end at the ground.
@@ -162,6 +168,16 @@ impl Model {
         x[self.link_a[l]] - if b == GROUND { 0.0 } else { x[b] }
     }
 
+    /// Relative displacement and velocity `(u, w)` of link `l` in a logged sample `row`.
+    #[inline]
+    pub fn link_motion(&self, l: usize, row: &[f64]) -> (f64, f64) {
+        let c = self.columns();
+        let (a, b) = self.ends(l);
+        let u = row[c.x(a)] - b.map_or(0.0, |b| row[c.x(b)]);
+        let w = row[c.v(a)] - b.map_or(0.0, |b| row[c.v(b)]);
+        (u, w)
+    }
+
     /// The link force `F = K(u) + C(w)`.
     #[inline]
     pub fn link_force(&self, l: usize, u: f64, w: f64) -> f64 {
@@ -188,9 +204,30 @@ impl Model {
             .any(|e| matches!(e.process, Process::White { .. }) && e.targets.contains(&i))
     }
 
-    /// Human-readable name of a coefficient, e.g. `k3[ground-m1]`.
-    pub fn coefficient_name(&self, c: Coefficient) -> String {
-        format!("{}{}[{}]", c.kind.symbol(), c.power, self.link_names[c.link])
+    /// The name of a coefficient, e.g. `k3[ground-m1]`.
+    pub fn coefficient_name(&self, c: Coefficient) -> ParameterName {
+        ParameterName::Coefficient {
+            kind: c.kind,
+            power: c.power,
+            link: self.link_names[c.link].clone(),
+        }
+    }
+
+    /// Where each value of a logged sample sits.
+    pub fn columns(&self) -> Columns {
+        Columns::new(self.masses(), self.excitations.len())
+    }
+
+    /// The log's column names, in order.
+    pub fn column_names(&self) -> Vec<String> {
+        self.columns().names(&self.mass_names, &self.excitation_names)
+    }
+
+    /// The masses at the ends of link `l`: the first end, and the second (`None` for the
+    /// ground, which is always the second end).
+    pub fn ends(&self, l: usize) -> (usize, Option<usize>) {
+        let b = self.link_b[l];
+        (self.link_a[l], (b != GROUND).then_some(b))
     }
 
     /// Whether every link is linear (powers ≤ 1): then the stationary response is Gaussian.
