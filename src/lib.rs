@@ -3,9 +3,10 @@
 //! excited multi-mass system identified from the stationary density of its response via
 //! the Fokker–Planck–Kolmogorov equation.
 //!
-//! Dependencies point one way: `report`, `bench` → `io` → `ident`, `sim`, `stats` →
+//! Dependencies point one way: `pipeline` → `report`, `io` → `ident`, `sim`, `stats` →
 //! `model` → `scenario`; the numerics never import file formats, plotting or the CLI
-//! (which lives in the binary).
+//! (which lives in the binary). `docs/architecture.md` lists every module; the
+//! mathematics, with the function implementing each equation, is in `docs/theory.md`.
 //!
 //! Identify a linear oscillator from its simulated stationary response with the weak form:
 //!

@@ -1,4 +1,4 @@
-//! The acceleration-augmented drift (DESIGN §3) against a noiseless trajectory: with the
+//! The acceleration-augmented drift (docs/theory.md §3) against a noiseless trajectory: with the
 //! filtered forces decaying as `Ṗ = −B P`, `ȧ_i` from finite differences of the simulated
 //! acceleration must equal the drift the identifier assembles — checking the `K'`, `C'`
 //! and `B` terms.

@@ -30,7 +30,7 @@ pub const MAX_CELLS: usize = 50_000_000;
 
 impl GridOptions {
     /// Defaults from our reference measurements: bins of 0.3–0.45 std, a ±4.5 std box in
-    /// 2-D and ±3 std beyond (DESIGN §2).
+    /// 2-D and ±3 std beyond (docs/theory.md §2).
     pub fn auto(dim: usize) -> GridOptions {
         if dim <= 2 {
             GridOptions {

@@ -1,4 +1,4 @@
-//! Weak form (DESIGN §5): for every test function `ψ`, stationarity gives `E[𝒜ψ(Y)] = 0`
+//! Weak form (docs/theory.md §5): for every test function `ψ`, stationarity gives `E[𝒜ψ(Y)] = 0`
 //! with `𝒜ψ = Σ v_i ∂ψ/∂x_i + Σ a_i(y) ∂ψ/∂v_i + ½ Σ Q_ij ∂²ψ/∂v_i∂v_j`, linear in the
 //! unknown coefficients and needing only sample means — here raw moments accumulated in
 //! one pass ([`RawMoments`]), so no density, no differentiated data, constant memory.

@@ -1,6 +1,6 @@
 //! The MCAP run log: layout, writer and streaming reader.
 //!
-//! Layout (fixed; see README "Log layout"):
+//! Layout (fixed; see docs/log-format.md):
 //! - profile `ros2`; one schema `fpkbench/msg/Sample` (encoding `ros2msg`), one channel
 //!   [`TOPIC`] with message encoding `cdr`, whose metadata gives units, the column list,
 //!   which excitations are unmeasured and how white-noise quantities were averaged;

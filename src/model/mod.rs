@@ -2,7 +2,7 @@
 //!
 //! One `Model` serves the simulator (forces on every mass, stepped in lanes) and the
 //! identifier (the drift and its derivative with respect to each link coefficient, the
-//! "features" `g_ir(y)` of DESIGN §2). Coefficients live in one contiguous array, dense
+//! "features" `g_ir(y)` of docs/theory.md §2). Coefficients live in one contiguous array, dense
 //! by power, so evaluation needs no allocation. Depends only on `scenario`.
 
 mod columns;

@@ -79,7 +79,7 @@ impl Scheme {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Deserialize, Hash)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
-    /// Weak form: stationarity of test-function expectations (DESIGN §5).
+    /// Weak form: stationarity of test-function expectations (docs/theory.md §5).
     Weak,
     /// Strong form: the paper's FPK residual on a density grid (3.8)–(3.15).
     Strong,
@@ -268,7 +268,7 @@ pub struct PaperStructure {
 /// `[accept]`: the accuracy gate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Accept {
-    /// Largest allowed worst relative error (DESIGN §7), for every method without its own.
+    /// Largest allowed worst relative error (docs/methods.md, accuracy), for every method without its own.
     pub worst_rel_error: f64,
     /// Per report method (a [`Method`]'s name, or [`ITERATED_FORCE`] or [`DIRECT_FORCE`]
     /// with `[identify.disturbance]`): its own threshold.

@@ -4,11 +4,11 @@
 /// Samples of every trajectory at consecutive sampling instants (one block of a run).
 ///
 /// Per instant the values are column-major, as the log's messages carry them: for each
-/// column (see [`columns`]) one value per trajectory, so trajectory `j`'s value of column `c`
+/// column (see [`crate::model::Columns`]) one value per trajectory, so trajectory `j`'s value of column `c`
 /// at instant `k` is `values[(k * columns + c) * trajectories + j]`.
 #[derive(Debug, Clone, Default)]
 pub struct SampleBatch {
-    /// Values per sample (see [`columns`]).
+    /// Values per sample (see [`crate::model::Columns`]).
     pub columns: usize,
     /// Trajectories per instant (all of the run's, in order).
     pub trajectories: usize,

@@ -1,4 +1,4 @@
-//! Accuracy metrics (DESIGN §7): per-parameter relative errors, per-characteristic
+//! Accuracy metrics (docs/methods.md, accuracy): per-parameter relative errors, per-characteristic
 //! relative L2 errors over the observed range, and the dissipativity check (3.4) of
 //! identified characteristics over the observed ranges (3.16)–(3.17).
 

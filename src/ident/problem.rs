@@ -1,0 +1,714 @@
+//! The identification problem: which coefficients, masses, intensities and corners are
+//! unknown, the drift split into a known part and a part linear in the unknowns, the
+//! residual of the stationarity identity and its least-squares solution. Built from a
+//! scenario's `[identify]` section and its known values; it holds no truth.
+
+use super::poly::{var, Poly};
+use super::{lsq, moments, poly, IdentError};
+use crate::model::{Characteristic, Coefficient, Model, ParameterName, Quantity, Truth};
+use crate::scenario::{Process, Scenario};
+use nalgebra::{DMatrix, DVector};
+
+/// One unknown of the identification.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Unknown {
+    Coefficient(Coefficient),
+    /// Mass `i`.
+    Mass(usize),
+    /// Intensity `σ` of (white) excitation `e`.
+    Intensity(usize),
+    /// Corner `B` of filtered excitation `e` (declared unknown: the drift is bilinear).
+    Corner(usize),
+    /// The product `B_e · θ` of an unknown corner and a coefficient (bilinear drift).
+    CornerProduct(Coefficient, usize),
+    /// The coefficient of one monomial in the unknown part of mass `i`'s drift (the
+    /// linear stage of a bilinear identification).
+    Monomial(usize, poly::Exponents),
+    /// The gain of measured input `j` (state variable `dim() − inputs + j`): its force per
+    /// unit gain is the unknown's `unit_force`, set by whoever adds the input (e.g. the
+    /// `2 k1 (x1 − x2)` of [`super::disturbance::direct_problem`]). Never built from a scenario.
+    InputGain(usize),
+}
+
+/// Which state the stationary density is taken of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Layout {
+    /// White-noise forces: `y = (x_1, v_1, …, x_n, v_n)`; forces and noise act on `v`.
+    White,
+    /// Filtered (Ornstein–Uhlenbeck) forces: `(x, v)` is not Markov, `(x_i, v_i, a_i)` is
+    /// (docs/theory.md §3, (3.22)–(3.28)); forces and noise act on `a`.
+    Augmented,
+}
+
+/// A filtered excitation as the identifier sees it: `dP = −B P dt + A dW`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Filter {
+    pub excitation: usize,
+    pub a: f64,
+    pub b: f64,
+}
+
+/// The identification problem.
+#[derive(Debug, Clone)]
+pub struct Problem {
+    pub model: Model,
+    pub layout: Layout,
+    pub unknowns: Vec<Unknown>,
+    pub names: Vec<String>,
+    /// Value each unknown starts Gauss–Newton from: the log's nominal mass or intensity;
+    /// 0 for coefficients (they enter linearly, so their start does not matter).
+    pub start: Vec<f64>,
+    /// Masses.
+    pub n: usize,
+    /// Highest polynomial degree in the drift (known and unknown parts).
+    pub pmax: u32,
+    /// Known drift terms not scaled by `1/m`: `(state variable, drift polynomial)`
+    /// (`ẋ = v`; with the augmented state also `v̇ = a` and the `−B a` part of `ȧ`).
+    pub free_drift: Vec<(usize, Poly)>,
+    /// Per mass: the state variable its forces and noise act on (`v_i` or `a_i`).
+    pub noise_var: Vec<usize>,
+    /// Per mass: the known part of the force term (scaled by `1/m_i` in the drift of
+    /// `noise_var[i]`), a polynomial in `y`.
+    pub known_force: Vec<Poly>,
+    /// Per unknown coefficient (in order of `unknowns`' coefficients): per mass, the force
+    /// term per unit of the coefficient (white: `−s_iℓ z^p`).
+    pub unit_force: Vec<Vec<Poly>>,
+    /// Noise sources: targets, nominal intensity (`σ` or `A`), and the index of its
+    /// unknown (if any). The noise covariance on `noise_var` is `Σ σ² μ_i μ_j`.
+    pub white: Vec<(Vec<usize>, f64, Option<usize>)>,
+    /// The filters used (augmented layout).
+    pub filters: Vec<Filter>,
+    /// Log column of each state variable.
+    pub columns: Vec<usize>,
+    pub state_names: Vec<String>,
+    /// Measured inputs appended to the state after the masses' variables: forces known at
+    /// every sample that enter `known_force` but have no dynamics of their own, so test
+    /// functions never depend on them (see [`super::disturbance`]'s measured-force step). 0 for a
+    /// problem built from a scenario.
+    pub inputs: usize,
+}
+
+impl Problem {
+    /// Build the problem from a scenario's `[identify]` section and true system. With
+    /// filtered excitations the filters are taken as known at their true values; use
+    /// [`Problem::with_filters`] to give fitted ones.
+    pub fn new(s: &Scenario) -> Result<Problem, IdentError> {
+        let filters: Vec<Filter> = s
+            .excitations
+            .iter()
+            .enumerate()
+            .filter_map(|(e, x)| match x.process {
+                Process::Filtered { a, b } if x.measured => Some(Filter { excitation: e, a, b }),
+                _ => None,
+            })
+            .collect();
+        Problem::with_filters(s, &filters)
+    }
+
+    /// Build the problem with the given filter parameters for the measured filtered
+    /// excitations (fitted from the force spectrum, or known).
+    pub fn with_filters(s: &Scenario, filters: &[Filter]) -> Result<Problem, IdentError> {
+        let model = Model::new(s);
+        let n = model.masses();
+        let measured: Vec<usize> = (0..s.excitations.len())
+            .filter(|&e| s.excitations[e].measured)
+            .collect();
+        let filtered = measured
+            .iter()
+            .any(|&e| matches!(s.excitations[e].process, Process::Filtered { .. }));
+        let white_any = measured
+            .iter()
+            .any(|&e| matches!(s.excitations[e].process, Process::White { .. }));
+        if filtered && white_any {
+            return Err(IdentError::Unsupported(
+                "white and filtered excitations together: with white noise on one mass a neighbour's acceleration is not a proper state (docs/theory.md §3); the force-augmented state this needs is not implemented".into(),
+            ));
+        }
+        let layout = if filtered { Layout::Augmented } else { Layout::White };
+        let width = if filtered { 3 } else { 2 };
+        let xs = |i: usize| width * i;
+        let vs = |i: usize| width * i + 1;
+        let as_ = |i: usize| width * i + 2;
+        // The filter acting on each mass (augmented layout), and whether its B is unknown.
+        let mut corner = vec![f64::NAN; n];
+        let mut corner_unknown: Vec<Option<usize>> = vec![None; n];
+        if filtered {
+            for &e in &measured {
+                let f = filters.iter().find(|f| f.excitation == e).ok_or_else(|| {
+                    IdentError::Unsupported(format!("no filter parameters for excitation {}", s.excitations[e].name))
+                })?;
+                for &i in &s.excitations[e].acts_on {
+                    if !corner[i].is_nan() {
+                        return Err(IdentError::Unsupported(format!(
+                            "mass {} is driven by two filtered excitations: its force is then not one Ornstein–Uhlenbeck process and (x, v, a) is not Markov",
+                            s.masses[i].name
+                        )));
+                    }
+                    corner[i] = f.b;
+                    if s.identify.unknown_corners.contains(&e) {
+                        corner_unknown[i] = Some(e);
+                    }
+                }
+            }
+            if let Some(i) = corner.iter().position(|c| c.is_nan()) {
+                return Err(IdentError::Unsupported(format!(
+                    "mass {} has no filtered excitation: its acceleration is then a function of (x, v) and the augmented state is degenerate",
+                    s.masses[i].name
+                )));
+            }
+        }
+        let id = &s.identify;
+        let mut unknowns = Vec::new();
+        // Known parts: characteristics not listed stay at their true values.
+        let mut known = model.clone();
+        for il in &id.links {
+            let l = il.link;
+            for (kind, powers) in [
+                (Characteristic::Stiffness, &il.stiffness),
+                (Characteristic::Damping, &il.damping),
+            ] {
+                if let Some(ps) = powers {
+                    let (start, len) = match kind {
+                        Characteristic::Stiffness => (known.k_start[l], known.k_len[l]),
+                        Characteristic::Damping => (known.c_start[l], known.c_len[l]),
+                    };
+                    known.coefs[start..start + len].iter_mut().for_each(|c| *c = 0.0);
+                    for &p in ps {
+                        unknowns.push(Unknown::Coefficient(Coefficient {
+                            link: l,
+                            kind,
+                            power: p,
+                        }));
+                    }
+                }
+            }
+        }
+        // With an unknown corner, each coefficient acting on a mass it drives also has a
+        // product unknown; then the corner itself. All linear: they precede masses.
+        let coefs: Vec<Coefficient> = unknowns
+            .iter()
+            .filter_map(|u| {
+                if let Unknown::Coefficient(c) = u {
+                    Some(*c)
+                } else {
+                    None
+                }
+            })
+            .collect();
+        for &e in &id.unknown_corners {
+            for c in &coefs {
+                let (a, b) = model.ends(c.link);
+                let touches = [Some(a), b].into_iter().flatten().any(|m| corner_unknown[m] == Some(e));
+                if touches {
+                    unknowns.push(Unknown::CornerProduct(*c, e));
+                }
+            }
+            unknowns.push(Unknown::Corner(e));
+        }
+        for &i in &id.unknown_masses {
+            unknowns.push(Unknown::Mass(i));
+        }
+        for &e in &id.unknown_intensities {
+            unknowns.push(Unknown::Intensity(e));
+        }
+        if unknowns.is_empty() {
+            return Err(IdentError::NothingToIdentify);
+        }
+
+        let rel = |l: usize, base: &dyn Fn(usize) -> usize| -> Poly {
+            let (a, b) = model.ends(l);
+            let mut p = vec![(base(a), 1.0)];
+            if let Some(b) = b {
+                p.push((base(b), -1.0));
+            }
+            Poly::linear(&p)
+        };
+        // Force term of one characteristic term `c z^p` of link l on mass i (before 1/m_i):
+        // white `−s c z^p`; augmented `−s c (B_i z^p + p z^(p−1) ż)` (dF/dt through K'u̇, C'ẇ).
+        let term = |l: usize, kind: Characteristic, p: u32, i: usize| -> Poly {
+            let s_ = model.sign(l, i);
+            if s_ == 0.0 {
+                return Poly::zero();
+            }
+            let (z, zdot) = match kind {
+                Characteristic::Stiffness => (rel(l, &xs), rel(l, &vs)),
+                Characteristic::Damping => (rel(l, &vs), rel(l, &as_)),
+            };
+            let mut out = Poly::zero();
+            match layout {
+                Layout::White => out.add(&z.pow(p), -s_),
+                Layout::Augmented => {
+                    // With an unknown corner the B·z^p part belongs to the product unknown.
+                    if corner_unknown[i].is_none() {
+                        out.add(&z.pow(p), -s_ * corner[i]);
+                    }
+                    out.add(&z.pow(p - 1).mul(&zdot), -s_ * p as f64);
+                }
+            }
+            out
+        };
+        // The B part alone, `−s z^p` (per unit of B·c).
+        let b_part = |l: usize, kind: Characteristic, p: u32, i: usize| -> Poly {
+            let (z, _) = match kind {
+                Characteristic::Stiffness => (rel(l, &xs), rel(l, &vs)),
+                Characteristic::Damping => (rel(l, &vs), rel(l, &as_)),
+            };
+            let mut out = Poly::zero();
+            out.add(&z.pow(p), -model.sign(l, i));
+            out
+        };
+        let mut known_force = vec![Poly::zero(); n];
+        let mut pmax = 1;
+        for l in 0..model.links() {
+            for (kind, cs) in [
+                (Characteristic::Stiffness, known.stiffness(l)),
+                (Characteristic::Damping, known.damping(l)),
+            ] {
+                for (p, &c) in cs.iter().enumerate() {
+                    if c != 0.0 {
+                        pmax = pmax.max(p as u32 + 1);
+                        for (i, kf) in known_force.iter_mut().enumerate() {
+                            kf.add(&term(l, kind, p as u32 + 1, i), c);
+                        }
+                    }
+                }
+            }
+        }
+        let mut unit_force = Vec::new();
+        let mut names = Vec::new();
+        let mut start = Vec::new();
+        for u in &unknowns {
+            match *u {
+                Unknown::Coefficient(c) => {
+                    pmax = pmax.max(c.power);
+                    unit_force.push((0..n).map(|i| term(c.link, c.kind, c.power, i)).collect());
+                    names.push(model.coefficient_name(c).to_string());
+                    start.push(0.0);
+                }
+                Unknown::CornerProduct(c, e) => {
+                    unit_force.push(
+                        (0..n)
+                            .map(|i| {
+                                if corner_unknown[i] == Some(e) {
+                                    b_part(c.link, c.kind, c.power, i)
+                                } else {
+                                    Poly::zero()
+                                }
+                            })
+                            .collect(),
+                    );
+                    names.push(format!(
+                        "B[{}]*{}",
+                        model.excitation_names[e],
+                        model.coefficient_name(c)
+                    ));
+                    start.push(0.0);
+                }
+                Unknown::Corner(e) => {
+                    // Per unit of B: −(m_i a_i + Σ s F_known) on every mass it drives.
+                    unit_force.push(
+                        (0..n)
+                            .map(|i| {
+                                let mut f = Poly::zero();
+                                if corner_unknown[i] == Some(e) {
+                                    f.add(&Poly::monomial(var(as_(i)), 1.0), -model.mass[i]);
+                                    for l in 0..model.links() {
+                                        for (kind, cs) in [
+                                            (Characteristic::Stiffness, known.stiffness(l)),
+                                            (Characteristic::Damping, known.damping(l)),
+                                        ] {
+                                            for (p, &c) in cs.iter().enumerate() {
+                                                if c != 0.0 {
+                                                    f.add(&b_part(l, kind, p as u32 + 1, i), c);
+                                                }
+                                            }
+                                        }
+                                    }
+                                }
+                                f
+                            })
+                            .collect(),
+                    );
+                    names.push(ParameterName::Corner(model.excitation_names[e].clone()).to_string());
+                    start.push(0.0);
+                }
+                Unknown::Monomial(..) => unreachable!("monomial unknowns come from monomial_form"),
+                Unknown::InputGain(_) => unreachable!("input gains are added to a built problem"),
+                Unknown::Mass(i) => {
+                    if layout == Layout::Augmented {
+                        return Err(IdentError::Unsupported(
+                            "unknown masses with filtered excitation are not supported".into(),
+                        ));
+                    }
+                    names.push(ParameterName::Mass(model.mass_names[i].clone()).to_string());
+                    start.push(model.mass[i]);
+                }
+                Unknown::Intensity(e) => {
+                    let Process::White { sigma } = model.excitations[e].process else {
+                        return Err(IdentError::Unsupported(format!(
+                            "excitation {} is filtered: its A and B come from the spectral fit (or are known), not from the density",
+                            model.excitation_names[e]
+                        )));
+                    };
+                    names.push(ParameterName::Intensity(model.excitation_names[e].clone()).to_string());
+                    start.push(sigma);
+                }
+            }
+        }
+        let mut white = Vec::new();
+        for &e in &measured {
+            let exc = &model.excitations[e];
+            let intensity = match exc.process {
+                Process::White { sigma } => sigma,
+                Process::Filtered { .. } => filters.iter().find(|f| f.excitation == e).expect("checked").a,
+            };
+            let idx = unknowns.iter().position(|u| *u == Unknown::Intensity(e));
+            white.push((exc.targets.clone(), intensity, idx));
+        }
+        for (e, exc) in model.excitations.iter().enumerate() {
+            if !exc.measured && unknowns.contains(&Unknown::Intensity(e)) {
+                return Err(IdentError::Unsupported(format!(
+                    "excitation {} is unmeasured: its intensity cannot be an unknown here",
+                    model.excitation_names[e]
+                )));
+            }
+        }
+        let mut free_drift = Vec::new();
+        for i in 0..n {
+            free_drift.push((xs(i), Poly::monomial(var(vs(i)), 1.0)));
+            if layout == Layout::Augmented {
+                free_drift.push((vs(i), Poly::monomial(var(as_(i)), 1.0)));
+                if corner_unknown[i].is_none() {
+                    free_drift.push((as_(i), Poly::monomial(var(as_(i)), -corner[i])));
+                }
+            }
+        }
+        let noise_var = (0..n)
+            .map(|i| if layout == Layout::Augmented { as_(i) } else { vs(i) })
+            .collect();
+        // Per mass, in the state's order: x, v (and a when augmented).
+        let quantities: &[Quantity] = match layout {
+            Layout::White => &[Quantity::Displacement, Quantity::Velocity],
+            Layout::Augmented => &[Quantity::Displacement, Quantity::Velocity, Quantity::Acceleration],
+        };
+        let log = model.columns();
+        let columns = (0..n)
+            .flat_map(|i| quantities.iter().map(move |&q| log.of_mass(q, i)))
+            .collect();
+        let state_names = (0..n)
+            .flat_map(|i| {
+                let name = &model.mass_names[i];
+                quantities.iter().map(move |&q| q.column_name(name))
+            })
+            .collect();
+        Ok(Problem {
+            // The known system only: the unknown coefficients are zero in it.
+            model: known,
+            layout,
+            unknowns,
+            names,
+            start,
+            n,
+            pmax,
+            free_drift,
+            noise_var,
+            known_force,
+            unit_force,
+            white,
+            filters: filters.to_vec(),
+            columns,
+            state_names,
+            inputs: 0,
+        })
+    }
+
+    /// The true value of every unknown, looked up by its name in `truth` (for grading; the
+    /// identifier itself never sees a truth). A product of unknowns (`B[P]*k1[…]`) is the
+    /// product of its factors' values; NaN where the truth has none (e.g. a monomial).
+    pub fn true_values(&self, truth: &Truth) -> Vec<f64> {
+        self.names
+            .iter()
+            .map(|name| {
+                name.split('*')
+                    .map(|factor| truth.of(factor).unwrap_or(f64::NAN))
+                    .product()
+            })
+            .collect()
+    }
+
+    /// Index of `x_i` in the state.
+    pub fn x(&self, i: usize) -> usize {
+        self.width() * i
+    }
+    /// Index of `v_i` in the state.
+    pub fn v(&self, i: usize) -> usize {
+        self.width() * i + 1
+    }
+    fn width(&self) -> usize {
+        match self.layout {
+            Layout::White => 2,
+            Layout::Augmented => 3,
+        }
+    }
+
+    /// Drift of mass `i`'s noise variable (`v̇_i` white, `ȧ_i` augmented) at state `y` with
+    /// the unknown coefficients `theta` (masses and intensities at their nominal values).
+    pub fn noise_drift(&self, i: usize, y: &[f64], theta: &[f64]) -> f64 {
+        let j = self.noise_var[i];
+        let free: f64 = self
+            .free_drift
+            .iter()
+            .filter(|(v, _)| *v == j)
+            .map(|(_, p)| p.eval(y))
+            .sum();
+        let mut f = self.known_force[i].eval(y);
+        for (r, unit) in self.unit_force.iter().enumerate() {
+            f += theta[r] * unit[i].eval(y);
+        }
+        free + f / self.model.mass[i]
+    }
+
+    /// With unknown corners: each coefficient estimated directly and recovered from its
+    /// product with the corner, `(name, direct, (B·θ)/B̂)`.
+    pub fn recovered(&self, values: &[f64]) -> Vec<(String, f64, f64)> {
+        let mut out = Vec::new();
+        for (k, u) in self.unknowns.iter().enumerate() {
+            if let Unknown::CornerProduct(c, e) = *u {
+                let direct = self
+                    .unknowns
+                    .iter()
+                    .position(|x| *x == Unknown::Coefficient(c))
+                    .map_or(f64::NAN, |j| values[j]);
+                let b = self
+                    .unknowns
+                    .iter()
+                    .position(|x| *x == Unknown::Corner(e))
+                    .map_or(f64::NAN, |j| values[j]);
+                out.push((self.model.coefficient_name(c).to_string(), direct, values[k] / b));
+            }
+        }
+        out
+    }
+
+    /// Number of state variables, measured inputs included.
+    pub fn dim(&self) -> usize {
+        self.width() * self.n + self.inputs
+    }
+
+    /// Number of the masses' own state variables (those test functions depend on).
+    pub fn dynamic_dim(&self) -> usize {
+        self.width() * self.n
+    }
+
+    /// Number of unknowns that enter the drift linearly — coefficients, products, corners,
+    /// monomial coefficients (they come first in `unknowns`).
+    pub fn coefficient_count(&self) -> usize {
+        self.unknowns
+            .iter()
+            .filter(|u| {
+                matches!(
+                    u,
+                    Unknown::Coefficient(_)
+                        | Unknown::CornerProduct(..)
+                        | Unknown::Corner(_)
+                        | Unknown::Monomial(..)
+                        | Unknown::InputGain(_)
+                )
+            })
+            .count()
+    }
+
+    /// `μ_i = 1/m_i` and the velocity noise covariance `Q` for parameter values `p`.
+    fn mu_q(&self, p: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n;
+        let mut mu: Vec<f64> = self.model.mass.iter().map(|m| 1.0 / m).collect();
+        for (k, u) in self.unknowns.iter().enumerate() {
+            if let Unknown::Mass(i) = u {
+                mu[*i] = 1.0 / p[k];
+            }
+        }
+        let mut q = vec![0.0; n * n];
+        for (targets, sigma, idx) in &self.white {
+            let s = idx.map_or(*sigma, |k| p[k]);
+            for &i in targets {
+                for &j in targets {
+                    q[i * n + j] += s * s * mu[i] * mu[j];
+                }
+            }
+        }
+        (mu, q)
+    }
+
+    /// Residual `r(p)` and Jacobian `∂r/∂p` of the pieces at parameters `p`.
+    pub fn residual(&self, pc: &Pieces, p: &[f64]) -> (DVector<f64>, DMatrix<f64>) {
+        let (n, rc, nu) = (self.n, self.coefficient_count(), self.unknowns.len());
+        let (mu, q) = self.mu_q(p);
+        let mut r = DVector::zeros(pc.rows);
+        let mut jac = DMatrix::zeros(pc.rows, nu);
+        for k in 0..pc.rows {
+            let mut rk = pc.t0[k];
+            // Force part per mass: F_ik = a_ki + Σ θ b_kir.
+            for i in 0..n {
+                let mut f = pc.a[k * n + i];
+                for r_ in 0..rc {
+                    let b = pc.b[(k * n + i) * rc + r_];
+                    f += p[r_] * b;
+                    jac[(k, r_)] += mu[i] * b;
+                }
+                rk += mu[i] * f;
+                for (u_, unk) in self.unknowns.iter().enumerate() {
+                    if *unk == Unknown::Mass(i) {
+                        // d(μ_i F)/dm_i = −μ_i² F
+                        jac[(k, u_)] += -mu[i] * mu[i] * f;
+                    }
+                }
+            }
+            for i in 0..n {
+                for j in 0..n {
+                    rk += 0.5 * q[i * n + j] * pc.c[(k * n + i) * n + j];
+                }
+            }
+            // Noise part derivatives.
+            for (targets, sigma, idx) in &self.white {
+                let s = idx.map_or(*sigma, |kk| p[kk]);
+                for &i in targets {
+                    for &j in targets {
+                        let c = 0.5 * pc.c[(k * n + i) * n + j];
+                        if let Some(kk) = idx {
+                            jac[(k, *kk)] += c * 2.0 * s * mu[i] * mu[j];
+                        }
+                        for (u_, unk) in self.unknowns.iter().enumerate() {
+                            if let Unknown::Mass(m) = *unk {
+                                // d(s² μ_i μ_j)/dm = −s² μ_i μ_j (1/m)([i=m] + [j=m])
+                                let cnt = (i == m) as u8 as f64 + (j == m) as u8 as f64;
+                                if cnt > 0.0 {
+                                    jac[(k, u_)] += -c * s * s * mu[i] * mu[j] * cnt * mu[m];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            r[k] = rk;
+        }
+        (r, jac)
+    }
+
+    /// Solve the pieces for all unknowns: Gauss–Newton from `start` (one exact step when
+    /// only coefficients are unknown). `typical` gives each unknown's data-based magnitude,
+    /// used for column scaling; the diagnostics at the solution use the estimates
+    /// themselves, so the weakest direction is in relative changes of the unknowns.
+    /// `weight`, if given, multiplies the equations (a whitening transform, see
+    /// [`super::weak::weighting`]); the diagnostics are always those of the unweighted equations,
+    /// so the identifiability thresholds mean the same whatever the weighting.
+    pub fn solve(&self, pc: &Pieces, typical: &[f64], weight: Option<&DMatrix<f64>>) -> (Vec<f64>, lsq::Diagnostics) {
+        let weighted = |(r, j): (DVector<f64>, DMatrix<f64>)| match weight {
+            Some(t) => (t * r, t * j),
+            None => (r, j),
+        };
+        // 1. The coefficients by linear least squares, masses and intensities at their
+        //    nominal values: the linearisation point of the diagnostics.
+        let rc = self.coefficient_count();
+        let mut p = self.start.clone();
+        let (r, j) = weighted(self.residual(pc, &p));
+        let (dx, _) = lsq::solve(&j.columns(0, rc).into_owned(), &(-r), &typical[..rc]);
+        for k in 0..rc {
+            p[k] += dx[k];
+        }
+        // 2. Diagnostics of the full Jacobian there, directions relative to the values.
+        let (_, j) = self.residual(pc, &p);
+        let scale: Vec<f64> = p
+            .iter()
+            .zip(typical)
+            .map(|(&v, &t)| if v.abs() > 1e-6 * t.abs() { v } else { t })
+            .collect();
+        let (_, diag) = lsq::solve(&j, &DVector::zeros(pc.rows), &scale);
+        // 3. Gauss–Newton for all unknowns (nothing to do when only coefficients are unknown).
+        if rc < self.unknowns.len() {
+            for _ in 0..100 {
+                let (r, j) = weighted(self.residual(pc, &p));
+                let (dx, _) = lsq::solve(&j, &(-r), typical);
+                let mut change: f64 = 0.0;
+                for (k, v) in p.iter_mut().enumerate() {
+                    *v += dx[k];
+                    change = change.max((dx[k] / typical[k]).abs());
+                }
+                if change < 1e-13 {
+                    break;
+                }
+            }
+        }
+        (p, diag)
+    }
+
+    /// Data-based typical magnitude of each unknown: for a coefficient of `z^p`,
+    /// `1/E[z²]^(p/2)` (a unit force at a typical amplitude); the nominal value for masses
+    /// and intensities.
+    pub fn typical(&self, mom: &moments::RawMoments) -> Vec<f64> {
+        let coef_scale = |c: Coefficient| -> f64 {
+            let base = |i: usize| match c.kind {
+                Characteristic::Stiffness => self.x(i),
+                Characteristic::Damping => self.v(i),
+            };
+            let (a, b) = self.model.ends(c.link);
+            let mut z = Poly::monomial(var(base(a)), 1.0);
+            if let Some(b) = b {
+                z.add_term(var(base(b)), -1.0);
+            }
+            let ez2 = z.mul(&z).expectation(|e| mom.moment(e));
+            if ez2 > 0.0 {
+                ez2.powf(-(c.power as f64) / 2.0)
+            } else {
+                1.0
+            }
+        };
+        let corner = |e: usize| self.filters.iter().find(|f| f.excitation == e).map_or(1.0, |f| f.b);
+        self.unknowns
+            .iter()
+            .zip(&self.start)
+            .map(|(u, &s)| match *u {
+                Unknown::Coefficient(c) => coef_scale(c),
+                Unknown::CornerProduct(c, e) => coef_scale(c) * corner(e),
+                Unknown::Corner(e) => corner(e),
+                Unknown::InputGain(j) => {
+                    let u = self.dynamic_dim() + j;
+                    let e = y(u).mul(&y(u)).expectation(|e| mom.moment(e));
+                    if e > 0.0 {
+                        1.0 / e.sqrt()
+                    } else {
+                        1.0
+                    }
+                }
+                _ => s.abs(),
+            })
+            .collect()
+    }
+}
+
+/// The residual's pieces for `rows` equations (test functions or grid cells):
+/// `t0[k]`, `a[k][i]`, `b[k][i][r]`, `c[k][i][j]` (see the module docs).
+#[derive(Debug, Clone)]
+pub struct Pieces {
+    pub rows: usize,
+    pub t0: Vec<f64>,
+    pub a: Vec<f64>,
+    pub b: Vec<f64>,
+    pub c: Vec<f64>,
+}
+
+impl Pieces {
+    pub fn new(rows: usize, n: usize, r: usize) -> Pieces {
+        Pieces {
+            rows,
+            t0: vec![0.0; rows],
+            a: vec![0.0; rows * n],
+            b: vec![0.0; rows * n * r],
+            c: vec![0.0; rows * n * n],
+        }
+    }
+}
+
+/// Convenience: the monomial `y_j`.
+pub fn y(j: usize) -> Poly {
+    Poly::monomial(var(j), 1.0)
+}
