@@ -31,7 +31,7 @@ fn main() {
         )
         .unwrap();
         for mr in &r.methods {
-            worst.entry(mr.method.clone()).or_default().push(mr.worst_rel_error);
+            worst.entry(mr.method.name()).or_default().push(mr.worst_rel_error);
         }
     }
     for (m, mut v) in worst {

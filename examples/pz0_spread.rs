@@ -7,7 +7,7 @@
 
 use fpkbench::io::log::Compression;
 use fpkbench::pipeline::{identify_log, simulate_log, Options};
-use fpkbench::scenario::DIRECT_FORCE;
+use fpkbench::scenario::ReportMethod;
 use fpkbench::Scenario;
 
 fn main() {
@@ -35,10 +35,14 @@ fn main() {
         .unwrap();
         names = r.iterations[0].iteration.names.clone();
         methods = r.iterations.iter().map(|it| it.method.clone()).collect();
-        methods.push(DIRECT_FORCE.to_string());
+        methods.push(ReportMethod::DirectForce);
         let mut run = vec![r.iterations[0].iteration.steps[0].values.clone()];
         run.extend(r.iterations.iter().map(|it| it.iteration.last().to_vec()));
-        let direct = r.methods.iter().find(|m| m.method == DIRECT_FORCE).unwrap();
+        let direct = r
+            .methods
+            .iter()
+            .find(|m| m.method == ReportMethod::DirectForce)
+            .unwrap();
         run.push(direct.parameters.iter().map(|p| p.estimate).collect());
         runs.push(run);
     }

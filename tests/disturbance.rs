@@ -1,9 +1,11 @@
 //! The paper's iterative procedure for an unmeasured disturbance (section 4): step 0 is the
 //! ordinary identification, the sequence is reproducible, and its two stopping rules work.
 
+use fpkbench::ident::disturbance::StopReason;
 use fpkbench::io::log::Compression;
 use fpkbench::pipeline::{identify_log, simulate_log, Options};
 use fpkbench::report::Report;
+use fpkbench::scenario::ReportMethod;
 use fpkbench::Scenario;
 use std::path::Path;
 
@@ -145,8 +147,8 @@ fn with_no_disturbance_the_measured_force_sequence_stays_at_step_0() {
     let r = identify_log(&path, &quiet(None, None)).unwrap();
     let [paper, force] = [&r.iterations[0], &r.iterations[1]];
     assert_eq!(
-        (paper.method.as_str(), force.method.as_str()),
-        ("iterated", "iterated-force")
+        (&paper.method, &force.method),
+        (&ReportMethod::Iterated, &ReportMethod::IteratedForce)
     );
     let step0 = &force.iteration.steps[0].values;
     assert_eq!(step0, &estimates(&r, "step-0"));
@@ -219,14 +221,14 @@ fn the_sequence_is_reproducible_and_both_stopping_rules_work() {
     for k in 0..2 {
         // Rule 1: a tolerance nothing meets; it stops after max_steps.
         let it = &first.iterations[k].iteration;
-        assert_eq!(it.stopped_by, "max_steps");
+        assert_eq!(it.stopped_by, StopReason::MaxSteps);
         assert_eq!(it.steps.len(), 5, "step 0 and 4 steps");
         assert!(!it.converged);
 
         // Rule 2: a loose tolerance stops it early, at the first step whose changes are all
         // below it — and not before.
         let it = &loose.iterations[k].iteration;
-        assert_eq!(it.stopped_by, "tolerance");
+        assert_eq!(it.stopped_by, StopReason::Tolerance);
         let n = it.steps.len() - 1;
         assert!(n < 50);
         assert!(

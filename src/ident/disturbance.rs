@@ -322,6 +322,33 @@ pub struct Step {
     pub sv_ratio: f64,
 }
 
+/// Why a sequence stopped.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StopReason {
+    /// The step limit `max_steps` was reached.
+    MaxSteps,
+    /// Every coefficient changed by less than `tolerance` in the last step.
+    Tolerance,
+    /// A step could not be computed.
+    Failed { step: usize, error: String },
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StopReason::MaxSteps => f.write_str("max_steps"),
+            StopReason::Tolerance => f.write_str("tolerance"),
+            StopReason::Failed { step, error } => write!(f, "step {step} failed: {error}"),
+        }
+    }
+}
+
+impl Serialize for StopReason {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
 /// The whole sequence.
 #[derive(Debug, Clone, Serialize)]
 pub struct Iteration {
@@ -330,7 +357,7 @@ pub struct Iteration {
     pub names: Vec<String>,
     pub steps: Vec<Step>,
     /// `tolerance`, `max_steps`, or why a step failed.
-    pub stopped_by: String,
+    pub stopped_by: StopReason,
     pub max_steps: usize,
     pub tolerance: f64,
     /// The paper's criterion: every group's successive differences strictly decrease.
@@ -381,7 +408,7 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
         changes: Vec::new(),
         sv_ratio: step0.diagnostics.sv_ratio,
     }];
-    let mut stopped_by = "max_steps".to_string();
+    let mut stopped_by = StopReason::MaxSteps;
     for step in 1..=inp.settings.max_steps {
         let prev = &steps[step - 1].values;
         let k1 = prev[k1_index];
@@ -432,7 +459,10 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
         let (values, sv_ratio) = match result {
             Ok(v) => v,
             Err(e) => {
-                stopped_by = format!("step {step} failed: {e}");
+                stopped_by = StopReason::Failed {
+                    step,
+                    error: e.to_string(),
+                };
                 break;
             }
         };
@@ -463,7 +493,7 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
             sv_ratio,
         });
         if done {
-            stopped_by = "tolerance".into();
+            stopped_by = StopReason::Tolerance;
             break;
         }
     }
@@ -471,7 +501,7 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
     Ok(Iteration {
         single_mass,
         names: problem.names.clone(),
-        converged: monotone && stopped_by == "tolerance",
+        converged: monotone && stopped_by == StopReason::Tolerance,
         stopped_by,
         max_steps: inp.settings.max_steps,
         tolerance: inp.settings.tolerance,

@@ -13,7 +13,7 @@ use crate::ident::{self, disturbance, spectrum, spectrum::Welch, weak, Filter, I
 use crate::io::log::{read_samples, LogInfo};
 use crate::model::Columns;
 use crate::report::{IterationReport, MethodReport, Report};
-use crate::scenario::{Method, Process, DIRECT_FORCE, ITERATED_FORCE};
+use crate::scenario::{Method, Process, ReportMethod};
 use std::time::Instant;
 
 /// Identify a log of the paper's structure with an unmeasured disturbance by its
@@ -143,7 +143,7 @@ pub(crate) fn identify_disturbed(
     let bound_problem = Problem::new(&disturbance::bound_scenario(s, &st, &filters))?;
     let mut bounds = [
         method_report(
-            "pz-measured",
+            ReportMethod::PzMeasured,
             None,
             ident::identify_weak(&bound_problem, &white),
             &grader,
@@ -152,7 +152,7 @@ pub(crate) fn identify_disturbed(
             t,
         ),
         method_report(
-            "pz-measured-force",
+            ReportMethod::PzMeasuredForce,
             None,
             ident::identify_weak(&force_bound, &bound_data),
             &grader,
@@ -170,7 +170,7 @@ pub(crate) fn identify_disturbed(
         "given as if measured, every filtered force a measured input of the weak form: the bound of the measured-force sequence".into(),
     );
     let mut reports = vec![method_report(
-        "step-0",
+        ReportMethod::Step0,
         None,
         Ok(paper.step0.clone()),
         &grader,
@@ -182,9 +182,12 @@ pub(crate) fn identify_disturbed(
         .facts
         .insert("P_z".into(), "ignored (the paper's step 0)".into());
     let mut iterations = Vec::new();
-    for ((method, it), bound) in [("iterated", paper), (ITERATED_FORCE, measured_force)]
-        .into_iter()
-        .zip(&bounds)
+    for ((method, it), bound) in [
+        (ReportMethod::Iterated, paper),
+        (ReportMethod::IteratedForce, measured_force),
+    ]
+    .into_iter()
+    .zip(&bounds)
     {
         let at = |values: &[f64]| ident::Estimate {
             values: values.to_vec(),
@@ -194,18 +197,28 @@ pub(crate) fn identify_disturbed(
         let step_reports: Vec<MethodReport> = it
             .steps
             .iter()
-            .map(|st_| method_report("step", None, Ok(at(&st_.values)), &grader, &problem, ranges, t))
+            .map(|st_| {
+                method_report(
+                    ReportMethod::Step,
+                    None,
+                    Ok(at(&st_.values)),
+                    &grader,
+                    &problem,
+                    ranges,
+                    t,
+                )
+            })
             .collect();
         let mut final_est = at(it.last());
         final_est.facts = vec![
             ("single-mass step".into(), it.single_mass.name().into()),
             ("steps".into(), (it.steps.len() - 1).to_string()),
-            ("stopped by".into(), it.stopped_by.clone()),
+            ("stopped by".into(), it.stopped_by.to_string()),
             ("monotone differences".into(), it.monotone.to_string()),
         ];
         let rep = method_report(
-            method,
-            Some(s.accept.threshold(method)),
+            method.clone(),
+            Some(s.accept.threshold(&method)),
             Ok(final_est),
             &grader,
             &problem,
@@ -213,7 +226,7 @@ pub(crate) fn identify_disturbed(
             t,
         );
         iterations.push(IterationReport {
-            method: method.into(),
+            method,
             step_rel_errors: step_reports
                 .iter()
                 .map(|r| r.parameters.iter().map(|p| p.rel_error).collect())
@@ -230,8 +243,8 @@ pub(crate) fn identify_disturbed(
     }
     // No iteration: k1, K2, C2 in one solve of the subtracted equation (4.8).
     let mut direct = method_report(
-        DIRECT_FORCE,
-        Some(s.accept.threshold(DIRECT_FORCE)),
+        ReportMethod::DirectForce,
+        Some(s.accept.threshold(&ReportMethod::DirectForce)),
         disturbance::direct(&inputs, &problem),
         &grader,
         &problem,
@@ -248,7 +261,7 @@ pub(crate) fn identify_disturbed(
 
     let validation = options
         .validate
-        .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ITERATED_FORCE));
+        .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ReportMethod::IteratedForce));
     Ok(assemble(
         info,
         white.samples(),

@@ -8,7 +8,7 @@ use crate::model::{Characteristic, Coefficient, Truth};
 use crate::report::{
     Curve, FilterReport, IterationReport, MethodReport, Parameter, PlotData, Report, Timings, Validation,
 };
-use crate::scenario::Scenario;
+use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -157,7 +157,7 @@ pub(crate) fn coefficients_of(problem: &Problem) -> Vec<Option<Coefficient>> {
 /// One method's report: estimates, accuracy, dissipativity; `threshold` `None` for an
 /// ungated baseline or comparison.
 pub(crate) fn method_report(
-    method: &str,
+    method: ReportMethod,
     threshold: Option<f64>,
     est: Result<ident::Estimate, IdentError>,
     g: &Grader,
@@ -166,7 +166,7 @@ pub(crate) fn method_report(
     started: Instant,
 ) -> MethodReport {
     let mut rep = MethodReport {
-        method: method.to_string(),
+        method,
         gated: threshold.is_some(),
         parameters: Vec::new(),
         curves: Vec::new(),

@@ -11,7 +11,7 @@ use crate::ident::strong::{DensityGrid, GridOptions};
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
 use crate::io::log::{read_samples, LogInfo};
 use crate::report::Report;
-use crate::scenario::{Method, Process, Scenario};
+use crate::scenario::{Method, Process, ReportMethod, Scenario};
 use std::time::Instant;
 
 pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, PipelineError> {
@@ -113,7 +113,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     // Methods.
     let mut reports = Vec::new();
     let mut first_ok: Option<Vec<f64>> = None;
-    let mut first_method = "";
+    let mut first_method = ReportMethod::Estimator(Method::Weak);
     for m in &methods {
         let t = Instant::now();
         let est = match (m, &grid) {
@@ -131,11 +131,11 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         }
         if let (Ok(e), None) = (&est, &first_ok) {
             first_ok = Some(e.values.clone());
-            first_method = m.name();
+            first_method = ReportMethod::Estimator(*m);
         }
         reports.push(method_report(
-            m.name(),
-            Some(s.accept.threshold(m.name())),
+            ReportMethod::Estimator(*m),
+            Some(s.accept.threshold(&ReportMethod::Estimator(*m))),
             est,
             &grader,
             &reported,
@@ -150,7 +150,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         let naive = Problem::new(&whitened(s, &filters))?;
         let est = ident::identify_weak(&naive, d);
         reports.push(method_report(
-            "weak-white-naive",
+            ReportMethod::WeakWhiteNaive,
             None,
             est,
             &grader,
@@ -167,7 +167,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         let p = Problem::with_filters(&alt, &filters)?;
         let est = ident::identify_weak(&p, &data);
         reports.push(method_report(
-            &format!("weak [{name}]"),
+            ReportMethod::Compare(name.clone()),
             None,
             est,
             &grader,

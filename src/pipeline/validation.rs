@@ -7,6 +7,7 @@ use crate::ident::{spectrum, Problem, Unknown};
 use crate::model::Quantity;
 use crate::model::{Characteristic, Coefficient, Model};
 use crate::report::{PlotData, Validation, ValidationRow};
+use crate::scenario::ReportMethod;
 use crate::scenario::{Polynomial, Process, Scenario};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
 use crate::stats;
@@ -132,14 +133,14 @@ impl Distributions {
         s: &Scenario,
         problem: &Problem,
         values: &[f64],
-        method: &'static str,
+        method: ReportMethod,
     ) -> Validation {
         match validate(
             s,
             problem,
             &coefficients_of(problem),
             values,
-            method,
+            method.clone(),
             &self.marg,
             &self.state_hist,
         ) {
@@ -223,7 +224,7 @@ pub(crate) fn validate(
     problem: &Problem,
     coef_of: &[Option<Coefficient>],
     values: &[f64],
-    method: &'static str,
+    method: ReportMethod,
     data: &Marginals,
     hist: &[Histogram],
 ) -> Result<(Validation, Marginals), SimError> {

@@ -1,7 +1,7 @@
 //! The console report: tables of estimates, errors, diagnostics and validation.
 
 use crate::report::Report;
-use crate::scenario::DIRECT_FORCE;
+use crate::scenario::{Method, ReportMethod};
 
 pub(crate) fn fmt_err(e: f64) -> String {
     if e.is_nan() {
@@ -139,10 +139,12 @@ pub fn summary(r: &Report) -> String {
         }
     }
     if let (Some(j), Some(m)) = (
-        r.methods.iter().find(|m| m.method == "strong" && m.error.is_none()),
         r.methods
             .iter()
-            .find(|m| m.method == "strong-marginals" && m.error.is_none()),
+            .find(|m| m.method == ReportMethod::Estimator(Method::Strong) && m.error.is_none()),
+        r.methods
+            .iter()
+            .find(|m| m.method == ReportMethod::Estimator(Method::StrongMarginals) && m.error.is_none()),
     ) {
         let worst = m.parameters.iter().max_by(|a, b| a.rel_error.total_cmp(&b.rel_error));
         s +=
@@ -265,12 +267,17 @@ pub fn sweep_summary(sw: &crate::report::Sweep) -> String {
         "disturbance sweep of {} (level = std of the unmeasured force / std of the measured one)\n",
         sw.scenario
     );
-    let methods: Vec<&str> = sw
+    let methods: Vec<&ReportMethod> = sw
         .points
         .first()
-        .map(|p| p.sequences.iter().map(|q| q.method.as_str()).collect())
+        .map(|p| p.sequences.iter().map(|q| &q.method).collect())
         .unwrap_or_default();
-    s += &format!("| {:>6} | {:>12} | {:>12} |", "level", "step 0", DIRECT_FORCE);
+    s += &format!(
+        "| {:>6} | {:>12} | {:>12} |",
+        "level",
+        "step 0",
+        ReportMethod::DirectForce.name()
+    );
     for m in &methods {
         s += &format!(
             " {m:>14} | {:>5} | {:>8} | {:<12} | {:>17} |",

@@ -1,7 +1,7 @@
 //! The result types of a run, serialised as `report.json` (fields in `docs/methods.md`).
 
 use crate::ident::{disturbance, lsq::Diagnostics, spectrum};
-use crate::scenario::{Scenario, DIRECT_FORCE};
+use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
 use crate::stats::Histogram;
 use serde::Serialize;
@@ -48,7 +48,7 @@ pub struct FilterReport {
 
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodReport {
-    pub method: String,
+    pub method: ReportMethod,
     /// Whether this method has an acceptance gate (baselines and comparisons do not).
     pub gated: bool,
     pub parameters: Vec<Parameter>,
@@ -77,7 +77,7 @@ pub struct ValidationRow {
 #[derive(Debug, Clone, Serialize)]
 pub struct Validation {
     /// The method whose model was re-simulated.
-    pub method: &'static str,
+    pub method: ReportMethod,
     pub record_length_s: f64,
     pub trajectories: usize,
     pub seed: u64,
@@ -139,7 +139,7 @@ pub struct Report {
 #[derive(Debug, Clone, Serialize)]
 pub struct IterationReport {
     /// The report method of the final iterate (`iterated`, `iterated-force`).
-    pub method: String,
+    pub method: ReportMethod,
     #[serde(flatten)]
     pub iteration: disturbance::Iteration,
     /// The true value of every parameter (`iteration.names`), from the log's truth record.
@@ -152,7 +152,7 @@ pub struct IterationReport {
     pub final_worst_rel_error: f64,
     /// The report method of this sequence's bound: the identification given the
     /// disturbance as if it were measured, in the same model of the forces.
-    pub bound: String,
+    pub bound: ReportMethod,
     /// The bound's worst error (NaN when it failed).
     pub bound_worst_rel_error: f64,
 }
@@ -176,15 +176,15 @@ pub struct SweepPoint {
 #[derive(Debug, Clone, Serialize)]
 pub struct SweepSequence {
     /// `iterated` or `iterated-force`.
-    pub method: String,
+    pub method: ReportMethod,
     pub steps: usize,
-    pub stopped_by: String,
+    pub stopped_by: disturbance::StopReason,
     pub monotone: bool,
     pub final_worst_rel_error: f64,
     #[serde(rename = "final")]
     pub last: Vec<f64>,
     /// The sequence's bound (the disturbance given as measured) and its worst error.
-    pub bound_method: String,
+    pub bound_method: ReportMethod,
     pub bound_worst_rel_error: f64,
     pub bound: Vec<f64>,
 }
@@ -202,10 +202,10 @@ impl SweepPoint {
     /// The sweep's entry for a report of the disturbed scenario at `level`.
     pub fn from_report(level: f64, r: &Report) -> Option<SweepPoint> {
         let first = r.iterations.first()?;
-        let values = |m: &str| {
+        let values = |m: &ReportMethod| {
             r.methods
                 .iter()
-                .find(|x| x.method == m)
+                .find(|x| x.method == *m)
                 .map(|x| x.parameters.iter().map(|p| p.estimate).collect())
                 .unwrap_or_default()
         };
@@ -227,13 +227,13 @@ impl SweepPoint {
                     bound: values(&it.bound),
                 })
                 .collect(),
-            step0: values("step-0"),
+            step0: values(&ReportMethod::Step0),
             direct_worst_rel_error: r
                 .methods
                 .iter()
-                .find(|x| x.method == DIRECT_FORCE)
+                .find(|x| x.method == ReportMethod::DirectForce)
                 .map_or(f64::NAN, |x| x.worst_rel_error),
-            direct: values(DIRECT_FORCE),
+            direct: values(&ReportMethod::DirectForce),
         })
     }
 }

@@ -270,23 +270,91 @@ pub struct PaperStructure {
 pub struct Accept {
     /// Largest allowed worst relative error (docs/methods.md, accuracy), for every method without its own.
     pub worst_rel_error: f64,
-    /// Per report method (a [`Method`]'s name, or [`ITERATED_FORCE`] or [`DIRECT_FORCE`]
-    /// with `[identify.disturbance]`): its own threshold.
+    /// Per report method (a [`ReportMethod::gated`] name): its own threshold.
     pub methods: BTreeMap<String, f64>,
 }
 
-/// The report method of the iterative procedure with the measured-force single-mass step
-/// (`[identify.disturbance]`; the paper's own is `iterated`).
-pub const ITERATED_FORCE: &str = "iterated-force";
+/// What a row of a report is: an estimator, a baseline, a comparison model, or a step or
+/// bound of the section-4 procedure. Written in reports and `[accept] methods` by
+/// [`ReportMethod::name`].
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub enum ReportMethod {
+    /// One of the estimators of `[identify] methods`.
+    Estimator(Method),
+    /// The white-noise weak form applied to data with filtered forces, each taken as white
+    /// of the same low-frequency density: what ignoring the filters costs (ungated).
+    WeakWhiteNaive,
+    /// The weak form with the `[identify.compare.NAME]` model (ungated).
+    Compare(String),
+    /// Section 4, step 0 (4.4)–(4.7): every unknown, the disturbance ignored.
+    Step0,
+    /// Section 4: an intermediate step of a sequence.
+    Step,
+    /// Section 4, the paper's sequence (spectral single-mass step (4.10)–(4.15)).
+    Iterated,
+    /// Section 4, the sequence with the measured-force single-mass step.
+    IteratedForce,
+    /// Section 4, one solve of the subtracted equation (4.8) for `k1`, `K2`, `C2`.
+    DirectForce,
+    /// Bound: the disturbance given as measured, in the paper's model of the forces.
+    PzMeasured,
+    /// Bound: the disturbance given as measured, in the measured-force weak form.
+    PzMeasuredForce,
+}
 
-/// The report method of the one-step solve of the subtracted equation (4.8) for `k1`,
-/// `K2`, `C2` with `P3` as a measured force (`[identify.disturbance]`).
-pub const DIRECT_FORCE: &str = "direct-force";
+impl ReportMethod {
+    /// The methods an `[accept] methods` key may name (the section-4 ones only with
+    /// `[identify.disturbance]`).
+    pub fn gated(disturbance: bool) -> Vec<ReportMethod> {
+        let mut out: Vec<ReportMethod> = Method::ALL.iter().map(|&m| ReportMethod::Estimator(m)).collect();
+        if disturbance {
+            out.extend([ReportMethod::IteratedForce, ReportMethod::DirectForce]);
+        }
+        out
+    }
+
+    /// The name reports and scenarios use, e.g. `strong-marginals`, `weak [linear]`.
+    pub fn name(&self) -> String {
+        match self {
+            ReportMethod::Estimator(m) => m.name().to_string(),
+            ReportMethod::WeakWhiteNaive => "weak-white-naive".into(),
+            ReportMethod::Compare(n) => format!("weak [{n}]"),
+            ReportMethod::Step0 => "step-0".into(),
+            ReportMethod::Step => "step".into(),
+            ReportMethod::Iterated => "iterated".into(),
+            ReportMethod::IteratedForce => "iterated-force".into(),
+            ReportMethod::DirectForce => "direct-force".into(),
+            ReportMethod::PzMeasured => "pz-measured".into(),
+            ReportMethod::PzMeasuredForce => "pz-measured-force".into(),
+        }
+    }
+}
+
+impl std::fmt::Display for ReportMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+impl serde::Serialize for ReportMethod {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.name())
+    }
+}
+
+impl PartialEq<&str> for ReportMethod {
+    fn eq(&self, other: &&str) -> bool {
+        self.name() == *other
+    }
+}
 
 impl Accept {
-    /// The threshold of report method `method` (e.g. `weak`, `iterated-force`).
-    pub fn threshold(&self, method: &str) -> f64 {
-        self.methods.get(method).copied().unwrap_or(self.worst_rel_error)
+    /// The threshold of report method `method`.
+    pub fn threshold(&self, method: &ReportMethod) -> f64 {
+        self.methods
+            .get(&method.name())
+            .copied()
+            .unwrap_or(self.worst_rel_error)
     }
 }
 

@@ -717,13 +717,13 @@ pub(crate) fn check_accept(loc: &Locator, raw: &RawScenario, identify: &Identify
         if let Some(w) = &a.worst_rel_error {
             accept.worst_rel_error = finite_positive(loc, w, "accept.worst_rel_error", "relative error, e.g. 0.03")?;
         }
-        let mut allowed: Vec<&str> = Method::ALL.iter().map(|x| x.name()).collect();
-        if identify.disturbance.is_some() {
-            allowed.extend([ITERATED_FORCE, DIRECT_FORCE]);
-        }
+        let allowed: Vec<String> = ReportMethod::gated(identify.disturbance.is_some())
+            .iter()
+            .map(ReportMethod::name)
+            .collect();
         for (m, v) in a.methods.iter().flatten() {
             let key = format!("accept.methods.{m}");
-            if !allowed.contains(&m.as_str()) {
+            if !allowed.contains(m) {
                 return Err(loc.at(
                     v.span(),
                     &key,

@@ -10,7 +10,7 @@ pub fn plot_densities(r: &Report, path: &Path) -> PlotResult {
     let m = &r.plot.marginals;
     let cols = 2usize;
     let rows = m.len().div_ceil(cols).max(1);
-    let model_name = r.validation.as_ref().map(|v| v.method).unwrap_or("model");
+    let model_name = r.validation.as_ref().map_or("model".to_string(), |v| v.method.name());
     svg_to_file(path, (1000, 340 * rows as u32), |root| {
         for ((name, unit, data, model), area) in m.iter().zip(root.split_evenly((rows, cols))) {
             let dd = data.density(r.plot.samples.max(1.0));

@@ -2,7 +2,7 @@
 
 use super::{svg_to_file, PlotResult, COLORS};
 use crate::report::Report;
-use crate::scenario::DIRECT_FORCE;
+use crate::scenario::ReportMethod;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -17,10 +17,10 @@ pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
     let names = &first.iteration.names;
     // One cell more than the panels: the legend's.
     let rows = (names.len() + 1).div_ceil(2);
-    let estimates = |method: &str| {
+    let estimates = |method: &ReportMethod| {
         r.methods
             .iter()
-            .find(|m| m.method == method && m.error.is_none())
+            .find(|m| m.method == *method && m.error.is_none())
             .map(|m| m.parameters.iter().map(|p| p.estimate).collect::<Vec<f64>>())
     };
     // Reference lines: (style, label, estimates, dash, gap): each sequence's bound, in its
@@ -35,8 +35,8 @@ pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
             Some((COLORS[j].stroke_width(1), label, v, 2, 3))
         })
         .collect();
-    if let Some(v) = estimates(DIRECT_FORCE) {
-        let label = format!("{DIRECT_FORCE}: one solve of (4.8), no iteration");
+    if let Some(v) = estimates(&ReportMethod::DirectForce) {
+        let label = format!("{}: one solve of (4.8), no iteration", ReportMethod::DirectForce);
         lines.push((COLORS[r.iterations.len()].stroke_width(2), label, v, 10, 4));
     }
     let tstyle = ShapeStyle {

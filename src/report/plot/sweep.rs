@@ -1,7 +1,7 @@
 //! `sweep.svg`: the iterative procedure's final errors against the disturbance level.
 
 use super::{legend_box, svg_to_file, PlotResult, COLORS};
-use crate::scenario::DIRECT_FORCE;
+use crate::scenario::ReportMethod;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -15,7 +15,7 @@ pub fn plot_sweep(sw: &crate::report::Sweep, path: &Path) -> PlotResult {
             "step 0 (P_z ignored)".into(),
             pts.iter().map(|p| (p.level, p.step0_worst_rel_error)).collect(),
         )];
-        let methods: Vec<String> = pts
+        let methods: Vec<ReportMethod> = pts
             .first()
             .map(|p| p.sequences.iter().map(|q| q.method.clone()).collect())
             .unwrap_or_default();
@@ -28,11 +28,13 @@ pub fn plot_sweep(sw: &crate::report::Sweep, path: &Path) -> PlotResult {
             ));
         }
         curves.push((
-            format!("{DIRECT_FORCE}: one solve of (4.8), no iteration"),
+            format!("{}: one solve of (4.8), no iteration", ReportMethod::DirectForce),
             pts.iter().map(|p| (p.level, p.direct_worst_rel_error)).collect(),
         ));
         for (k, m) in methods.iter().enumerate() {
-            let bound = pts.first().map_or("", |p| p.sequences[k].bound_method.as_str());
+            let bound = pts
+                .first()
+                .map_or(String::new(), |p| p.sequences[k].bound_method.name());
             curves.push((
                 format!("P_z given as measured ({bound}): bound of {m}"),
                 pts.iter()
