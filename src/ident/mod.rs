@@ -20,6 +20,7 @@
 mod bilinear;
 mod estimate;
 mod problem;
+mod spec;
 
 pub mod data;
 pub mod disturbance;
@@ -35,6 +36,7 @@ pub use estimate::{
     estimate, identify_strong, identify_weak, Estimate, INSEPARABLE_RATIO, SPREAD_CHECK_RATIO, WEAK_RATIO,
 };
 pub use problem::{y, Filter, Layout, Pieces, Problem, Unknown};
+pub use spec::Specification;
 
 /// Errors of identification.
 #[derive(Debug, Clone, thiserror::Error)]

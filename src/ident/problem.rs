@@ -1,10 +1,12 @@
 //! The identification problem: which coefficients, masses, intensities and corners are
 //! unknown, the drift split into a known part and a part linear in the unknowns, the
 //! residual of the stationarity identity and its least-squares solution. Built from a
-//! scenario's `[identify]` section and its known values; it holds no truth.
+//! [`Specification`] in named stages: the state ([`StateChoice`]), the unknowns, the force
+//! terms of the drift ([`ForceTerms`], (3.22)–(3.28)) and the noise sources. It holds no
+//! truth.
 
 use super::poly::{var, Poly};
-use super::{lsq, moments, poly, IdentError};
+use super::{lsq, moments, poly, IdentError, Specification};
 use crate::model::{Characteristic, Coefficient, Model, ParameterName, Quantity, Truth};
 use crate::scenario::{Process, Scenario};
 use nalgebra::{DMatrix, DVector};
@@ -89,321 +91,71 @@ pub struct Problem {
 }
 
 impl Problem {
-    /// Build the problem from a scenario's `[identify]` section and true system. With
-    /// filtered excitations the filters are taken as known at their true values; use
+    /// Build the problem from a scenario's `[identify]` section and known system. With
+    /// filtered excitations the filters are taken at their given values; use
     /// [`Problem::with_filters`] to give fitted ones.
     pub fn new(s: &Scenario) -> Result<Problem, IdentError> {
-        let filters: Vec<Filter> = s
-            .excitations
-            .iter()
-            .enumerate()
-            .filter_map(|(e, x)| match x.process {
-                Process::Filtered { a, b } if x.measured => Some(Filter { excitation: e, a, b }),
-                _ => None,
-            })
-            .collect();
-        Problem::with_filters(s, &filters)
+        let spec = Specification::from_scenario(s);
+        Problem::from_spec(&spec, &spec.given_filters())
     }
 
-    /// Build the problem with the given filter parameters for the measured filtered
-    /// excitations (fitted from the force spectrum, or known).
+    /// Build the problem from a scenario with the given filter parameters for the measured
+    /// filtered excitations (fitted from the force spectrum, or known).
     pub fn with_filters(s: &Scenario, filters: &[Filter]) -> Result<Problem, IdentError> {
-        let model = Model::new(s);
-        let n = model.masses();
-        let measured: Vec<usize> = (0..s.excitations.len())
-            .filter(|&e| s.excitations[e].measured)
-            .collect();
-        let filtered = measured
-            .iter()
-            .any(|&e| matches!(s.excitations[e].process, Process::Filtered { .. }));
-        let white_any = measured
-            .iter()
-            .any(|&e| matches!(s.excitations[e].process, Process::White { .. }));
-        if filtered && white_any {
-            return Err(IdentError::Unsupported(
-                "white and filtered excitations together: with white noise on one mass a neighbour's acceleration is not a proper state (docs/theory.md §3); the force-augmented state this needs is not implemented".into(),
-            ));
-        }
-        let layout = if filtered { Layout::Augmented } else { Layout::White };
-        let width = if filtered { 3 } else { 2 };
-        let xs = |i: usize| width * i;
-        let vs = |i: usize| width * i + 1;
-        let as_ = |i: usize| width * i + 2;
-        // The filter acting on each mass (augmented layout), and whether its B is unknown.
-        let mut corner = vec![f64::NAN; n];
-        let mut corner_unknown: Vec<Option<usize>> = vec![None; n];
-        if filtered {
-            for &e in &measured {
-                let f = filters.iter().find(|f| f.excitation == e).ok_or_else(|| {
-                    IdentError::Unsupported(format!("no filter parameters for excitation {}", s.excitations[e].name))
-                })?;
-                for &i in &s.excitations[e].acts_on {
-                    if !corner[i].is_nan() {
-                        return Err(IdentError::Unsupported(format!(
-                            "mass {} is driven by two filtered excitations: its force is then not one Ornstein–Uhlenbeck process and (x, v, a) is not Markov",
-                            s.masses[i].name
-                        )));
-                    }
-                    corner[i] = f.b;
-                    if s.identify.unknown_corners.contains(&e) {
-                        corner_unknown[i] = Some(e);
-                    }
-                }
-            }
-            if let Some(i) = corner.iter().position(|c| c.is_nan()) {
-                return Err(IdentError::Unsupported(format!(
-                    "mass {} has no filtered excitation: its acceleration is then a function of (x, v) and the augmented state is degenerate",
-                    s.masses[i].name
-                )));
-            }
-        }
-        let id = &s.identify;
-        let mut unknowns = Vec::new();
-        // Known parts: characteristics not listed stay at their true values.
-        let mut known = model.clone();
-        for il in &id.links {
-            let l = il.link;
-            for (kind, powers) in [
-                (Characteristic::Stiffness, &il.stiffness),
-                (Characteristic::Damping, &il.damping),
-            ] {
-                if let Some(ps) = powers {
-                    let (start, len) = match kind {
-                        Characteristic::Stiffness => (known.k_start[l], known.k_len[l]),
-                        Characteristic::Damping => (known.c_start[l], known.c_len[l]),
-                    };
-                    known.coefs[start..start + len].iter_mut().for_each(|c| *c = 0.0);
-                    for &p in ps {
-                        unknowns.push(Unknown::Coefficient(Coefficient {
-                            link: l,
-                            kind,
-                            power: p,
-                        }));
-                    }
-                }
-            }
-        }
-        // With an unknown corner, each coefficient acting on a mass it drives also has a
-        // product unknown; then the corner itself. All linear: they precede masses.
-        let coefs: Vec<Coefficient> = unknowns
-            .iter()
-            .filter_map(|u| {
-                if let Unknown::Coefficient(c) = u {
-                    Some(*c)
-                } else {
-                    None
-                }
-            })
-            .collect();
-        for &e in &id.unknown_corners {
-            for c in &coefs {
-                let (a, b) = model.ends(c.link);
-                let touches = [Some(a), b].into_iter().flatten().any(|m| corner_unknown[m] == Some(e));
-                if touches {
-                    unknowns.push(Unknown::CornerProduct(*c, e));
-                }
-            }
-            unknowns.push(Unknown::Corner(e));
-        }
-        for &i in &id.unknown_masses {
-            unknowns.push(Unknown::Mass(i));
-        }
-        for &e in &id.unknown_intensities {
-            unknowns.push(Unknown::Intensity(e));
-        }
-        if unknowns.is_empty() {
-            return Err(IdentError::NothingToIdentify);
-        }
+        Problem::from_spec(&Specification::from_scenario(s), filters)
+    }
 
-        let rel = |l: usize, base: &dyn Fn(usize) -> usize| -> Poly {
-            let (a, b) = model.ends(l);
-            let mut p = vec![(base(a), 1.0)];
-            if let Some(b) = b {
-                p.push((base(b), -1.0));
-            }
-            Poly::linear(&p)
+    /// Build the problem of a specification, with the given filter parameters for its
+    /// measured filtered excitations.
+    pub fn from_spec(spec: &Specification, filters: &[Filter]) -> Result<Problem, IdentError> {
+        let known = &spec.model;
+        let n = known.masses();
+        let state = StateChoice::new(known, filters, &spec.unknown_corners)?;
+        let unknowns = unknowns(spec, &state.corner_unknown)?;
+        let terms = ForceTerms {
+            model: known,
+            state: &state,
         };
-        // Force term of one characteristic term `c z^p` of link l on mass i (before 1/m_i):
-        // white `−s c z^p`; augmented `−s c (B_i z^p + p z^(p−1) ż)` (dF/dt through K'u̇, C'ẇ).
-        let term = |l: usize, kind: Characteristic, p: u32, i: usize| -> Poly {
-            let s_ = model.sign(l, i);
-            if s_ == 0.0 {
-                return Poly::zero();
-            }
-            let (z, zdot) = match kind {
-                Characteristic::Stiffness => (rel(l, &xs), rel(l, &vs)),
-                Characteristic::Damping => (rel(l, &vs), rel(l, &as_)),
-            };
-            let mut out = Poly::zero();
-            match layout {
-                Layout::White => out.add(&z.pow(p), -s_),
-                Layout::Augmented => {
-                    // With an unknown corner the B·z^p part belongs to the product unknown.
-                    if corner_unknown[i].is_none() {
-                        out.add(&z.pow(p), -s_ * corner[i]);
-                    }
-                    out.add(&z.pow(p - 1).mul(&zdot), -s_ * p as f64);
-                }
-            }
-            out
-        };
-        // The B part alone, `−s z^p` (per unit of B·c).
-        let b_part = |l: usize, kind: Characteristic, p: u32, i: usize| -> Poly {
-            let (z, _) = match kind {
-                Characteristic::Stiffness => (rel(l, &xs), rel(l, &vs)),
-                Characteristic::Damping => (rel(l, &vs), rel(l, &as_)),
-            };
-            let mut out = Poly::zero();
-            out.add(&z.pow(p), -model.sign(l, i));
-            out
-        };
-        let mut known_force = vec![Poly::zero(); n];
-        let mut pmax = 1;
-        for l in 0..model.links() {
-            for (kind, cs) in [
-                (Characteristic::Stiffness, known.stiffness(l)),
-                (Characteristic::Damping, known.damping(l)),
-            ] {
-                for (p, &c) in cs.iter().enumerate() {
-                    if c != 0.0 {
-                        pmax = pmax.max(p as u32 + 1);
-                        for (i, kf) in known_force.iter_mut().enumerate() {
-                            kf.add(&term(l, kind, p as u32 + 1, i), c);
-                        }
-                    }
-                }
-            }
-        }
-        let mut unit_force = Vec::new();
-        let mut names = Vec::new();
-        let mut start = Vec::new();
-        for u in &unknowns {
-            match *u {
-                Unknown::Coefficient(c) => {
-                    pmax = pmax.max(c.power);
-                    unit_force.push((0..n).map(|i| term(c.link, c.kind, c.power, i)).collect());
-                    names.push(model.coefficient_name(c).to_string());
-                    start.push(0.0);
-                }
-                Unknown::CornerProduct(c, e) => {
-                    unit_force.push(
-                        (0..n)
-                            .map(|i| {
-                                if corner_unknown[i] == Some(e) {
-                                    b_part(c.link, c.kind, c.power, i)
-                                } else {
-                                    Poly::zero()
-                                }
-                            })
-                            .collect(),
-                    );
-                    names.push(format!(
-                        "B[{}]*{}",
-                        model.excitation_names[e],
-                        model.coefficient_name(c)
-                    ));
-                    start.push(0.0);
-                }
-                Unknown::Corner(e) => {
-                    // Per unit of B: −(m_i a_i + Σ s F_known) on every mass it drives.
-                    unit_force.push(
-                        (0..n)
-                            .map(|i| {
-                                let mut f = Poly::zero();
-                                if corner_unknown[i] == Some(e) {
-                                    f.add(&Poly::monomial(var(as_(i)), 1.0), -model.mass[i]);
-                                    for l in 0..model.links() {
-                                        for (kind, cs) in [
-                                            (Characteristic::Stiffness, known.stiffness(l)),
-                                            (Characteristic::Damping, known.damping(l)),
-                                        ] {
-                                            for (p, &c) in cs.iter().enumerate() {
-                                                if c != 0.0 {
-                                                    f.add(&b_part(l, kind, p as u32 + 1, i), c);
-                                                }
-                                            }
-                                        }
-                                    }
-                                }
-                                f
-                            })
-                            .collect(),
-                    );
-                    names.push(ParameterName::Corner(model.excitation_names[e].clone()).to_string());
-                    start.push(0.0);
-                }
-                Unknown::Monomial(..) => unreachable!("monomial unknowns come from monomial_form"),
-                Unknown::InputGain(_) => unreachable!("input gains are added to a built problem"),
-                Unknown::Mass(i) => {
-                    if layout == Layout::Augmented {
-                        return Err(IdentError::Unsupported(
-                            "unknown masses with filtered excitation are not supported".into(),
-                        ));
-                    }
-                    names.push(ParameterName::Mass(model.mass_names[i].clone()).to_string());
-                    start.push(model.mass[i]);
-                }
-                Unknown::Intensity(e) => {
-                    let Process::White { sigma } = model.excitations[e].process else {
-                        return Err(IdentError::Unsupported(format!(
-                            "excitation {} is filtered: its A and B come from the spectral fit (or are known), not from the density",
-                            model.excitation_names[e]
-                        )));
-                    };
-                    names.push(ParameterName::Intensity(model.excitation_names[e].clone()).to_string());
-                    start.push(sigma);
-                }
-            }
-        }
-        let mut white = Vec::new();
-        for &e in &measured {
-            let exc = &model.excitations[e];
-            let intensity = match exc.process {
-                Process::White { sigma } => sigma,
-                Process::Filtered { .. } => filters.iter().find(|f| f.excitation == e).expect("checked").a,
-            };
-            let idx = unknowns.iter().position(|u| *u == Unknown::Intensity(e));
-            white.push((exc.targets.clone(), intensity, idx));
-        }
-        for (e, exc) in model.excitations.iter().enumerate() {
-            if !exc.measured && unknowns.contains(&Unknown::Intensity(e)) {
-                return Err(IdentError::Unsupported(format!(
-                    "excitation {} is unmeasured: its intensity cannot be an unknown here",
-                    model.excitation_names[e]
-                )));
-            }
-        }
+        let (known_force, known_pmax) = terms.known_force();
+        let (unit_force, names, start, pmax) = terms.unknown_terms(&unknowns, known_pmax)?;
+        let white = noise_sources(known, filters, &unknowns)?;
+        let layout = state.layout;
         let mut free_drift = Vec::new();
         for i in 0..n {
-            free_drift.push((xs(i), Poly::monomial(var(vs(i)), 1.0)));
+            free_drift.push((state.x(i), Poly::monomial(var(state.v(i)), 1.0)));
             if layout == Layout::Augmented {
-                free_drift.push((vs(i), Poly::monomial(var(as_(i)), 1.0)));
-                if corner_unknown[i].is_none() {
-                    free_drift.push((as_(i), Poly::monomial(var(as_(i)), -corner[i])));
+                free_drift.push((state.v(i), Poly::monomial(var(state.a(i)), 1.0)));
+                if state.corner_unknown[i].is_none() {
+                    free_drift.push((state.a(i), Poly::monomial(var(state.a(i)), -state.corner[i])));
                 }
             }
         }
         let noise_var = (0..n)
-            .map(|i| if layout == Layout::Augmented { as_(i) } else { vs(i) })
+            .map(|i| {
+                if layout == Layout::Augmented {
+                    state.a(i)
+                } else {
+                    state.v(i)
+                }
+            })
             .collect();
         // Per mass, in the state's order: x, v (and a when augmented).
         let quantities: &[Quantity] = match layout {
             Layout::White => &[Quantity::Displacement, Quantity::Velocity],
             Layout::Augmented => &[Quantity::Displacement, Quantity::Velocity, Quantity::Acceleration],
         };
-        let log = model.columns();
+        let log = known.columns();
         let columns = (0..n)
             .flat_map(|i| quantities.iter().map(move |&q| log.of_mass(q, i)))
             .collect();
         let state_names = (0..n)
             .flat_map(|i| {
-                let name = &model.mass_names[i];
+                let name = &known.mass_names[i];
                 quantities.iter().map(move |&q| q.column_name(name))
             })
             .collect();
         Ok(Problem {
-            // The known system only: the unknown coefficients are zero in it.
-            model: known,
+            model: known.clone(),
             layout,
             unknowns,
             names,
@@ -711,4 +463,329 @@ impl Pieces {
 /// Convenience: the monomial `y_j`.
 pub fn y(j: usize) -> Poly {
     Poly::monomial(var(j), 1.0)
+}
+
+/// The state the density is taken of, and per mass the corner `B` of the filtered force
+/// driving it (augmented state) and whether that corner is unknown.
+struct StateChoice {
+    layout: Layout,
+    /// State variables per mass: 2 (`x, v`) or 3 (`x, v, a`).
+    width: usize,
+    corner: Vec<f64>,
+    corner_unknown: Vec<Option<usize>>,
+}
+
+impl StateChoice {
+    /// White forces give `(x, v)`; filtered forces the augmented `(x, v, a)` of
+    /// (3.22)–(3.28), which needs exactly one filtered force on every mass.
+    fn new(model: &Model, filters: &[Filter], unknown_corners: &[usize]) -> Result<StateChoice, IdentError> {
+        let n = model.masses();
+        let exc = &model.excitations;
+        let measured: Vec<usize> = (0..exc.len()).filter(|&e| exc[e].measured).collect();
+        let filtered = measured
+            .iter()
+            .any(|&e| matches!(exc[e].process, Process::Filtered { .. }));
+        let white_any = measured
+            .iter()
+            .any(|&e| matches!(exc[e].process, Process::White { .. }));
+        if filtered && white_any {
+            return Err(IdentError::Unsupported(
+                "white and filtered excitations together: with white noise on one mass a neighbour's acceleration is not a proper state (docs/theory.md §3); the force-augmented state this needs is not implemented".into(),
+            ));
+        }
+        let mut corner = vec![f64::NAN; n];
+        let mut corner_unknown: Vec<Option<usize>> = vec![None; n];
+        if filtered {
+            for &e in &measured {
+                let f = filters.iter().find(|f| f.excitation == e).ok_or_else(|| {
+                    IdentError::Unsupported(format!(
+                        "no filter parameters for excitation {}",
+                        model.excitation_names[e]
+                    ))
+                })?;
+                for &i in &exc[e].targets {
+                    if !corner[i].is_nan() {
+                        return Err(IdentError::Unsupported(format!(
+                            "mass {} is driven by two filtered excitations: its force is then not one Ornstein–Uhlenbeck process and (x, v, a) is not Markov",
+                            model.mass_names[i]
+                        )));
+                    }
+                    corner[i] = f.b;
+                    if unknown_corners.contains(&e) {
+                        corner_unknown[i] = Some(e);
+                    }
+                }
+            }
+            if let Some(i) = corner.iter().position(|c| c.is_nan()) {
+                return Err(IdentError::Unsupported(format!(
+                    "mass {} has no filtered excitation: its acceleration is then a function of (x, v) and the augmented state is degenerate",
+                    model.mass_names[i]
+                )));
+            }
+        }
+        Ok(StateChoice {
+            layout: if filtered { Layout::Augmented } else { Layout::White },
+            width: if filtered { 3 } else { 2 },
+            corner,
+            corner_unknown,
+        })
+    }
+    fn x(&self, i: usize) -> usize {
+        self.width * i
+    }
+    fn v(&self, i: usize) -> usize {
+        self.width * i + 1
+    }
+    fn a(&self, i: usize) -> usize {
+        self.width * i + 2
+    }
+}
+
+/// The unknowns in their order: the coefficients link by link; with unknown corners, the
+/// products `B·θ` of the coefficients acting on the masses they drive, then the corners
+/// (all linear); then masses and intensities.
+fn unknowns(spec: &Specification, corner_unknown: &[Option<usize>]) -> Result<Vec<Unknown>, IdentError> {
+    let mut unknowns = Vec::new();
+    for il in &spec.links {
+        for (kind, powers) in [
+            (Characteristic::Stiffness, &il.stiffness),
+            (Characteristic::Damping, &il.damping),
+        ] {
+            for &power in powers.iter().flatten() {
+                unknowns.push(Unknown::Coefficient(Coefficient {
+                    link: il.link,
+                    kind,
+                    power,
+                }));
+            }
+        }
+    }
+    let coefs: Vec<Coefficient> = unknowns
+        .iter()
+        .filter_map(|u| match u {
+            Unknown::Coefficient(c) => Some(*c),
+            _ => None,
+        })
+        .collect();
+    for &e in &spec.unknown_corners {
+        for c in &coefs {
+            let (a, b) = spec.model.ends(c.link);
+            if [Some(a), b].into_iter().flatten().any(|m| corner_unknown[m] == Some(e)) {
+                unknowns.push(Unknown::CornerProduct(*c, e));
+            }
+        }
+        unknowns.push(Unknown::Corner(e));
+    }
+    unknowns.extend(spec.unknown_masses.iter().map(|&i| Unknown::Mass(i)));
+    unknowns.extend(spec.unknown_intensities.iter().map(|&e| Unknown::Intensity(e)));
+    if unknowns.is_empty() {
+        return Err(IdentError::NothingToIdentify);
+    }
+    Ok(unknowns)
+}
+
+/// The force terms of the drift as polynomials of the state: white `−s c z^p`;
+/// augmented `−s c (B z^p + p z^(p−1) ż)`, the time derivative of the force through
+/// `K'(u) u̇` and `C'(w) ẇ` ((3.22)–(3.28), docs/theory.md §3).
+struct ForceTerms<'a> {
+    model: &'a Model,
+    state: &'a StateChoice,
+}
+
+impl ForceTerms<'_> {
+    /// Relative motion of link `l`'s ends in the state variables `base(i)`.
+    fn relative(&self, l: usize, base: &dyn Fn(usize) -> usize) -> Poly {
+        let (a, b) = self.model.ends(l);
+        let mut p = vec![(base(a), 1.0)];
+        if let Some(b) = b {
+            p.push((base(b), -1.0));
+        }
+        Poly::linear(&p)
+    }
+
+    /// `z` and `ż` of a characteristic of link `l`: `(u, w)` for the stiffness, `(w, ẇ)`
+    /// for the damping.
+    fn argument(&self, l: usize, kind: Characteristic) -> (Poly, Poly) {
+        let st = self.state;
+        match kind {
+            Characteristic::Stiffness => (self.relative(l, &|i| st.x(i)), self.relative(l, &|i| st.v(i))),
+            Characteristic::Damping => (self.relative(l, &|i| st.v(i)), self.relative(l, &|i| st.a(i))),
+        }
+    }
+
+    /// Force term of one characteristic term `c z^p` of link `l` on mass `i`, per unit of
+    /// `c` and before `1/m_i`.
+    fn term(&self, l: usize, kind: Characteristic, p: u32, i: usize) -> Poly {
+        let s = self.model.sign(l, i);
+        if s == 0.0 {
+            return Poly::zero();
+        }
+        let (z, zdot) = self.argument(l, kind);
+        let mut out = Poly::zero();
+        match self.state.layout {
+            Layout::White => out.add(&z.pow(p), -s),
+            Layout::Augmented => {
+                // With an unknown corner the B·z^p part belongs to the product unknown.
+                if self.state.corner_unknown[i].is_none() {
+                    out.add(&z.pow(p), -s * self.state.corner[i]);
+                }
+                out.add(&z.pow(p - 1).mul(&zdot), -s * p as f64);
+            }
+        }
+        out
+    }
+
+    /// The `B` part alone, `−s z^p` (per unit of `B·c`).
+    fn b_part(&self, l: usize, kind: Characteristic, p: u32, i: usize) -> Poly {
+        let (z, _) = self.argument(l, kind);
+        let mut out = Poly::zero();
+        out.add(&z.pow(p), -self.model.sign(l, i));
+        out
+    }
+
+    /// The known part of every mass's force term, and the highest power in it.
+    fn known_force(&self) -> (Vec<Poly>, u32) {
+        let m = self.model;
+        let mut known_force = vec![Poly::zero(); m.masses()];
+        let mut pmax = 1;
+        for l in 0..m.links() {
+            for (kind, cs) in [
+                (Characteristic::Stiffness, m.stiffness(l)),
+                (Characteristic::Damping, m.damping(l)),
+            ] {
+                for (p, &c) in cs.iter().enumerate() {
+                    if c != 0.0 {
+                        pmax = pmax.max(p as u32 + 1);
+                        for (i, kf) in known_force.iter_mut().enumerate() {
+                            kf.add(&self.term(l, kind, p as u32 + 1, i), c);
+                        }
+                    }
+                }
+            }
+        }
+        (known_force, pmax)
+    }
+
+    /// Per unknown: its force term per unit on every mass (coefficients and corners), its
+    /// name and its Gauss–Newton start; and the highest power in the drift.
+    #[allow(clippy::type_complexity)]
+    fn unknown_terms(
+        &self,
+        unknowns: &[Unknown],
+        mut pmax: u32,
+    ) -> Result<(Vec<Vec<Poly>>, Vec<String>, Vec<f64>, u32), IdentError> {
+        let (model, st) = (self.model, self.state);
+        let n = model.masses();
+        let mut unit_force = Vec::new();
+        let mut names = Vec::new();
+        let mut start = Vec::new();
+        for u in unknowns {
+            match *u {
+                Unknown::Coefficient(c) => {
+                    pmax = pmax.max(c.power);
+                    unit_force.push((0..n).map(|i| self.term(c.link, c.kind, c.power, i)).collect());
+                    names.push(model.coefficient_name(c).to_string());
+                    start.push(0.0);
+                }
+                Unknown::CornerProduct(c, e) => {
+                    unit_force.push(
+                        (0..n)
+                            .map(|i| match st.corner_unknown[i] == Some(e) {
+                                true => self.b_part(c.link, c.kind, c.power, i),
+                                false => Poly::zero(),
+                            })
+                            .collect(),
+                    );
+                    names.push(format!(
+                        "{}*{}",
+                        ParameterName::Corner(model.excitation_names[e].clone()),
+                        model.coefficient_name(c)
+                    ));
+                    start.push(0.0);
+                }
+                Unknown::Corner(e) => {
+                    // Per unit of B: −(m_i a_i + Σ s F_known) on every mass it drives.
+                    unit_force.push((0..n).map(|i| self.corner_force(e, i)).collect());
+                    names.push(ParameterName::Corner(model.excitation_names[e].clone()).to_string());
+                    start.push(0.0);
+                }
+                Unknown::Monomial(..) => unreachable!("monomial unknowns come from monomial_form"),
+                Unknown::InputGain(_) => unreachable!("input gains are added to a built problem"),
+                Unknown::Mass(i) => {
+                    if st.layout == Layout::Augmented {
+                        return Err(IdentError::Unsupported(
+                            "unknown masses with filtered excitation are not supported".into(),
+                        ));
+                    }
+                    names.push(ParameterName::Mass(model.mass_names[i].clone()).to_string());
+                    start.push(model.mass[i]);
+                }
+                Unknown::Intensity(e) => {
+                    let Process::White { sigma } = model.excitations[e].process else {
+                        return Err(IdentError::Unsupported(format!(
+                            "excitation {} is filtered: its A and B come from the spectral fit (or are known), not from the density",
+                            model.excitation_names[e]
+                        )));
+                    };
+                    names.push(ParameterName::Intensity(model.excitation_names[e].clone()).to_string());
+                    start.push(sigma);
+                }
+            }
+        }
+        Ok((unit_force, names, start, pmax))
+    }
+
+    /// The force on mass `i` per unit of the unknown corner of excitation `e`:
+    /// `−(m_i a_i + Σ s F_known)` where `e` drives `i`.
+    fn corner_force(&self, e: usize, i: usize) -> Poly {
+        let m = self.model;
+        let mut f = Poly::zero();
+        if self.state.corner_unknown[i] == Some(e) {
+            f.add(&Poly::monomial(var(self.state.a(i)), 1.0), -m.mass[i]);
+            for l in 0..m.links() {
+                for (kind, cs) in [
+                    (Characteristic::Stiffness, m.stiffness(l)),
+                    (Characteristic::Damping, m.damping(l)),
+                ] {
+                    for (p, &c) in cs.iter().enumerate() {
+                        if c != 0.0 {
+                            f.add(&self.b_part(l, kind, p as u32 + 1, i), c);
+                        }
+                    }
+                }
+            }
+        }
+        f
+    }
+}
+
+/// The measured noise sources: targets, nominal intensity (`σ`, or `A` of a filter) and the
+/// index of its unknown, if any.
+#[allow(clippy::type_complexity)]
+fn noise_sources(
+    model: &Model,
+    filters: &[Filter],
+    unknowns: &[Unknown],
+) -> Result<Vec<(Vec<usize>, f64, Option<usize>)>, IdentError> {
+    let mut white = Vec::new();
+    for (e, exc) in model.excitations.iter().enumerate() {
+        if !exc.measured {
+            continue;
+        }
+        let intensity = match exc.process {
+            Process::White { sigma } => sigma,
+            Process::Filtered { .. } => filters.iter().find(|f| f.excitation == e).expect("checked").a,
+        };
+        let idx = unknowns.iter().position(|u| *u == Unknown::Intensity(e));
+        white.push((exc.targets.clone(), intensity, idx));
+    }
+    for (e, exc) in model.excitations.iter().enumerate() {
+        if !exc.measured && unknowns.contains(&Unknown::Intensity(e)) {
+            return Err(IdentError::Unsupported(format!(
+                "excitation {} is unmeasured: its intensity cannot be an unknown here",
+                model.excitation_names[e]
+            )));
+        }
+    }
+    Ok(white)
 }

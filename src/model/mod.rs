@@ -145,6 +145,14 @@ impl Model {
     pub fn stiffness(&self, l: usize) -> &[f64] {
         &self.coefs[self.k_start[l]..self.k_start[l] + self.k_len[l]]
     }
+    /// Set every coefficient of link `l`'s characteristic `kind` to zero (it is unknown).
+    pub fn clear(&mut self, l: usize, kind: Characteristic) {
+        let (start, len) = match kind {
+            Characteristic::Stiffness => (self.k_start[l], self.k_len[l]),
+            Characteristic::Damping => (self.c_start[l], self.c_len[l]),
+        };
+        self.coefs[start..start + len].iter_mut().for_each(|c| *c = 0.0);
+    }
     /// Damping coefficients of link `l`, dense from power 1.
     pub fn damping(&self, l: usize) -> &[f64] {
         &self.coefs[self.c_start[l]..self.c_start[l] + self.c_len[l]]

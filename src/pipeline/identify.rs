@@ -8,10 +8,11 @@ use super::validation::Distributions;
 use super::{Options, PipelineError};
 use crate::ident::data::StationaryData;
 use crate::ident::strong::{DensityGrid, GridOptions};
+use crate::ident::Specification;
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
 use crate::io::log::{read_samples, LogInfo};
 use crate::report::Report;
-use crate::scenario::{Method, Process, ReportMethod, Scenario};
+use crate::scenario::{Method, Process, ReportMethod};
 use std::time::Instant;
 
 pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, PipelineError> {
@@ -42,9 +43,11 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
             b: 1.0,
         })
         .collect();
-    let structure = Problem::with_filters(s, &placeholder)?;
-    let naive_scenario = (!filtered.is_empty()).then(|| whitened(s, &placeholder));
-    let naive_structure = naive_scenario.as_ref().map(Problem::new).transpose()?;
+    let spec = Specification::from_scenario(s);
+    let structure = Problem::from_spec(&spec, &placeholder)?;
+    let naive_structure = (!filtered.is_empty())
+        .then(|| Problem::from_spec(&spec.whitened(&placeholder), &[]))
+        .transpose()?;
 
     // Pass 1: moments per batch, link ranges, lag-1 correlation of each filtered force.
     let mut data = StationaryData::new(
@@ -94,7 +97,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
 
     // Filters: fitted to the spectra, or known.
     let (filters, filter_reports, spectra) = forces.filters(s);
-    let problem = Problem::with_filters(s, &filters)?;
+    let problem = Problem::from_spec(&spec, &filters)?;
     let typical = problem.typical(&total);
     // Identifiability is a property of the unknowns and the data: measured once, with the
     // weak form's batches, whatever methods were asked for (no estimates on failure).
@@ -147,7 +150,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     // each filtered force taken as white of the same low-frequency density (σ = A/B).
     if let (Some(d), false) = (&naive_data, filtered.is_empty()) {
         let t = Instant::now();
-        let naive = Problem::new(&whitened(s, &filters))?;
+        let naive = Problem::from_spec(&spec.whitened(&filters), &[])?;
         let est = ident::identify_weak(&naive, d);
         reports.push(method_report(
             ReportMethod::WeakWhiteNaive,
@@ -162,9 +165,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     // Alternative models for comparison (e.g. the paper's linear case 1).
     for (name, links) in &s.identify.compare {
         let t = Instant::now();
-        let mut alt = s.clone();
-        alt.identify.links = links.clone();
-        let p = Problem::with_filters(&alt, &filters)?;
+        let p = Problem::from_spec(&Specification::with_links(s, links), &filters)?;
         let est = ident::identify_weak(&p, &data);
         reports.push(method_report(
             ReportMethod::Compare(name.clone()),
@@ -192,15 +193,4 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         Vec::new(),
         dist.into_plot(spectra),
     ))
-}
-
-/// The scenario with every filtered excitation replaced by white noise of the same
-/// low-frequency density (`σ = A/B`): what ignoring the filter amounts to.
-pub(crate) fn whitened(s: &Scenario, filters: &[Filter]) -> Scenario {
-    let mut w = s.clone();
-    w.identify.unknown_corners.clear();
-    for f in filters {
-        w.excitations[f.excitation].process = Process::White { sigma: f.a / f.b };
-    }
-    w
 }
