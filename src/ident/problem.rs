@@ -643,24 +643,33 @@ impl ForceTerms<'_> {
         out
     }
 
-    /// The known part of every mass's force term, and the highest power in it.
-    fn known_force(&self) -> (Vec<Poly>, u32) {
+    /// Every non-zero known coefficient as `(link, kind, power, value)`, link by link,
+    /// stiffness before damping, by ascending power.
+    fn known_coefficients(&self) -> impl Iterator<Item = (usize, Characteristic, u32, f64)> + '_ {
         let m = self.model;
-        let mut known_force = vec![Poly::zero(); m.masses()];
-        let mut pmax = 1;
-        for l in 0..m.links() {
-            for (kind, cs) in [
+        (0..m.links()).flat_map(move |l| {
+            [
                 (Characteristic::Stiffness, m.stiffness(l)),
                 (Characteristic::Damping, m.damping(l)),
-            ] {
-                for (p, &c) in cs.iter().enumerate() {
-                    if c != 0.0 {
-                        pmax = pmax.max(p as u32 + 1);
-                        for (i, kf) in known_force.iter_mut().enumerate() {
-                            kf.add(&self.term(l, kind, p as u32 + 1, i), c);
-                        }
-                    }
-                }
+            ]
+            .into_iter()
+            .flat_map(move |(kind, cs)| {
+                cs.iter()
+                    .enumerate()
+                    .filter(|(_, &c)| c != 0.0)
+                    .map(move |(p, &c)| (l, kind, p as u32 + 1, c))
+            })
+        })
+    }
+
+    /// The known part of every mass's force term, and the highest power in it.
+    fn known_force(&self) -> (Vec<Poly>, u32) {
+        let mut known_force = vec![Poly::zero(); self.model.masses()];
+        let mut pmax = 1;
+        for (l, kind, p, c) in self.known_coefficients() {
+            pmax = pmax.max(p);
+            for (i, kf) in known_force.iter_mut().enumerate() {
+                kf.add(&self.term(l, kind, p, i), c);
             }
         }
         (known_force, pmax)
@@ -742,17 +751,8 @@ impl ForceTerms<'_> {
         let mut f = Poly::zero();
         if self.state.corner_unknown[i] == Some(e) {
             f.add(&Poly::monomial(var(self.state.a(i)), 1.0), -m.mass[i]);
-            for l in 0..m.links() {
-                for (kind, cs) in [
-                    (Characteristic::Stiffness, m.stiffness(l)),
-                    (Characteristic::Damping, m.damping(l)),
-                ] {
-                    for (p, &c) in cs.iter().enumerate() {
-                        if c != 0.0 {
-                            f.add(&self.b_part(l, kind, p as u32 + 1, i), c);
-                        }
-                    }
-                }
+            for (l, kind, p, c) in self.known_coefficients() {
+                f.add(&self.b_part(l, kind, p, i), c);
             }
         }
         f
