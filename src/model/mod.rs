@@ -145,6 +145,35 @@ impl Model {
     pub fn stiffness(&self, l: usize) -> &[f64] {
         &self.coefs[self.k_start[l]..self.k_start[l] + self.k_len[l]]
     }
+    /// Replace link `l`'s characteristic `kind` by `Σ c z^p` over `terms` (`(p, c)`, powers
+    /// ascending); the flat arrays are laid out again as [`Model::new`] lays them out.
+    pub fn set_characteristic(&mut self, l: usize, kind: Characteristic, terms: &[(u32, f64)]) {
+        let dense = |terms: &[(u32, f64)]| -> Vec<f64> {
+            let n = terms.last().map_or(0, |t| t.0) as usize;
+            let mut d = vec![0.0; n];
+            for &(p, c) in terms {
+                d[p as usize - 1] = c;
+            }
+            d
+        };
+        let mut polys: Vec<[Vec<f64>; 2]> = (0..self.links())
+            .map(|k| [self.stiffness(k).to_vec(), self.damping(k).to_vec()])
+            .collect();
+        polys[l][match kind {
+            Characteristic::Stiffness => 0,
+            Characteristic::Damping => 1,
+        }] = dense(terms);
+        self.coefs.clear();
+        for (k, [stiffness, damping]) in polys.into_iter().enumerate() {
+            self.k_start[k] = self.coefs.len();
+            self.k_len[k] = stiffness.len();
+            self.coefs.extend(stiffness);
+            self.c_start[k] = self.coefs.len();
+            self.c_len[k] = damping.len();
+            self.coefs.extend(damping);
+        }
+    }
+
     /// Set every coefficient of link `l`'s characteristic `kind` to zero (it is unknown).
     pub fn clear(&mut self, l: usize, kind: Characteristic) {
         let (start, len) = match kind {
@@ -241,5 +270,29 @@ impl Model {
     /// Whether every link is linear (powers ≤ 1): then the stationary response is Gaussian.
     pub fn is_linear(&self) -> bool {
         self.k_len.iter().chain(&self.c_len).all(|&n| n <= 1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Polynomial;
+
+    #[test]
+    fn a_set_characteristic_is_laid_out_as_a_model_of_the_edited_scenario() {
+        let mut s = crate::zoo::linear_2dof("dt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1");
+        let mut model = Model::new(&s);
+        // A longer polynomial in the middle link shifts every later link's coefficients.
+        let terms = [(1, 3.0), (2, -0.5), (5, 0.25)];
+        model.set_characteristic(1, Characteristic::Stiffness, &terms);
+        s.links[1].stiffness = Polynomial { terms: terms.to_vec() };
+        let edited = Model::new(&s);
+        assert_eq!(
+            (&model.coefs, &model.k_start, &model.k_len, &model.c_start, &model.c_len),
+            (&edited.coefs, &edited.k_start, &edited.k_len, &edited.c_start, &edited.c_len)
+        );
+        model.clear(1, Characteristic::Stiffness);
+        assert!(model.stiffness(1).iter().all(|&c| c == 0.0));
+        assert_eq!(model.damping(1), edited.damping(1));
     }
 }

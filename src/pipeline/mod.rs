@@ -13,7 +13,7 @@ mod identify;
 mod spectra;
 mod validation;
 
-pub use validation::identified_scenario;
+pub use validation::identified_model;
 
 use self::identify::identify_info;
 use crate::ident::strong::GridOptions;

@@ -8,7 +8,7 @@ use crate::model::Quantity;
 use crate::model::{Characteristic, Coefficient, Model};
 use crate::report::{PlotData, Validation, ValidationRow};
 use crate::scenario::ReportMethod;
-use crate::scenario::{Polynomial, Process, Scenario};
+use crate::scenario::{Process, Scenario};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
 use crate::stats;
 use crate::stats::Histogram;
@@ -176,45 +176,39 @@ impl Distributions {
     }
 }
 
-/// The scenario with the identified values in place of the unknowns.
-pub fn identified_scenario(
-    s: &Scenario,
-    problem: &Problem,
-    coef_of: &[Option<Coefficient>],
-    values: &[f64],
-) -> Scenario {
-    let mut out = s.clone();
-    for l in 0..s.links.len() {
+/// The logged system with the identified values in place of the unknowns: the model the
+/// validation simulates.
+pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coefficient>], values: &[f64]) -> Model {
+    let mut model = Model::new(s);
+    for l in 0..model.links() {
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
             let (est, unknown) = stats::estimated_characteristic(s, coef_of, values, l, kind);
             if unknown {
-                let est = Polynomial {
-                    terms: est.terms.into_iter().filter(|t| t.1 != 0.0).collect(),
-                };
-                match kind {
-                    Characteristic::Stiffness => out.links[l].stiffness = est,
-                    Characteristic::Damping => out.links[l].damping = est,
-                }
+                let terms: Vec<(u32, f64)> = est.terms.into_iter().filter(|t| t.1 != 0.0).collect();
+                model.set_characteristic(l, kind, &terms);
             }
         }
     }
     for (k, u) in problem.unknowns.iter().enumerate() {
         match *u {
-            Unknown::Mass(i) => out.masses[i].value = values[k],
+            Unknown::Mass(i) => {
+                model.mass[i] = values[k];
+                model.inv_mass[i] = 1.0 / values[k];
+            }
             Unknown::Intensity(e) => {
-                if let crate::scenario::Process::White { sigma } = &mut out.excitations[e].process {
+                if let Process::White { sigma } = &mut model.excitations[e].process {
                     *sigma = values[k];
                 }
             }
             Unknown::Corner(e) => {
-                if let Process::Filtered { b, .. } = &mut out.excitations[e].process {
+                if let Process::Filtered { b, .. } = &mut model.excitations[e].process {
                     *b = values[k];
                 }
             }
             Unknown::Coefficient(_) | Unknown::CornerProduct(..) | Unknown::Monomial(..) | Unknown::InputGain(_) => {}
         }
     }
-    out
+    model
 }
 
 /// Re-simulate the identified model with the same excitation (another seed) and compare
@@ -228,23 +222,20 @@ pub(crate) fn validate(
     data: &Marginals,
     hist: &[Histogram],
 ) -> Result<(Validation, Marginals), SimError> {
-    let mut sc = identified_scenario(s, problem, coef_of, values);
-    // At most 1e5 s of trajectory time: enough for std and kurtosis to a few per cent.
-    let traj = sc.simulation.trajectories;
-    sc.simulation.record_length = sc
-        .simulation
-        .record_length
-        .min(1e5 / traj as f64)
-        .max(sc.simulation.sample_interval);
-    sc.simulation.seed = sc.simulation.seed.wrapping_add(1_000_003);
-    let model = Model::new(&sc);
+    let model = identified_model(s, problem, coef_of, values);
+    // The same run, another seed, at most 1e5 s of trajectory time: enough for std and
+    // kurtosis to a few per cent.
+    let mut sim = s.simulation.clone();
+    let traj = sim.trajectories;
+    sim.record_length = sim.record_length.min(1e5 / traj as f64).max(sim.sample_interval);
+    sim.seed = sim.seed.wrapping_add(1_000_003);
     let mut m = Marginals::new(
         problem.columns.clone(),
         hist.iter()
             .map(|h| Histogram::new(h.lo, h.hi, h.counts.len()))
             .collect(),
     );
-    simulate(&model, &sc.simulation, &mut m, &|_| {})?;
+    simulate(&model, &sim, &mut m, &|_| {})?;
     let rows = (0..problem.dim())
         .map(|j| {
             let (ds, dk) = data.std_kurtosis(j);
@@ -261,9 +252,9 @@ pub(crate) fn validate(
     Ok((
         Validation {
             method,
-            record_length_s: sc.simulation.record_length,
+            record_length_s: sim.record_length,
             trajectories: traj,
-            seed: sc.simulation.seed,
+            seed: sim.seed,
             rows,
             error: None,
         },
