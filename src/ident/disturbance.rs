@@ -45,70 +45,56 @@
 use super::data::StationaryData;
 use super::poly::Poly;
 use super::spectrum::{fit_ou, CrossWelch, OuFit};
-use super::{identify_weak, Estimate, Filter, IdentError, Problem, Unknown};
-use crate::model::Characteristic;
-use crate::model::Columns;
-use crate::scenario::{Disturbance, End, Excitation, Identify, Method, PaperStructure, Polynomial, Process, Scenario};
+use super::{identify_weak, Estimate, Filter, IdentError, Problem, Specification, Unknown};
+use crate::model::{Characteristic, Columns, CompiledExcitation};
+use crate::scenario::{Disturbance, PaperStructure, Process, Scenario};
 use serde::Serialize;
 
-/// The scenario as step 0 and every `k1` update see it: the disturbance section dropped,
+/// The specification step 0 and every `k1` update use: the logged system's unknowns,
 /// the measured force white (`σ = A/B` when it is filtered; `p2` gives `A`, `B`).
-pub fn step0_scenario(s: &Scenario, st: &PaperStructure, p2: Option<Filter>) -> Scenario {
-    let mut w = s.clone();
-    w.identify.disturbance = None;
-    w.identify.known_filters.clear();
+pub fn step0_spec(s: &Scenario, st: &PaperStructure, p2: Option<Filter>) -> Specification {
+    let mut w = Specification::from_scenario(s);
     if let Some(f) = p2 {
-        w.excitations[st.measured].process = Process::White { sigma: f.a / f.b };
+        w.model.excitations[st.measured].process = Process::White { sigma: f.a / f.b };
     }
     w
 }
 
-/// The scenario of the bound: the identifier is given every disturbance as if it were
-/// measured (filtered ones white at their fitted low-frequency density, as for `P2`).
-pub fn bound_scenario(s: &Scenario, st: &PaperStructure, filters: &[Filter]) -> Scenario {
-    let mut w = step0_scenario(s, st, None);
-    for e in &mut w.excitations {
+/// The specification of the bound: the identifier is given every disturbance as if it
+/// were measured (filtered ones white at their fitted low-frequency density, as for `P2`).
+pub fn bound_spec(s: &Scenario, st: &PaperStructure, filters: &[Filter]) -> Specification {
+    let mut w = step0_spec(s, st, None);
+    for e in &mut w.model.excitations {
         e.measured = true;
     }
     for f in filters {
-        w.excitations[f.excitation].process = Process::White { sigma: f.a / f.b };
+        w.model.excitations[f.excitation].process = Process::White { sigma: f.a / f.b };
     }
     w
 }
 
-/// The single-mass system (4.11): `m2` on the ground link, driven by a filtered force
-/// with the given `A`, `B` (known to the identifier).
-pub fn driven_scenario(s: &Scenario, st: &PaperStructure, a: f64, b: f64) -> Scenario {
-    let mut link = s.links[st.ground].clone();
-    link.ends = [End::Mass(0), End::Ground];
-    let mut il = s
-        .identify
+/// The single-mass system (4.11): `m2` on the ground link (its unknowns as in the logged
+/// system), driven by one measured force `p3` of the given process.
+pub fn driven_spec(s: &Scenario, st: &PaperStructure, process: Process) -> Specification {
+    let full = Specification::from_scenario(s);
+    let p3 = CompiledExcitation {
+        process,
+        targets: vec![0],
+        measured: true,
+    };
+    let mut il = full
         .links
         .iter()
         .find(|l| l.link == st.ground)
         .expect("checked by the scenario")
         .clone();
     il.link = 0;
-    Scenario {
-        masses: vec![s.masses[st.driven].clone()],
-        links: vec![link],
-        excitations: vec![Excitation {
-            name: "p3".into(),
-            process: Process::Filtered { a, b },
-            acts_on: vec![0],
-            measured: true,
-        }],
-        identify: Identify {
-            methods: vec![Method::Weak],
-            links: vec![il],
-            unknown_masses: Vec::new(),
-            unknown_intensities: Vec::new(),
-            known_filters: vec![0],
-            unknown_corners: Vec::new(),
-            compare: Vec::new(),
-            disturbance: None,
-        },
-        ..s.clone()
+    Specification {
+        model: full.model.single_mass(st.driven, st.ground, p3, "p3"),
+        links: vec![il],
+        unknown_masses: Vec::new(),
+        unknown_intensities: Vec::new(),
+        unknown_corners: Vec::new(),
     }
 }
 
@@ -153,14 +139,11 @@ pub fn force_row(s: &Scenario, st: &PaperStructure, row: &[f64]) -> [f64; 4] {
 /// input: the state `(x2, ẋ2)` and the inputs `q`, `r`; a white `P2` stays noise at its
 /// declared intensity.
 pub fn force_problem(s: &Scenario, st: &PaperStructure, k1: f64) -> Result<Problem, IdentError> {
-    let mut single = driven_scenario(s, st, 1.0, 1.0);
-    single.identify.known_filters.clear();
     let sigma = match s.excitations[st.measured].process {
         Process::White { sigma } => sigma,
         Process::Filtered { .. } => 1.0,
     };
-    single.excitations[0].process = Process::White { sigma };
-    let mut p = Problem::new(&single)?;
+    let mut p = Problem::from_spec(&driven_spec(s, st, Process::White { sigma }), &[])?;
     if !p2_is_white(s, st) {
         p.white.clear();
     }
@@ -221,20 +204,20 @@ pub fn direct(inp: &Inputs, problem: &Problem) -> Result<Estimate, IdentError> {
 /// The bound of the measured-force sequence: the two-mass system with every force given as
 /// measured, identified by the measured-force weak form of `(x1, ẋ1, x2, ẋ2)` — filtered
 /// forces as measured inputs (their log columns), white ones as noise at their declared
-/// intensity. Unlike [`bound_scenario`]'s, it makes no white-noise approximation of a
+/// intensity. Unlike [`bound_spec`]'s, it makes no white-noise approximation of a
 /// band-limited force.
 pub fn force_bound_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem, IdentError> {
-    let mut w = step0_scenario(s, st, None);
-    let filtered: Vec<usize> = (0..w.excitations.len())
-        .filter(|&e| matches!(w.excitations[e].process, Process::Filtered { .. }))
+    let mut w = step0_spec(s, st, None);
+    let filtered: Vec<usize> = (0..w.model.excitations.len())
+        .filter(|&e| matches!(w.model.excitations[e].process, Process::Filtered { .. }))
         .collect();
-    for e in &mut w.excitations {
+    for e in &mut w.model.excitations {
         e.measured = true;
         if matches!(e.process, Process::Filtered { .. }) {
             e.process = Process::White { sigma: 1.0 };
         }
     }
-    let mut p = Problem::new(&w)?;
+    let mut p = Problem::from_spec(&w, &w.given_filters())?;
     // Every excitation is measured, so noise source k is excitation k.
     p.white = std::mem::take(&mut p.white)
         .into_iter()
@@ -255,9 +238,9 @@ pub fn force_bound_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem,
     Ok(p)
 }
 
-/// The `k1` equation of (4.7): the step-0 scenario with `K2`, `C2` fixed at `values`
+/// The `k1` equation of (4.7): the step-0 specification with `K2`, `C2` fixed at `values`
 /// (step-0 unknown order) and only `k1` unknown.
-fn k1_scenario(step0: &Scenario, st: &PaperStructure, problem: &Problem, values: &[f64]) -> Scenario {
+fn k1_spec(step0: &Specification, st: &PaperStructure, problem: &Problem, values: &[f64]) -> Specification {
     let mut w = step0.clone();
     let mut k2 = Vec::new();
     let mut c2 = Vec::new();
@@ -271,19 +254,14 @@ fn k1_scenario(step0: &Scenario, st: &PaperStructure, problem: &Problem, values:
             }
         }
     }
-    let il = step0
-        .identify
-        .links
-        .iter()
-        .find(|l| l.link == st.ground)
-        .expect("checked");
+    let il = step0.links.iter().find(|l| l.link == st.ground).expect("checked");
     if il.stiffness.is_some() {
-        w.links[st.ground].stiffness = Polynomial { terms: k2 };
+        w.model.set_characteristic(st.ground, Characteristic::Stiffness, &k2);
     }
     if il.damping.is_some() {
-        w.links[st.ground].damping = Polynomial { terms: c2 };
+        w.model.set_characteristic(st.ground, Characteristic::Damping, &c2);
     }
-    w.identify.links.retain(|l| l.link == st.coupling);
+    w.links.retain(|l| l.link == st.coupling);
     w
 }
 
@@ -296,7 +274,7 @@ pub struct Inputs<'a> {
     pub p2: Option<Filter>,
     /// Raw moments of `(x1, ẋ1, x2, ẋ2)` (every moment to the step-0 degree).
     pub white: &'a StationaryData,
-    /// Raw moments of `(x2, ẋ2, ẍ2)` for [`driven_scenario`]'s problem.
+    /// Raw moments of `(x2, ẋ2, ẍ2)` for [`driven_spec`]'s problem.
     pub driven: &'a StationaryData,
     /// Spectra of `q = P2 + m1 ẍ1` and `r = x1 − x2` and their cross-spectrum.
     pub p3: &'a CrossWelch,
@@ -393,8 +371,8 @@ fn group(problem: &Problem, st: &PaperStructure, k: usize) -> &'static str {
 pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, IdentError> {
     let s = inp.scenario;
     let st = &inp.settings.structure;
-    let step0_s = step0_scenario(s, st, inp.p2);
-    let problem = Problem::new(&step0_s)?;
+    let base = step0_spec(s, st, inp.p2);
+    let problem = Problem::from_spec(&base, &base.given_filters())?;
     let step0 = identify_weak(&problem, inp.white)?;
     let typical = problem.typical(&inp.white.total());
     let groups: Vec<&str> = (0..problem.unknowns.len()).map(|k| group(&problem, st, k)).collect();
@@ -417,7 +395,7 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
         let (fit, single) = match single_mass {
             SingleMass::Spectral => {
                 let fit = fit_ou(&inp.p3.spectrum_of(2.0 * k1));
-                let driven = driven_scenario(s, st, fit.a, fit.b);
+                let process = Process::Filtered { a: fit.a, b: fit.b };
                 let filter = Filter {
                     excitation: 0,
                     a: fit.a,
@@ -425,7 +403,7 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
                 };
                 (
                     Some(fit),
-                    Problem::with_filters(&driven, &[filter])
+                    Problem::from_spec(&driven_spec(s, st, process), &[filter])
                         .and_then(|p| identify_weak(&p, inp.driven).map(|e| (p, e))),
                 )
             }
@@ -451,7 +429,7 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
                 }
             }
             // One equation of (4.7): k1 with K2, C2 fixed.
-            let kp = Problem::new(&k1_scenario(&step0_s, st, &problem, &values))?;
+            let kp = Problem::from_spec(&k1_spec(&base, st, &problem, &values), &base.given_filters())?;
             let ke = identify_weak(&kp, inp.white)?;
             values[k1_index] = ke.values[0];
             Ok((values, de.diagnostics.sv_ratio))

@@ -174,6 +174,28 @@ impl Model {
         }
     }
 
+    /// The one-mass system of mass `i` on link `l` (whose second end is the ground),
+    /// driven by `excitation` alone, named `name`.
+    pub fn single_mass(&self, i: usize, l: usize, excitation: CompiledExcitation, name: &str) -> Model {
+        assert_eq!(self.ends(l), (i, None), "link {l} joins mass {i} to the ground");
+        let (k, c) = (self.stiffness(l).to_vec(), self.damping(l).to_vec());
+        Model {
+            mass_names: vec![self.mass_names[i].clone()],
+            link_names: vec![self.link_names[l].clone()],
+            excitation_names: vec![name.to_string()],
+            mass: vec![self.mass[i]],
+            inv_mass: vec![self.inv_mass[i]],
+            link_a: vec![0],
+            link_b: vec![GROUND],
+            k_start: vec![0],
+            k_len: vec![k.len()],
+            c_start: vec![k.len()],
+            c_len: vec![c.len()],
+            coefs: [k, c].concat(),
+            excitations: vec![excitation],
+        }
+    }
+
     /// Set every coefficient of link `l`'s characteristic `kind` to zero (it is unknown).
     pub fn clear(&mut self, l: usize, kind: Characteristic) {
         let (start, len) = match kind {

@@ -46,8 +46,10 @@ pub(crate) fn identify_disturbed(
         b: 1.0,
     };
     let p2_placeholder = filtered(st.measured).then(|| placeholder(st.measured));
-    let white_structure = Problem::new(&disturbance::step0_scenario(s, &st, p2_placeholder))?;
-    let driven_structure = Problem::with_filters(&disturbance::driven_scenario(s, &st, 1.0, 1.0), &[placeholder(0)])?;
+    let step0 = disturbance::step0_spec(s, &st, p2_placeholder);
+    let white_structure = Problem::from_spec(&step0, &step0.given_filters())?;
+    let unit = Process::Filtered { a: 1.0, b: 1.0 };
+    let driven_structure = Problem::from_spec(&disturbance::driven_spec(s, &st, unit), &[placeholder(0)])?;
     let mut white = StationaryData::with_all_moments(
         &white_structure,
         weak::moment_degree(&white_structure),
@@ -140,7 +142,8 @@ pub(crate) fn identify_disturbed(
     let t = Instant::now();
     // The bounds: the disturbance given as if measured, in the paper's white-noise model
     // of the forces (as step 0 sees them) and in the measured-force weak form.
-    let bound_problem = Problem::new(&disturbance::bound_scenario(s, &st, &filters))?;
+    let bound = disturbance::bound_spec(s, &st, &filters);
+    let bound_problem = Problem::from_spec(&bound, &bound.given_filters())?;
     let mut bounds = [
         method_report(
             ReportMethod::PzMeasured,
