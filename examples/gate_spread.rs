@@ -14,7 +14,7 @@ fn main() {
     s.simulation.record_length = a[2].parse().unwrap();
     let seeds: u64 = a[3].parse().unwrap();
     if let Some(level) = a.get(4) {
-        s = s.with_disturbance_level(level.parse().unwrap()).unwrap();
+        s = s.with_disturbance_level(level.parse().unwrap());
     }
     let dir = tempfile::tempdir().unwrap();
     let mut worst: std::collections::BTreeMap<String, Vec<f64>> = Default::default();

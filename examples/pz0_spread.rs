@@ -13,7 +13,7 @@ use fpkbench::Scenario;
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     let s = Scenario::from_file(std::path::Path::new(&a[1])).unwrap();
-    let mut s = s.with_disturbance_level(0.0).unwrap();
+    let mut s = s.with_disturbance_level(0.0);
     s.simulation.record_length = a[2].parse().unwrap();
     let seeds: u64 = a[3].parse().unwrap();
     let dir = tempfile::tempdir().unwrap();

@@ -141,7 +141,7 @@ fn with_no_disturbance_the_measured_force_sequence_stays_at_step_0() {
     // The paper's spectral sequence drifts instead (its documented bias: P3s contains the
     // state feedback k1 (x1 − x2)): c1 moved by +9.2 ± 0.45 sds (mean − 4 sd = 7.4).
     let dir = tempfile::tempdir().unwrap();
-    let s = disturbed(375.0).with_disturbance_level(0.0).unwrap();
+    let s = disturbed(375.0).with_disturbance_level(0.0);
     let path = dir.path().join("run.mcap");
     log_of(&s, &path);
     let r = identify_log(&path, &quiet(None, None)).unwrap();
@@ -176,7 +176,7 @@ fn the_one_step_solve_stays_accurate_where_the_iteration_diverges() {
     // 1000–1011: direct-force worst error 0.030 ± 0.016 (max 0.063), the measured-force
     // sequence's final iterate 4.6 ± 1.0 (min 3.2). Bounds: mean + 4 sd, and mean − 4 sd.
     let dir = tempfile::tempdir().unwrap();
-    let s = disturbed(375.0).with_disturbance_level(2.0).unwrap();
+    let s = disturbed(375.0).with_disturbance_level(2.0);
     let path = dir.path().join("run.mcap");
     log_of(&s, &path);
     let r = identify_log(&path, &quiet(None, None)).unwrap();
@@ -253,8 +253,8 @@ fn the_sequence_is_reproducible_and_both_stopping_rules_work() {
 #[test]
 fn disturbance_levels_scale_the_unmeasured_force_and_zero_removes_it() {
     let s = disturbed(100.0);
-    let none = s.with_disturbance_level(0.0).unwrap();
-    // [simulation] edits made in memory survive the rewrite of the source.
+    let none = s.with_disturbance_level(0.0);
+    // [simulation] edits made in memory survive.
     assert_eq!(none.simulation, s.simulation);
     assert_eq!(none.excitations.len(), 1);
     assert!(none.excitations[0].measured);
@@ -264,13 +264,14 @@ fn disturbance_levels_scale_the_unmeasured_force_and_zero_removes_it() {
         _ => panic!("filtered"),
     };
     for level in [0.25, 1.0, 2.0] {
-        let t = s.with_disturbance_level(level).unwrap();
+        let t = s.with_disturbance_level(level);
         let ratio = std(&t.excitations[1]) / std(&t.excitations[0]);
         assert!((ratio - level).abs() < 1e-12, "level {level}: ratio {ratio}");
         assert!(!t.excitations[1].measured);
         assert_eq!(t.excitations[1].acts_on, vec![0, 1]);
-        // The source text says the same (it is what a log stores).
+        // The source text as written plus the level (what a log stores) say the same.
+        assert_eq!(t.disturbance_level, Some(level));
         let reparsed = Scenario::parse(&t.source, "x", "x").unwrap();
-        assert_eq!(reparsed.excitations, t.excitations);
+        assert_eq!(reparsed.with_disturbance_level(level).excitations, t.excitations);
     }
 }

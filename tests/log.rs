@@ -38,6 +38,31 @@ fn write_log(s: &Scenario, path: &Path) -> Vec<(u32, f64, Vec<f64>)> {
 }
 
 #[test]
+fn a_log_at_a_disturbance_level_describes_the_scenario_at_that_level() {
+    // The sweep's logs: the scenario file as written plus the level among the run facts,
+    // read back as the rescaled scenario (level 0 removes the disturbance).
+    let src = std::fs::read_to_string("scenarios/disturbed2dof.toml").unwrap();
+    let mut base = Scenario::parse(&src, "disturbed2dof.toml", "disturbed2dof").unwrap();
+    base.simulation.record_length = 20.0;
+    base.simulation.trajectories = 2;
+    let dir = tempfile::tempdir().unwrap();
+    for level in [0.0, 0.25, 2.0] {
+        let s = base.with_disturbance_level(level);
+        assert_eq!(s.source, base.source, "the text is never rewritten");
+        let path = dir.path().join(format!("level-{level}.mcap"));
+        write_log(&s, &path);
+        let info = read_info(&path).unwrap();
+        assert_eq!(info.run["disturbance_level"], format!("{level:?}"));
+        assert_eq!(info.scenario, s, "level {level}");
+        assert_eq!(info.truth, s.truth());
+    }
+    let none = base.with_disturbance_level(0.0);
+    assert_eq!(none.excitations.len(), base.excitations.len() - 1);
+    let measured = none.identify.disturbance.as_ref().unwrap().structure.measured;
+    assert!(none.excitations[measured].measured);
+}
+
+#[test]
 fn every_sample_scenario_and_truth_round_trip_exactly() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("run.mcap");

@@ -58,7 +58,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         points: Vec::new(),
     };
     for &level in &levels {
-        let s = scenario.with_disturbance_level(level)?;
+        let s = scenario.with_disturbance_level(level);
         let log = dir.join(format!("level-{level}.mcap"));
         let sim = simulate_to(&s, &log, Compression::None)?;
         let r = identify_log(

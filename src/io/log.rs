@@ -109,6 +109,9 @@ pub fn run_facts(s: &Scenario) -> BTreeMap<String, String> {
         "samples_per_trajectory".into(),
         sim.samples_per_trajectory().to_string(),
     );
+    if let Some(level) = s.disturbance_level {
+        m.insert("disturbance_level".into(), format!("{level:?}"));
+    }
     m.insert("tool".into(), format!("fpkbench {}", env!("CARGO_PKG_VERSION")));
     m
 }
@@ -554,6 +557,14 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
         Some("euler-maruyama") => sim.scheme = crate::scenario::Scheme::EulerMaruyama,
         Some(other) => return Err(format!("run fact scheme = {other:?} is not a known scheme")),
         None => {}
+    }
+    // After the simulation facts: the level is relative to the measured force at the run's
+    // sample interval.
+    if let Some(level) = get::<f64>(run, "disturbance_level")? {
+        if !(level.is_finite() && level >= 0.0) {
+            return Err(format!("run fact disturbance_level = {level} is not a level >= 0"));
+        }
+        *s = s.with_disturbance_level(level);
     }
     Ok(())
 }

@@ -311,7 +311,13 @@ mod tests {
         let edited = Model::new(&s);
         assert_eq!(
             (&model.coefs, &model.k_start, &model.k_len, &model.c_start, &model.c_len),
-            (&edited.coefs, &edited.k_start, &edited.k_len, &edited.c_start, &edited.c_len)
+            (
+                &edited.coefs,
+                &edited.k_start,
+                &edited.k_len,
+                &edited.c_start,
+                &edited.c_len
+            )
         );
         model.clear(1, Characteristic::Stiffness);
         assert!(model.stiffness(1).iter().all(|&c| c == 0.0));

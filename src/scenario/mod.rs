@@ -372,6 +372,10 @@ pub struct Scenario {
     pub accept: Accept,
     /// The TOML text it was parsed from (stored in logs).
     pub source: String,
+    /// The unmeasured disturbances rescaled by [`Scenario::with_disturbance_level`]
+    /// (`None`: as `source` has them). A log records it among its run facts, so that the
+    /// scenario it describes is `source` at this level.
+    pub disturbance_level: Option<f64>,
 }
 
 impl Scenario {
@@ -390,11 +394,11 @@ impl Scenario {
     }
 
     /// This scenario with every unmeasured excitation scaled so that its standard deviation
-    /// is `level` times the measured force's (at level 0 they are removed) — the source
-    /// text is rewritten too, so a log of it describes what was simulated. White noise
-    /// counts at the sample interval (it is logged as interval means). `[simulation]` is
-    /// kept as it is in memory, so changes made to it before or after both hold.
-    pub fn with_disturbance_level(&self, level: f64) -> Result<Scenario, ScenarioError> {
+    /// is `level` times the measured force's (at level 0 they are removed). White noise
+    /// counts at the sample interval (it is logged as interval means). The level is
+    /// absolute, whatever level the scenario had. The checked values are edited, never the
+    /// text: `source` stays as written and `disturbance_level` records the level.
+    pub fn with_disturbance_level(&self, level: f64) -> Scenario {
         let dt = self.simulation.sample_interval;
         let std = |p: Process| match p {
             Process::White { sigma } => sigma / dt.sqrt(),
@@ -405,50 +409,36 @@ impl Scenario {
             .iter()
             .find(|e| e.measured)
             .map_or(1.0, |e| std(e.process));
-        let mut table: toml::Table = toml::from_str(&self.source).map_err(|e| ScenarioError::Invalid {
-            path: self.name.clone(),
-            line: 1,
-            column: 1,
-            key: "(top level)".into(),
-            message: e.to_string(),
-        })?;
-        if let Some(toml::Value::Array(list)) = table.get_mut("excitation") {
-            let mut kept = Vec::new();
-            for (e, v) in self.excitations.iter().zip(list.drain(..)) {
-                let mut v = v;
-                if !e.measured {
-                    if level == 0.0 {
-                        continue;
-                    }
-                    let k = level * reference / std(e.process);
-                    if let Some(t) = v.as_table_mut() {
-                        let key = if t.contains_key("sigma") { "sigma" } else { "A" };
-                        let old = t
-                            .get(key)
-                            .and_then(|x| x.as_float().or(x.as_integer().map(|i| i as f64)));
-                        t.insert(key.into(), toml::Value::Float(k * old.unwrap_or(0.0)));
-                    }
-                }
-                kept.push(v);
+        let mut out = self.clone();
+        out.disturbance_level = Some(level);
+        // Old excitation index -> new one (none for a removed excitation).
+        let mut index = Vec::with_capacity(self.excitations.len());
+        out.excitations.clear();
+        for e in &self.excitations {
+            if !e.measured && level == 0.0 {
+                index.push(None);
+                continue;
             }
-            *list = kept;
+            let mut e = e.clone();
+            if !e.measured {
+                let k = level * reference / std(e.process);
+                match &mut e.process {
+                    Process::White { sigma } => *sigma *= k,
+                    Process::Filtered { a, .. } => *a *= k,
+                }
+            }
+            index.push(Some(out.excitations.len()));
+            out.excitations.push(e);
         }
-        let src = format!(
-            "# {} with its unmeasured disturbance at level {level} (std relative to the measured force), written by fpkbench\n{}",
-            self.name,
-            toml::to_string(&table).map_err(|e| ScenarioError::Invalid {
-                path: self.name.clone(),
-                line: 1,
-                column: 1,
-                key: "(top level)".into(),
-                message: e.to_string(),
-            })?
-        );
-        let mut out = Scenario::parse(&src, &format!("{} at disturbance level {level}", self.name), &self.name)?;
-        // `[simulation]` as this scenario has it, edits made since parsing included (a log's
-        // run facts record them).
-        out.simulation = self.simulation.clone();
-        Ok(out)
+        let remap = |list: &mut Vec<usize>| *list = list.iter().filter_map(|&e| index[e]).collect();
+        let id = &mut out.identify;
+        remap(&mut id.unknown_intensities);
+        remap(&mut id.known_filters);
+        remap(&mut id.unknown_corners);
+        if let Some(d) = &mut id.disturbance {
+            d.structure.measured = index[d.structure.measured].expect("the measured force is kept");
+        }
+        out
     }
 
     /// The true value of every parameter, by its human-readable name

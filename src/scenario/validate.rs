@@ -205,6 +205,7 @@ impl Scenario {
             identify,
             accept,
             source: src.to_string(),
+            disturbance_level: None,
         })
     }
 }
