@@ -313,10 +313,11 @@ pub enum StopReason {
 
 impl std::fmt::Display for StopReason {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // `pad`, so that widths and alignment in format strings apply.
         match self {
-            StopReason::MaxSteps => f.write_str("max_steps"),
-            StopReason::Tolerance => f.write_str("tolerance"),
-            StopReason::Failed { step, error } => write!(f, "step {step} failed: {error}"),
+            StopReason::MaxSteps => f.pad("max_steps"),
+            StopReason::Tolerance => f.pad("tolerance"),
+            StopReason::Failed { step, error } => f.pad(&format!("step {step} failed: {error}")),
         }
     }
 }

@@ -267,6 +267,7 @@ pub(crate) fn identify_disturbed(
         .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ReportMethod::IteratedForce));
     Ok(assemble(
         info,
+        &grader,
         white.samples(),
         start,
         filter_reports,

@@ -36,6 +36,7 @@ impl<'a> Grader<'a> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn assemble(
     info: &LogInfo,
+    grader: &Grader,
     samples: u64,
     start: Instant,
     filters: Vec<FilterReport>,
@@ -71,6 +72,7 @@ pub(crate) fn assemble(
         passed,
         plot,
         scenario_def: Some(s.clone()),
+        truth: grader.truth.clone(),
     }
 }
 

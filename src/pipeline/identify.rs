@@ -185,6 +185,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     };
     Ok(assemble(
         info,
+        &grader,
         data.samples(),
         start,
         filter_reports,

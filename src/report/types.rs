@@ -1,6 +1,7 @@
 //! The result types of a run, serialised as `report.json` (fields in `docs/methods.md`).
 
 use crate::ident::{disturbance, lsq::Diagnostics, spectrum};
+use crate::model::Truth;
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
 use crate::stats::Histogram;
@@ -133,6 +134,9 @@ pub struct Report {
     pub plot: PlotData,
     #[serde(skip)]
     pub scenario_def: Option<Scenario>,
+    /// The truth the report was graded against (the log's truth record).
+    #[serde(skip)]
+    pub truth: Truth,
 }
 
 /// The iterative procedure's sequence with its accuracy at every step.

@@ -332,7 +332,8 @@ impl ReportMethod {
 
 impl std::fmt::Display for ReportMethod {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.name())
+        // `pad`, so that widths and alignment in format strings apply.
+        f.pad(&self.name())
     }
 }
 

@@ -16,7 +16,7 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
     let mut panels = Vec::new();
     for (l, link) in s.links.iter().enumerate() {
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
-            let truth = stats::true_characteristic(s, l, kind);
+            let truth = r.truth.characteristic(&link.name, kind);
             let identified = r
                 .methods
                 .iter()
@@ -38,7 +38,7 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
                 Characteristic::Damping => (&r.plot.link_hist[*l].1, "w", uv),
             };
             let (top, bottom) = area.split_vertically((area.dim_in_pixel().1 as f64 * 0.74) as u32);
-            let truth = stats::true_characteristic(s, *l, *kind);
+            let truth = r.truth.characteristic(&link.name, *kind);
             let (lo, hi) = (hist.lo, hist.hi);
             let xs: Vec<f64> = (0..=200).map(|k| lo + (hi - lo) * k as f64 / 200.0).collect();
             let mut curves: Vec<(String, Vec<f64>, RGBColor, bool)> = vec![(
