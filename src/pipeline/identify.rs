@@ -11,7 +11,7 @@ use crate::ident::strong::{DensityGrid, GridOptions};
 use crate::ident::Specification;
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
 use crate::io::log::{read_samples, LogInfo};
-use crate::report::Report;
+use crate::report::{MethodReport, Report};
 use crate::scenario::{Method, Process, ReportMethod};
 use std::time::Instant;
 
@@ -113,74 +113,24 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         return Err(e.into());
     }
 
-    // Methods.
-    let mut reports = Vec::new();
-    let mut first_ok: Option<Vec<f64>> = None;
-    let mut first_method = ReportMethod::Estimator(Method::Weak);
-    for m in &methods {
-        let t = Instant::now();
-        let est = match (m, &grid) {
-            (Method::Weak, _) => weak_estimate.clone(),
-            (Method::Strong | Method::StrongMarginals, Some(Err(e))) => Err(e.clone()),
-            (Method::Strong | Method::StrongMarginals, _) if bilinear => Err(IdentError::Unsupported(
-                "an unknown corner B makes the drift bilinear; the strong form here solves linear problems only".into(),
-            )),
-            (Method::Strong, Some(Ok(g))) => ident::identify_strong(&problem, g, false, &typical),
-            (Method::StrongMarginals, Some(Ok(g))) => ident::identify_strong(&problem, g, true, &typical),
-            (_, None) => unreachable!("grid requested"),
-        };
-        if let Err(e @ IdentError::NotIdentifiable { .. }) = est {
-            return Err(e.into());
-        }
-        if let (Ok(e), None) = (&est, &first_ok) {
-            first_ok = Some(e.values.clone());
-            first_method = ReportMethod::Estimator(*m);
-        }
-        reports.push(method_report(
-            ReportMethod::Estimator(*m),
-            Some(s.accept.threshold(&ReportMethod::Estimator(*m))),
-            est,
-            &grader,
-            &reported,
-            &data.link_ranges,
-            t,
-        ));
-    }
-    // The naive baseline: the white-noise identification applied to filtered data, with
-    // each filtered force taken as white of the same low-frequency density (σ = A/B).
-    if let (Some(d), false) = (&naive_data, filtered.is_empty()) {
-        let t = Instant::now();
-        let naive = Problem::from_spec(&spec.whitened(&filters), &[])?;
-        let est = ident::identify_weak(&naive, d);
-        reports.push(method_report(
-            ReportMethod::WeakWhiteNaive,
-            None,
-            est,
-            &grader,
-            &naive,
-            &data.link_ranges,
-            t,
-        ));
-    }
-    // Alternative models for comparison (e.g. the paper's linear case 1).
-    for (name, links) in &s.identify.compare {
-        let t = Instant::now();
-        let p = Problem::from_spec(&Specification::with_links(s, links), &filters)?;
-        let est = ident::identify_weak(&p, &data);
-        reports.push(method_report(
-            ReportMethod::Compare(name.clone()),
-            None,
-            est,
-            &grader,
-            &p,
-            &data.link_ranges,
-            t,
-        ));
-    }
+    let (mut reports, first) = estimator_reports(
+        &methods,
+        &Estimators {
+            problem: &problem,
+            reported: &reported,
+            weak: &weak_estimate,
+            grid: grid.as_ref(),
+            typical: &typical,
+        },
+        &grader,
+        &data.link_ranges,
+    )?;
+    let naive = naive_data.as_ref().filter(|_| !filtered.is_empty());
+    reports.extend(comparison_reports(&spec, &filters, naive, &data, &grader)?);
 
     // Validation by re-simulation of the first identified model.
-    let validation = match (&first_ok, options.validate) {
-        (Some(values), true) => Some(dist.validate(s, &reported, values, first_method)),
+    let validation = match (first, options.validate) {
+        (Some((values, method)), true) => Some(dist.validate(s, &reported, &values, method)),
         _ => None,
     };
     Ok(assemble(
@@ -194,4 +144,105 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         Vec::new(),
         dist.into_plot(spectra),
     ))
+}
+
+/// What the gated estimators work from: the problem, the problem the reports are about
+/// (the physical one of a bilinear problem), the weak form's estimate (computed first, as
+/// it measures identifiability), the density grid if one was asked for.
+struct Estimators<'a> {
+    problem: &'a Problem,
+    reported: &'a Problem,
+    weak: &'a Result<ident::Estimate, IdentError>,
+    grid: Option<&'a Result<DensityGrid, IdentError>>,
+    typical: &'a [f64],
+}
+
+/// The gated rows: one per requested method, and the first estimate that succeeded (what
+/// the validation re-simulates). Unknowns that cannot be separated end the identification.
+#[allow(clippy::type_complexity)]
+fn estimator_reports(
+    methods: &[Method],
+    e: &Estimators,
+    grader: &Grader,
+    ranges: &[[f64; 4]],
+) -> Result<(Vec<MethodReport>, Option<(Vec<f64>, ReportMethod)>), PipelineError> {
+    let s = grader.scenario;
+    let bilinear = e.problem.unknowns.iter().any(|u| matches!(u, Unknown::Corner(_)));
+    let mut reports = Vec::new();
+    let mut first = None;
+    for m in methods {
+        let t = Instant::now();
+        let est = match (m, e.grid) {
+            (Method::Weak, _) => e.weak.clone(),
+            (Method::Strong | Method::StrongMarginals, Some(Err(err))) => Err(err.clone()),
+            (Method::Strong | Method::StrongMarginals, _) if bilinear => Err(IdentError::Unsupported(
+                "an unknown corner B makes the drift bilinear; the strong form here solves linear problems only".into(),
+            )),
+            (Method::Strong, Some(Ok(g))) => ident::identify_strong(e.problem, g, false, e.typical),
+            (Method::StrongMarginals, Some(Ok(g))) => ident::identify_strong(e.problem, g, true, e.typical),
+            (_, None) => unreachable!("grid requested"),
+        };
+        if let Err(err @ IdentError::NotIdentifiable { .. }) = est {
+            return Err(err.into());
+        }
+        let method = ReportMethod::Estimator(*m);
+        if let (Ok(est), None) = (&est, &first) {
+            first = Some((est.values.clone(), method.clone()));
+        }
+        let threshold = s.accept.threshold(&method);
+        reports.push(method_report(
+            method,
+            Some(threshold),
+            est,
+            grader,
+            e.reported,
+            ranges,
+            t,
+        ));
+    }
+    Ok((reports, first))
+}
+
+/// The ungated rows: the naive baseline (the white-noise identification applied to
+/// filtered data, each filtered force taken as white of the same low-frequency density
+/// `σ = A/B`; `naive` holds its data when there are filtered forces) and the alternative
+/// models of `[identify.compare]` (e.g. the paper's linear case 1).
+fn comparison_reports(
+    spec: &Specification,
+    filters: &[Filter],
+    naive: Option<&StationaryData>,
+    data: &StationaryData,
+    grader: &Grader,
+) -> Result<Vec<MethodReport>, PipelineError> {
+    let ranges = &data.link_ranges;
+    let mut reports = Vec::new();
+    if let Some(d) = naive {
+        let t = Instant::now();
+        let p = Problem::from_spec(&spec.whitened(filters), &[])?;
+        let est = ident::identify_weak(&p, d);
+        reports.push(method_report(
+            ReportMethod::WeakWhiteNaive,
+            None,
+            est,
+            grader,
+            &p,
+            ranges,
+            t,
+        ));
+    }
+    for (name, links) in &grader.scenario.identify.compare {
+        let t = Instant::now();
+        let p = Problem::from_spec(&Specification::with_links(grader.scenario, links), filters)?;
+        let est = ident::identify_weak(&p, data);
+        reports.push(method_report(
+            ReportMethod::Compare(name.clone()),
+            None,
+            est,
+            grader,
+            &p,
+            ranges,
+            t,
+        ));
+    }
+    Ok(reports)
 }
