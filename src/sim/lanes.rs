@@ -381,6 +381,7 @@ impl Group {
     /// values (its part of the batch at that instant, so samples are written once, straight
     /// where they go).
     #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn run<const D: usize>(
         &mut self,
         m: &Model,
@@ -391,121 +392,141 @@ impl Group {
         t0: f64,
         out: &mut [&mut [f64]],
     ) -> Result<(), SimError> {
-        let n = lm.n;
-        let ne = lm.is_white.len();
-        let layout = m.columns();
-        let cols = layout.len();
-        let act = self.active;
-        let record = !out.is_empty();
-        debug_assert!(!record || out.len() == samples * cols);
-        // Masses with no white force get their acceleration from the force balance.
-        let balance = lm.white_on.iter().any(|w| w.is_empty());
-        let bridged = record && !lm.ou.is_empty();
-        for k in 0..samples {
+        run_group(self, m, lm, steps, samples, interval, t0, out)
+    }
+}
+
+/// [`Group::run`], compiled for the widest vector unit the CPU has (the sampling, the
+/// force balance and the divergence check run here; results are the same on every CPU).
+#[allow(clippy::too_many_arguments)]
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
+fn run_group<const D: usize>(
+    g: &mut Group,
+    m: &Model,
+    lm: &LaneModel<D>,
+    steps: usize,
+    samples: usize,
+    interval: f64,
+    t0: f64,
+    out: &mut [&mut [f64]],
+) -> Result<(), SimError> {
+    let n = lm.n;
+    let ne = lm.is_white.len();
+    let layout = m.columns();
+    let cols = layout.len();
+    let act = g.active;
+    let record = !out.is_empty();
+    debug_assert!(!record || out.len() == samples * cols);
+    // Masses with no white force get their acceleration from the force balance.
+    let balance = lm.white_on.iter().any(|w| w.is_empty());
+    let bridged = record && !lm.ou.is_empty();
+    for k in 0..samples {
+        if bridged {
+            // The filtered forces one step before the sample, for their bridge below.
+            (lm.advance)(g, lm, steps - 1);
+            for &(e, ..) in &lm.ou {
+                g.p_mid[e] = g.p[e];
+            }
+            (lm.advance)(g, lm, 1);
+        } else {
+            (lm.advance)(g, lm, steps);
+        }
+        if let Some(j) = g.diverged_lane() {
+            return Err(SimError::Diverged {
+                trajectory: g.first + j,
+                t_from: t0 + k as f64 * interval,
+                t_to: t0 + (k + 1) as f64 * interval,
+                state: g.state_of(m, lm, j),
+            });
+        }
+        if record {
+            // The semi-implicit step is staggered: the new velocity is the step's mean,
+            // i.e. the velocity at its midpoint, so the displacement logged with it is the
+            // midpoint's, (x_n + x_(n+1)) / 2 = x_(n+1) − h v_(n+1) / 2 — then the sample is
+            // one instant's state, and the stationary moments lose the scheme's O(h)
+            // displacement–velocity correlation (E[x v] = h E[v²] / 2 otherwise, which biases
+            // damping estimates by k h / 2c).
+            //
+            // A filtered force at that instant, the step's midpoint: the step used P_n
+            // and ended at P_(n+1) = ρ P_n + sd z, so either end is h/2 off the state and
+            // biases the cross-moments E[x P], E[v P] by ∓Bh/2 (which reads as a damping
+            // bias of the same size). The sample is drawn from the exact Ornstein–Uhlenbeck
+            // bridge instead: given both ends, P(t_n + h/2) is normal with mean
+            // √ρ (P_n + P_(n+1)) / (1 + ρ) and standard deviation sd / (1 + ρ), so its
+            // variance stays exactly A²/2B and the cross-moments keep only the scheme's
+            // own discretisation error (tested against the recursion's exact covariance).
+            // Explicit Euler–Maruyama logs the step's end state, but its step applied P_n
+            // too, and the same midpoint sample puts its E[v P] within 0.03 % of the
+            // continuous value at B·h = 0.06 (the end value: −2.9 %; exact recursion).
             if bridged {
-                // The filtered forces one step before the sample, for their bridge below.
-                (lm.advance)(self, lm, steps - 1);
+                for &(e, decay, sd) in &lm.ou {
+                    let (w, s) = (decay.sqrt() / (1.0 + decay), sd / (1.0 + decay));
+                    let (mid, end) = (&mut g.p_mid[e], &g.p[e]);
+                    for j in 0..LANES {
+                        let z: f64 = StandardNormal.sample(&mut g.bridge[j]);
+                        mid[j] = w * (mid[j] + end[j]) + s * z;
+                    }
+                }
+            }
+            let o = &mut out[k * cols..(k + 1) * cols];
+            for i in 0..n {
+                let (x, v) = (&g.x[i], &g.v[i]);
+                if lm.semi_implicit {
+                    for ((y, &x), &v) in o[layout.x(i)].iter_mut().zip(x).zip(v) {
+                        *y = x - 0.5 * lm.h * v;
+                    }
+                } else {
+                    o[layout.x(i)].copy_from_slice(&x[..act]);
+                }
+                o[layout.v(i)].copy_from_slice(&v[..act]);
+            }
+            if balance {
+                // Instantaneous force balance, at the logged displacements and forces.
+                g.x_keep.copy_from_slice(&g.x[..n]);
+                for i in 0..n {
+                    g.x[i][..act].copy_from_slice(o[layout.x(i)]);
+                }
                 for &(e, ..) in &lm.ou {
-                    self.p_mid[e] = self.p[e];
+                    std::mem::swap(&mut g.p[e], &mut g.p_mid[e]);
                 }
-                (lm.advance)(self, lm, 1);
-            } else {
-                (lm.advance)(self, lm, steps);
+                g.forces(lm);
+                for &(e, ..) in &lm.ou {
+                    std::mem::swap(&mut g.p[e], &mut g.p_mid[e]);
+                }
+                g.x[..n].copy_from_slice(&g.x_keep);
             }
-            if let Some(j) = self.diverged_lane() {
-                return Err(SimError::Diverged {
-                    trajectory: self.first + j,
-                    t_from: t0 + k as f64 * interval,
-                    t_to: t0 + (k + 1) as f64 * interval,
-                    state: self.state_of(m, lm, j),
-                });
-            }
-            if record {
-                // The semi-implicit step is staggered: the new velocity is the step's mean,
-                // i.e. the velocity at its midpoint, so the displacement logged with it is the
-                // midpoint's, (x_n + x_(n+1)) / 2 = x_(n+1) − h v_(n+1) / 2 — then the sample is
-                // one instant's state, and the stationary moments lose the scheme's O(h)
-                // displacement–velocity correlation (E[x v] = h E[v²] / 2 otherwise, which biases
-                // damping estimates by k h / 2c).
-                //
-                // A filtered force at that instant, the step's midpoint: the step used P_n
-                // and ended at P_(n+1) = ρ P_n + sd z, so either end is h/2 off the state and
-                // biases the cross-moments E[x P], E[v P] by ∓Bh/2 (which reads as a damping
-                // bias of the same size). The sample is drawn from the exact Ornstein–Uhlenbeck
-                // bridge instead: given both ends, P(t_n + h/2) is normal with mean
-                // √ρ (P_n + P_(n+1)) / (1 + ρ) and standard deviation sd / (1 + ρ), so its
-                // variance stays exactly A²/2B and the cross-moments keep only the scheme's
-                // own discretisation error (tested against the recursion's exact covariance).
-                // Explicit Euler–Maruyama logs the step's end state, but its step applied P_n
-                // too, and the same midpoint sample puts its E[v P] within 0.03 % of the
-                // continuous value at B·h = 0.06 (the end value: −2.9 %; exact recursion).
-                if bridged {
-                    for &(e, decay, sd) in &lm.ou {
-                        let (w, s) = (decay.sqrt() / (1.0 + decay), sd / (1.0 + decay));
-                        let (mid, end) = (&mut self.p_mid[e], &self.p[e]);
-                        for j in 0..LANES {
-                            let z: f64 = StandardNormal.sample(&mut self.bridge[j]);
-                            mid[j] = w * (mid[j] + end[j]) + s * z;
-                        }
+            for i in 0..n {
+                let a = &mut o[layout.a(i)];
+                if lm.white_on[i].is_empty() {
+                    for (a, &f) in a.iter_mut().zip(&g.f[i]) {
+                        *a = f * lm.inv_mass[i];
                     }
-                }
-                let o = &mut out[k * cols..(k + 1) * cols];
-                for i in 0..n {
-                    let (x, v) = (&self.x[i], &self.v[i]);
-                    if lm.semi_implicit {
-                        for ((y, &x), &v) in o[layout.x(i)].iter_mut().zip(x).zip(v) {
-                            *y = x - 0.5 * lm.h * v;
-                        }
-                    } else {
-                        o[layout.x(i)].copy_from_slice(&x[..act]);
-                    }
-                    o[layout.v(i)].copy_from_slice(&v[..act]);
-                }
-                if balance {
-                    // Instantaneous force balance, at the logged displacements and forces.
-                    self.x_keep.copy_from_slice(&self.x[..n]);
-                    for i in 0..n {
-                        self.x[i][..act].copy_from_slice(o[layout.x(i)]);
-                    }
-                    for &(e, ..) in &lm.ou {
-                        std::mem::swap(&mut self.p[e], &mut self.p_mid[e]);
-                    }
-                    self.forces(lm);
-                    for &(e, ..) in &lm.ou {
-                        std::mem::swap(&mut self.p[e], &mut self.p_mid[e]);
-                    }
-                    self.x[..n].copy_from_slice(&self.x_keep);
-                }
-                for i in 0..n {
-                    let a = &mut o[layout.a(i)];
-                    if lm.white_on[i].is_empty() {
-                        for (a, &f) in a.iter_mut().zip(&self.f[i]) {
-                            *a = f * lm.inv_mass[i];
-                        }
-                    } else {
-                        for ((a, &v), &v0) in a.iter_mut().zip(&self.v[i]).zip(&self.v_mark[i]) {
-                            *a = (v - v0) / interval;
-                        }
-                    }
-                }
-                for e in 0..ne {
-                    let p = &mut o[layout.force(e)];
-                    if lm.is_white[e] {
-                        for (y, &z) in p.iter_mut().zip(&self.p[e]) {
-                            *y = z * lm.impulse_scale[e] / interval;
-                        }
-                    } else {
-                        p.copy_from_slice(&self.p_mid[e][..act]);
+                } else {
+                    for ((a, &v), &v0) in a.iter_mut().zip(&g.v[i]).zip(&g.v_mark[i]) {
+                        *a = (v - v0) / interval;
                     }
                 }
             }
-            self.v_mark.copy_from_slice(&self.v[..n]);
             for e in 0..ne {
+                let p = &mut o[layout.force(e)];
                 if lm.is_white[e] {
-                    self.p[e] = zero();
+                    for (y, &z) in p.iter_mut().zip(&g.p[e]) {
+                        *y = z * lm.impulse_scale[e] / interval;
+                    }
+                } else {
+                    p.copy_from_slice(&g.p_mid[e][..act]);
                 }
             }
         }
-        Ok(())
+        g.v_mark.copy_from_slice(&g.v[..n]);
+        for e in 0..ne {
+            if lm.is_white[e] {
+                g.p[e] = zero();
+            }
+        }
     }
+    Ok(())
 }
