@@ -10,7 +10,7 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 
-/// Mixed into a trajectory's seed for its bridge generator (see [`Group::run`]).
+/// Mixed into a trajectory's seed for its bridge generator (see [`run_group`]).
 pub(crate) const BRIDGE_STREAM: u64 = 0x4252_4944_4745_5f31;
 
 /// Advances a group by a number of steps.
@@ -220,7 +220,7 @@ pub(crate) struct Group {
     /// Scratch: the displacements while a sample is taken at the velocity's instant.
     pub(super) x_keep: Vec<Lane>,
     /// Per excitation: a filtered force one step before the sample, then its value at the
-    /// sample's instant (see [`Group::run`]).
+    /// sample's instant (see [`run_group`]).
     pub(super) p_mid: Vec<Lane>,
     /// Per lane: the generator of the filtered forces' bridge normals at sampling instants,
     /// a stream of its own so the trajectories do not depend on the sampling.
@@ -374,36 +374,22 @@ impl Group {
         }
         s
     }
-
-    /// Advance `samples` sample intervals of `steps` steps each, checking divergence after
-    /// every interval. When `out` is not empty, the sample at the end of interval `k` goes
-    /// into `out[k * columns .. (k + 1) * columns]`: per column, the group's active lanes'
-    /// values (its part of the batch at that instant, so samples are written once, straight
-    /// where they go).
-    #[allow(clippy::too_many_arguments)]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn run<const D: usize>(
-        &mut self,
-        m: &Model,
-        lm: &LaneModel<D>,
-        steps: usize,
-        samples: usize,
-        interval: f64,
-        t0: f64,
-        out: &mut [&mut [f64]],
-    ) -> Result<(), SimError> {
-        run_group(self, m, lm, steps, samples, interval, t0, out)
-    }
 }
 
-/// [`Group::run`], compiled for the widest vector unit the CPU has (the sampling, the
-/// force balance and the divergence check run here; results are the same on every CPU).
+/// Advance group `g` by `samples` sample intervals of `steps` steps each, checking divergence after
+/// every interval. When `out` is not empty, the sample at the end of interval `k` goes
+/// into `out[k * columns .. (k + 1) * columns]`: per column, the group's active lanes'
+/// values (its part of the batch at that instant, so samples are written once, straight
+/// where they go).
+///
+/// Compiled for the widest vector unit the CPU has (the sampling, the force balance and
+/// the divergence check run here; results are the same on every CPU).
 #[allow(clippy::too_many_arguments)]
 #[multiversion(targets(
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
     "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
 ))]
-fn run_group<const D: usize>(
+pub(super) fn run_group<const D: usize>(
     g: &mut Group,
     m: &Model,
     lm: &LaneModel<D>,

@@ -25,7 +25,7 @@ pub use sinks::{Collect, ForEach, Moments, SampleBatch, SampleSink};
 
 use crate::model::Model;
 use crate::scenario::Simulation;
-use lanes::{advance_generic, no_kernel, zero, Group, LaneModel, Stepper};
+use lanes::{advance_generic, no_kernel, run_group, zero, Group, LaneModel, Stepper};
 use rayon::prelude::*;
 use shaped::shaped_kernel;
 
@@ -154,9 +154,9 @@ pub(crate) fn simulate_padded<const D: usize>(
     let burn_rest = burn_steps % steps;
     let t_burn = -(burn_steps as f64) * lm.h;
     groups.par_iter_mut().try_for_each(|g| {
-        g.run(model, &lm, steps, burn_intervals, interval, t_burn, &mut [])?;
+        run_group(g, model, &lm, steps, burn_intervals, interval, t_burn, &mut [])?;
         let t_rest = t_burn + burn_intervals as f64 * interval;
-        g.run(model, &lm, burn_rest, 1, burn_rest as f64 * lm.h, t_rest, &mut [])?;
+        run_group(g, model, &lm, burn_rest, 1, burn_rest as f64 * lm.h, t_rest, &mut [])?;
         // The first sample's Δv and impulse start here.
         g.v_mark.copy_from_slice(&g.v[..model.masses()]);
         for (e, p) in g.p.iter_mut().enumerate() {
@@ -205,7 +205,7 @@ pub(crate) fn simulate_padded<const D: usize>(
         let results: Vec<Result<(), SimError>> = groups
             .par_iter_mut()
             .zip(parts.par_iter_mut())
-            .map(|(g, out)| g.run(model, &lm, steps, b, interval, t0, out))
+            .map(|(g, out)| run_group(g, model, &lm, steps, b, interval, t0, out))
             .collect();
         drop(parts);
         // The first failing group in trajectory order, whatever the thread count.
