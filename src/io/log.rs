@@ -22,11 +22,12 @@ use crate::model::Model;
 use crate::model::Quantity;
 use crate::scenario::{Scenario, ScenarioError};
 use crate::sim::{SampleBatch, SampleSink};
-use mcap::records::{MessageHeader, Metadata, Record};
-use mcap::sans_io::{LinearReadEvent, LinearReader};
+use super::reader::{McapFile, ReadError, Record, Scan};
+use mcap::records::{MessageHeader, Metadata};
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufWriter, Read};
+use std::io::BufWriter;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::thread::JoinHandle;
@@ -73,7 +74,7 @@ pub enum LogError {
     /// delivered to the caller.
     #[error(
         "{path}: the log is truncated ({reason}); {readable} samples are still readable \
-         (of {expected} the run was to write)"
+         (of {expected} the run was to write; `--allow-truncated` uses them)"
     )]
     Truncated {
         path: String,
@@ -81,6 +82,10 @@ pub enum LogError {
         readable: u64,
         expected: u64,
     },
+    /// Bytes of the file are damaged (a CRC mismatch, an impossible length or value). The
+    /// samples before the damage were delivered to the caller and are intact.
+    #[error("{path}: the log is damaged: {reason}; the {readable} samples before the damage are intact")]
+    Corrupt { path: String, reason: String, readable: u64 },
     /// The file is MCAP but not an fpkbench log, or its description is inconsistent.
     #[error("{path}: not a valid fpkbench log: {reason}")]
     Invalid { path: String, reason: String },
@@ -406,105 +411,153 @@ pub struct LogInfo {
     pub columns: Vec<String>,
     pub channel_metadata: BTreeMap<String, String>,
     pub library: String,
+    /// Use the readable samples of a truncated log instead of refusing it
+    /// (`--allow-truncated`); see [`read_samples`].
+    pub accept_truncated: bool,
 }
 
 impl LogInfo {
     /// Samples the run was to write (trajectories × samples per trajectory).
     pub fn expected_samples(&self) -> u64 {
         let s = &self.scenario.simulation;
-        (s.trajectories * s.samples_per_trajectory()) as u64
+        (s.trajectories as u64).saturating_mul(s.samples_per_trajectory() as u64)
     }
 }
 
-/// Stream every record of an MCAP file through `f`, in constant memory. `f` returns
-/// `false` to stop early.
-fn stream_records(path: &Path, mut f: impl FnMut(Record<'_>) -> Result<bool, LogError>) -> Result<(), LogError> {
-    let label = path.display().to_string();
-    let mut file = File::open(path).map_err(|source| LogError::Io {
-        path: label.clone(),
-        source,
-    })?;
-    let mut reader = LinearReader::new();
-    while let Some(event) = reader.next_event() {
-        match event {
-            Ok(LinearReadEvent::ReadRequest(n)) => {
-                let buf = reader.insert(n);
-                let read = file.read(buf).map_err(|source| LogError::Io {
-                    path: label.clone(),
-                    source,
-                })?;
-                reader.notify_read(read);
-            }
-            Ok(LinearReadEvent::Record { data, opcode }) => {
-                let rec = mcap::parse_record(opcode, data).map_err(|source| LogError::Mcap {
-                    path: label.clone(),
-                    source,
-                })?;
-                if !f(rec)? {
-                    return Ok(());
-                }
-            }
-            Err(source) => return Err(LogError::Mcap { path: label, source }),
-        }
-    }
-    Ok(())
+fn open(path: &Path) -> Result<McapFile, LogError> {
+    McapFile::open(path).map_err(|e| LogError::Io {
+        path: path.display().to_string(),
+        source: std::io::Error::other(e.to_string()),
+    })
 }
 
-/// Read a log's self-description: scenario, truth, run facts, columns. Reads only up to
-/// the first sample.
-pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
-    let label = path.display().to_string();
-    let mut scenario_src: Option<String> = None;
-    let mut truth = Vec::new();
-    let mut run = BTreeMap::new();
-    let mut channel: Option<(String, BTreeMap<String, String>)> = None;
-    let mut library = String::new();
-    let res = stream_records(path, |rec| {
+/// What the description records of a log hold, gathered wherever they are.
+#[derive(Default)]
+struct Description {
+    scenario: Option<String>,
+    truth: Option<BTreeMap<String, String>>,
+    run: Option<BTreeMap<String, String>>,
+    channel: Option<BTreeMap<String, String>>,
+    library: String,
+}
+
+impl Description {
+    fn take(&mut self, rec: Record<'_>) {
         match rec {
-            Record::Header(h) => library = h.library,
-            Record::Attachment { header, data, .. } if header.name == SCENARIO_ATTACHMENT => {
-                scenario_src = Some(String::from_utf8_lossy(&data).into_owned());
+            Record::Header { library, .. } => self.library = library,
+            Record::Attachment { name, data, .. } if name == SCENARIO_ATTACHMENT && self.scenario.is_none() => {
+                self.scenario = Some(String::from_utf8_lossy(data).into_owned());
             }
-            Record::Metadata(m) if m.name == TRUTH_METADATA => {
-                truth = m
-                    .metadata
-                    .into_iter()
-                    .map(|(k, v)| (k, v.parse::<f64>().unwrap_or(f64::NAN)))
-                    .collect();
+            Record::Metadata { name, metadata } if name == TRUTH_METADATA => self.truth = Some(metadata),
+            Record::Metadata { name, metadata } if name == RUN_METADATA => self.run = Some(metadata),
+            Record::Channel { topic, metadata, .. } if topic == TOPIC && self.channel.is_none() => {
+                self.channel = Some(metadata)
             }
-            Record::Metadata(m) if m.name == RUN_METADATA => run = m.metadata,
-            Record::Channel(c) if c.topic == TOPIC => channel = Some((c.topic, c.metadata)),
-            Record::Message { .. } => return Ok(false),
             _ => {}
         }
-        Ok(true)
-    });
-    // A log cut off after its description still describes itself.
-    if let Err(e) = res {
-        if scenario_src.is_none() || channel.is_none() {
-            return Err(e);
+    }
+    fn complete(&self) -> bool {
+        self.scenario.is_some() && self.truth.is_some() && self.run.is_some() && self.channel.is_some()
+    }
+}
+
+/// Read a log's self-description: scenario, truth, run facts, columns.
+///
+/// The records are found wherever the writer put them: fpkbench puts them before the first
+/// sample (so a truncated log still describes itself) and the reader stops there; other
+/// writers may put them after the messages, where the summary's indexes point at them or,
+/// without a summary, a scan to the end finds them.
+pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
+    let label = path.display().to_string();
+    let invalid = |reason: String| LogError::Invalid {
+        path: label.clone(),
+        reason,
+    };
+    let mut file = open(path)?;
+    // The summary's view, if the file has a sound one (a damaged summary is not fatal:
+    // the linear scan below reads the same records and says what is wrong if it must).
+    let mut indexed = Description::default();
+    if let Ok(Some(summary)) = file.summary() {
+        for (id_at, len) in summary.attachments().chain(summary.metadata()).collect::<Vec<_>>() {
+            let _ = file.indexed_record(id_at, len, |rec| indexed.take(rec));
+        }
+        for (_, topic, _, metadata) in summary.channels {
+            if topic == TOPIC && indexed.channel.is_none() {
+                indexed.channel = Some(metadata);
+            }
         }
     }
-    let invalid = |reason: &str| LogError::Invalid {
-        path: label.clone(),
-        reason: reason.into(),
-    };
-    let src = scenario_src.ok_or_else(|| invalid("no scenario attachment (`scenario.toml`)"))?;
-    let (_, channel_metadata) = channel.ok_or_else(|| invalid("no sample channel (`/fpkbench/samples`)"))?;
+    let mut found = Description::default();
+    let mut seen_message = false;
+    let res = Scan::new(file).run(|rec, _| {
+        if matches!(rec, Record::Message { .. }) {
+            seen_message = true;
+        }
+        found.take(rec);
+        if found.complete() || (seen_message && fill(&mut found, &indexed)) {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    fill(&mut found, &indexed);
+    if let Err(e) = res {
+        // A log cut off or damaged after its description still describes itself.
+        if !found.complete() {
+            return Err(match e {
+                ReadError::Io(m) => LogError::Io {
+                    path: label.clone(),
+                    source: std::io::Error::other(m),
+                },
+                ReadError::Truncated { .. } => invalid(format!(
+                    "{e}, before the log's description (scenario, truth, run facts, sample channel) \
+                     was complete: nothing can be read"
+                )),
+                ReadError::Corrupt { .. } => invalid(format!(
+                    "{e}; the log's description (scenario, truth, run facts, sample channel) is \
+                     not readable"
+                )),
+            });
+        }
+    }
+    let src = found
+        .scenario
+        .ok_or_else(|| invalid(format!("no scenario attachment (`{SCENARIO_ATTACHMENT}`)")))?;
+    let channel_metadata = found
+        .channel
+        .ok_or_else(|| invalid(format!("no sample channel (`{TOPIC}`)")))?;
+    let run = found
+        .run
+        .ok_or_else(|| invalid(format!("no run facts (metadata `{RUN_METADATA}`)")))?;
+    let truth_map = found
+        .truth
+        .ok_or_else(|| invalid(format!("no truth (metadata `{TRUTH_METADATA}`)")))?;
     let name = run.get("scenario").cloned().unwrap_or_else(|| "scenario".into());
     let mut scenario =
         Scenario::parse(&src, &format!("{label}#scenario.toml"), &name).map_err(|source| LogError::Scenario {
             path: label.clone(),
             source,
         })?;
-    apply_run_facts(&mut scenario, &run).map_err(|reason| LogError::Invalid {
-        path: label.clone(),
-        reason,
-    })?;
+    apply_run_facts(&mut scenario, &run).map_err(|reason| invalid(reason))?;
     let columns: Vec<String> = channel_metadata
         .get("columns")
         .map(|c| c.split(',').map(str::to_string).collect())
-        .ok_or_else(|| invalid("channel metadata has no `columns`"))?;
+        .ok_or_else(|| invalid("channel metadata has no `columns`".into()))?;
+    let expected = model_columns(&scenario);
+    if columns != expected {
+        return Err(invalid(format!(
+            "the channel's columns ({}) are not those of its scenario ({})",
+            columns.join(","),
+            expected.join(",")
+        )));
+    }
+    let mut truth = Vec::new();
+    for (k, v) in truth_map {
+        let x = v
+            .parse::<f64>()
+            .map_err(|_| invalid(format!("truth {k} = {v:?} is not a number")))?;
+        truth.push((k, x));
+    }
     // Truth is keyed by name; keep the scenario's order.
     let order: Vec<String> = scenario.truth().into_iter().map(|t| t.0).collect();
     truth.sort_by_key(|(k, _)| order.iter().position(|o| o == k).unwrap_or(usize::MAX));
@@ -515,8 +568,30 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
         run,
         columns,
         channel_metadata,
-        library,
+        library: found.library,
+        accept_truncated: false,
     })
+}
+
+/// Complete `found` from the summary's records; whether it is then complete.
+fn fill(found: &mut Description, indexed: &Description) -> bool {
+    macro_rules! or {
+        ($f:ident) => {
+            if found.$f.is_none() {
+                found.$f = indexed.$f.clone();
+            }
+        };
+    }
+    or!(scenario);
+    or!(truth);
+    or!(run);
+    or!(channel);
+    found.complete()
+}
+
+/// The sample columns a log of scenario `s` has (its model's).
+fn model_columns(s: &Scenario) -> Vec<String> {
+    Model::new(s).column_names()
 }
 
 /// The run facts describe what was simulated; they override the attached scenario's
@@ -558,6 +633,7 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
         Some(other) => return Err(format!("run fact scheme = {other:?} is not a known scheme")),
         None => {}
     }
+    sim.check().map_err(|e| format!("the run facts give an invalid [simulation]: {e}"))?;
     // After the simulation facts: the level is relative to the measured force at the run's
     // sample interval.
     if let Some(level) = get::<f64>(run, "disturbance_level")? {
@@ -570,8 +646,14 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
 }
 
 /// Stream every sample to `f(trajectory, t, values)` in file order, in constant memory.
-/// Returns the number of samples. A truncated file gives [`LogError::Truncated`] after
-/// delivering every sample that could be read.
+/// Returns the number of samples.
+///
+/// Only messages on [`TOPIC`] are read (a log may carry other topics too). Every value is
+/// checked finite. A chunk is checked against its CRC before any of its samples is
+/// delivered, so a damaged chunk gives [`LogError::Corrupt`] with the count of samples
+/// before it, all intact. A file that ends early gives [`LogError::Truncated`] after
+/// delivering every sample that could be read — or, when the caller asked for it with
+/// [`LogInfo::accept_truncated`], the count of those samples.
 pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Result<u64, LogError> {
     let label = info.path.display().to_string();
     let cols = info.columns.len();
@@ -579,59 +661,111 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
     let size = message_len(cols, trajectories);
     let stride = 8 + 8 * trajectories;
     let mut values = vec![0.0; cols];
-    let mut count = 0u64;
+    let mut instant = 0u64;
+    let mut ours: Vec<u16> = Vec::new();
     let mut bad: Option<String> = None;
-    let res = stream_records(&info.path, |rec| {
-        if let Record::Message { data, .. } = rec {
-            let instant = count / trajectories.max(1) as u64;
-            if data.len() != size || data[..4] != CDR_HEADER {
-                bad = Some(format!(
-                    "instant {instant} has {} bytes, expected {size} (CDR little-endian, {cols} arrays of \
-                     {trajectories} trajectories)",
-                    data.len()
-                ));
-                return Ok(false);
-            }
-            let f64_at = |at: usize| f64::from_le_bytes(data[at..at + 8].try_into().unwrap());
-            if let Some(c) = (0..cols).find(|c| {
-                let at = 12 + c * stride;
-                u32::from_le_bytes(data[at..at + 4].try_into().unwrap()) as usize != trajectories
-            }) {
-                bad = Some(format!(
-                    "instant {instant}: array {} does not hold {trajectories} values",
-                    info.columns[c]
-                ));
-                return Ok(false);
-            }
-            let t = f64_at(4);
-            for j in 0..trajectories {
-                for (c, v) in values.iter_mut().enumerate() {
-                    *v = f64_at(20 + c * stride + 8 * j);
+    let mut scan = Scan::new(open(&info.path)?);
+    let res = scan.run(|rec, offset| {
+        match rec {
+            Record::Channel { id, topic, .. } if topic == TOPIC => ours.push(id),
+            Record::Message { channel_id, data, .. } if ours.contains(&channel_id) => {
+                match check_message(data, info, size, stride) {
+                    Ok(()) => {}
+                    Err(e) => {
+                        bad = Some(format!("message at byte {offset} (instant {instant}): {e}"));
+                        return ControlFlow::Break(());
+                    }
                 }
-                f(j as u32, t, &values);
+                let f64_at = |at: usize| f64::from_le_bytes(data[at..at + 8].try_into().unwrap());
+                let t = f64_at(4);
+                for j in 0..trajectories {
+                    for (c, v) in values.iter_mut().enumerate() {
+                        *v = f64_at(20 + c * stride + 8 * j);
+                    }
+                    f(j as u32, t, &values);
+                }
+                instant += 1;
             }
-            count += trajectories as u64;
+            _ => {}
         }
-        Ok(true)
+        ControlFlow::Continue(())
     });
-    if let Some(reason) = bad {
-        return Err(LogError::Invalid { path: label, reason });
-    }
+    let count = instant * trajectories as u64;
     let expected = info.expected_samples();
+    if let Some(reason) = bad {
+        return Err(LogError::Corrupt {
+            path: label,
+            reason,
+            readable: count,
+        });
+    }
+    let truncated = |reason: String| {
+        if info.accept_truncated {
+            Ok(count)
+        } else {
+            Err(LogError::Truncated {
+                path: label.clone(),
+                reason,
+                readable: count,
+                expected,
+            })
+        }
+    };
     match res {
         Ok(()) if count == expected => Ok(count),
-        Ok(()) => Err(LogError::Truncated {
+        Ok(()) if count > expected => Err(LogError::Invalid {
             path: label,
-            reason: "it holds fewer samples than its run facts promise".to_string(),
-            readable: count,
-            expected,
+            reason: format!("it holds {count} samples, more than the {expected} its run facts promise"),
         }),
-        Err(LogError::Mcap { source, .. }) => Err(LogError::Truncated {
+        Ok(()) => truncated("it holds fewer samples than its run facts promise".into()),
+        Err(e @ ReadError::Truncated { .. }) => truncated(e.to_string()),
+        Err(ReadError::Io(m)) => Err(LogError::Io {
             path: label,
-            reason: format!("{source}"),
-            readable: count,
-            expected,
+            source: std::io::Error::other(m),
         }),
-        Err(e) => Err(e),
+        Err(e @ ReadError::Corrupt { .. }) => Err(LogError::Corrupt {
+            path: label,
+            reason: e.to_string(),
+            readable: count,
+        }),
     }
+}
+
+/// Whether one instant's message has the log's layout and finite values; what is wrong if not.
+fn check_message(data: &[u8], info: &LogInfo, size: usize, stride: usize) -> Result<(), String> {
+    let trajectories = info.scenario.simulation.trajectories;
+    if data.len() != size {
+        return Err(format!(
+            "{} bytes where {size} were expected ({} arrays of {trajectories} trajectories)",
+            data.len(),
+            info.columns.len()
+        ));
+    }
+    if data[..4] != CDR_HEADER {
+        return Err(format!(
+            "encapsulation header {:02x?} is not CDR little-endian {CDR_HEADER:02x?}",
+            &data[..4]
+        ));
+    }
+    let f64_at = |at: usize| f64::from_le_bytes(data[at..at + 8].try_into().unwrap());
+    let t = f64_at(4);
+    if !t.is_finite() {
+        return Err(format!("time t = {t}"));
+    }
+    for (c, name) in info.columns.iter().enumerate() {
+        let at = 12 + c * stride;
+        let n = u32::from_le_bytes(data[at..at + 4].try_into().unwrap()) as usize;
+        if n != trajectories {
+            return Err(format!("array {name} holds {n} values, not one per trajectory ({trajectories})"));
+        }
+        for j in 0..trajectories {
+            let v = f64_at(at + 8 + 8 * j);
+            if !v.is_finite() {
+                return Err(format!(
+                    "{name} = {v} at t = {t} s, trajectory {j}, channel {TOPIC} (every value must be finite)"
+                ));
+            }
+        }
+    }
+    Ok(())
 }

@@ -5,6 +5,7 @@
 
 pub mod export;
 pub mod log;
+pub mod reader;
 
 use std::path::{Path, PathBuf};
 

@@ -203,7 +203,63 @@ impl Simulation {
     pub fn burn_in_steps(&self) -> usize {
         (self.burn_in / self.dt).round() as usize
     }
+    /// Internal integration steps of the whole run: burn-in and record, every trajectory,
+    /// every substep.
+    pub fn total_steps(&self) -> f64 {
+        (self.burn_in + self.record_length) / self.dt * self.trajectories as f64 * self.substeps as f64
+    }
+    /// Whether these values describe a run this tool can make: the checks of
+    /// [`Scenario::parse`] on already-typed values (a log's run facts, an edited scenario).
+    /// The error says what is wrong and how to shorten a run that is too long.
+    pub fn check(&self) -> Result<(), String> {
+        let positive = |v: f64, key: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{key} must be a finite number > 0, got {v}"))
+            }
+        };
+        positive(self.dt, "dt")?;
+        positive(self.sample_interval, "sample_interval")?;
+        positive(self.record_length, "record_length")?;
+        if !(self.burn_in.is_finite() && self.burn_in >= 0.0) {
+            return Err(format!("burn_in must be a finite number >= 0, got {}", self.burn_in));
+        }
+        let ratio = self.sample_interval / self.dt;
+        if (ratio - ratio.round()).abs() > 1e-6 * ratio.max(1.0) || ratio.round() < 1.0 {
+            return Err(format!(
+                "sample_interval must be a whole multiple of dt = {} s (got {} s = {ratio} dt)",
+                self.dt, self.sample_interval
+            ));
+        }
+        if self.record_length < self.sample_interval {
+            return Err(format!("record_length must be at least one sample_interval ({} s)", self.sample_interval));
+        }
+        if !(1..=MAX_TRAJECTORIES).contains(&self.trajectories) {
+            return Err(format!("trajectories must be 1..={MAX_TRAJECTORIES}, got {}", self.trajectories));
+        }
+        if !(1..=MAX_SUBSTEPS).contains(&self.substeps) {
+            return Err(format!("substeps must be 1..={MAX_SUBSTEPS}, got {}", self.substeps));
+        }
+        let steps = self.total_steps();
+        if steps > MAX_STEPS {
+            return Err(format!(
+                "the run is {steps:.1e} integration steps ((burn_in {} s + record_length {} s) / dt {} s \
+                 x {} trajectories x {} substeps), beyond the {MAX_STEPS:.0e} this tool will run: \
+                 shorten burn_in or record_length, or use fewer trajectories",
+                self.burn_in, self.record_length, self.dt, self.trajectories, self.substeps
+            ));
+        }
+        Ok(())
+    }
 }
+
+/// Most trajectories a run may have.
+pub const MAX_TRAJECTORIES: usize = 1 << 20;
+/// Most substeps per `dt`.
+pub const MAX_SUBSTEPS: usize = 1000;
+/// Most integration steps a run may take, burn-in included (about a day on two cores).
+pub const MAX_STEPS: f64 = 1e13;
 
 /// Unknown coefficients of one link in `[identify.links.NAME]`.
 #[derive(Debug, Clone, PartialEq)]

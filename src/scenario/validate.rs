@@ -476,21 +476,18 @@ pub(crate) fn check_simulation(
             )),
         }
     };
-    let trajectories = count(&s.trajectories, "simulation.trajectories", 16, 1 << 20)?;
-    let substeps = count(&s.substeps, "simulation.substeps", 1, 1000)?;
+    let trajectories = count(
+        &s.trajectories,
+        "simulation.trajectories",
+        16,
+        super::MAX_TRAJECTORIES as i64,
+    )?;
+    let substeps = count(&s.substeps, "simulation.substeps", 1, super::MAX_SUBSTEPS as i64)?;
     let seed = match &s.seed {
         None => 1,
         Some(x) if *x.get_ref() >= 0 => *x.get_ref() as u64,
         Some(x) => return Err(loc.at(x.span(), "simulation.seed", "must be a whole number >= 0")),
     };
-    let steps = record_length / dt * trajectories as f64 * substeps as f64;
-    if steps > 1e13 {
-        return Err(loc.at(
-            s.record_length.span(),
-            "simulation.record_length",
-            format!("{steps:.1e} integration steps in total is beyond what this tool will run (1e13)"),
-        ));
-    }
     let simulation = Simulation {
         dt,
         record_length,
@@ -501,6 +498,23 @@ pub(crate) fn check_simulation(
         scheme: s.scheme,
         substeps,
     };
+    if let Err(e) = simulation.check() {
+        // Only the budget and a default burn-in are left to fail here: point at the
+        // burn-in when it is the larger part of the run, else at the record length.
+        let (span, key, why) = match &s.burn_in {
+            Some(b) if burn_in > record_length => (b.span(), "simulation.burn_in", String::new()),
+            None if burn_in > record_length || !burn_in.is_finite() => (
+                s.record_length.span(),
+                "simulation.burn_in",
+                format!(
+                    " (the default burn-in is 10 slowest decay times 2m/c1 = {burn_in:.3e} s: \
+                     set simulation.burn_in)"
+                ),
+            ),
+            _ => (s.record_length.span(), "simulation.record_length", String::new()),
+        };
+        return Err(loc.at(span, key, format!("{e}{why}")));
+    }
     Ok(simulation)
 }
 
