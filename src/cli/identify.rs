@@ -1,7 +1,8 @@
 //! `fpkbench identify`: identify the unknowns of a run log and report the accuracy.
 
 use fpkbench::ident::strong::GridOptions;
-use fpkbench::pipeline::{identify_log, Options};
+use fpkbench::io::output::{refuse_same_file, FolderLock};
+use fpkbench::pipeline::{identify, Options};
 use fpkbench::report;
 use fpkbench::report::Report;
 use fpkbench::scenario::Method;
@@ -38,14 +39,14 @@ pub struct IdentifyArgs {
     /// Print the report as JSON on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
-    /// Strong form: bins per dimension [default: 26 in 2-D, 20 beyond].
-    #[arg(long)]
+    /// Strong form: bins per dimension, 3..=4096 [default: 26 in 2-D, 20 beyond].
+    #[arg(long, value_parser = bins)]
     pub bins: Option<usize>,
     /// Strong form: half-width of the grid box in standard deviations [default: 4.5 in 2-D, 3 beyond].
-    #[arg(long)]
+    #[arg(long, value_parser = positive)]
     pub span: Option<f64>,
-    /// Strong form: smallest count of every cell in a difference stencil [default: 5].
-    #[arg(long)]
+    /// Strong form: smallest count of every cell in a difference stencil, >= 1 [default: 5].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub min_count: Option<u32>,
     /// Iterative procedure (`[identify.disturbance]`): stop after this many steps.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1000))]
@@ -84,6 +85,15 @@ impl IdentifyArgs {
     }
 }
 
+fn bins(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (3..=4096).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "must be a whole number 3..=4096 (a difference stencil needs 3 bins), got {s:?}"
+        )),
+    }
+}
+
 fn positive(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
@@ -96,16 +106,18 @@ fn positive(s: &str) -> Result<f64, String> {
 pub struct Args {
     /// MCAP log written by `fpkbench simulate` or `run` (scenario and truth are read from it).
     pub log: PathBuf,
+    /// Identify a truncated log (a killed writer) from the samples it still holds, instead
+    /// of refusing it; the report says how many of the promised samples were used.
+    #[arg(long)]
+    pub allow_truncated: bool,
     #[command(flatten)]
     pub identify: IdentifyArgs,
 }
 
 /// Write the report files, print the summary or JSON; exit 0 if every gate passed, else 1.
 pub fn finish(report: &Report, args: &IdentifyArgs) -> anyhow::Result<ExitCode> {
-    let dir = args
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(&report.scenario));
+    let dir = report_dir(args, &report.scenario);
+    let _lock = FolderLock::acquire(&dir)?;
     let files = report::write_all(report, &dir)?;
     if args.json {
         super::emit(&(serde_json::to_string(report)? + "\n"))?;
@@ -127,8 +139,18 @@ pub fn finish(report: &Report, args: &IdentifyArgs) -> anyhow::Result<ExitCode> 
     })
 }
 
+/// Where the report files go: `--out`, or `out/<scenario>/`.
+pub fn report_dir(args: &IdentifyArgs, scenario: &str) -> PathBuf {
+    args.out.clone().unwrap_or_else(|| Path::new("out").join(scenario))
+}
+
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let dim = fpkbench::io::log::read_info(&args.log)?.scenario.masses.len() * 2;
-    let report = identify_log(&args.log, &args.identify.options(dim))?;
+    let mut info = fpkbench::io::log::read_info(&args.log)?;
+    info.accept_truncated = args.allow_truncated;
+    let dir = report_dir(&args.identify, &info.scenario.name);
+    for f in report::FILES {
+        refuse_same_file(&args.log, &dir.join(f))?;
+    }
+    let report = identify(&info, &args.identify.options(info.scenario.masses.len() * 2))?;
     finish(&report, &args.identify)
 }

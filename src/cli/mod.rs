@@ -34,6 +34,13 @@ enum Command {
 }
 
 pub fn main() -> ExitCode {
+    // Ctrl-C, kill or a closed terminal: remove the temporary files of unfinished output
+    // (a complete file is already renamed; nothing half-written stays behind).
+    let _ = ctrlc::set_handler(|| {
+        fpkbench::io::output::remove_all_pending();
+        eprintln!("interrupted: unfinished output removed");
+        std::process::exit(130);
+    });
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -1,6 +1,7 @@
 //! `fpkbench run`: simulate, log, identify, report — the bench's main job.
 
 use super::identify::{finish, IdentifyArgs};
+use fpkbench::io::output::{refuse_same_file, FolderLock};
 use fpkbench::pipeline::identify_log;
 use fpkbench::Scenario;
 use std::path::PathBuf;
@@ -26,6 +27,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| super::default_output(&scenario.name, ""));
     let log = dir.join("run.mcap");
+    for f in std::iter::once("run.mcap").chain(fpkbench::report::FILES) {
+        refuse_same_file(&args.scenario, &dir.join(f))?;
+    }
+    // One run per folder at a time: a second one is refused, not interleaved.
+    let _lock = FolderLock::acquire(&dir)?;
     let sim = super::simulate::simulate_to(&scenario, &log, fpkbench::io::log::Compression::None)?;
     if !args.identify.json {
         eprintln!(
@@ -41,5 +47,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     report.timings_s.total = start.elapsed().as_secs_f64();
     let mut a = args.identify.clone();
     a.out = Some(dir);
+    drop(_lock);
     finish(&report, &a)
 }

@@ -2,6 +2,7 @@
 
 use anyhow::Context;
 use fpkbench::io::log::Compression;
+use fpkbench::io::output::{refuse_same_file, FolderLock};
 use fpkbench::pipeline::{simulate_log, Simulated};
 use fpkbench::Scenario;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -61,6 +62,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let output = args
         .output
         .unwrap_or_else(|| super::default_output(&scenario.name, "run.mcap"));
+    refuse_same_file(&args.scenario, &output)?;
+    let dir = output
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let _lock = FolderLock::acquire(dir)?;
     let s = simulate_to(&scenario, &output, args.compress.into())?;
     let sim = &scenario.simulation;
     let text = if args.json {

@@ -51,6 +51,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .out
         .clone()
         .unwrap_or_else(|| super::default_output(&scenario.name, "sweep"));
+    let _lock = fpkbench::io::output::FolderLock::acquire(&dir)?;
     let mut sweep = Sweep {
         scenario: scenario.name.clone(),
         names: Vec::new(),

@@ -41,6 +41,7 @@ pub fn estimate(
     facts: Vec<(String, String)>,
     weight: Option<&DMatrix<f64>>,
 ) -> Result<Estimate, IdentError> {
+    total.check_finite(method)?;
     let (values, diag) = problem.solve(total, typical, weight);
     let per_batch: Vec<Vec<f64>> = batches.iter().map(|b| problem.solve(b, typical, weight).0).collect();
     let nu = values.len();

@@ -31,6 +31,22 @@ pub struct Diagnostics {
 /// diagnostics; `x` is the minimum-norm solution in scaled units when rank-deficient.
 pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>, Diagnostics) {
     let (rows, cols) = a.shape();
+    if !(a.iter().chain(b.iter()).all(|x| x.is_finite())) {
+        // The SVD of a non-finite matrix does not converge (or panics): report nothing
+        // determined. Callers check their equations first and say why (`Pieces::check_finite`).
+        return (
+            DVector::from_element(cols, f64::NAN),
+            Diagnostics {
+                rank: 0,
+                cols,
+                rows,
+                sv_ratio: 0.0,
+                condition: f64::INFINITY,
+                singular_values: vec![f64::NAN; cols.min(rows)],
+                weakest_direction: vec![f64::NAN; cols],
+            },
+        );
+    }
     // Unknown-magnitude scaling first (so directions are relative), then unit columns.
     let mut s = a.clone();
     let mut colscale = vec![1.0; cols];

@@ -64,6 +64,8 @@ pub enum IdentError {
     },
     #[error("too little data: {0}")]
     TooLittleData(String),
+    #[error("{0}")]
+    NonFinite(String),
     #[error("the scenario has no unknowns to identify (see [identify] in the scenario)")]
     NothingToIdentify,
     #[error("{0}")]

@@ -62,7 +62,7 @@ impl RawMoments {
                 }
             }
         }
-        let mut mons = vec![0u64];
+        let mut mons: Vec<Exponents> = vec![0];
         let mut rest: Vec<Exponents> = set.into_iter().filter(|&e| e != 0).collect();
         rest.sort_by_key(|&e| (super::poly::degree(e), e));
         mons.extend(rest);

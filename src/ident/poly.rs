@@ -1,13 +1,13 @@
 //! Multivariate polynomials over the state variables, exact enough to assemble the
 //! generator `𝒜ψ` of a polynomial drift on polynomial test functions.
 //!
-//! A monomial is a packed exponent vector ([`Exponents`], 4 bits per variable, at most 16
-//! variables, exponents ≤ 15); a polynomial is a sorted map from monomials to coefficients.
+//! A monomial is a packed exponent vector ([`Exponents`], 8 bits per variable, at most 16
+//! variables, exponents ≤ 255: a stiffness power 15 on a degree-4 test function needs 19); a polynomial is a sorted map from monomials to coefficients.
 
 use std::collections::BTreeMap;
 
-/// Packed exponents, 4 bits per variable (variable `j` in bits `4j..4j+4`).
-pub type Exponents = u64;
+/// Packed exponents, 8 bits per variable (variable `j` in bits `8j..8j+8`).
+pub type Exponents = u128;
 
 /// Largest number of state variables a monomial can hold.
 pub const MAX_VARS: usize = 16;
@@ -15,7 +15,7 @@ pub const MAX_VARS: usize = 16;
 /// Exponent of variable `j`.
 #[inline]
 pub fn exponent(e: Exponents, j: usize) -> u32 {
-    ((e >> (4 * j)) & 0xf) as u32
+    ((e >> (8 * j)) & 0xff) as u32
 }
 
 /// Total degree.
@@ -25,7 +25,7 @@ pub fn degree(e: Exponents) -> u32 {
 
 /// The monomial `y_j`.
 pub fn var(j: usize) -> Exponents {
-    1 << (4 * j)
+    1 << (8 * j)
 }
 
 /// A polynomial `Σ c_β y^β`.
@@ -68,8 +68,8 @@ impl Poly {
         let mut p = Poly::zero();
         for (&a, &ca) in &self.terms {
             for (&b, &cb) in &other.terms {
-                // No carries: callers keep every exponent ≤ 15.
-                debug_assert!((0..MAX_VARS).all(|j| exponent(a, j) + exponent(b, j) <= 15));
+                // No carries: callers keep every exponent ≤ 255.
+                debug_assert!((0..MAX_VARS).all(|j| exponent(a, j) + exponent(b, j) <= 255));
                 p.add_term(a + b, ca * cb);
             }
         }
@@ -112,8 +112,8 @@ impl Poly {
 /// Every monomial in `vars` variables of total degree `1..=max_degree`, by degree then
 /// lexicographically.
 pub fn monomials(vars: usize, max_degree: u32) -> Vec<Exponents> {
-    let mut out = vec![0u64];
-    let mut frontier = vec![0u64];
+    let mut out: Vec<Exponents> = vec![0];
+    let mut frontier: Vec<Exponents> = vec![0];
     for _ in 0..max_degree {
         let mut next = Vec::new();
         for &e in &frontier {

@@ -449,6 +449,19 @@ pub struct Pieces {
 }
 
 impl Pieces {
+    /// Refuse equations that hold non-finite numbers: sample values too large for the
+    /// moments (or histogram) the method forms, or a non-finite value in the data.
+    pub fn check_finite(&self, method: &str) -> Result<(), IdentError> {
+        let all = [&self.t0, &self.a, &self.b, &self.c];
+        if all.iter().all(|v| v.iter().all(|x| x.is_finite())) {
+            return Ok(());
+        }
+        Err(IdentError::NonFinite(format!(
+            "the {method} equations hold non-finite numbers: the data hold a non-finite value, \
+             or values so large that their powers overflow (express the data in units that make \
+             them of order 1)"
+        )))
+    }
     pub fn new(rows: usize, n: usize, r: usize) -> Pieces {
         Pieces {
             rows,

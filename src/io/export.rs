@@ -2,10 +2,10 @@
 //!
 //! Both start with the columns `trajectory, t`, then the log's columns. The NPY file is a
 //! one-dimensional structured array whose field names are the column names
-//! (`np.load(path)["x_m1"]`). Output is written to `<path>.partial` and renamed when done.
+//! (`np.load(path)["x_m1"]`). Output is written to a temporary name and renamed when done.
 
 use super::log::{read_samples, LogError, LogInfo};
-use super::partial_path;
+use super::output::Pending;
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::Path;
@@ -37,8 +37,8 @@ pub fn export(info: &LogInfo, format: Format, dest: &Path) -> Result<u64, LogErr
         path: label.clone(),
         source,
     };
-    let tmp = partial_path(dest);
-    let mut out = BufWriter::with_capacity(1 << 20, File::create(&tmp).map_err(io)?);
+    let pending = Pending::new(dest).map_err(io)?;
+    let mut out = BufWriter::with_capacity(1 << 20, File::create(pending.path()).map_err(io)?);
     let mut failed: Option<std::io::Error> = None;
     let result = match format {
         Format::Csv => {
@@ -101,21 +101,13 @@ pub fn export(info: &LogInfo, format: Format, dest: &Path) -> Result<u64, LogErr
             r
         }
     };
+    // On every error path `pending` is dropped, which removes the temporary file.
     if let Some(e) = failed {
-        let _ = std::fs::remove_file(&tmp);
         return Err(io(e));
     }
-    match result {
-        Ok(n) => {
-            out.flush().map_err(io)?;
-            drop(out);
-            std::fs::rename(&tmp, dest).map_err(io)?;
-            Ok(n)
-        }
-        Err(e) => {
-            drop(out);
-            let _ = std::fs::remove_file(&tmp);
-            Err(e)
-        }
-    }
+    let n = result?;
+    out.flush().map_err(io)?;
+    drop(out);
+    pending.commit().map_err(io)?;
+    Ok(n)
 }

@@ -15,14 +15,16 @@
 //!   would cost several times the simulation itself), or zstd on request.
 //!
 //! The writer encodes (and compresses) on its own thread, fed whole batches through a
-//! bounded channel and handing them back for the simulator to refill; it writes to
-//! `<name>.partial` and renames only after `finish()`.
+//! bounded channel and handing them back for the simulator to refill; it writes to a
+//! temporary name ([`Pending`]) and renames only after `finish()`, once the free disk was
+//! found to hold the log's [`estimated_size`].
 
+use super::output::{check_free_space, Pending};
+use super::reader::{McapFile, ReadError, Record, Scan};
 use crate::model::Model;
 use crate::model::Quantity;
 use crate::scenario::{Scenario, ScenarioError};
 use crate::sim::{SampleBatch, SampleSink};
-use super::reader::{McapFile, ReadError, Record, Scan};
 use mcap::records::{MessageHeader, Metadata};
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -85,7 +87,11 @@ pub enum LogError {
     /// Bytes of the file are damaged (a CRC mismatch, an impossible length or value). The
     /// samples before the damage were delivered to the caller and are intact.
     #[error("{path}: the log is damaged: {reason}; the {readable} samples before the damage are intact")]
-    Corrupt { path: String, reason: String, readable: u64 },
+    Corrupt {
+        path: String,
+        reason: String,
+        readable: u64,
+    },
     /// The file is MCAP but not an fpkbench log, or its description is inconsistent.
     #[error("{path}: not a valid fpkbench log: {reason}")]
     Invalid { path: String, reason: String },
@@ -191,8 +197,16 @@ pub struct LogWriter {
     /// Batches the writer thread has finished with.
     spent: Receiver<SampleBatch>,
     thread: Option<JoinHandle<WriterResult>>,
-    tmp: PathBuf,
+    file: Option<Pending>,
     dest: PathBuf,
+}
+
+/// Bytes a log of `s` will take: every instant's message with its record, index and
+/// chunk overhead, plus the description (the estimate checked against the free disk).
+pub fn estimated_size(s: &Scenario, model: &Model) -> u64 {
+    let sim = &s.simulation;
+    let per_message = message_len(model.column_names().len(), sim.trajectories) as u64 + 9 + 22 + 16;
+    (sim.samples_per_trajectory() as u64).saturating_mul(per_message) + s.source.len() as u64 + 65536
 }
 
 impl LogWriter {
@@ -218,11 +232,13 @@ impl LogWriter {
             path: label.clone(),
             source,
         };
-        if let Some(dir) = dest.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(io)?;
-        }
-        let tmp = super::partial_path(dest);
-        let file = File::create(&tmp).map_err(io)?;
+        let pending = Pending::new(dest).map_err(io)?;
+        let dir = dest
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        check_free_space(dir, estimated_size(s, model), "the log").map_err(io)?;
+        let file = File::create(pending.path()).map_err(io)?;
         let mut w = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("fpkbench {}", env!("CARGO_PKG_VERSION")))
@@ -326,7 +342,7 @@ impl LogWriter {
             tx: Some(tx),
             spent,
             thread: Some(thread),
-            tmp,
+            file: Some(pending),
             dest: dest.to_path_buf(),
         })
     }
@@ -345,7 +361,8 @@ impl LogWriter {
                 reason: "the log writer thread panicked".into(),
             })?;
         let samples = result?;
-        std::fs::rename(&self.tmp, &self.dest).map_err(|source| LogError::Io {
+        let pending = self.file.take().expect("finish once");
+        pending.commit().map_err(|source| LogError::Io {
             path: label.clone(),
             source,
         })?;
@@ -392,8 +409,9 @@ impl Drop for LogWriter {
             if let Some(t) = self.thread.take() {
                 let _ = t.join();
             }
-            let _ = std::fs::remove_file(&self.tmp);
         }
+        // An uncommitted `Pending` removes its temporary file.
+        drop(self.file.take());
     }
 }
 
@@ -633,7 +651,8 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
         Some(other) => return Err(format!("run fact scheme = {other:?} is not a known scheme")),
         None => {}
     }
-    sim.check().map_err(|e| format!("the run facts give an invalid [simulation]: {e}"))?;
+    sim.check()
+        .map_err(|e| format!("the run facts give an invalid [simulation]: {e}"))?;
     // After the simulation facts: the level is relative to the measured force at the run's
     // sample interval.
     if let Some(level) = get::<f64>(run, "disturbance_level")? {
@@ -756,7 +775,9 @@ fn check_message(data: &[u8], info: &LogInfo, size: usize, stride: usize) -> Res
         let at = 12 + c * stride;
         let n = u32::from_le_bytes(data[at..at + 4].try_into().unwrap()) as usize;
         if n != trajectories {
-            return Err(format!("array {name} holds {n} values, not one per trajectory ({trajectories})"));
+            return Err(format!(
+                "array {name} holds {n} values, not one per trajectory ({trajectories})"
+            ));
         }
         for j in 0..trajectories {
             let v = f64_at(at + 8 + 8 * j);

@@ -5,13 +5,5 @@
 
 pub mod export;
 pub mod log;
+pub mod output;
 pub mod reader;
-
-use std::path::{Path, PathBuf};
-
-/// `path` with `.partial` appended: where output is written until it is complete.
-pub fn partial_path(path: &Path) -> PathBuf {
-    let mut p = path.as_os_str().to_owned();
-    p.push(".partial");
-    PathBuf::from(p)
-}

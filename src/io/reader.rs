@@ -79,9 +79,11 @@ pub enum Record<'a> {
         id: u16,
         name: String,
         encoding: String,
+        data: &'a [u8],
     },
     Channel {
         id: u16,
+        schema_id: u16,
         topic: String,
         message_encoding: String,
         metadata: BTreeMap<String, String>,
@@ -130,7 +132,9 @@ impl<'a> Fields<'a> {
     fn take(&mut self, n: u64, field: &str) -> Result<&'a [u8], ReadError> {
         let left = (self.data.len() - self.at) as u64;
         if n > left {
-            return Err(self.corrupt(&format!("field `{field}` needs {n} bytes but the record has {left} left")));
+            return Err(self.corrupt(&format!(
+                "field `{field}` needs {n} bytes but the record has {left} left"
+            )));
         }
         let s = &self.data[self.at..self.at + n as usize];
         self.at += n as usize;
@@ -191,14 +195,14 @@ fn parse(opcode: u8, body: &[u8], offset: u64) -> Result<Record<'_>, ReadError> 
                 id: f.u16("id")?,
                 name: f.string("name")?,
                 encoding: f.string("encoding")?,
+                data: f.bytes32("data")?,
             }
         }
         op::CHANNEL => {
             let mut f = Fields::new(body, offset, "channel");
-            let id = f.u16("id")?;
-            f.u16("schema_id")?;
             Record::Channel {
-                id,
+                id: f.u16("id")?,
+                schema_id: f.u16("schema_id")?,
                 topic: f.string("topic")?,
                 message_encoding: f.string("message_encoding")?,
                 metadata: f.map("metadata")?,
@@ -279,7 +283,9 @@ impl McapFile {
                 what: format!("an index points at {n} bytes beyond the end of the file"),
             });
         }
-        self.file.seek(SeekFrom::Start(offset)).map_err(|e| ReadError::Io(e.to_string()))?;
+        self.file
+            .seek(SeekFrom::Start(offset))
+            .map_err(|e| ReadError::Io(e.to_string()))?;
         buf.clear();
         buf.resize(n as usize, 0);
         self.file.read_exact(buf).map_err(|e| ReadError::Io(e.to_string()))
@@ -341,6 +347,7 @@ impl McapFile {
                         topic,
                         message_encoding,
                         metadata,
+                        ..
                     } => summary.channels.push((id, topic, message_encoding, metadata)),
                     _ => {}
                 },
@@ -381,11 +388,17 @@ pub struct Summary {
 impl Summary {
     /// `(offset, length)` of every indexed attachment.
     pub fn attachments(&self) -> impl Iterator<Item = (u64, u64)> + '_ {
-        self.indexed.iter().filter(|i| i.0 == op::ATTACHMENT_INDEX).map(|i| (i.1, i.2))
+        self.indexed
+            .iter()
+            .filter(|i| i.0 == op::ATTACHMENT_INDEX)
+            .map(|i| (i.1, i.2))
     }
     /// `(offset, length)` of every indexed metadata record.
     pub fn metadata(&self) -> impl Iterator<Item = (u64, u64)> + '_ {
-        self.indexed.iter().filter(|i| i.0 == op::METADATA_INDEX).map(|i| (i.1, i.2))
+        self.indexed
+            .iter()
+            .filter(|i| i.0 == op::METADATA_INDEX)
+            .map(|i| (i.1, i.2))
     }
 }
 
@@ -442,15 +455,22 @@ impl Scan {
         }
         self.record.clear();
         self.record.resize(n as usize, 0);
-        self.file.file.read_exact(&mut self.record).map_err(|e| ReadError::Io(e.to_string()))?;
+        self.file
+            .file
+            .read_exact(&mut self.record)
+            .map_err(|e| ReadError::Io(e.to_string()))?;
         Ok(())
     }
 
-    /// Feed every record to `f` (with its file offset; inside a chunk, the chunk's) until
+    /// Feed every record to `f` (with the file offset of its body; inside a chunk, the
+    /// offset of the chunk record) until
     /// `f` breaks or the file ends. Ends `Ok` only after a complete file: end magic read
     /// and, where stored, the data section CRC matched.
     pub fn run(&mut self, mut f: impl FnMut(Record<'_>, u64) -> ControlFlow<()>) -> Result<(), ReadError> {
-        self.file.file.seek(SeekFrom::Start(0)).map_err(|e| ReadError::Io(e.to_string()))?;
+        self.file
+            .file
+            .seek(SeekFrom::Start(0))
+            .map_err(|e| ReadError::Io(e.to_string()))?;
         self.read(8, 0, "the start magic")?;
         if self.record[..] != MAGIC[..] {
             return Err(ReadError::Corrupt {
@@ -495,7 +515,7 @@ impl Scan {
                 return Ok(());
             }
             if opcode == op::CHUNK {
-                if self.chunk_records(body_at, &mut f)?.is_break() {
+                if self.chunk_records(body_at - 9, &mut f)?.is_break() {
                     return Ok(());
                 }
             } else if f(parse(opcode, &self.record, body_at)?, body_at).is_break() {
@@ -504,13 +524,14 @@ impl Scan {
         }
     }
 
-    /// Check and decompress the chunk in `self.record`, then feed its records to `f`.
+    /// Check and decompress the chunk (record at byte `at`, body in `self.record`), then
+    /// feed its records to `f`.
     fn chunk_records(
         &mut self,
         at: u64,
         f: &mut impl FnMut(Record<'_>, u64) -> ControlFlow<()>,
     ) -> Result<ControlFlow<()>, ReadError> {
-        let mut h = Fields::new(&self.record, at, "chunk");
+        let mut h = Fields::new(&self.record, at + 9, "chunk");
         h.u64("message_start_time")?;
         h.u64("message_end_time")?;
         let size = h.u64("uncompressed_size")?;

@@ -55,6 +55,7 @@ pub(crate) fn assemble(
         record_length_s: sim.record_length,
         total_record_s: sim.record_length * sim.trajectories as f64,
         samples,
+        expected_samples: info.expected_samples(),
         sample_interval_s: sim.sample_interval,
         trajectories: sim.trajectories,
         seed: sim.seed,

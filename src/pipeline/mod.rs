@@ -18,7 +18,7 @@ pub use validation::identified_model;
 use self::identify::identify_info;
 use crate::ident::strong::GridOptions;
 use crate::ident::IdentError;
-use crate::io::log::{read_info, Compression, LogError, LogWriter};
+use crate::io::log::{read_info, Compression, LogError, LogInfo, LogWriter};
 use crate::model::Model;
 use crate::report::Report;
 use crate::scenario::{Method, Scenario};
@@ -86,8 +86,8 @@ pub struct Simulated {
     pub seconds: f64,
 }
 
-/// The bench's first half: simulate `scenario` into a log at `path` (written as
-/// `<path>.partial` and renamed only when complete), calling `progress` with the samples
+/// The bench's first half: simulate `scenario` into a log at `path` (written to a
+/// temporary name and renamed only when complete), calling `progress` with the samples
 /// written so far.
 pub fn simulate_log(
     scenario: &Scenario,
@@ -111,7 +111,11 @@ pub fn simulate_log(
 
 /// Identify the log at `path`.
 pub fn identify_log(path: &Path, options: &Options) -> Result<Report, PipelineError> {
-    let start = Instant::now();
-    let info = read_info(path)?;
-    identify_info(&info, options, start)
+    identify(&read_info(path)?, options)
+}
+
+/// Identify the log `info` describes (read with [`read_info`]; set
+/// [`LogInfo::accept_truncated`] to use what a truncated log still holds).
+pub fn identify(info: &LogInfo, options: &Options) -> Result<Report, PipelineError> {
+    identify_info(info, options, Instant::now())
 }

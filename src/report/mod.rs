@@ -13,18 +13,18 @@ pub use plot::{
 pub use text::{summary, sweep_summary};
 pub use types::*;
 
-use crate::io::partial_path;
-use std::path::{Path, PathBuf};
+pub use crate::io::output::write_atomic;
 
-/// Write `text` to `path` atomically.
-pub fn write_atomic(path: &Path, text: &[u8]) -> std::io::Result<()> {
-    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d)?;
-    }
-    let tmp = partial_path(path);
-    std::fs::write(&tmp, text)?;
-    std::fs::rename(&tmp, path)
-}
+/// Every file [`write_all`] may write into a report folder.
+pub const FILES: [&str; 6] = [
+    "report.json",
+    "report.md",
+    "characteristics.svg",
+    "iteration.svg",
+    "spectrum.svg",
+    "densities.svg",
+];
+use std::path::{Path, PathBuf};
 
 /// Write `sweep.json`, `sweep.md` and `sweep.svg` into `dir`.
 pub fn write_sweep(sw: &crate::report::Sweep, dir: &Path) -> std::io::Result<Vec<PathBuf>> {

@@ -28,6 +28,12 @@ pub fn summary(r: &Report) -> String {
         r.dt_s,
         r.seed
     );
+    if r.samples < r.expected_samples {
+        s += &format!(
+            "TRUNCATED LOG: identified from the {} samples it still holds, of {} the run was to write\n",
+            r.samples, r.expected_samples
+        );
+    }
     s += &format!(
         "time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n\n",
         r.timings_s.simulate, r.timings_s.identify, r.timings_s.total

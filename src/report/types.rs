@@ -114,7 +114,11 @@ pub struct Report {
     pub log: String,
     pub record_length_s: f64,
     pub total_record_s: f64,
+    /// Samples identified from.
     pub samples: u64,
+    /// Samples the run was to write; more than `samples` when a truncated log was
+    /// identified from what it still holds (`identify --allow-truncated`).
+    pub expected_samples: u64,
     pub sample_interval_s: f64,
     pub trajectories: usize,
     pub seed: u64,

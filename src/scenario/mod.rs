@@ -233,10 +233,16 @@ impl Simulation {
             ));
         }
         if self.record_length < self.sample_interval {
-            return Err(format!("record_length must be at least one sample_interval ({} s)", self.sample_interval));
+            return Err(format!(
+                "record_length must be at least one sample_interval ({} s)",
+                self.sample_interval
+            ));
         }
         if !(1..=MAX_TRAJECTORIES).contains(&self.trajectories) {
-            return Err(format!("trajectories must be 1..={MAX_TRAJECTORIES}, got {}", self.trajectories));
+            return Err(format!(
+                "trajectories must be 1..={MAX_TRAJECTORIES}, got {}",
+                self.trajectories
+            ));
         }
         if !(1..=MAX_SUBSTEPS).contains(&self.substeps) {
             return Err(format!("substeps must be 1..={MAX_SUBSTEPS}, got {}", self.substeps));

@@ -1,0 +1,201 @@
+//! Writing output safely: never a half-written file that looks complete, never two
+//! processes writing one folder, never an output written over an input, never a run that
+//! cannot fit on the disk.
+//!
+//! - [`Pending`]: a file written under a temporary name unique to the process
+//!   (`<name>.<pid>-<n>.partial`) and renamed when complete; removed on every error path,
+//!   on drop, and — through [`remove_all_pending`], which the command-line tool calls from
+//!   its interrupt handler — on Ctrl-C or `kill`.
+//! - [`FolderLock`]: an advisory lock on an output folder, released by the operating system
+//!   when the process ends, however it ends.
+//! - [`refuse_same_file`] and [`check_free_space`].
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+
+/// Temporary files of this process not yet complete.
+static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+static SERIAL: AtomicU64 = AtomicU64::new(0);
+
+fn registry() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    PENDING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Remove every temporary file this process has not completed (for an interrupt handler;
+/// the process is about to exit).
+pub fn remove_all_pending() {
+    for p in registry().drain(..) {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// A file being written to a temporary name beside its destination.
+#[derive(Debug)]
+pub struct Pending {
+    tmp: PathBuf,
+    dest: PathBuf,
+}
+
+impl Pending {
+    /// Prepare to write `dest`: its folder is created, and `dest` must not be a directory.
+    pub fn new(dest: &Path) -> std::io::Result<Pending> {
+        if dest.is_dir() {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "is a directory, not a file name",
+            ));
+        }
+        if let Some(dir) = dest.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)?;
+        }
+        let mut name = dest.as_os_str().to_owned();
+        name.push(format!(
+            ".{}-{}.partial",
+            std::process::id(),
+            SERIAL.fetch_add(1, Ordering::Relaxed)
+        ));
+        let tmp = PathBuf::from(name);
+        registry().push(tmp.clone());
+        Ok(Pending {
+            tmp,
+            dest: dest.to_path_buf(),
+        })
+    }
+
+    /// Where to write until [`commit`](Self::commit).
+    pub fn path(&self) -> &Path {
+        &self.tmp
+    }
+
+    /// The final name.
+    pub fn dest(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Move the complete file to its final name (the temporary file is removed if that fails).
+    pub fn commit(self) -> std::io::Result<()> {
+        std::fs::rename(&self.tmp, &self.dest)
+        // Drop removes the temporary file if the rename failed, and unregisters it.
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.tmp);
+        registry().retain(|p| p != &self.tmp);
+    }
+}
+
+/// Write `bytes` to `path` through a [`Pending`] file; errors name the file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let named = |e: std::io::Error| std::io::Error::new(e.kind(), format!("{}: {e}", path.display()));
+    let p = Pending::new(path).map_err(named)?;
+    std::fs::write(p.path(), bytes).map_err(named)?;
+    p.commit().map_err(named)
+}
+
+/// An advisory lock on an output folder, held until dropped (or the process ends).
+#[derive(Debug)]
+pub struct FolderLock {
+    _file: File,
+}
+
+impl FolderLock {
+    /// Lock `dir` (created if missing) through its `.fpkbench.lock` file; refuses at once
+    /// if another process holds it.
+    pub fn acquire(dir: &Path) -> std::io::Result<FolderLock> {
+        std::fs::create_dir_all(dir)?;
+        let path = dir.join(".fpkbench.lock");
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)?;
+        match file.try_lock() {
+            Ok(()) => Ok(FolderLock { _file: file }),
+            Err(std::fs::TryLockError::WouldBlock) => Err(std::io::Error::new(
+                std::io::ErrorKind::WouldBlock,
+                format!(
+                    "another fpkbench process is writing {} (it holds {}): wait for it to finish, \
+                     or write elsewhere (-o / --out)",
+                    dir.display(),
+                    path.display()
+                ),
+            )),
+            Err(std::fs::TryLockError::Error(e)) => Err(e),
+        }
+    }
+}
+
+/// Refuse to write `output` when it is the file `input` (under any name).
+pub fn refuse_same_file(input: &Path, output: &Path) -> std::io::Result<()> {
+    let same = match (std::fs::canonicalize(input), std::fs::canonicalize(output)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::AlreadyExists,
+            format!(
+                "the output {} is the input {}: writing it would destroy the input; choose another output",
+                output.display(),
+                input.display()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Bytes free for an unprivileged user on the file system holding `dir` (or its nearest
+/// existing ancestor); `None` where the platform does not say.
+pub fn free_space(dir: &Path) -> Option<u64> {
+    let mut d = dir;
+    while !d.exists() {
+        d = d.parent()?;
+    }
+    let d = if d.as_os_str().is_empty() { Path::new(".") } else { d };
+    statvfs_available(d)
+}
+
+#[cfg(unix)]
+fn statvfs_available(dir: &Path) -> Option<u64> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+    let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
+    // SAFETY: `c` is a valid NUL-terminated path and `st` a writable statvfs buffer.
+    let rc = unsafe { libc::statvfs(c.as_ptr(), st.as_mut_ptr()) };
+    if rc != 0 {
+        return None;
+    }
+    // SAFETY: statvfs returned 0, so it filled `st`.
+    let st = unsafe { st.assume_init() };
+    Some((st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
+}
+
+#[cfg(not(unix))]
+fn statvfs_available(_dir: &Path) -> Option<u64> {
+    None
+}
+
+/// Refuse to start writing about `bytes` under `dir` when the disk has less free space
+/// (with a 5 % margin); the error says how much is needed and how to shorten.
+pub fn check_free_space(dir: &Path, bytes: u64, what: &str) -> std::io::Result<()> {
+    if let Some(free) = free_space(dir) {
+        if bytes as f64 * 1.05 > free as f64 {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::StorageFull,
+                format!(
+                    "{what} needs about {:.3} GB but only {:.3} GB are free under {}: shorten \
+                     simulation.record_length, raise simulation.sample_interval, use fewer \
+                     trajectories, or write elsewhere",
+                    bytes as f64 / 1e9,
+                    free as f64 / 1e9,
+                    dir.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,284 @@
+//! Damaged and hostile logs: every one gives an error that says what is wrong and what can
+//! still be read — never a panic, an abort, a hang or an allocation beyond the file's size.
+//! Each damaged log is made here from a fresh one.
+
+mod common;
+
+use common::{fresh_log, records, small_scenario, write_records, Layout};
+use fpkbench::io::log::{read_info, read_samples, LogError};
+use fpkbench::pipeline::{identify_log, Options, PipelineError};
+use std::alloc::{GlobalAlloc, Layout as AllocLayout, System};
+use std::cell::Cell;
+use std::path::Path;
+
+/// Records the largest single allocation made by the current thread.
+struct Largest;
+
+thread_local! {
+    static LARGEST: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Largest {
+    unsafe fn alloc(&self, layout: AllocLayout) -> *mut u8 {
+        let _ = LARGEST.try_with(|c| c.set(c.get().max(layout.size())));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: AllocLayout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: AllocLayout, new_size: usize) -> *mut u8 {
+        let _ = LARGEST.try_with(|c| c.set(c.get().max(new_size)));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Largest = Largest;
+
+/// The stated bound for an uncompressed log: no allocation beyond the file's size plus the
+/// reader's 1 MiB input buffer and small change.
+fn bound(file_len: usize) -> usize {
+    file_len + (1 << 20) + (64 << 10)
+}
+
+/// Read a log fully; the samples delivered and the outcome. Checks the allocation bound.
+fn read_all(path: &Path) -> (Vec<(u32, u64, Vec<u64>)>, Result<u64, LogError>) {
+    let len = std::fs::metadata(path).unwrap().len() as usize;
+    LARGEST.with(|c| c.set(0));
+    let mut got = Vec::new();
+    let outcome = read_info(path).and_then(|info| {
+        read_samples(&info, |j, t, x| {
+            got.push((j, t.to_bits(), x.iter().map(|v| v.to_bits()).collect()));
+        })
+    });
+    // (The delivered samples are collected by the test itself; leave them out.)
+    let largest = LARGEST.with(|c| c.get());
+    let collected = got.capacity() * std::mem::size_of::<(u32, u64, Vec<u64>)>();
+    assert!(
+        largest <= bound(len).max(collected),
+        "{}: an allocation of {largest} bytes for a file of {len}",
+        path.display()
+    );
+    (got, outcome)
+}
+
+fn fresh(dir: &Path) -> (std::path::PathBuf, Vec<u8>) {
+    let path = dir.join("run.mcap");
+    fresh_log(&small_scenario(2000.0, 8), &path);
+    let bytes = std::fs::read(&path).unwrap();
+    (path, bytes)
+}
+
+/// Byte offsets of the chunk records (opcode 0x06) at the top level of `bytes`.
+fn chunk_offsets(bytes: &[u8]) -> Vec<usize> {
+    let mut at = 8;
+    let mut out = Vec::new();
+    while at + 9 <= bytes.len() {
+        let op = bytes[at];
+        let n = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        if op == 0x06 {
+            out.push(at);
+        }
+        if op == 0x02 {
+            break;
+        }
+        at += 9 + n;
+    }
+    out
+}
+
+#[test]
+fn a_flipped_bit_in_a_chunk_is_caught_by_its_crc_and_nothing_of_it_is_delivered() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, bytes) = fresh(dir.path());
+    let (all, ok) = read_all(&path);
+    assert_eq!(ok.unwrap(), 8 * 20000);
+    let chunks = chunk_offsets(&bytes);
+    assert!(chunks.len() >= 4, "{} chunks", chunks.len());
+    // A bit deep inside the third chunk's messages (a sample value; the first chunk holds
+    // the schema and channel, the second the first samples).
+    let mut bad = bytes.clone();
+    let at = chunks[2] + 4000;
+    bad[at] ^= 0x10;
+    let damaged = dir.path().join("flipped.mcap");
+    std::fs::write(&damaged, &bad).unwrap();
+    let (got, outcome) = read_all(&damaged);
+    match outcome {
+        Err(LogError::Corrupt { reason, readable, .. }) => {
+            assert!(reason.contains("CRC"), "{reason}");
+            assert!(reason.contains(&format!("byte {}: chunk CRC", chunks[2])), "{reason}");
+            assert_eq!(readable as usize, got.len());
+        }
+        other => panic!("expected Corrupt, got {other:?}"),
+    }
+    // Everything delivered is intact: the samples of the chunks before the damaged one.
+    assert!(!got.is_empty() && got.len() < all.len());
+    assert_eq!(got[..], all[..got.len()]);
+}
+
+#[test]
+fn a_flipped_bit_in_a_zstd_chunk_is_caught_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, _) = fresh(dir.path());
+    let zstd = dir.path().join("zstd.mcap");
+    write_records(
+        &records(&path),
+        &zstd,
+        Layout::new(mcap::WriteOptions::new().compression(Some(mcap::Compression::Zstd))),
+    );
+    let mut bad = std::fs::read(&zstd).unwrap();
+    let chunks = chunk_offsets(&bad);
+    let at = chunks[1] + 3000;
+    bad[at] ^= 0x01;
+    std::fs::write(&zstd, &bad).unwrap();
+    let err = read_all(&zstd).1.unwrap_err().to_string();
+    assert!(
+        err.contains("damaged") && err.contains(&format!("byte {}: chunk CRC", chunks[1])),
+        "{err}"
+    );
+}
+
+#[test]
+fn damaged_lengths_and_headers_give_errors_not_huge_allocations() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bytes) = fresh(dir.path());
+    let chunk = chunk_offsets(&bytes)[0];
+    let mut cases: Vec<(String, Vec<u8>)> = Vec::new();
+    // Every byte of the first chunk's record length and header set to 0xff, then 0x00.
+    for i in 1..(9 + 8 + 8 + 8 + 4 + 4 + 8) {
+        for v in [0xffu8, 0x00, 0x7f] {
+            if bytes[chunk + i] != v {
+                let mut b = bytes.clone();
+                b[chunk + i] = v;
+                cases.push((format!("chunk byte {i} = {v:#x}"), b));
+            }
+        }
+    }
+    // 22 bytes deleted in the middle of the data.
+    let mut b = bytes.clone();
+    b.drain(bytes.len() / 2..bytes.len() / 2 + 22);
+    cases.push(("22 bytes deleted".into(), b));
+    // Random bytes after the magic.
+    let mut b = bytes[..8].to_vec();
+    let mut x = 0x9e3779b97f4a7c15u64;
+    for _ in 0..100_000 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        b.push(x as u8);
+    }
+    cases.push(("random bytes after the magic".into(), b));
+    // Cut at many places.
+    for k in 1..20 {
+        cases.push((format!("cut at {k}/20"), bytes[..bytes.len() * k / 20].to_vec()));
+    }
+    let path = dir.path().join("case.mcap");
+    for (name, b) in cases {
+        std::fs::write(&path, &b).unwrap();
+        let (got, outcome) = read_all(&path);
+        let e = outcome.expect_err(&name);
+        let text = e.to_string();
+        assert!(!text.contains('\u{1b}'), "{name}: escape codes in {text}");
+        if let LogError::Truncated { readable, .. } | LogError::Corrupt { readable, .. } = e {
+            assert_eq!(readable as usize, got.len(), "{name}");
+        }
+    }
+}
+
+#[test]
+fn non_finite_and_malformed_samples_are_refused_saying_where() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, _) = fresh(dir.path());
+    let r = records(&path);
+    let edited = dir.path().join("edited.mcap");
+    let write = |edit: &dyn Fn(&mut Vec<u8>)| {
+        let mut r = r.clone();
+        edit(&mut r.messages[250].1);
+        write_records(&r, &edited, Layout::new(mcap::WriteOptions::new()));
+        read_all(&edited)
+    };
+    // Trajectory 2's x_m1 (column 0) at instant 250: offset 4 + 8 + 8 + 8 * 2 (8 trajectories).
+    for (v, shown) in [(f64::NAN, "NaN"), (f64::INFINITY, "inf"), (f64::NEG_INFINITY, "-inf")] {
+        let (got, outcome) = write(&|m| m[36..44].copy_from_slice(&v.to_le_bytes()));
+        let text = outcome.unwrap_err().to_string();
+        assert!(
+            text.contains(&format!("x_m1 = {shown} at t = 25.1 s, trajectory 2")) && text.contains("instant 250"),
+            "{text}"
+        );
+        assert_eq!(got.len(), 250 * 8);
+    }
+    // A message of the wrong size, and one whose array lengths disagree.
+    let text = write(&|m| m.truncate(m.len() - 8)).1.unwrap_err().to_string();
+    assert!(text.contains("instant 250") && text.contains("bytes where"), "{text}");
+    let text = write(&|m| m[12] = 9).1.unwrap_err().to_string();
+    assert!(text.contains("array x_m1 holds 9 values"), "{text}");
+}
+
+#[test]
+fn huge_sample_values_give_an_identification_error_not_a_panic_or_a_hang() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, _) = fresh(dir.path());
+    let mut r = records(&path);
+    for m in r.messages.iter_mut().step_by(7) {
+        m.1[20..28].copy_from_slice(&1e200f64.to_le_bytes());
+    }
+    let edited = dir.path().join("huge.mcap");
+    write_records(&r, &edited, Layout::new(mcap::WriteOptions::new()));
+    let options = Options {
+        validate: false,
+        ..Options::default()
+    };
+    match identify_log(&edited, &options) {
+        Err(PipelineError::Ident(e)) => assert!(e.to_string().contains("non-finite"), "{e}"),
+        Err(e) => panic!("unexpected error {e}"),
+        Ok(report) => {
+            // Methods that survive report their own failure; none may claim an estimate.
+            for m in &report.methods {
+                assert!(
+                    m.error.is_some() || m.parameters.iter().all(|p| p.estimate.is_finite()),
+                    "{}",
+                    m.method
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn impossible_run_facts_are_refused_on_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, _) = fresh(dir.path());
+    let r = records(&path);
+    let edited = dir.path().join("facts.mcap");
+    for (key, value, says) in [
+        ("dt_s", "NaN", "dt must be a finite number > 0"),
+        ("substeps", "0", "substeps must be 1..="),
+        ("trajectories", "1000000000000", "trajectories must be 1..="),
+        ("record_length_s", "1e300", "integration steps"),
+        ("sample_interval_s", "0.00015", "whole multiple of dt"),
+        ("burn_in_s", "-1", "burn_in must be"),
+    ] {
+        let mut r = r.clone();
+        let run = r.metadata.iter_mut().find(|m| m.0 == "fpkbench.run").unwrap();
+        run.1.insert(key.into(), value.into());
+        write_records(&r, &edited, Layout::new(mcap::WriteOptions::new()));
+        let text = read_info(&edited).unwrap_err().to_string();
+        assert!(
+            text.contains("run facts") && text.contains(says),
+            "{key} = {value}: {text}"
+        );
+    }
+    // A truth value that is not a number, and a channel whose columns are not the scenario's.
+    let mut bad = r.clone();
+    let truth = bad.metadata.iter_mut().find(|m| m.0 == "fpkbench.truth").unwrap();
+    truth.1.insert("k1[ground-m1]".into(), "ten".into());
+    write_records(&bad, &edited, Layout::new(mcap::WriteOptions::new()));
+    assert!(read_info(&edited).unwrap_err().to_string().contains("is not a number"));
+    let mut bad = r.clone();
+    bad.channel.2.insert("columns".into(), "x_m1,v_m1".into());
+    write_records(&bad, &edited, Layout::new(mcap::WriteOptions::new()));
+    assert!(read_info(&edited)
+        .unwrap_err()
+        .to_string()
+        .contains("are not those of its scenario"));
+}
