@@ -445,9 +445,21 @@ impl Scenario {
     /// Read and validate a scenario file.
     pub fn from_file(path: &Path) -> Result<Scenario, ScenarioError> {
         let label = path.display().to_string();
-        let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+        let bytes = std::fs::read(path).map_err(|source| ScenarioError::Io {
             path: label.clone(),
             source,
+        })?;
+        let src = String::from_utf8(bytes).map_err(|e| {
+            let good = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+            let good = std::str::from_utf8(good).unwrap_or("");
+            let line = good.matches('\n').count() + 1;
+            ScenarioError::Invalid {
+                path: label.clone(),
+                line,
+                column: good.len() - good.rfind('\n').map_or(0, |i| i + 1) + 1,
+                key: "(text)".into(),
+                message: "the file is not UTF-8 text (TOML must be UTF-8): an invalid byte here".into(),
+            }
         })?;
         let stem = path
             .file_stem()

@@ -83,7 +83,7 @@ pub(crate) struct RawSimulation {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawIdentify {
-    pub(super) methods: Option<Vec<Method>>,
+    pub(super) methods: Option<Spanned<Vec<Method>>>,
     pub(super) unknown_masses: Option<Vec<Spanned<String>>>,
     pub(super) unknown_intensities: Option<Vec<Spanned<String>>>,
     pub(super) known_filters: Option<Vec<Spanned<String>>>,

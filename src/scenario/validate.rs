@@ -96,7 +96,7 @@ pub(crate) fn polynomial(
     let Some(map) = raw else {
         return Ok(Polynomial::default());
     };
-    let mut terms = Vec::new();
+    let mut terms: Vec<(u32, f64)> = Vec::new();
     for (p, c) in map.get_ref() {
         let power: u32 = match p.parse::<u32>() {
             Ok(p) if (1..=15).contains(&p) => p,
@@ -116,6 +116,13 @@ pub(crate) fn polynomial(
                 c.span(),
                 format!("{key}.{p}"),
                 format!("coefficient must be a finite number, got {v}"),
+            ));
+        }
+        if let Some(&(_, first)) = terms.iter().find(|t| t.0 == power) {
+            return Err(loc.at(
+                c.span(),
+                format!("{key}.{p}"),
+                format!("power {power} is given twice ({p:?} = {v} and another key = {first}): give each power once"),
             ));
         }
         terms.push((power, v));
@@ -179,6 +186,16 @@ impl Scenario {
             } else {
                 loc.key_at(span.start)
             };
+            // `[mass]` where `[[mass]]` is meant: serde sees a table where a list belongs.
+            let written = src.get(span.clone()).unwrap_or("").trim();
+            if msg.contains("expected a sequence") && written.starts_with('[') && !written.starts_with("[[") {
+                let name = written.trim_matches(|c| c == '[' || c == ']').trim();
+                return loc.at(
+                    span.clone(),
+                    name,
+                    format!("[{name}] is one table, but `{name}` is a list: write [[{name}]] before each entry"),
+                );
+            }
             loc.at(span, key, msg)
         })?;
 
@@ -518,6 +535,31 @@ pub(crate) fn check_simulation(
     Ok(simulation)
 }
 
+/// Why two links' unknowns can never be told apart, if they cannot: links between the same
+/// two ends (parallel springs or dampers) whose unknown coefficients share a power only
+/// ever act as their sum.
+fn inseparable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Option<String> {
+    let (la, lb) = (&links[a.link], &links[b.link]);
+    let parallel = la.ends == lb.ends || la.ends == [lb.ends[1], lb.ends[0]];
+    if !parallel || a.link == b.link {
+        return None;
+    }
+    let common = |x: &Option<Vec<u32>>, y: &Option<Vec<u32>>| {
+        x.iter().flatten().find(|p| y.iter().flatten().any(|q| q == *p)).copied()
+    };
+    let (kind, p) = match (common(&a.stiffness, &b.stiffness), common(&a.damping, &b.damping)) {
+        (Some(p), _) => ("stiffness", p),
+        (None, Some(p)) => ("damping", p),
+        (None, None) => return None,
+    };
+    Some(format!(
+        "links {:?} and {:?} join the same two ends and both have an unknown {kind} coefficient of \
+         power {p}: only their sum acts, so no data can separate them. Identify one of them (declare \
+         the other known) or merge them into one link",
+        la.name, lb.name
+    ))
+}
+
 /// `[identify]`: methods, the unknowns, comparison models and the section-4 procedure.
 pub(crate) fn check_identify(
     loc: &Locator,
@@ -527,9 +569,27 @@ pub(crate) fn check_identify(
     excitations: &[Excitation],
 ) -> Result<Identify, ScenarioError> {
     let ident = raw.identify.as_ref();
-    let methods = ident
-        .and_then(|i| i.methods.clone())
-        .unwrap_or_else(|| vec![Method::Weak]);
+    let methods = match ident.and_then(|i| i.methods.as_ref()) {
+        None => vec![Method::Weak],
+        Some(m) if m.get_ref().is_empty() => {
+            return Err(loc.at(
+                m.span(),
+                "identify.methods",
+                "empty: name at least one method (weak, strong, strong-marginals), or leave the key \
+                 out for weak",
+            ))
+        }
+        Some(m) => {
+            let mut seen = Vec::new();
+            for &x in m.get_ref() {
+                if seen.contains(&x) {
+                    return Err(loc.at(m.span(), "identify.methods", format!("{:?} is listed twice", x.name())));
+                }
+                seen.push(x);
+            }
+            seen
+        }
+    };
     let parse_links =
         |map: &BTreeMap<String, Spanned<RawIdentifyLink>>, prefix: &str| -> Result<Vec<IdentifyLink>, ScenarioError> {
             let mut out = Vec::new();
@@ -544,11 +604,15 @@ pub(crate) fn check_identify(
                     )
                 })?;
                 let sp = spec.get_ref();
-                out.push(IdentifyLink {
+                let id = IdentifyLink {
                     link,
                     stiffness: powers(loc, &sp.stiffness, &format!("{key}.stiffness"))?,
                     damping: powers(loc, &sp.damping, &format!("{key}.damping"))?,
-                });
+                };
+                if let Some(why) = out.iter().find_map(|o| inseparable(links, o, &id)) {
+                    return Err(loc.at(spec.span(), &key, why));
+                }
+                out.push(id);
             }
             out.sort_by_key(|l| l.link);
             Ok(out)
@@ -566,8 +630,15 @@ pub(crate) fn check_identify(
                     damping: ps(&l.damping),
                 }
             })
-            .collect(),
+            .collect::<Vec<_>>(),
     };
+    for (i, a) in id_links.iter().enumerate() {
+        for b in &id_links[i + 1..] {
+            if let Some(why) = inseparable(links, a, b) {
+                return Err(loc.at(raw.link[b.link].ends.span(), format!("link[{}]", b.link), why));
+            }
+        }
+    }
     let mut compare = Vec::new();
     for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
         compare.push((

@@ -1,0 +1,132 @@
+//! Output safety through the real binary: no command writes over its own input, two
+//! processes never write one folder, and no error or interrupt leaves a temporary file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn fpkbench(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Every file under `dir` whose name ends in `.partial`.
+fn partials(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.to_string_lossy().ends_with(".partial") {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+/// A short scenario in `dir`, with `record_length` s per trajectory.
+fn scenario(dir: &Path, record_length: f64) -> PathBuf {
+    let src = std::fs::read_to_string("scenarios/sdof_duffing.toml")
+        .unwrap()
+        .replace("record_length = 312.5", &format!("record_length = {record_length:?}"));
+    let p = dir.join("s.toml");
+    std::fs::write(&p, src).unwrap();
+    p
+}
+
+#[test]
+fn no_command_writes_over_its_own_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    scenario(d, 20.0);
+    let scenario_text = std::fs::read(d.join("s.toml")).unwrap();
+    let o = fpkbench(d, &["simulate", "s.toml", "-o", "s.toml"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("would destroy the input"));
+    assert_eq!(std::fs::read(d.join("s.toml")).unwrap(), scenario_text);
+
+    assert!(fpkbench(d, &["simulate", "s.toml", "-o", "log.mcap"]).status.success());
+    let log = std::fs::read(d.join("log.mcap")).unwrap();
+    let o = fpkbench(d, &["export", "log.mcap", "--format", "csv", "-o", "./log.mcap"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(std::fs::read(d.join("log.mcap")).unwrap(), log);
+    // A log named like the export's default output.
+    std::fs::copy(d.join("log.mcap"), d.join("data.npy")).unwrap();
+    let o = fpkbench(d, &["export", "data.npy", "--format", "npy"]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(d.join("data.npy")).unwrap(), log);
+    // A log inside the report folder under a report's name.
+    std::fs::create_dir_all(d.join("rep")).unwrap();
+    std::fs::copy(d.join("log.mcap"), d.join("rep/report.json")).unwrap();
+    let o = fpkbench(d, &["identify", "rep/report.json", "--out", "rep", "--no-validate"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(std::fs::read(d.join("rep/report.json")).unwrap(), log);
+    assert!(partials(d).is_empty());
+}
+
+#[test]
+fn a_failed_rename_or_write_leaves_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    scenario(d, 20.0);
+    std::fs::create_dir_all(d.join("taken.mcap")).unwrap();
+    let o = fpkbench(d, &["simulate", "s.toml", "-o", "taken.mcap"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("is a directory"));
+    assert!(fpkbench(d, &["simulate", "s.toml", "-o", "log.mcap"]).status.success());
+    std::fs::create_dir_all(d.join("taken.csv")).unwrap();
+    let o = fpkbench(d, &["export", "log.mcap", "--format", "csv", "-o", "taken.csv"]);
+    assert_eq!(o.status.code(), Some(2));
+    // A report folder whose report.json is a directory: the error names the file.
+    std::fs::create_dir_all(d.join("rep/report.json")).unwrap();
+    let o = fpkbench(d, &["identify", "log.mcap", "--out", "rep", "--no-validate"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("report.json"));
+    assert!(partials(d).is_empty(), "{:?}", partials(d));
+}
+
+#[test]
+fn a_second_process_writing_the_same_folder_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    scenario(d, 20.0);
+    let out = d.join("out/sdof_duffing");
+    let held = fpkbench::io::output::FolderLock::acquire(&out).unwrap();
+    let o = fpkbench(d, &["run", "s.toml", "--no-validate"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("another fpkbench process is writing"));
+    let o = fpkbench(d, &["simulate", "s.toml"]);
+    assert_eq!(o.status.code(), Some(2));
+    drop(held);
+    assert!(fpkbench(d, &["run", "s.toml", "--no-validate"]).status.code().is_some_and(|c| c < 2));
+    assert!(partials(d).is_empty());
+}
+
+#[cfg(unix)]
+#[test]
+fn an_interrupted_simulation_leaves_nothing_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    scenario(d, 50000.0);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .current_dir(d)
+        .args(["simulate", "s.toml", "-o", "long.mcap"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while partials(d).is_empty() && start.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert_eq!(partials(d).len(), 1, "the log is being written");
+    // SAFETY: sending a signal to our own child process.
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    assert!(partials(d).is_empty() && !d.join("long.mcap").exists());
+}
