@@ -103,7 +103,10 @@ fn a_second_process_writing_the_same_folder_is_refused() {
     let o = fpkbench(d, &["simulate", "s.toml"]);
     assert_eq!(o.status.code(), Some(2));
     drop(held);
-    assert!(fpkbench(d, &["run", "s.toml", "--no-validate"]).status.code().is_some_and(|c| c < 2));
+    assert!(fpkbench(d, &["run", "s.toml", "--no-validate"])
+        .status
+        .code()
+        .is_some_and(|c| c < 2));
     assert!(partials(d).is_empty());
 }
 

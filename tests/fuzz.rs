@@ -201,7 +201,9 @@ fn the_scenario_parser_survives_mutations_and_accepted_mutants_run() {
                             validate: false,
                             ..Options::default()
                         };
-                        let _ = identify_log(&log, &options);
+                        if let Ok(r) = identify_log(&log, &options) {
+                            fpkbench::report::write_all(&r, &log.with_extension("report")).unwrap();
+                        }
                         let _ = std::fs::remove_file(&log);
                     }
                 }
@@ -211,7 +213,11 @@ fn the_scenario_parser_survives_mutations_and_accepted_mutants_run() {
             Ok(())
         })
         .unwrap();
-    eprintln!("scenario parser: {} UTF-8 mutants, {} accepted", n.get(), accepted.get());
+    eprintln!(
+        "scenario parser: {} UTF-8 mutants, {} accepted",
+        n.get(),
+        accepted.get()
+    );
     // The mutations are small: many mutants stay valid and go through the whole pipeline.
     assert!(accepted.get() > 20, "{} mutants accepted", accepted.get());
 }
@@ -254,7 +260,10 @@ fn read_fully(path: &Path) -> usize {
 #[test]
 fn the_log_reader_survives_mutations_within_its_allocation_bound() {
     let logs = logs();
-    let originals: Vec<Vec<u8>> = [&logs.plain, &logs.zstd].iter().map(|p| std::fs::read(p).unwrap()).collect();
+    let originals: Vec<Vec<u8>> = [&logs.plain, &logs.zstd]
+        .iter()
+        .map(|p| std::fs::read(p).unwrap())
+        .collect();
     let dir = tempfile::tempdir().unwrap();
     let dir_path = dir.path().to_path_buf();
     let n = Cell::new(0usize);
@@ -271,7 +280,11 @@ fn the_log_reader_survives_mutations_within_its_allocation_bound() {
             // original's chunks (2 KiB) unless the mutation raised it — then no more than
             // the bytes the decompressor really produced from this small file.
             let bound = bytes.len() + (1 << 20) + (64 << 10);
-            prop_assert!(largest <= bound.max(64 << 20), "{largest} bytes for a file of {}", bytes.len());
+            prop_assert!(
+                largest <= bound.max(64 << 20),
+                "{largest} bytes for a file of {}",
+                bytes.len()
+            );
             if k == 0 {
                 prop_assert!(largest <= bound, "{largest} bytes for a file of {}", bytes.len());
             }
@@ -307,7 +320,11 @@ fn the_identifier_survives_arbitrary_sample_values() {
     let n = Cell::new(0usize);
     // Per case: a rule for every value of the log (constant, scaled, or overwritten at
     // some instants), so that both whole-log extremes and rare bad values occur.
-    let strategy = (value(), 0.0..1.0f64, proptest::collection::vec((any::<usize>(), value()), 0..6));
+    let strategy = (
+        value(),
+        0.0..1.0f64,
+        proptest::collection::vec((any::<usize>(), value()), 0..6),
+    );
     runner(48)
         .run(&strategy, |(fill, scale, spots)| {
             let mut r = r.clone();
@@ -338,13 +355,20 @@ fn the_identifier_survives_arbitrary_sample_values() {
             let path = dir_path.join(format!("case{}.mcap", n.get()));
             write_records(&r, &path, Layout::new(mcap::WriteOptions::new()));
             let p = path.clone();
-            let report: Option<fpkbench::report::Report> = guarded(format!("fill {fill}, scale {scale}, spots {spots:?}"), move || {
-                let options = Options {
-                    validate: false,
-                    ..Options::default()
-                };
-                identify_log(&p, &options).ok()
-            });
+            let out = dir_path.join(format!("report{}", n.get()));
+            let report: Option<fpkbench::report::Report> =
+                guarded(format!("fill {fill}, scale {scale}, spots {spots:?}"), move || {
+                    let options = Options {
+                        validate: false,
+                        ..Options::default()
+                    };
+                    let report = identify_log(&p, &options).ok();
+                    // The report and its plots too: extreme values must not hang the plotting.
+                    if let Some(r) = &report {
+                        fpkbench::report::write_all(r, &out).unwrap();
+                    }
+                    report
+                });
             if let Some(report) = report {
                 for m in &report.methods {
                     prop_assert!(

@@ -232,6 +232,15 @@ fn huge_sample_values_give_an_identification_error_not_a_panic_or_a_hang() {
         Err(PipelineError::Ident(e)) => assert!(e.to_string().contains("non-finite"), "{e}"),
         Err(e) => panic!("unexpected error {e}"),
         Ok(report) => {
+            // The plots of such data are drawn (or said to be undrawable), not hung on.
+            let files = fpkbench::report::write_all(&report, &dir.path().join("report")).unwrap();
+            assert!(files.len() >= 3);
+            let weak = report.methods.iter().find(|m| m.method.name() == "weak").unwrap();
+            assert!(
+                weak.error.as_deref().is_some_and(|e| e.contains("non-finite")),
+                "{:?}",
+                weak.error
+            );
             // Methods that survive report their own failure; none may claim an estimate.
             for m in &report.methods {
                 assert!(

@@ -314,7 +314,10 @@ fn empty_method_list() {
 fn a_power_written_twice() {
     run_bad(
         "power_twice",
-        &bad("stiffness = { 1 = 10.0, 3 = 20.0 }", "stiffness = { 1 = 10.0, 3 = 20.0, \"01\" = 3.0 }"),
+        &bad(
+            "stiffness = { 1 = 10.0, 3 = 20.0 }",
+            "stiffness = { 1 = 10.0, 3 = 20.0, \"01\" = 3.0 }",
+        ),
         12,
         "link[0].stiffness",
         "power 1 is given twice",
@@ -325,7 +328,10 @@ fn a_power_written_twice() {
 fn parallel_links_with_the_same_unknowns_before_any_simulation() {
     run_bad(
         "parallel",
-        &bad("ends = [\"m1\", \"m2\"]", "ends = [\"m1\", \"ground\"]\ndamping = { 1 = 0.1 }"),
+        &bad(
+            "ends = [\"m1\", \"m2\"]",
+            "ends = [\"m1\", \"ground\"]\ndamping = { 1 = 0.1 }",
+        ),
         16,
         "link[1]",
         "only their sum acts",
@@ -384,5 +390,8 @@ fn a_file_that_is_not_utf8_is_located() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2));
-    assert!(stderr.contains(&format!("{}:7:9:", file.display())) && stderr.contains("not UTF-8"), "{stderr}");
+    assert!(
+        stderr.contains(&format!("{}:7:9:", file.display())) && stderr.contains("not UTF-8"),
+        "{stderr}"
+    );
 }

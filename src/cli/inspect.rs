@@ -25,7 +25,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     });
     let (samples, problem) = match counted {
         Ok(n) => (n, None),
-        Err(LogError::Truncated { readable, .. }) => (readable, Some(counted.unwrap_err().to_string())),
+        // A truncated or damaged log: describe it and say how much is readable (exit 2).
+        Err(LogError::Truncated { readable, .. } | LogError::Corrupt { readable, .. }) => {
+            (readable, Some(counted.unwrap_err().to_string()))
+        }
         Err(e) => return Err(e.into()),
     };
     let sc = &info.scenario;

@@ -545,7 +545,10 @@ fn inseparable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Option<Str
         return None;
     }
     let common = |x: &Option<Vec<u32>>, y: &Option<Vec<u32>>| {
-        x.iter().flatten().find(|p| y.iter().flatten().any(|q| q == *p)).copied()
+        x.iter()
+            .flatten()
+            .find(|p| y.iter().flatten().any(|q| q == *p))
+            .copied()
     };
     let (kind, p) = match (common(&a.stiffness, &b.stiffness), common(&a.damping, &b.damping)) {
         (Some(p), _) => ("stiffness", p),

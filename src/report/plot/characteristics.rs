@@ -1,6 +1,6 @@
 //! `characteristics.svg`: identified against true characteristics over the observed ranges.
 
-use super::{draw_histogram_strip, legend_box, svg_to_file, PlotResult, COLORS};
+use super::{draw_histogram_strip, drawable, legend_box, not_drawable, svg_to_file, PlotResult, COLORS};
 use crate::model::Characteristic;
 use crate::report::text::fmt_err;
 use crate::report::Report;
@@ -84,6 +84,11 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
                     "relative velocity"
                 }
             );
+            let (y0, y1) = (ymin - pad, ymax + pad);
+            if !drawable(lo, hi) || !drawable(y0, y1) {
+                not_drawable(&top, &title, (lo, hi), (y0, y1))?;
+                continue;
+            }
             let mut chart = ChartBuilder::on(&top)
                 .caption(title, ("sans-serif", 16))
                 .margin_left(10)
@@ -91,7 +96,7 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
                 .margin_top(5)
                 .x_label_area_size(20)
                 .y_label_area_size(60)
-                .build_cartesian_2d(lo..hi, (ymin - pad)..(ymax + pad))?;
+                .build_cartesian_2d(lo..hi, y0..y1)?;
             chart
                 .configure_mesh()
                 .y_desc(format!(

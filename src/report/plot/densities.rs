@@ -1,6 +1,6 @@
 //! `densities.svg`: marginal densities of the data against the identified model's.
 
-use super::{legend_box, svg_to_file, PlotResult, COLORS};
+use super::{drawable, legend_box, not_drawable, svg_to_file, PlotResult, COLORS};
 use crate::report::Report;
 use plotters::prelude::*;
 use std::path::Path;
@@ -17,6 +17,10 @@ pub fn plot_densities(r: &Report, path: &Path) -> PlotResult {
             let md = model.as_ref().map(|h| h.density(r.plot.model_samples.max(1.0)));
             let ymax = dd.iter().chain(md.iter().flatten()).copied().fold(0.0, f64::max) * 1.08;
             let w = (data.hi - data.lo) / data.counts.len() as f64;
+            if !drawable(data.lo, data.hi) || !drawable(0.0, ymax.max(1e-12)) {
+                not_drawable(&area, name, (data.lo, data.hi), (0.0, ymax))?;
+                continue;
+            }
             let mut chart = ChartBuilder::on(&area)
                 .caption(format!("marginal density of {name}"), ("sans-serif", 16))
                 .margin(10)

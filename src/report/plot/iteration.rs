@@ -1,6 +1,6 @@
 //! `iteration.svg`: the section-4 sequences step by step.
 
-use super::{svg_to_file, PlotResult, COLORS};
+use super::{drawable, not_drawable, svg_to_file, PlotResult, COLORS};
 use crate::report::Report;
 use crate::scenario::ReportMethod;
 use plotters::prelude::*;
@@ -69,6 +69,10 @@ pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
             let pad = 0.1 * (hi - lo).max(1e-3 * truth.abs().max(1e-12));
             let steps = sequences.iter().map(Vec::len).max().unwrap_or(0);
             let last = steps.max(2) as f64 - 1.0;
+            if !drawable(lo - pad, hi + pad) {
+                not_drawable(area, &names[k], (-0.2, last + 0.2), (lo - pad, hi + pad))?;
+                continue;
+            }
             let mut chart = ChartBuilder::on(area)
                 .caption(&names[k], ("sans-serif", 16))
                 .margin(10)

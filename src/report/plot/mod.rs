@@ -56,12 +56,37 @@ pub(crate) fn svg_to_file(
     Ok(())
 }
 
+/// Whether `lo..hi` is an axis plotters can draw in finite time: finite, ordered, within
+/// ±1e100 and wider than rounding at its magnitude (the tick search steps through it).
+pub(crate) fn drawable(lo: f64, hi: f64) -> bool {
+    let big = lo.abs().max(hi.abs());
+    lo.is_finite() && hi.is_finite() && hi > lo && big < 1e100 && hi - lo > 1e-9 * big
+}
+
+/// In place of a chart whose axes cannot be drawn (non-finite or extreme values): say so.
+pub(crate) fn not_drawable(
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    what: &str,
+    x: (f64, f64),
+    y: (f64, f64),
+) -> PlotResult {
+    let text = format!(
+        "{what}: not drawn, axis range x [{:.3e}, {:.3e}], y [{:.3e}, {:.3e}] (non-finite or extreme values)",
+        x.0, x.1, y.0, y.1
+    );
+    area.draw(&Text::new(text, (20, 30), ("sans-serif", 14)))?;
+    Ok(())
+}
+
 pub(crate) fn draw_histogram_strip(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     h: &Histogram,
     xlabel: &str,
 ) -> PlotResult {
     let max = h.counts.iter().copied().fold(0.0, f64::max).max(1.0);
+    if !drawable(h.lo, h.hi) {
+        return not_drawable(area, xlabel, (h.lo, h.hi), (0.0, 1.05));
+    }
     let mut chart = ChartBuilder::on(area)
         .margin_left(10)
         .margin_right(15)

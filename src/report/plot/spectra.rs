@@ -1,6 +1,6 @@
 //! `spectrum.svg`: measured force spectra with their rational fits (3.20).
 
-use super::{legend_box, svg_to_file, PlotResult, COLORS};
+use super::{drawable, legend_box, not_drawable, svg_to_file, PlotResult, COLORS};
 use crate::report::Report;
 use plotters::prelude::*;
 use std::path::Path;
@@ -20,6 +20,11 @@ pub fn plot_spectra(r: &Report, path: &Path) -> PlotResult {
                 .filter(|d| *d > 0.0)
                 .fold(f64::INFINITY, f64::min);
             let dmax = spec.density.iter().copied().fold(0.0, f64::max);
+            let positive = |a: f64, b: f64| a > 0.0 && drawable(a.ln(), b.ln());
+            if !positive(w0, w1) || !positive(dmin * 0.5, dmax * 2.0) {
+                not_drawable(&area, &format!("spectrum of p_{name}"), (w0, w1), (dmin, dmax))?;
+                continue;
+            }
             let mut chart = ChartBuilder::on(&area)
                 .caption(format!("spectral density of the force p_{name}"), ("sans-serif", 16))
                 .margin(10)

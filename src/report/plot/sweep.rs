@@ -1,6 +1,6 @@
 //! `sweep.svg`: the iterative procedure's final errors against the disturbance level.
 
-use super::{legend_box, svg_to_file, PlotResult, COLORS};
+use super::{drawable, legend_box, not_drawable, svg_to_file, PlotResult, COLORS};
 use crate::scenario::ReportMethod;
 use plotters::prelude::*;
 use std::path::Path;
@@ -50,6 +50,9 @@ pub fn plot_sweep(sw: &crate::report::Sweep, path: &Path) -> PlotResult {
         let lo = all.iter().copied().fold(f64::INFINITY, f64::min).min(1.0) * 0.5;
         let hi = all.iter().copied().fold(0.0, f64::max).max(10.0) * 8.0; // headroom for the legend
         let xmax = pts.iter().map(|p| p.level).fold(0.0, f64::max).max(1e-3) * 1.05;
+        if !drawable(-0.02 * xmax, xmax) || !(lo > 0.0 && drawable(lo.ln(), hi.ln())) {
+            return not_drawable(&root, "sweep", (-0.02 * xmax, xmax), (lo, hi));
+        }
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 format!("{}: worst relative error against disturbance level", sw.scenario),
