@@ -42,7 +42,10 @@ fn bound(file_len: usize) -> usize {
 }
 
 /// Read a log fully; the samples delivered and the outcome. Checks the allocation bound.
-fn read_all(path: &Path) -> (Vec<(u32, u64, Vec<u64>)>, Result<u64, LogError>) {
+/// One sample as bits: trajectory, time, values.
+type Sample = (u32, u64, Vec<u64>);
+
+fn read_all(path: &Path) -> (Vec<Sample>, Result<u64, LogError>) {
     let len = std::fs::metadata(path).unwrap().len() as usize;
     LARGEST.with(|c| c.set(0));
     let mut got = Vec::new();
@@ -53,7 +56,7 @@ fn read_all(path: &Path) -> (Vec<(u32, u64, Vec<u64>)>, Result<u64, LogError>) {
     });
     // (The delivered samples are collected by the test itself; leave them out.)
     let largest = LARGEST.with(|c| c.get());
-    let collected = got.capacity() * std::mem::size_of::<(u32, u64, Vec<u64>)>();
+    let collected = got.capacity() * std::mem::size_of::<Sample>();
     assert!(
         largest <= bound(len).max(collected),
         "{}: an allocation of {largest} bytes for a file of {len}",

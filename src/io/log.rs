@@ -556,7 +556,7 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
             path: label.clone(),
             source,
         })?;
-    apply_run_facts(&mut scenario, &run).map_err(|reason| invalid(reason))?;
+    apply_run_facts(&mut scenario, &run).map_err(&invalid)?;
     let columns: Vec<String> = channel_metadata
         .get("columns")
         .map(|c| c.split(',').map(str::to_string).collect())

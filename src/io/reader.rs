@@ -341,16 +341,18 @@ impl McapFile {
                     let (at, len) = (f.u64("offset")?, f.u64("length")?);
                     summary.indexed.push((opcode, at, len));
                 }
-                _ => match parse(opcode, rec, offset + 9)? {
-                    Record::Channel {
+                _ => {
+                    if let Record::Channel {
                         id,
                         topic,
                         message_encoding,
                         metadata,
                         ..
-                    } => summary.channels.push((id, topic, message_encoding, metadata)),
-                    _ => {}
-                },
+                    } = parse(opcode, rec, offset + 9)?
+                    {
+                        summary.channels.push((id, topic, message_encoding, metadata));
+                    }
+                }
             }
         }
         Ok(Some(summary))
@@ -450,7 +452,10 @@ impl Scan {
         if n > left {
             return Err(ReadError::Truncated {
                 offset: self.file.len,
-                what: format!("{what} at byte {offset} needs {n} bytes but {left} remain"),
+                what: format!(
+                    "{what} at byte {offset} claims {n} bytes but {left} remain (the file was cut \
+                     short, or this length is damaged)"
+                ),
             });
         }
         self.record.clear();

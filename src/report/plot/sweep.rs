@@ -50,7 +50,7 @@ pub fn plot_sweep(sw: &crate::report::Sweep, path: &Path) -> PlotResult {
         let lo = all.iter().copied().fold(f64::INFINITY, f64::min).min(1.0) * 0.5;
         let hi = all.iter().copied().fold(0.0, f64::max).max(10.0) * 8.0; // headroom for the legend
         let xmax = pts.iter().map(|p| p.level).fold(0.0, f64::max).max(1e-3) * 1.05;
-        if !drawable(-0.02 * xmax, xmax) || !(lo > 0.0 && drawable(lo.ln(), hi.ln())) {
+        if !(drawable(-0.02 * xmax, xmax) && lo > 0.0 && drawable(lo.ln(), hi.ln())) {
             return not_drawable(&root, "sweep", (-0.02 * xmax, xmax), (lo, hi));
         }
         let mut chart = ChartBuilder::on(&root)
