@@ -326,16 +326,33 @@ fn a_power_written_twice() {
 
 #[test]
 fn parallel_links_with_the_same_unknowns_before_any_simulation() {
+    let parallel = bad("ends = [\"m1\", \"m2\"]", "ends = [\"m1\", \"ground\"]");
     run_bad(
         "parallel",
-        &bad(
-            "ends = [\"m1\", \"m2\"]",
-            "ends = [\"m1\", \"ground\"]\ndamping = { 1 = 0.1 }",
+        &format!(
+            "{parallel}\n[identify.links.ground-m1]\nstiffness = [1]\n[identify.links.m1-ground]\nstiffness = [1, 3]\n"
         ),
-        16,
-        "link[1]",
+        32,
+        "identify.links.m1-ground",
         "only their sum acts",
     );
+    // With the default unknowns (every coefficient) such a system can still be simulated,
+    // but `run` refuses it before simulating.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("parallel.toml");
+    std::fs::write(&file, &parallel).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .current_dir(dir.path())
+        .args(["run", file.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr.contains("only their sum acts") && stderr.contains("parallel.toml"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("out").exists(), "nothing simulated");
 }
 
 #[test]

@@ -21,6 +21,10 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let scenario = Scenario::from_file(&args.scenario)?;
+    // Unknowns no data could separate are refused before the simulation, not after it.
+    if let Err(why) = scenario.check_separable() {
+        anyhow::bail!("{}: {why}", args.scenario.display());
+    }
     let dir = args
         .identify
         .out

@@ -66,6 +66,9 @@ pub enum IdentError {
     TooLittleData(String),
     #[error("{0}")]
     NonFinite(String),
+    /// Unknowns no data can separate (see `Scenario::check_separable`).
+    #[error("the unknowns cannot be separated: {0}")]
+    Inseparable(String),
     #[error("the scenario has no unknowns to identify (see [identify] in the scenario)")]
     NothingToIdentify,
     #[error("{0}")]

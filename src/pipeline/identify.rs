@@ -17,6 +17,7 @@ use std::time::Instant;
 
 pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, PipelineError> {
     let s = &info.scenario;
+    s.check_separable().map_err(IdentError::Inseparable)?;
     if let Some(d) = &s.identify.disturbance {
         let mut d = d.clone();
         d.max_steps = options.max_steps.unwrap_or(d.max_steps);

@@ -468,6 +468,24 @@ impl Scenario {
         Scenario::parse(&src, &label, &stem)
     }
 
+    /// Whether the unknowns can be told apart at all, whatever the data: refused are
+    /// parallel links (the same two ends) with an unknown coefficient of the same power,
+    /// of which only the sum acts. Explicit `[identify.links]` are checked by
+    /// [`Scenario::parse`]; the default unknowns (every coefficient of every link) only here,
+    /// so that such a system can still be simulated. `run` and `identify` check it before
+    /// any work.
+    pub fn check_separable(&self) -> Result<(), String> {
+        let l = &self.identify.links;
+        for (i, a) in l.iter().enumerate() {
+            for b in &l[i + 1..] {
+                if let Some(why) = validate::inseparable(&self.links, a, b) {
+                    return Err(why);
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// This scenario with every unmeasured excitation scaled so that its standard deviation
     /// is `level` times the measured force's (at level 0 they are removed). White noise
     /// counts at the sample interval (it is logged as interval means). The level is

@@ -538,7 +538,7 @@ pub(crate) fn check_simulation(
 /// Why two links' unknowns can never be told apart, if they cannot: links between the same
 /// two ends (parallel springs or dampers) whose unknown coefficients share a power only
 /// ever act as their sum.
-fn inseparable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Option<String> {
+pub(crate) fn inseparable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Option<String> {
     let (la, lb) = (&links[a.link], &links[b.link]);
     let parallel = la.ends == lb.ends || la.ends == [lb.ends[1], lb.ends[0]];
     if !parallel || a.link == b.link {
@@ -558,7 +558,7 @@ fn inseparable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Option<Str
     Some(format!(
         "links {:?} and {:?} join the same two ends and both have an unknown {kind} coefficient of \
          power {p}: only their sum acts, so no data can separate them. Identify one of them (declare \
-         the other known) or merge them into one link",
+         the other known in [identify.links]) or merge them into one link",
         la.name, lb.name
     ))
 }
@@ -635,13 +635,6 @@ pub(crate) fn check_identify(
             })
             .collect::<Vec<_>>(),
     };
-    for (i, a) in id_links.iter().enumerate() {
-        for b in &id_links[i + 1..] {
-            if let Some(why) = inseparable(links, a, b) {
-                return Err(loc.at(raw.link[b.link].ends.span(), format!("link[{}]", b.link), why));
-            }
-        }
-    }
     let mut compare = Vec::new();
     for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
         compare.push((
