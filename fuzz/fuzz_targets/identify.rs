@@ -50,7 +50,9 @@ fuzz_target!(|data: &[u8]| {
     let batch = SampleBatch {
         columns: cols,
         trajectories: traj,
-        time: (1..=instants).map(|k| k as f64 * s.simulation.sample_interval).collect(),
+        time: (1..=instants)
+            .map(|k| k as f64 * s.simulation.sample_interval)
+            .collect(),
         values: (0..instants * cols * traj).map(|i| values[i % values.len()]).collect(),
     };
     w.write(batch).unwrap();

@@ -8,7 +8,9 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(src) = std::str::from_utf8(data) else { return };
-    let Ok(mut s) = Scenario::parse(src, "fuzz.toml", "fuzz") else { return };
+    let Ok(mut s) = Scenario::parse(src, "fuzz.toml", "fuzz") else {
+        return;
+    };
     let sim = &mut s.simulation;
     sim.trajectories = 1;
     sim.record_length = sim.record_length.min(100.0 * sim.sample_interval);
