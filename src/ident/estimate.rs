@@ -76,15 +76,19 @@ pub fn estimate(
         )));
     }
     if per_batch.len() >= 2 && diag.sv_ratio < SPREAD_CHECK_RATIO {
-        // Per-batch scatter of the unknowns along the weakest direction, relative to them.
+        // Per-batch scatter of the unknowns along the weakest direction, relative to the
+        // scale each is judged against (a coefficient: its characteristic's typical force;
+        // never the estimate itself, which is 0 for a term the truth does not have).
         let nb = per_batch.len() as f64;
+        let scales = problem.judging_scales(&values, typical);
         let worst = involved
             .iter()
-            .map(|&k| std_error[k] * nb.sqrt() / values[k].abs().max(1e-300))
+            .map(|&k| std_error[k] * nb.sqrt() / scales[k].max(1e-300))
             .fold(0.0f64, f64::max);
         if worst > 0.5 {
             return Err(inseparable(format!(
-                "batch estimates along the weakest direction scatter by {:.0} % of their value",
+                "batch estimates along the weakest direction scatter by {:.0} % of the scale they \
+                 are judged against (a coefficient: its characteristic's typical force)",
                 100.0 * worst
             )));
         }

@@ -393,6 +393,42 @@ impl Problem {
         (p, diag)
     }
 
+    /// Per unknown, the scale its uncertainty is judged against (never its own value, which
+    /// may be 0): for a coefficient of `z^p`, its whole characteristic's typical force —
+    /// `Σ_q |k_q| a^q` over the characteristic's known and estimated coefficients at the
+    /// data's typical amplitude `a = E[z²]^(1/2)` — in units of this coefficient (÷ `a^p`);
+    /// for other unknowns (masses, intensities, corners, gains) `|value|`.
+    /// `typical` is [`Problem::typical`] (`a^(-p)` for a coefficient).
+    pub fn judging_scales(&self, values: &[f64], typical: &[f64]) -> Vec<f64> {
+        self.unknowns
+            .iter()
+            .enumerate()
+            .map(|(k, u)| match *u {
+                Unknown::Coefficient(c) if typical[k] > 0.0 && typical[k].is_finite() => {
+                    let a = typical[k].powf(-1.0 / c.power as f64);
+                    let known = match c.kind {
+                        Characteristic::Stiffness => self.model.stiffness(c.link),
+                        Characteristic::Damping => self.model.damping(c.link),
+                    };
+                    let mut force: f64 = known
+                        .iter()
+                        .enumerate()
+                        .map(|(i, k)| k.abs() * a.powi(i as i32 + 1))
+                        .sum();
+                    for (j, v) in self.unknowns.iter().enumerate() {
+                        if let Unknown::Coefficient(d) = *v {
+                            if (d.link, d.kind) == (c.link, c.kind) {
+                                force += values[j].abs() * a.powi(d.power as i32);
+                            }
+                        }
+                    }
+                    force * typical[k]
+                }
+                _ => values[k].abs(),
+            })
+            .collect()
+    }
+
     /// Data-based typical magnitude of each unknown: for a coefficient of `z^p`,
     /// `1/E[z²]^(p/2)` (a unit force at a typical amplitude); the nominal value for masses
     /// and intensities.
