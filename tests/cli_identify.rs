@@ -205,3 +205,18 @@ fn identify_reads_scenario_and_truth_from_the_log_and_writes_the_report() {
         .unwrap()
         .all(|e| !e.unwrap().path().to_string_lossy().ends_with(".partial")));
 }
+
+#[test]
+fn strong_form_grid_options_out_of_range_are_usage_errors() {
+    for (flag, value) in [
+        ("--bins", "0"),
+        ("--bins", "2"),
+        ("--span", "nan"),
+        ("--span", "-1"),
+        ("--min-count", "0"),
+    ] {
+        let o = run(&["identify", "no-such.mcap", &format!("{flag}={value}")]);
+        assert_eq!(o.status.code(), Some(2), "{flag} {value}");
+        assert!(String::from_utf8_lossy(&o.stderr).contains(flag), "{flag} {value}");
+    }
+}

@@ -183,6 +183,42 @@ fn truncated_log_says_how_many_samples_are_readable_and_yields_them() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(!csv.exists() && partials(dir.path()).is_empty());
+    // With --allow-truncated the readable samples are exported and identified, and the
+    // report says how many of the promised ones they are.
+    let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args(["export", cut.to_str().unwrap(), "--format", "csv", "-o"])
+        .arg(&csv)
+        .arg("--allow-truncated")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(std::fs::read_to_string(&csv).unwrap().lines().count(), got.len() + 1);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the log is truncated"));
+    let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args([
+            "identify",
+            cut.to_str().unwrap(),
+            "--allow-truncated",
+            "--no-validate",
+            "--out",
+        ])
+        .arg(dir.path().join("report"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.code().is_some_and(|c| c < 2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(&format!("TRUNCATED LOG: identified from the {} samples", got.len())),
+        "{text}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report/report.json")).unwrap()).unwrap();
+    assert_eq!(json["samples"], got.len() as u64);
+    assert_eq!(json["expected_samples"], written.len() as u64);
     // A file that is not MCAP at all.
     std::fs::write(dir.path().join("junk.mcap"), b"not an mcap file").unwrap();
     assert!(read_info(&dir.path().join("junk.mcap")).is_err());

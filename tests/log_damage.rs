@@ -294,3 +294,46 @@ fn impossible_run_facts_are_refused_on_read() {
         .to_string()
         .contains("are not those of its scenario"));
 }
+
+#[test]
+fn a_damaged_metadata_record_is_called_damaged_not_truncated() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bytes) = fresh(dir.path());
+    // The run-facts record: its map's byte length made larger than the record.
+    let at = bytes.windows(11).position(|w| w == b"fpkbench.ru").unwrap() - 4 - 9;
+    assert_eq!(bytes[at], 0x0c, "a metadata record");
+    let name_len = u32::from_le_bytes(bytes[at + 9..at + 13].try_into().unwrap()) as usize;
+    let map_len_at = at + 13 + name_len;
+    let mut bad = bytes.clone();
+    bad[map_len_at..map_len_at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+    let path = dir.path().join("meta.mcap");
+    std::fs::write(&path, &bad).unwrap();
+    let text = read_info(&path).unwrap_err().to_string();
+    assert!(
+        text.contains("corrupt at byte") && text.contains("metadata record"),
+        "{text}"
+    );
+    assert!(!text.contains("truncated"), "{text}");
+}
+
+#[test]
+fn a_filtered_force_with_an_extreme_corner_ends_in_a_report() {
+    // B = 1e200 1/s: the filtered force is numerically white noise of vanishing variance;
+    // simulation, identification and plots must end (they once hung).
+    let src = std::fs::read_to_string("scenarios/filtered2dof.toml")
+        .unwrap()
+        .replacen("B = 5.0", "B = 1e200", 1);
+    let mut s = fpkbench::Scenario::parse(&src, "b.toml", "b").unwrap();
+    s.simulation.record_length = 100.0;
+    s.simulation.trajectories = 4;
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("b.mcap");
+    fpkbench::pipeline::simulate_log(&s, &log, Default::default(), &|_| {}).unwrap();
+    let options = Options {
+        validate: false,
+        ..Options::default()
+    };
+    if let Ok(r) = identify_log(&log, &options) {
+        fpkbench::report::write_all(&r, &dir.path().join("report")).unwrap();
+    }
+}

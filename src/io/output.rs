@@ -201,3 +201,35 @@ pub fn check_free_space(dir: &Path, bytes: u64, what: &str) -> std::io::Result<(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_log_larger_than_the_free_disk_is_refused_with_both_sizes() {
+        let dir = std::env::temp_dir();
+        assert!(check_free_space(&dir, 1 << 20, "a small log").is_ok());
+        if free_space(&dir).is_some() {
+            let e = check_free_space(&dir, u64::MAX / 2, "the log").unwrap_err().to_string();
+            assert!(
+                e.contains("needs about") && e.contains("are free under") && e.contains("shorten"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn pending_files_are_unique_and_removed_unless_committed() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("x.txt");
+        let (a, b) = (Pending::new(&dest).unwrap(), Pending::new(&dest).unwrap());
+        assert_ne!(a.path(), b.path());
+        std::fs::write(a.path(), "a").unwrap();
+        std::fs::write(b.path(), "b").unwrap();
+        drop(b);
+        a.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&dest).unwrap(), "a");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+}
