@@ -326,13 +326,16 @@ fn a_power_written_twice() {
 
 #[test]
 fn parallel_links_with_the_same_unknowns_before_any_simulation() {
-    let parallel = bad("ends = [\"m1\", \"m2\"]", "ends = [\"m1\", \"ground\"]");
+    let parallel = bad(
+        "[[excitation]]",
+        "[[link]]\nends = [\"m1\", \"ground\"]\nstiffness = { 1 = 4.0 }\n\n[[excitation]]",
+    );
     run_bad(
         "parallel",
         &format!(
             "{parallel}\n[identify.links.ground-m1]\nstiffness = [1]\n[identify.links.m1-ground]\nstiffness = [1, 3]\n"
         ),
-        32,
+        36,
         "identify.links.m1-ground",
         "only their sum acts",
     );
@@ -410,5 +413,50 @@ fn a_file_that_is_not_utf8_is_located() {
     assert!(
         stderr.contains(&format!("{}:7:9:", file.display())) && stderr.contains("not UTF-8"),
         "{stderr}"
+    );
+}
+
+#[test]
+fn a_system_without_a_stationary_density_is_refused_naming_the_link() {
+    // An even highest power: the potential of the m1–m2 spring is unbounded below.
+    run_bad(
+        "even_power",
+        &bad("stiffness = { 1 = 5.0 }", "stiffness = { 1 = 6.0, 2 = 3.0 }"),
+        17,
+        "link[1].stiffness",
+        "highest power 2 is even",
+    );
+    // A softening cubic: the potential 5u² − 5u⁴ is unbounded below.
+    run_bad(
+        "softening",
+        &bad(
+            "stiffness = { 1 = 10.0, 3 = 20.0 }",
+            "stiffness = { 1 = 10.0, 3 = -20.0 }",
+        ),
+        12,
+        "link[0].stiffness",
+        "negative coefficient",
+    );
+    // Negative damping at large speeds pumps energy in.
+    run_bad(
+        "negative_damping",
+        &bad("damping = { 1 = 0.5 }", "damping = { 1 = 0.5, 3 = -0.1 }"),
+        13,
+        "link[0].damping",
+        "energy is pumped in",
+    );
+    run_bad(
+        "no_damper",
+        &bad("damping = { 1 = 0.5 }\n", ""),
+        11,
+        "link",
+        "no link has a damping",
+    );
+    run_bad(
+        "no_spring_path",
+        &bad("stiffness = { 1 = 5.0 }", "damping = { 1 = 0.2 }"),
+        7,
+        "mass[1]",
+        "no spring path to ground",
     );
 }

@@ -206,6 +206,7 @@ impl Scenario {
 
         let masses = check_masses(&loc, &raw)?;
         let links = check_links(&loc, &raw, &masses)?;
+        check_stationary(&loc, &raw, &masses, &links)?;
         let excitations = check_excitations(&loc, &raw, &masses)?;
         let simulation = check_simulation(&loc, &raw, &masses, &links)?;
         let identify = check_identify(&loc, &raw, &masses, &links, &excitations)?;
@@ -333,6 +334,149 @@ pub(crate) fn check_links(loc: &Locator, raw: &RawScenario, masses: &[Mass]) -> 
         });
     }
     Ok(links)
+}
+
+/// Refuse a system that cannot have a stationary density (docs/scenario.md, "what is
+/// refused"), which the whole method assumes:
+/// - a mass without a spring path to ground: its displacement wanders without bound;
+/// - no damper anywhere: the excitation's energy is never dissipated;
+/// - between some pair of ends, a combined stiffness whose highest power is even or whose
+///   leading coefficient is negative (the potential is unbounded below), or the same for
+///   the damping (`C(w)·w` negative at large speeds, energy pumped in) — refused when the
+///   springs form no loop, so that each pair's relative displacement is a free coordinate;
+///   with loops other links may bound it, and nothing is decided here.
+pub(crate) fn check_stationary(
+    loc: &Locator,
+    raw: &RawScenario,
+    masses: &[Mass],
+    links: &[Link],
+) -> Result<(), ScenarioError> {
+    let node = |e: End| match e {
+        End::Ground => 0,
+        End::Mass(i) => i + 1,
+    };
+    // Spring paths to ground, by union-find over the nodes.
+    let mut parent: Vec<usize> = (0..=masses.len()).collect();
+    fn root(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let mut loops = false;
+    let mut pairs: Vec<((usize, usize), Vec<usize>)> = Vec::new();
+    for (l, link) in links.iter().enumerate() {
+        let (a, b) = (node(link.ends[0]), node(link.ends[1]));
+        let key = (a.min(b), a.max(b));
+        match pairs.iter_mut().find(|p| p.0 == key) {
+            Some(p) => p.1.push(l),
+            None => pairs.push((key, vec![l])),
+        }
+    }
+    for (key, ls) in &pairs {
+        if ls.iter().all(|&l| links[l].stiffness.is_empty()) {
+            continue;
+        }
+        let (ra, rb) = (root(&mut parent, key.0), root(&mut parent, key.1));
+        if ra == rb {
+            loops = true;
+        } else {
+            parent[ra] = rb;
+        }
+    }
+    for (i, m) in masses.iter().enumerate() {
+        if root(&mut parent, i + 1) != root(&mut parent, 0) {
+            return Err(loc.at(
+                raw.mass[i].name.span(),
+                format!("mass[{i}]"),
+                format!(
+                    "mass {:?} has no spring path to ground: its displacement wanders without bound \
+                     and has no stationary density, which the method assumes. Add a stiffness to \
+                     a link that connects it",
+                    m.name
+                ),
+            ));
+        }
+    }
+    if links.iter().all(|l| l.damping.is_empty()) {
+        return Err(loc.at(
+            raw.link.first().map_or(0..0, |l| l.ends.span()),
+            "link",
+            "no link has a damping: the excitation's energy is never dissipated, the response \
+             grows without bound and has no stationary density. Add a damping to some link",
+        ));
+    }
+    if loops {
+        return Ok(());
+    }
+    for (_, ls) in &pairs {
+        for stiffness in [true, false] {
+            let poly_of = |l: usize| {
+                if stiffness {
+                    &links[l].stiffness
+                } else {
+                    &links[l].damping
+                }
+            };
+            // The pair's combined characteristic in the orientation of its first link: a
+            // link turned round contributes −F(−u) (even powers negated).
+            let first = links[ls[0]].ends;
+            let mut sum: BTreeMap<u32, f64> = BTreeMap::new();
+            for &l in ls {
+                let same = links[l].ends == first;
+                for &(p, c) in &poly_of(l).terms {
+                    let sign = if same || p % 2 == 1 { 1.0 } else { -1.0 };
+                    *sum.entry(p).or_insert(0.0) += sign * c;
+                }
+            }
+            let Some((&p, &c)) = sum.iter().rev().find(|t| *t.1 != 0.0) else {
+                continue;
+            };
+            if p % 2 == 1 && c > 0.0 {
+                continue;
+            }
+            let l = *ls
+                .iter()
+                .rev()
+                .find(|&&l| poly_of(l).max_power() == p)
+                .unwrap_or(&ls[0]);
+            let raw_poly = if stiffness {
+                &raw.link[l].stiffness
+            } else {
+                &raw.link[l].damping
+            };
+            let span = raw_poly.as_ref().map_or_else(|| raw.link[l].ends.span(), |s| s.span());
+            let (what, why) = if stiffness {
+                (
+                    "stiffness",
+                    "the potential is unbounded below, so the response escapes and has no \
+                     stationary density",
+                )
+            } else {
+                (
+                    "damping",
+                    "C(w)·w is negative at large speeds, so energy is pumped in and the response \
+                     has no stationary density",
+                )
+            };
+            let how = if p % 2 == 0 {
+                format!("its highest power {p} is even")
+            } else {
+                format!("its highest power {p} has a negative coefficient {c}")
+            };
+            return Err(loc.at(
+                span,
+                format!("link[{l}].{what}"),
+                format!(
+                    "the {what} between the ends of link {:?}: {how}: {why}, which the method \
+                     assumes. The highest power must be odd with a positive coefficient",
+                    links[l].name
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `[[excitation]]`: white or filtered processes on named masses.
