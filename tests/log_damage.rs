@@ -337,3 +337,49 @@ fn a_filtered_force_with_an_extreme_corner_ends_in_a_report() {
         fpkbench::report::write_all(&r, &dir.path().join("report")).unwrap();
     }
 }
+
+#[test]
+fn a_zstd_frame_asking_for_a_huge_window_is_refused_within_the_bound() {
+    // Found by the long fuzzing run: a damaged zstd frame header made the decoder allocate
+    // a 117 MB window. Here a chunk is recompressed with a 128 MiB window (long-distance
+    // matching), as no MCAP writer does; the reader refuses it without allocating it.
+    let dir = tempfile::tempdir().unwrap();
+    let (path, _) = fresh(dir.path());
+    let zstd_log = dir.path().join("zstd.mcap");
+    write_records(
+        &records(&path),
+        &zstd_log,
+        Layout::new(mcap::WriteOptions::new().compression(Some(mcap::Compression::Zstd))),
+    );
+    let bytes = std::fs::read(&zstd_log).unwrap();
+    let at = chunk_offsets(&bytes)[1];
+    let body = &bytes[at + 9..];
+    let header_len = 8 + 8 + 8 + 4 + 4 + 4; // times, size, crc, "zstd" with its length
+    assert_eq!(&body[32..36], b"zstd");
+    let n = u64::from_le_bytes(body[header_len..header_len + 8].try_into().unwrap()) as usize;
+    let old = &body[header_len + 8..header_len + 8 + n];
+    let records = zstd::decode_all(old).unwrap();
+    let mut enc = zstd::stream::Encoder::new(Vec::new(), 1).unwrap();
+    enc.long_distance_matching(true).unwrap();
+    enc.window_log(27).unwrap();
+    std::io::Write::write_all(&mut enc, &records).unwrap();
+    let new = enc.finish().unwrap();
+    let mut chunk = body[..header_len].to_vec();
+    chunk.extend_from_slice(&(new.len() as u64).to_le_bytes());
+    chunk.extend_from_slice(&new);
+    let mut out = bytes[..at].to_vec();
+    out.push(0x06);
+    out.extend_from_slice(&(chunk.len() as u64).to_le_bytes());
+    out.extend_from_slice(&chunk);
+    out.extend_from_slice(&bytes[at + 9 + header_len + 8 + n..]);
+    let damaged = dir.path().join("window.mcap");
+    std::fs::write(&damaged, &out).unwrap();
+    LARGEST.with(|c| c.set(0));
+    let text = read_all(&damaged).1.unwrap_err().to_string();
+    assert!(
+        text.contains(&format!("corrupt at byte {at}")) && text.contains("zstd"),
+        "{text}"
+    );
+    let largest = LARGEST.with(|c| c.get());
+    assert!(largest < 64 << 20, "{largest} bytes allocated");
+}

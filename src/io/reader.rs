@@ -7,7 +7,8 @@
 //! - every length is checked against the bytes that remain before anything is allocated,
 //!   so no buffer is larger than the file itself, except a decompressed chunk, which grows
 //!   only with the bytes the decompressor actually produces and never beyond the size its
-//!   header declares or [`MAX_CHUNK`];
+//!   header declares or [`MAX_CHUNK`], and the zstd decoder's window (at most
+//!   2^[`ZSTD_WINDOW_LOG`] bytes, whatever a frame header asks for);
 //! - chunk CRCs are checked before any record of the chunk is handed out, and the data
 //!   section's, the summary's and every attachment's CRC are checked where the writer
 //!   stored one (a stored 0 means "not computed", as the specification says);
@@ -25,7 +26,10 @@ use std::path::Path;
 /// The 8 bytes at both ends of an MCAP file.
 pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
 /// Largest decompressed chunk accepted (writers use 1–64 MiB).
-pub const MAX_CHUNK: u64 = 2 << 30;
+pub const MAX_CHUNK: u64 = 256 << 20;
+/// Largest zstd window accepted (32 MiB): zstd's levels 1–19 use at most 8 MiB; only
+/// long-distance matching asks for more, and a damaged frame header may ask for anything.
+pub const ZSTD_WINDOW_LOG: u32 = 25;
 
 mod op {
     pub const HEADER: u8 = 0x01;
@@ -404,6 +408,31 @@ impl Summary {
     }
 }
 
+/// Read `r` to its end into `buf`, but no more than `limit` bytes; `buf` grows by doubling
+/// as bytes arrive and never past `limit` (not even its capacity).
+fn read_at_most(mut r: impl Read, limit: u64, buf: &mut Vec<u8>) -> std::io::Result<usize> {
+    let limit = limit as usize;
+    let mut len = 0;
+    loop {
+        if len == buf.len() {
+            if len == limit {
+                break;
+            }
+            let grow = (2 * len).max(64 << 10).min(limit) - len;
+            buf.reserve_exact(grow);
+            buf.resize(len + grow, 0);
+        }
+        match r.read(&mut buf[len..]) {
+            Ok(0) => break,
+            Ok(n) => len += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    buf.truncate(len);
+    Ok(len)
+}
+
 /// Opcode and body length of the record starting `buf`, checked against `buf`.
 fn record_head(buf: &[u8], offset: u64, within: &str) -> Result<(u8, usize), ReadError> {
     if buf.len() < 9 {
@@ -562,13 +591,17 @@ impl Scan {
             "zstd" | "lz4" => {
                 self.chunk.clear();
                 let got = if compression == "zstd" {
-                    let d = zstd::stream::read::Decoder::with_buffer(compressed)
+                    let mut d = zstd::stream::read::Decoder::with_buffer(compressed)
                         .map_err(|e| corrupt(format!("zstd chunk: {e}")))?;
-                    d.take(size + 1).read_to_end(&mut self.chunk)
+                    d.window_log_max(ZSTD_WINDOW_LOG)
+                        .map_err(|e| corrupt(format!("zstd chunk: {e}")))?;
+                    read_at_most(d, size + 1, &mut self.chunk)
                 } else {
-                    lz4_flex::frame::FrameDecoder::new(compressed)
-                        .take(size + 1)
-                        .read_to_end(&mut self.chunk)
+                    read_at_most(
+                        lz4_flex::frame::FrameDecoder::new(compressed),
+                        size + 1,
+                        &mut self.chunk,
+                    )
                 };
                 let got = got.map_err(|e| corrupt(format!("{compression} chunk does not decompress: {e}")))?;
                 if got as u64 != size {
