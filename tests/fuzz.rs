@@ -18,7 +18,6 @@ use fpkbench::pipeline::{identify_log, simulate_log, Options};
 use fpkbench::Scenario;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
-use std::alloc::{GlobalAlloc, Layout as AllocLayout, System};
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -26,30 +25,6 @@ use std::time::Duration;
 
 /// Longest a single case may take before it counts as a hang.
 const HANG: Duration = Duration::from_secs(60);
-
-/// Records the largest single allocation of the current thread.
-struct Largest;
-
-thread_local! {
-    static LARGEST: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Largest {
-    unsafe fn alloc(&self, layout: AllocLayout) -> *mut u8 {
-        let _ = LARGEST.try_with(|c| c.set(c.get().max(layout.size())));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: AllocLayout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: AllocLayout, new_size: usize) -> *mut u8 {
-        let _ = LARGEST.try_with(|c| c.set(c.get().max(new_size)));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Largest = Largest;
 
 /// Run `f` on a thread of its own; fail if it panics or outlives [`HANG`].
 fn guarded<T: Send + 'static>(what: String, f: impl FnOnce() -> T + Send + 'static) -> T {
@@ -250,11 +225,11 @@ fn logs() -> &'static Logs {
 
 /// Read `path` completely; the largest allocation made on the way.
 fn read_fully(path: &Path) -> usize {
-    LARGEST.with(|c| c.set(0));
+    common::reset_largest();
     if let Ok(info) = read_info(path) {
         let _ = read_samples(&info, |_, _, _| {});
     }
-    LARGEST.with(|c| c.get())
+    common::largest()
 }
 
 #[test]

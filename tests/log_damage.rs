@@ -7,33 +7,7 @@ mod common;
 use common::{fresh_log, records, small_scenario, write_records, Layout};
 use fpkbench::io::log::{read_info, read_samples, LogError};
 use fpkbench::pipeline::{identify_log, Options, PipelineError};
-use std::alloc::{GlobalAlloc, Layout as AllocLayout, System};
-use std::cell::Cell;
 use std::path::Path;
-
-/// Records the largest single allocation made by the current thread.
-struct Largest;
-
-thread_local! {
-    static LARGEST: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Largest {
-    unsafe fn alloc(&self, layout: AllocLayout) -> *mut u8 {
-        let _ = LARGEST.try_with(|c| c.set(c.get().max(layout.size())));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: AllocLayout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: AllocLayout, new_size: usize) -> *mut u8 {
-        let _ = LARGEST.try_with(|c| c.set(c.get().max(new_size)));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Largest = Largest;
 
 /// The stated bound for an uncompressed log: no allocation beyond the file's size plus the
 /// reader's 1 MiB input buffer and small change.
@@ -41,13 +15,13 @@ fn bound(file_len: usize) -> usize {
     file_len + (1 << 20) + (64 << 10)
 }
 
-/// Read a log fully; the samples delivered and the outcome. Checks the allocation bound.
 /// One sample as bits: trajectory, time, values.
 type Sample = (u32, u64, Vec<u64>);
 
+/// Read a log fully; the samples delivered and the outcome. Checks the allocation bound.
 fn read_all(path: &Path) -> (Vec<Sample>, Result<u64, LogError>) {
     let len = std::fs::metadata(path).unwrap().len() as usize;
-    LARGEST.with(|c| c.set(0));
+    common::reset_largest();
     let mut got = Vec::new();
     let outcome = read_info(path).and_then(|info| {
         read_samples(&info, |j, t, x| {
@@ -55,7 +29,7 @@ fn read_all(path: &Path) -> (Vec<Sample>, Result<u64, LogError>) {
         })
     });
     // (The delivered samples are collected by the test itself; leave them out.)
-    let largest = LARGEST.with(|c| c.get());
+    let largest = common::largest();
     let collected = got.capacity() * std::mem::size_of::<Sample>();
     assert!(
         largest <= bound(len).max(collected),
@@ -374,12 +348,12 @@ fn a_zstd_frame_asking_for_a_huge_window_is_refused_within_the_bound() {
     out.extend_from_slice(&bytes[at + 9 + header_len + 8 + n..]);
     let damaged = dir.path().join("window.mcap");
     std::fs::write(&damaged, &out).unwrap();
-    LARGEST.with(|c| c.set(0));
+    common::reset_largest();
     let text = read_all(&damaged).1.unwrap_err().to_string();
     assert!(
         text.contains(&format!("corrupt at byte {at}")) && text.contains("zstd"),
         "{text}"
     );
-    let largest = LARGEST.with(|c| c.get());
+    let largest = common::largest();
     assert!(largest < 64 << 20, "{largest} bytes allocated");
 }

@@ -12,6 +12,42 @@ use std::collections::BTreeMap;
 use std::ops::ControlFlow;
 use std::path::Path;
 
+/// Records the largest single allocation made by each thread, so that tests can check the
+/// reader's allocation bound (docs/reliability.md). Every test binary that uses this module
+/// allocates through it.
+struct Largest;
+
+thread_local! {
+    static LARGEST: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+unsafe impl std::alloc::GlobalAlloc for Largest {
+    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
+        let _ = LARGEST.try_with(|c| c.set(c.get().max(layout.size())));
+        unsafe { std::alloc::System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        unsafe { std::alloc::System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: std::alloc::Layout, new_size: usize) -> *mut u8 {
+        let _ = LARGEST.try_with(|c| c.set(c.get().max(new_size)));
+        unsafe { std::alloc::System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Largest = Largest;
+
+/// Start counting this thread's largest allocation afresh.
+pub fn reset_largest() {
+    LARGEST.with(|c| c.set(0));
+}
+
+/// This thread's largest single allocation since [`reset_largest`].
+pub fn largest() -> usize {
+    LARGEST.with(|c| c.get())
+}
+
 /// The SDOF Duffing scenario shortened to `record_length` s per trajectory.
 pub fn small_scenario(record_length: f64, trajectories: usize) -> Scenario {
     let src = std::fs::read_to_string("scenarios/sdof_duffing.toml").unwrap();
