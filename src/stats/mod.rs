@@ -105,13 +105,19 @@ pub fn dissipativity(link: &str, kind: Characteristic, p: &Polynomial, lo: f64, 
     let message = match fails_at {
         None => format!("{f} > 0 over the observed {v} in [{lo:.4}, {hi:.4}]"),
         Some(z) => {
+            // The odd highest powers either side: only an odd highest power (with a positive
+            // coefficient) keeps the characteristic dissipative at large amplitudes.
             let maxp = p.max_power();
+            let (lower, upper) = if maxp % 2 == 1 {
+                (maxp.saturating_sub(2).max(1), maxp + 2)
+            } else {
+                (maxp.saturating_sub(1).max(1), maxp + 1)
+            };
             format!(
                 "{f} <= 0 at {v} = {z:.4} within the observed range: the identified {} is not dissipative there; \
-                 try another polynomial degree (e.g. powers up to {} or {}) as the paper suggests",
+                 try another polynomial degree (e.g. powers up to {lower} or {upper}: the highest power odd) as \
+                 the paper suggests",
                 kind.name(),
-                maxp.saturating_sub(2).max(1),
-                maxp + 2
             )
         }
     };
@@ -150,5 +156,32 @@ pub fn estimated_characteristic(
         (true_characteristic(s, link, kind), false)
     } else {
         (characteristic(&terms), true)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_dissipativity_advice_keeps_the_highest_power_odd() {
+        // 6u + 3u²: K(u)·u = 6u² + 3u³ < 0 for u < −2.
+        let even = Polynomial {
+            terms: vec![(1, 6.0), (2, 3.0)],
+        };
+        let d = dissipativity("m1-m2", Characteristic::Stiffness, &even, -3.0, 3.0);
+        assert!(!d.holds && d.fails_at.is_some_and(|u| u <= -2.0), "{d:?}");
+        assert!(d.message.contains("powers up to 1 or 3"), "{}", d.message);
+        // 10u − 20u³ (softening): fails beyond |u| = 1/√2.
+        let odd = Polynomial {
+            terms: vec![(1, 10.0), (3, -20.0)],
+        };
+        let d = dissipativity("ground-m1", Characteristic::Stiffness, &odd, -1.0, 1.0);
+        assert!(!d.holds);
+        assert!(d.message.contains("powers up to 1 or 5"), "{}", d.message);
+        let good = Polynomial {
+            terms: vec![(1, 10.0), (3, 20.0)],
+        };
+        assert!(dissipativity("ground-m1", Characteristic::Stiffness, &good, -1.0, 1.0).holds);
     }
 }
