@@ -21,10 +21,10 @@ fn run(args: &[&str]) -> Output {
         .unwrap()
 }
 
-/// Run with `identify_lines`, expect a refusal naming `must_name`; return stderr.
-fn refused(identify_lines: &str, must_name: &[&str]) -> String {
+/// Run with `identify_lines` and `seed`, expect a refusal naming `must_name`; return stderr.
+fn refused(identify_lines: &str, seed: u64, must_name: &[&str]) -> String {
     let dir = tempfile::tempdir().unwrap();
-    let s = sdof_with(identify_lines, 1, dir.path());
+    let s = sdof_with(identify_lines, seed, dir.path());
     let out = run(&["run", s.to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
@@ -47,7 +47,7 @@ fn refused(identify_lines: &str, must_name: &[&str]) -> String {
 /// The weakest direction's entry for `name` in a refusal message.
 fn direction(err: &str, name: &str) -> f64 {
     let key = format!("{name}: ");
-    let dir = &err[err.find("direction [").expect("direction")..];
+    let dir = &err[err.find("along [").expect("direction")..];
     let at = dir
         .find(&key)
         .unwrap_or_else(|| panic!("{name} not in the direction: {err}"));
@@ -61,27 +61,35 @@ fn direction(err: &str, name: &str) -> f64 {
 }
 
 #[test]
-fn damping_and_intensity_together_are_refused_on_simulated_data() {
-    // Sampled moments break the exact (c, σ²) symmetry only by their noise: the ratio is
-    // ≈1e-3 and the batch estimates scatter by hundreds of per cent. The direction is the
-    // theoretical one, c → (1+ε)c with σ → (1+ε/2)σ, to sampling accuracy.
-    let err = refused("unknown_intensities = [\"m1\"]", &["c1[ground-m1]", "sigma[m1]"]);
-    let (c, s) = (direction(&err, "c1[ground-m1]"), direction(&err, "sigma[m1]"));
-    assert!((c - 1.0).abs() < 1e-9 && (s - 0.5).abs() < 0.05, "{err}");
+fn damping_and_intensity_together_are_refused_before_simulating_on_every_seed() {
+    // The exact (c, σ²) symmetry of the stationary density is recognised from the model,
+    // so the verdict cannot depend on the seed (at 249e199 it missed 2 seeds in 20).
+    for seed in 1..=5 {
+        let err = refused("unknown_intensities = [\"m1\"]", seed, &["c1[ground-m1]", "sigma[m1]"]);
+        let (c, s) = (direction(&err, "c1[ground-m1]"), direction(&err, "sigma[m1]"));
+        assert!((c - 1.0).abs() < 1e-9 && (s - 0.5).abs() < 1e-9, "{err}");
+        assert!(err.contains("whatever the data") && !err.contains("simulated"), "{err}");
+    }
 }
 
 #[test]
-fn mass_with_stiffness_and_damping_is_refused_on_simulated_data() {
+fn mass_with_stiffness_and_damping_is_refused_before_simulating_on_every_seed() {
     // (k, c, m) → (λk, c/λ, λm) leaves the stationary density unchanged: k1, k3 and m move
     // together, c1 against them.
-    let err = refused(
-        "unknown_masses = [\"m1\"]",
-        &["m[m1]", "k1[ground-m1]", "c1[ground-m1]"],
-    );
-    let m = direction(&err, "m[m1]");
-    for (name, sign) in [("k1[ground-m1]", 1.0), ("k3[ground-m1]", 1.0), ("c1[ground-m1]", -1.0)] {
-        let d = direction(&err, name);
-        assert!((d - sign * m).abs() < 0.1 * m.abs(), "{name}: {err}");
+    for seed in 1..=5 {
+        let err = refused(
+            "unknown_masses = [\"m1\"]",
+            seed,
+            &["m[m1]", "k1[ground-m1]", "c1[ground-m1]"],
+        );
+        for (name, d) in [
+            ("m[m1]", 1.0),
+            ("k1[ground-m1]", 1.0),
+            ("k3[ground-m1]", 1.0),
+            ("c1[ground-m1]", -1.0),
+        ] {
+            assert!((direction(&err, name) - d).abs() < 1e-9, "{name}: {err}");
+        }
     }
 }
 

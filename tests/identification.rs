@@ -2,7 +2,7 @@
 
 use fpkbench::ident::moments::RawMoments;
 use fpkbench::ident::poly::exponent;
-use fpkbench::ident::{weak, Problem};
+use fpkbench::ident::{weak, IdentError, Problem, Specification};
 use fpkbench::{zoo, Model, Scenario};
 
 const SIM: &str = "dt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1";
@@ -105,52 +105,134 @@ fn strong_form_on_the_exact_density_converges_like_h_squared() {
     );
 }
 
-fn inseparable(identify: &str) -> (Vec<String>, Vec<(String, f64)>, f64) {
-    let p = Problem::new(&sdof_duffing(identify)).unwrap();
-    let mom = sdof_exact(weak::moment_degree(&p));
-    let pc = weak::pieces(&p, &mom);
-    match fpkbench::ident::estimate(&p, "weak", &pc, &[], &p.typical(&mom), vec![], None) {
-        Err(fpkbench::ident::IdentError::NotIdentifiable {
-            names,
-            direction,
-            sv_ratio,
-            ..
-        }) => (names, direction, sv_ratio),
-        Ok(e) => panic!(
-            "expected not identifiable, got estimates {:?} (sv ratio {:e})",
-            e.values, e.diagnostics.sv_ratio
-        ),
-        Err(e) => panic!("unexpected error {e}"),
-    }
-}
-
 fn dir(d: &[(String, f64)], name: &str) -> f64 {
     d.iter().find(|x| x.0 == name).map_or(0.0, |x| x.1)
 }
 
-#[test]
-fn damping_with_intensity_unknown_is_flagged_with_its_null_direction() {
-    // f ∝ exp(−(2c/σ²)(m v²/2 + U)) depends on c/σ² only: c → (1+ε)c, σ → (1+ε/2)σ.
-    let (names, d, ratio) = inseparable("[identify]\nunknown_intensities = [\"m1\"]\n");
-    assert!(ratio < 1e-8, "sv ratio {ratio:e}");
-    assert_eq!(names, ["c1[ground-m1]", "sigma[m1]"]);
-    assert!(
-        (dir(&d, "c1[ground-m1]") - 1.0).abs() < 1e-6 && (dir(&d, "sigma[m1]") - 0.5).abs() < 1e-6,
-        "{d:?}"
-    );
+/// The structural refusal of `identify` on the SDOF Duffing model, and the numerical null
+/// direction of the same unknowns on exact moments (the check bypassed), both in relative
+/// units (`d ln value`), the numerical one scaled to agree in `scale_by`.
+#[allow(clippy::type_complexity)]
+fn refused_and_null(identify: &str, scale_by: &str) -> (Vec<Vec<(String, f64)>>, Vec<(String, f64)>, f64) {
+    let s = sdof_duffing(identify);
+    let structural = match Problem::new(&s) {
+        Err(IdentError::Symmetric { directions, .. }) => directions,
+        Ok(_) => panic!("expected the structure to be refused"),
+        Err(e) => panic!("unexpected error {e}"),
+    };
+    let spec = Specification::from_scenario(&s);
+    let p = Problem::from_spec_unchecked(&spec, &[]).unwrap();
+    let mom = sdof_exact(weak::moment_degree(&p));
+    // The weakest direction is in relative changes at the solution (here the truth).
+    let (_, diag) = p.solve(&weak::pieces(&p, &mom), &p.typical(&mom), None);
+    let rel = &diag.weakest_direction;
+    let k = p.names.iter().position(|n| n == scale_by).unwrap();
+    let numeric = p.names.iter().cloned().zip(rel.iter().map(|x| x / rel[k])).collect();
+    (structural, numeric, diag.sv_ratio)
 }
 
 #[test]
-fn mass_unknown_is_flagged_with_its_null_direction() {
-    // Invariants c·m/σ² and c·k/σ²: m, k1, k3 → (1+ε)·, c → (1−ε)·.
-    let (names, d, ratio) = inseparable("[identify]\nunknown_masses = [\"m1\"]\n");
+fn damping_with_intensity_unknown_is_refused_from_the_structure_along_the_exact_null_direction() {
+    // f ∝ exp(−(2c/σ²)(m v²/2 + U)) depends on c/σ² only: c → (1+ε)c, σ → (1+ε/2)σ.
+    let (structural, numeric, ratio) =
+        refused_and_null("[identify]\nunknown_intensities = [\"m1\"]\n", "c1[ground-m1]");
+    assert_eq!(structural.len(), 1, "{structural:?}");
+    let d = &structural[0];
+    let names: Vec<&str> = d.iter().map(|x| x.0.as_str()).collect();
+    assert_eq!(names, ["c1[ground-m1]", "sigma[m1]"]);
+    assert!(
+        (dir(d, "c1[ground-m1]") - 1.0).abs() < 1e-9 && (dir(d, "sigma[m1]") - 0.5).abs() < 1e-9,
+        "{d:?}"
+    );
+    // Exact moments: the same direction is numerically null.
     assert!(ratio < 1e-8, "sv ratio {ratio:e}");
-    assert_eq!(names.len(), 4);
-    let m = dir(&d, "m[m1]");
-    for (n, s) in [("k1[ground-m1]", 1.0), ("k3[ground-m1]", 1.0), ("c1[ground-m1]", -1.0)] {
-        assert!((dir(&d, n) - s * m).abs() < 1e-6, "{n}: {d:?}");
+    for (n, x) in &numeric {
+        assert!(
+            (x - dir(d, n)).abs() < 1e-6,
+            "{n}: structural {d:?}, numerical {numeric:?}"
+        );
     }
-    assert!((m.abs() - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn mass_unknown_is_refused_from_the_structure_along_the_exact_null_direction() {
+    // Invariants c·m/σ² and c·k/σ²: m, k1, k3 → (1+ε)·, c → (1−ε)·.
+    let (structural, numeric, ratio) = refused_and_null("[identify]\nunknown_masses = [\"m1\"]\n", "m[m1]");
+    assert_eq!(structural.len(), 1, "{structural:?}");
+    let d = &structural[0];
+    for (n, s) in [
+        ("k1[ground-m1]", 1.0),
+        ("k3[ground-m1]", 1.0),
+        ("c1[ground-m1]", -1.0),
+        ("m[m1]", 1.0),
+    ] {
+        assert!((dir(d, n) - s).abs() < 1e-9, "{n}: {d:?}");
+    }
+    assert!(ratio < 1e-8, "sv ratio {ratio:e}");
+    for (n, x) in &numeric {
+        assert!(
+            (x - dir(d, n)).abs() < 1e-6,
+            "{n}: structural {d:?}, numerical {numeric:?}"
+        );
+    }
+}
+
+#[test]
+fn mass_and_intensity_unknown_give_two_null_directions() {
+    let s = sdof_duffing("[identify]\nunknown_masses = [\"m1\"]\nunknown_intensities = [\"m1\"]\n");
+    match Problem::new(&s) {
+        Err(IdentError::Symmetric { directions, .. }) => {
+            assert_eq!(directions.len(), 2, "{directions:?}");
+            // The force scale (the mass and every force by one factor) is their sum.
+            let (a, b) = (&directions[0], &directions[1]);
+            for n in ["k1[ground-m1]", "k3[ground-m1]", "c1[ground-m1]", "m[m1]", "sigma[m1]"] {
+                assert!((dir(a, n) + dir(b, n) - 1.0).abs() < 1e-9, "{n}: {directions:?}");
+            }
+        }
+        Ok(_) => panic!("expected a refusal"),
+        Err(e) => panic!("unexpected error {e}"),
+    }
+}
+
+#[test]
+fn models_without_an_exact_symmetry_are_not_refused_from_the_structure() {
+    // Nonlinear damping breaks the fluctuation–dissipation relation: σ is then identifiable.
+    let mut s = sdof_duffing(
+        "[identify]\nunknown_intensities = [\"m1\"]\nlinks.ground-m1 = { stiffness = [1, 3], damping = [1, 3] }\n",
+    );
+    s.links[0].damping.terms.push((3, 0.2));
+    assert!(Problem::new(&s).is_ok());
+    // A known damper pins the scale: the mass is identifiable with the springs.
+    let s = sdof_duffing("[identify]\nunknown_masses = [\"m1\"]\nlinks.ground-m1 = { stiffness = [1, 3] }\n");
+    assert!(Problem::new(&s).is_ok());
+    // Two masses, nonlinear damping: no symmetry with an unknown mass and every coefficient
+    // unknown (the other mass and σ fix the scale).
+    let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
+    let src = src.replace("[identify]", "[identify]\nunknown_masses = [\"m1\"]");
+    let s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+    assert!(Problem::new(&s).is_ok());
+}
+
+#[test]
+fn the_force_scale_alone_is_refused_when_nothing_fixes_it() {
+    // Nonlinear damping (no fluctuation–dissipation), but the mass, every coefficient and σ
+    // unknown: their common scale is lost.
+    let mut s = sdof_duffing(
+        "[identify]\nunknown_masses = [\"m1\"]\nunknown_intensities = [\"m1\"]\nlinks.ground-m1 = { stiffness = [1, 3], damping = [1, 3] }\n",
+    );
+    s.links[0].damping.terms.push((3, 0.2));
+    match Problem::new(&s) {
+        Err(IdentError::Symmetric { directions, why }) => {
+            assert_eq!(directions.len(), 1);
+            assert!(
+                directions[0].len() == 6 && directions[0].iter().all(|(_, x)| *x == 1.0),
+                "{directions:?}"
+            );
+            assert!(why.contains("one factor"), "{why}");
+        }
+        Ok(_) => panic!("expected a refusal"),
+        Err(e) => panic!("unexpected error {e}"),
+    }
 }
 
 #[test]

@@ -22,7 +22,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let scenario = Scenario::from_file(&args.scenario)?;
     // Unknowns no data could separate are refused before the simulation, not after it.
-    if let Err(why) = scenario.check_separable() {
+    if let Err(why) = fpkbench::pipeline::preflight(&scenario) {
         anyhow::bail!("{}: {why}", args.scenario.display());
     }
     let dir = args

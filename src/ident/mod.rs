@@ -21,6 +21,7 @@ mod bilinear;
 mod estimate;
 mod problem;
 mod spec;
+mod symmetry;
 
 pub mod data;
 pub mod disturbance;
@@ -37,6 +38,7 @@ pub use estimate::{
 };
 pub use problem::{y, Filter, Layout, Pieces, Problem, Unknown};
 pub use spec::Specification;
+pub use symmetry::{exact_symmetry, Symmetry};
 
 /// Errors of identification.
 #[derive(Debug, Clone, thiserror::Error)]
@@ -61,6 +63,20 @@ pub enum IdentError {
         cols: usize,
         /// What decided it: numerical rank or the spread over data batches.
         reason: String,
+    },
+    /// The model's stationary density is exactly unchanged along a direction of the
+    /// unknowns, whatever the data ([`exact_symmetry`], docs/theory.md §6).
+    #[error(
+        "the unknowns cannot be separated by the stationary density of this model, whatever \
+         the data: it is exactly unchanged along {} (relative changes, d ln value) because {}. \
+         No estimates are given. Declare some of them known (docs/theory.md §6)",
+        .directions.iter().map(|d| format!("[{}]", d.iter().map(|(n, x)| format!("{n}: {x:+.3}")).collect::<Vec<_>>().join(", "))).collect::<Vec<_>>().join(" and "),
+        .why
+    )]
+    Symmetric {
+        /// Per null direction: the unknowns it moves and by how much.
+        directions: Vec<Vec<(String, f64)>>,
+        why: String,
     },
     #[error("too little data: {0}")]
     TooLittleData(String),

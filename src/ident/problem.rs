@@ -108,6 +108,31 @@ impl Problem {
     /// Build the problem of a specification, with the given filter parameters for its
     /// measured filtered excitations.
     pub fn from_spec(spec: &Specification, filters: &[Filter]) -> Result<Problem, IdentError> {
+        let problem = Problem::from_spec_unchecked(spec, filters)?;
+        // A symmetry of the model is refused from its structure, before any data.
+        if let Some(sym) = super::exact_symmetry(&problem) {
+            return Err(IdentError::Symmetric {
+                directions: sym
+                    .directions
+                    .iter()
+                    .map(|d| {
+                        d.iter()
+                            .zip(&problem.names)
+                            .filter(|(x, _)| **x != 0.0)
+                            .map(|(x, n)| (n.clone(), *x))
+                            .collect()
+                    })
+                    .collect(),
+                why: sym.why.to_string(),
+            });
+        }
+        Ok(problem)
+    }
+
+    /// [`Problem::from_spec`] without refusing an exact symmetry: for checking the
+    /// symmetries themselves against exact moments.
+    #[doc(hidden)]
+    pub fn from_spec_unchecked(spec: &Specification, filters: &[Filter]) -> Result<Problem, IdentError> {
         let known = &spec.model;
         let n = known.masses();
         let state = StateChoice::new(known, filters, &spec.unknown_corners)?;

@@ -12,8 +12,32 @@ use crate::ident::Specification;
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
 use crate::io::log::{read_samples, LogInfo};
 use crate::report::{MethodReport, Report};
-use crate::scenario::{Method, Process, ReportMethod};
+use crate::scenario::{Method, Process, ReportMethod, Scenario};
 use std::time::Instant;
+
+/// The measured filtered excitations at placeholder `A`, `B`: the problem's structure
+/// (state, columns, moments needed, symmetries) does not depend on them.
+fn placeholder_filters(s: &Scenario) -> Vec<Filter> {
+    (0..s.excitations.len())
+        .filter(|&e| s.excitations[e].measured && matches!(s.excitations[e].process, Process::Filtered { .. }))
+        .map(|e| Filter {
+            excitation: e,
+            a: 1.0,
+            b: 1.0,
+        })
+        .collect()
+}
+
+/// What can be refused from the scenario alone, before any simulation or reading: unknowns
+/// no data can separate (parallel links, exact symmetries of the stationary density) and
+/// problems the identifier does not support.
+pub fn preflight(s: &Scenario) -> Result<(), IdentError> {
+    s.check_separable().map_err(IdentError::Inseparable)?;
+    if s.identify.disturbance.is_none() {
+        Problem::from_spec(&Specification::from_scenario(s), &placeholder_filters(s))?;
+    }
+    Ok(())
+}
 
 pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, PipelineError> {
     let s = &info.scenario;
@@ -32,18 +56,8 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         options.methods.clone()
     };
     // Measured filtered excitations: their A, B come from the force spectrum unless known.
-    let filtered: Vec<usize> = (0..s.excitations.len())
-        .filter(|&e| s.excitations[e].measured && matches!(s.excitations[e].process, Process::Filtered { .. }))
-        .collect();
-    // The problem's structure (state, columns, moments needed) does not depend on A and B.
-    let placeholder: Vec<Filter> = filtered
-        .iter()
-        .map(|&e| Filter {
-            excitation: e,
-            a: 1.0,
-            b: 1.0,
-        })
-        .collect();
+    let placeholder = placeholder_filters(s);
+    let filtered: Vec<usize> = placeholder.iter().map(|f| f.excitation).collect();
     let spec = Specification::from_scenario(s);
     let structure = Problem::from_spec(&spec, &placeholder)?;
     let naive_structure = (!filtered.is_empty())
