@@ -190,11 +190,20 @@ fn identify_reads_scenario_and_truth_from_the_log_and_writes_the_report() {
         for key in ["rank", "cols", "sv_ratio"] {
             assert!(m["diagnostics"][key].is_number());
         }
-        let p = &m["parameters"][0];
-        for key in ["name", "true_value", "estimate", "rel_error"] {
-            assert!(!p[key].is_null());
+        for p in m["parameters"].as_array().unwrap() {
+            for key in ["name", "true_value", "estimate", "std_error", "ci95", "differs_from_zero", "rel_error"] {
+                assert!(!p[key].is_null(), "parameter lacks {key}: {p}");
+            }
+            // The interval is the estimate ± t(0.975, 31) standard errors.
+            let (e, se) = (p["estimate"].as_f64().unwrap(), p["std_error"].as_f64().unwrap());
+            let hi = p["ci95"][1].as_f64().unwrap();
+            assert!(((hi - e) / se - 2.0395).abs() < 1e-3, "{p}");
         }
     }
+    // Where the report came from.
+    let prov = &r["provenance"];
+    assert_eq!(prov["version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(prov["scenario_sha256"].as_str().unwrap().len(), 64);
     // The exit code follows the gates.
     let passed = r["methods"].as_array().unwrap().iter().all(|m| m["passed"] == true);
     assert_eq!(out.status.code(), Some(if passed { 0 } else { 1 }));

@@ -39,7 +39,8 @@ pub struct IdentifyArgs {
     /// Print the report as JSON on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
-    /// Strong form: bins per dimension, 3..=4096 [default: 26 in 2-D, 20 beyond].
+    /// Strong form: bins per dimension, 3..=4096 [default: 26 in 2-D, 20 beyond, fewer when
+    /// the samples would fill fewer than 20 per cell on average].
     #[arg(long, value_parser = bins)]
     pub bins: Option<usize>,
     /// Strong form: half-width of the grid box in standard deviations [default: 4.5 in 2-D, 3 beyond].
@@ -65,7 +66,7 @@ pub struct IdentifyArgs {
 impl IdentifyArgs {
     pub fn options(&self, dim_hint: usize) -> Options {
         let grid = if self.bins.is_some() || self.span.is_some() || self.min_count.is_some() {
-            let auto = GridOptions::auto(dim_hint);
+            let auto = GridOptions::auto(dim_hint, u64::MAX);
             Some(GridOptions {
                 bins: self.bins.unwrap_or(auto.bins),
                 span_std: self.span.unwrap_or(auto.span_std),

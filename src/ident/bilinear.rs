@@ -4,7 +4,8 @@
 
 use super::poly::Poly;
 use super::{
-    data, identify_weak, lsq, poly, weak, Estimate, IdentError, Problem, Unknown, INSEPARABLE_RATIO, WEAK_RATIO,
+    data, estimate::jackknife, identify_weak, lsq, poly, weak, Estimate, IdentError, Problem, Unknown, INSEPARABLE_RATIO,
+    WEAK_RATIO,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -171,27 +172,17 @@ pub fn identify_weak_bilinear(problem: &Problem, data: &data::StationaryData) ->
             reason: "the physical coefficients cannot be recovered from the monomial coefficients".into(),
         });
     }
-    // Standard errors: recover each batch's monomial estimate too.
-    let batches: Vec<Vec<f64>> = data
-        .batches()
+    // Standard errors: the jackknife, each replicate's monomial estimate recovered too.
+    let replicates: Vec<Vec<f64>> = data
+        .leave_one_out()
         .iter()
-        .filter(|b| b.count > 0)
         .map(|b| {
             let pc = weak::pieces(&mono, b);
             let (m, _) = mono.solve(&pc, &mono.typical(b), None);
             problem.recover_physical(&map, &m, start_b).0
         })
         .collect();
-    let nb = batches.len() as f64;
-    let std_error = (0..values.len())
-        .map(|k| {
-            if batches.len() < 2 {
-                return f64::NAN;
-            }
-            let m = batches.iter().map(|b| b[k]).sum::<f64>() / nb;
-            (batches.iter().map(|b| (b[k] - m).powi(2)).sum::<f64>() / (nb - 1.0) / nb).sqrt()
-        })
-        .collect();
+    let std_error = jackknife(&replicates, values.len());
     let mut facts = linear.facts.clone();
     for (n, v) in mono.names.iter().zip(&linear.values) {
         facts.push((format!("monomial {n}"), format!("{v:.6}")));
@@ -205,8 +196,10 @@ pub fn identify_weak_bilinear(problem: &Problem, data: &data::StationaryData) ->
         names: phys.names.clone(),
         values,
         std_error,
+        dof: replicates.len().saturating_sub(1),
         weakly_determined: linear.weakly_determined || recov.sv_ratio < WEAK_RATIO,
         diagnostics: linear.diagnostics,
         facts,
+        warnings: linear.warnings,
     })
 }

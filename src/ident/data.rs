@@ -34,8 +34,8 @@ pub struct StationaryData {
     /// [`TRAJECTORY_GROUPS`]) with `t` in `[w, w+1) · record_length / TIME_WINDOWS`. Their
     /// sum is the whole record's moments.
     pub fine: Vec<RawMoments>,
-    /// Coarse batches for standard errors (groups of consecutive fine batches: with 8,
-    /// exactly the trajectory groups).
+    /// Coarse batches for the jackknife's standard errors (groups of consecutive fine
+    /// batches: with 8, exactly the trajectory groups; with 32, their quarters).
     coarse: usize,
     record_length: f64,
     columns: Vec<usize>,
@@ -98,12 +98,28 @@ impl StationaryData {
         }
     }
 
+    /// The fine batch of a sample of `trajectory` at time `t`.
+    fn fine_batch(&self, trajectory: u32, t: f64) -> usize {
+        let nw = TIME_WINDOWS;
+        let w = ((t / self.record_length * nw as f64).ceil() as usize).clamp(1, nw) - 1;
+        (trajectory as usize % TRAJECTORY_GROUPS) * nw + w
+    }
+
+    /// The coarse batch (see [`StationaryData::batches`]) of a sample of `trajectory` at
+    /// time `t`: other estimators' jackknives use the same batches.
+    pub fn batch_of(&self, trajectory: u32, t: f64) -> usize {
+        self.fine_batch(trajectory, t) / FINE_BATCHES.div_ceil(self.coarse)
+    }
+
+    /// Number of coarse batches.
+    pub fn batch_count(&self) -> usize {
+        FINE_BATCHES.div_ceil(FINE_BATCHES.div_ceil(self.coarse))
+    }
+
     /// Add one sample (`row`: the log's columns) of `trajectory` taken at time `t` after
     /// burn-in.
     pub fn push(&mut self, trajectory: u32, t: f64, row: &[f64]) {
-        let nw = TIME_WINDOWS;
-        let w = ((t / self.record_length * nw as f64).ceil() as usize).clamp(1, nw) - 1;
-        let b = (trajectory as usize % TRAJECTORY_GROUPS) * nw + w;
+        let b = self.fine_batch(trajectory, t);
         for &c in &self.columns {
             self.buffer.push(row[c]);
         }
@@ -156,10 +172,31 @@ impl StationaryData {
         sum_of(&self.fine)
     }
 
-    /// The coarse batches (consecutive groups of fine ones), for standard errors.
+    /// The coarse batches (consecutive groups of fine ones: with 32, each trajectory
+    /// group's four quarters of the record).
     pub fn batches(&self) -> Vec<RawMoments> {
         let per = FINE_BATCHES.div_ceil(self.coarse);
         self.fine.chunks(per).map(sum_of).collect()
+    }
+
+    /// The jackknife's replicates: per non-empty coarse batch, the moments of the whole
+    /// record without it (summed from the others, never subtracted).
+    pub fn leave_one_out(&self) -> Vec<RawMoments> {
+        let batches: Vec<RawMoments> = self.batches().into_iter().filter(|b| b.count > 0).collect();
+        if batches.len() < 2 {
+            return Vec::new();
+        }
+        (0..batches.len())
+            .map(|out| {
+                let rest: Vec<RawMoments> = batches
+                    .iter()
+                    .enumerate()
+                    .filter(|&(b, _)| b != out)
+                    .map(|(_, m)| m.clone())
+                    .collect();
+                sum_of(&rest)
+            })
+            .collect()
     }
 
     pub fn samples(&self) -> u64 {

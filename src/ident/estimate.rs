@@ -8,6 +8,10 @@ use nalgebra::{DMatrix, DVector};
 /// Singular-value ratio below which unknowns count as inseparable outright.
 pub const INSEPARABLE_RATIO: f64 = 1e-8;
 
+/// Usable strong-form cells per unknown below which the estimate is flagged: measured on
+/// duffing2dof, where ≈ 2 per unknown gave errors of 800–1500 % (docs/methods.md).
+pub const USABLE_CELLS_PER_UNKNOWN: f64 = 10.0;
+
 /// Below this ratio the estimates are weakly determined (a warning).
 pub const WEAK_RATIO: f64 = 1e-3;
 
@@ -21,41 +25,57 @@ pub struct Estimate {
     pub method: &'static str,
     pub names: Vec<String>,
     pub values: Vec<f64>,
-    /// Standard errors from batch means (independent time windows); NaN with one batch.
+    /// Standard errors by the delete-one-batch jackknife ([`jackknife`]); NaN without
+    /// batches.
     pub std_error: Vec<f64>,
+    /// Degrees of freedom of the standard errors (batches − 1): intervals use Student's t.
+    pub dof: usize,
     pub diagnostics: lsq::Diagnostics,
     /// `sv_ratio` below [`WEAK_RATIO`]: the estimates are weakly determined.
     pub weakly_determined: bool,
     /// Method-specific facts (grid size, occupied cells, test functions, …).
     pub facts: Vec<(String, String)>,
+    /// What makes the estimate less reliable than its standard errors say.
+    pub warnings: Vec<String>,
 }
 
-/// Solve `pieces` built from all data and from each batch (with the equations weighted by
-/// `weight`, if given); decide identifiability.
+/// The delete-one jackknife's standard errors from the estimates of `replicates` (each
+/// from all data but one of `B` batches): `se² = (B−1)/B Σ (θ₋ᵦ − θ̄)²`. NaN with fewer
+/// than two replicates. It follows the estimator's nonlinearity (ratios, Gauss–Newton)
+/// from nearly all the data, where batch-by-batch solves would each see `1/B` of it.
+pub fn jackknife(replicates: &[Vec<f64>], unknowns: usize) -> Vec<f64> {
+    let nb = replicates.len() as f64;
+    (0..unknowns)
+        .map(|k| {
+            if replicates.len() < 2 {
+                return f64::NAN;
+            }
+            let mean = replicates.iter().map(|b| b[k]).sum::<f64>() / nb;
+            ((nb - 1.0) / nb * replicates.iter().map(|b| (b[k] - mean).powi(2)).sum::<f64>()).sqrt()
+        })
+        .collect()
+}
+
+/// The batches the spread check compares (docs/theory.md §6): its threshold was set with
+/// estimates from one eighth of the record each.
+const SPREAD_BATCHES: f64 = 8.0;
+
+/// Solve `pieces` built from all data and from each jackknife replicate (all data but one
+/// batch; with the equations weighted by `weight`, if given); decide identifiability.
 pub fn estimate(
     problem: &Problem,
     method: &'static str,
     total: &Pieces,
-    batches: &[Pieces],
+    replicates: &[Pieces],
     typical: &[f64],
     facts: Vec<(String, String)>,
     weight: Option<&DMatrix<f64>>,
 ) -> Result<Estimate, IdentError> {
     total.check_finite(method)?;
     let (values, diag) = problem.solve(total, typical, weight);
-    let per_batch: Vec<Vec<f64>> = batches.iter().map(|b| problem.solve(b, typical, weight).0).collect();
+    let per_replicate: Vec<Vec<f64>> = replicates.iter().map(|b| problem.solve(b, typical, weight).0).collect();
     let nu = values.len();
-    let std_error: Vec<f64> = (0..nu)
-        .map(|k| {
-            let nb = per_batch.len() as f64;
-            if per_batch.len() < 2 {
-                return f64::NAN;
-            }
-            let mean = per_batch.iter().map(|b| b[k]).sum::<f64>() / nb;
-            let var = per_batch.iter().map(|b| (b[k] - mean).powi(2)).sum::<f64>() / (nb - 1.0);
-            (var / nb).sqrt()
-        })
-        .collect();
+    let std_error = jackknife(&per_replicate, nu);
     let involved: Vec<usize> = (0..nu).filter(|&k| diag.weakest_direction[k].abs() >= 0.1).collect();
     let inseparable = |reason: String| IdentError::NotIdentifiable {
         names: involved.iter().map(|&k| problem.names[k].clone()).collect(),
@@ -75,15 +95,15 @@ pub fn estimate(
             diag.rank, diag.cols
         )));
     }
-    if per_batch.len() >= 2 && diag.sv_ratio < SPREAD_CHECK_RATIO {
-        // Per-batch scatter of the unknowns along the weakest direction, relative to the
-        // scale each is judged against (a coefficient: its characteristic's typical force;
-        // never the estimate itself, which is 0 for a term the truth does not have).
-        let nb = per_batch.len() as f64;
+    if per_replicate.len() >= 2 && diag.sv_ratio < SPREAD_CHECK_RATIO {
+        // The scatter of estimates from an eighth of the record each (the standard error
+        // times √8) of the unknowns along the weakest direction, relative to the scale each
+        // is judged against (a coefficient: its characteristic's typical force; never the
+        // estimate itself, which is 0 for a term the truth does not have).
         let scales = problem.judging_scales(&values, typical);
         let worst = involved
             .iter()
-            .map(|&k| std_error[k] * nb.sqrt() / scales[k].max(1e-300))
+            .map(|&k| std_error[k] * SPREAD_BATCHES.sqrt() / scales[k].max(1e-300))
             .fold(0.0f64, f64::max);
         if worst > 0.5 {
             return Err(inseparable(format!(
@@ -98,9 +118,11 @@ pub fn estimate(
         names: problem.names.clone(),
         values,
         std_error,
+        dof: per_replicate.len().saturating_sub(1),
         weakly_determined: diag.sv_ratio < WEAK_RATIO,
         diagnostics: diag,
         facts,
+        warnings: Vec::new(),
     })
 }
 
@@ -117,12 +139,7 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
     let typical = problem.typical(&total);
     let map = weak::PiecesMap::new(problem, &total);
     let pc = map.apply(&total);
-    let batches: Vec<Pieces> = data
-        .batches()
-        .iter()
-        .filter(|b| b.count > 0)
-        .map(|b| map.apply(b))
-        .collect();
+    let replicates: Vec<Pieces> = data.leave_one_out().iter().map(|b| map.apply(b)).collect();
     // The equations' covariance from the fine batches' residuals at a first estimate.
     let fine: Vec<&moments::RawMoments> = data.fine.iter().filter(|b| b.count > 0).collect();
     let fine_pieces: Vec<Pieces> = fine.iter().map(|b| map.apply(b)).collect();
@@ -145,7 +162,10 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
                 weak::moment_degree(problem)
             ),
         ),
-        ("batches".into(), batches.len().to_string()),
+        (
+            "standard errors".into(),
+            format!("delete-one jackknife over {} batches", replicates.len()),
+        ),
     ];
     facts.push((
         "weighting".into(),
@@ -162,7 +182,7 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
             ),
         },
     ));
-    estimate(problem, "weak", &pc, &batches, &typical, facts, weight.as_ref())
+    estimate(problem, "weak", &pc, &replicates, &typical, facts, weight.as_ref())
 }
 
 /// The strong-form estimate (the paper's procedure) from a filled density grid; with
@@ -180,8 +200,30 @@ pub fn identify_strong(
             problem.unknowns.len(), grid.options.bins, grid.options.min_count
         )));
     }
+    // Standard errors: the jackknife over the weak form's batches (the grid without each).
+    let replicates: Vec<Pieces> = {
+        use rayon::prelude::*;
+        let grids: Vec<strong::DensityGrid> = grid.leave_one_out().collect();
+        grids.par_iter().map(|g| g.pieces(problem, marginals).0).collect()
+    };
     let cells = grid.counts.len();
-    let facts = vec![
+    let per_unknown = usable as f64 / problem.unknowns.len() as f64;
+    let mut warnings = Vec::new();
+    if per_unknown < USABLE_CELLS_PER_UNKNOWN {
+        warnings.push(format!(
+            "only {usable} usable cells for {} unknowns ({per_unknown:.1} per unknown, fewer than {USABLE_CELLS_PER_UNKNOWN}): \
+             the density's differences are dominated by histogram noise; use more samples, fewer bins or the weak form",
+            problem.unknowns.len()
+        ));
+    }
+    let mut facts = vec![
+        (
+            "standard errors".into(),
+            match replicates.len() {
+                0 => "none: the grid is too large to keep per-batch counts".to_string(),
+                b => format!("delete-one jackknife over {b} batches"),
+            },
+        ),
         (
             "grid".into(),
             format!(
@@ -214,13 +256,16 @@ pub fn identify_strong(
             },
         ),
     ];
-    estimate(
+    facts.sort();
+    let mut e = estimate(
         problem,
         if marginals { "strong-marginals" } else { "strong" },
         &pc,
-        &[],
+        &replicates,
         typical,
         facts,
         None,
-    )
+    )?;
+    e.warnings = warnings;
+    Ok(e)
 }

@@ -34,7 +34,7 @@ pub mod weak;
 
 pub use bilinear::identify_weak_bilinear;
 pub use estimate::{
-    estimate, identify_strong, identify_weak, Estimate, INSEPARABLE_RATIO, SPREAD_CHECK_RATIO, WEAK_RATIO,
+    estimate, identify_strong, identify_weak, jackknife, Estimate, INSEPARABLE_RATIO, SPREAD_CHECK_RATIO, WEAK_RATIO,
 };
 pub use problem::{y, Filter, Layout, Pieces, Problem, Unknown};
 pub use spec::Specification;
@@ -89,4 +89,8 @@ pub enum IdentError {
     NothingToIdentify,
     #[error("{0}")]
     Unsupported(String),
+    /// The method does not apply to this problem (e.g. a density grid in too many
+    /// dimensions): reported as not applicable, never as a failed gate.
+    #[error("not applicable: {0}")]
+    NotApplicable(String),
 }

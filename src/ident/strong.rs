@@ -28,11 +28,19 @@ pub struct GridOptions {
 /// Cells beyond which the grid is refused (memory and time).
 pub const MAX_CELLS: usize = 50_000_000;
 
+/// Samples per cell, on average over the box, below which the automatic grid gets coarser.
+pub const SAMPLES_PER_CELL: f64 = 20.0;
+
+/// The coarsest automatic grid: a central difference needs interior cells.
+pub const MIN_AUTO_BINS: usize = 6;
+
 impl GridOptions {
     /// Defaults from our reference measurements: bins of 0.3–0.45 std, a ±4.5 std box in
-    /// 2-D and ±3 std beyond (docs/theory.md §2).
-    pub fn auto(dim: usize) -> GridOptions {
-        if dim <= 2 {
+    /// 2-D and ±3 std beyond (docs/theory.md §2), made coarser when `samples` would fill
+    /// fewer than [`SAMPLES_PER_CELL`] per cell on average: then `⌊(N/20)^(1/d)⌋` bins, at
+    /// least [`MIN_AUTO_BINS`] (docs/methods.md, the strong form's grid).
+    pub fn auto(dim: usize, samples: u64) -> GridOptions {
+        let mut o = if dim <= 2 {
             GridOptions {
                 bins: 26,
                 span_std: 4.5,
@@ -50,8 +58,26 @@ impl GridOptions {
                 span_std: 3.0,
                 min_count: 5,
             }
+        };
+        let affordable = (samples as f64 / SAMPLES_PER_CELL).powf(1.0 / dim.max(1) as f64).floor();
+        if affordable < o.bins as f64 {
+            o.bins = (affordable as usize).max(MIN_AUTO_BINS);
         }
+        o
     }
+}
+
+/// Per-batch counts (B × cells) beyond which a grid keeps none, and its strong forms
+/// have no standard errors: 32 MB of `u32`.
+pub const MAX_BATCH_ENTRIES: usize = 1 << 23;
+
+/// Each batch's share of a grid, for the jackknife (the same batches as the weak form's).
+#[derive(Debug, Clone)]
+struct BatchCounts {
+    counts: Vec<Vec<u32>>,
+    marginals: Vec<Vec<Vec<u64>>>,
+    inside: Vec<u64>,
+    total: Vec<u64>,
 }
 
 /// A histogram of the state over a box.
@@ -70,6 +96,7 @@ pub struct DensityGrid {
     pub total: u64,
     columns: Vec<usize>,
     stride: Vec<usize>,
+    batches: Option<BatchCounts>,
 }
 
 impl DensityGrid {
@@ -78,7 +105,7 @@ impl DensityGrid {
         let d = problem.dim();
         let cells = (options.bins as f64).powi(d as i32);
         if cells > MAX_CELLS as f64 {
-            return Err(super::IdentError::Unsupported(format!(
+            return Err(super::IdentError::NotApplicable(format!(
                 "a {}-dimensional grid of {} bins has {cells:.1e} cells (limit {MAX_CELLS:.0e}): the strong form does not scale past 4–5 dimensions; use the weak form",
                 d, options.bins
             )));
@@ -105,7 +132,93 @@ impl DensityGrid {
             total: 0,
             columns: problem.columns.clone(),
             stride,
+            batches: None,
         })
+    }
+
+    /// Keep each of `batches` batches' counts too (for standard errors), when that fits in
+    /// [`MAX_BATCH_ENTRIES`]; then fill with [`DensityGrid::push_in`].
+    pub fn with_batches(mut self, batches: usize) -> DensityGrid {
+        if batches >= 2 && self.counts.len().saturating_mul(batches) <= MAX_BATCH_ENTRIES {
+            self.batches = Some(BatchCounts {
+                counts: vec![vec![0; self.counts.len()]; batches],
+                marginals: vec![self.marginals.clone(); batches],
+                inside: vec![0; batches],
+                total: vec![0; batches],
+            });
+        }
+        self
+    }
+
+    /// Whether per-batch counts are kept.
+    pub fn has_batches(&self) -> bool {
+        self.batches.is_some()
+    }
+
+    /// Add one sample of batch `batch`.
+    #[inline]
+    pub fn push_in(&mut self, batch: usize, row: &[f64]) {
+        let Some(bc) = self.batches.as_mut() else {
+            return self.push(row);
+        };
+        self.total += 1;
+        bc.total[batch] += 1;
+        let mut idx = 0;
+        let mut inside = true;
+        for j in 0..self.dim {
+            match crate::stats::bin((row[self.columns[j]] - self.lo[j]) / self.h[j], self.options.bins) {
+                Some(b) => {
+                    self.marginals[j][b] += 1;
+                    bc.marginals[batch][j][b] += 1;
+                    idx += b * self.stride[j];
+                }
+                None => inside = false,
+            }
+        }
+        if inside {
+            self.counts[idx] += 1.0;
+            bc.counts[batch][idx] += 1;
+            self.inside += 1;
+            bc.inside[batch] += 1;
+        }
+    }
+
+    /// The jackknife's replicates: per non-empty batch, the grid of all samples but that
+    /// batch's (none without per-batch counts).
+    pub fn leave_one_out(&self) -> impl Iterator<Item = DensityGrid> + '_ {
+        let bc = self.batches.as_ref();
+        let n = bc.map_or(0, |b| b.total.len());
+        (0..n).filter(move |&b| bc.is_some_and(|bc| bc.total[b] > 0)).map(move |b| {
+            let bc = bc.expect("filtered");
+            let mut g = self.clone_without_batches();
+            g.counts = self.counts.iter().zip(&bc.counts[b]).map(|(c, k)| c - *k as f64).collect();
+            g.marginals = self
+                .marginals
+                .iter()
+                .zip(&bc.marginals[b])
+                .map(|(m, k)| m.iter().zip(k).map(|(a, b)| a - b).collect())
+                .collect();
+            g.inside = self.inside - bc.inside[b];
+            g.total = self.total - bc.total[b];
+            g
+        })
+    }
+
+    /// A copy of the geometry and totals, without counts and per-batch counts.
+    fn clone_without_batches(&self) -> DensityGrid {
+        DensityGrid {
+            dim: self.dim,
+            options: self.options,
+            lo: self.lo.clone(),
+            h: self.h.clone(),
+            counts: Vec::new(),
+            marginals: Vec::new(),
+            inside: self.inside,
+            total: self.total,
+            columns: self.columns.clone(),
+            stride: self.stride.clone(),
+            batches: None,
+        }
     }
 
     /// Add one sample (`row`: the log's columns).
@@ -160,6 +273,7 @@ impl DensityGrid {
             total: 1,
             columns: problem.columns.clone(),
             stride,
+            batches: None,
         };
         let mut idx = vec![0; d];
         for flat in 0..cells {

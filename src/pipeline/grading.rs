@@ -6,7 +6,7 @@ use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
 use crate::model::{Characteristic, Coefficient, Truth};
 use crate::report::{
-    Curve, FilterReport, IterationReport, MethodReport, Parameter, PlotData, Report, Timings, Validation,
+    Curve, FilterReport, IterationReport, MethodReport, Parameter, PlotData, Provenance, Report, Timings, Validation,
 };
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
@@ -47,9 +47,11 @@ pub(crate) fn assemble(
 ) -> Report {
     let s = &info.scenario;
     let sim = &s.simulation;
-    let passed = methods.iter().any(|r| r.gated) && methods.iter().filter(|r| r.gated).all(|r| r.passed);
+    let applicable = || methods.iter().filter(|r| r.gated && r.not_applicable.is_none());
+    let passed = applicable().next().is_some() && applicable().all(|r| r.passed == Some(true));
     let identify_s = start.elapsed().as_secs_f64();
     Report {
+        provenance: Provenance::of_scenario(&s.source),
         scenario: s.name.clone(),
         log: info.path.display().to_string(),
         record_length_s: sim.record_length,
@@ -85,6 +87,7 @@ pub(crate) fn fill_accuracy(
     coef_of: &[Option<Coefficient>],
     values: &[f64],
     std_error: &[f64],
+    dof: usize,
     ranges: &[[f64; 4]],
 ) {
     let range = |c: Coefficient| match c.kind {
@@ -105,11 +108,17 @@ pub(crate) fn fill_accuracy(
             None => ((values[k] - t) / t).abs(),
         };
         worst = worst.max(rel);
+        let ci95 = (std_error[k].is_finite() && dof > 0).then(|| {
+            let half = stats::student_t_975(dof) * std_error[k];
+            [values[k] - half, values[k] + half]
+        });
         rep.parameters.push(Parameter {
             name: name.clone(),
             true_value: t,
             estimate: values[k],
             std_error: std_error[k],
+            ci95,
+            differs_from_zero: ci95.map(|[lo, hi]| lo > 0.0 || hi < 0.0),
             rel_error: rel,
         });
     }
@@ -139,7 +148,7 @@ pub(crate) fn fill_accuracy(
         }
     }
     rep.worst_rel_error = worst;
-    rep.passed = worst <= rep.threshold;
+    rep.passed = rep.threshold.map(|t| worst <= t);
 }
 
 /// The coefficient behind each unknown (`None` for masses and intensities).
@@ -174,8 +183,10 @@ pub(crate) fn method_report(
         parameters: Vec::new(),
         curves: Vec::new(),
         worst_rel_error: f64::NAN,
-        threshold: threshold.unwrap_or(f64::NAN),
-        passed: false,
+        threshold,
+        passed: threshold.map(|_| false),
+        not_applicable: None,
+        warnings: Vec::new(),
         diagnostics: None,
         weakly_determined: false,
         facts: BTreeMap::new(),
@@ -184,6 +195,10 @@ pub(crate) fn method_report(
         seconds: 0.0,
     };
     match est {
+        Err(IdentError::NotApplicable(why)) => {
+            rep.not_applicable = Some(why);
+            rep.passed = None;
+        }
         Err(e) => rep.error = Some(e.to_string()),
         Ok(e) => {
             fill_accuracy(
@@ -193,11 +208,10 @@ pub(crate) fn method_report(
                 &coefficients_of(problem),
                 &e.values,
                 &e.std_error,
+                e.dof,
                 ranges,
             );
-            if threshold.is_none() {
-                rep.passed = true;
-            }
+            rep.warnings = e.warnings.clone();
             rep.diagnostics = Some(e.diagnostics.clone());
             rep.weakly_determined = e.weakly_determined;
             rep.facts = e.facts.into_iter().collect();

@@ -93,18 +93,23 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         .iter()
         .any(|m| matches!(m, Method::Strong | Method::StrongMarginals));
     let mut grid = match want_grid {
-        true => Some(DensityGrid::new(
-            &structure,
-            &total,
-            options.grid.unwrap_or_else(|| GridOptions::auto(structure.dim())),
-        )),
+        true => Some(
+            DensityGrid::new(
+                &structure,
+                &total,
+                options
+                    .grid
+                    .unwrap_or_else(|| GridOptions::auto(structure.dim(), total.count)),
+            )
+            .map(|g| g.with_batches(data.batch_count())),
+        ),
         false => None,
     };
     let mut dist = Distributions::new(s, &structure, &data);
     forces.start_welch(sim);
-    read_samples(info, |traj, _, row| {
+    read_samples(info, |traj, t, row| {
         if let Some(Ok(g)) = grid.as_mut() {
-            g.push(row);
+            g.push_in(data.batch_of(traj, t), row);
         }
         dist.push(row);
         forces.push(traj, row);

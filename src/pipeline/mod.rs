@@ -48,8 +48,8 @@ pub struct Options {
     pub methods: Vec<Method>,
     /// Strong-form grid; `None`: automatic.
     pub grid: Option<GridOptions>,
-    /// Batches (groups of the fine trajectory-group × time batches) for standard errors and
-    /// the identifiability spread.
+    /// Batches (groups of the fine trajectory-group × time batches) for the jackknife's
+    /// standard errors and the identifiability spread.
     pub batches: usize,
     /// Re-simulate the identified model for the validation table.
     pub validate: bool,
@@ -64,7 +64,7 @@ impl Default for Options {
         Options {
             methods: Vec::new(),
             grid: None,
-            batches: 8,
+            batches: 32,
             validate: true,
             max_steps: None,
             tolerance: None,

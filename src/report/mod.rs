@@ -2,6 +2,7 @@
 //! `report.md` and the SVG plots ([`plot`]), all written atomically under the run's folder.
 //! Depends on the result types only; never on the numerics' internals.
 
+mod markdown;
 pub mod plot;
 pub mod text;
 pub mod types;
@@ -10,6 +11,7 @@ pub use plot::{
     characteristics::plot_characteristics, densities::plot_densities, iteration::plot_iteration, spectra::plot_spectra,
     sweep::plot_sweep,
 };
+pub use markdown::markdown;
 pub use text::{summary, sweep_summary};
 pub use types::*;
 
@@ -60,11 +62,7 @@ pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let p = dir.join("report.json");
     write_atomic(&p, json.as_bytes())?;
     files.push(p);
-    let md = format!(
-        "# fpkbench report: {}\n\n```\n{}```\n\nPlots: `characteristics.svg` (identified vs true characteristics over the observed range, data distribution beneath), `densities.svg` (marginal densities, data vs re-simulated model).\n",
-        r.scenario,
-        summary(r)
-    );
+    let md = markdown(r);
     let p = dir.join("report.md");
     write_atomic(&p, md.as_bytes())?;
     files.push(p);

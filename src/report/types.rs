@@ -13,7 +13,14 @@ pub struct Parameter {
     pub name: String,
     pub true_value: f64,
     pub estimate: f64,
+    /// The jackknife's standard error (NaN, `null` in JSON, where the method has none).
     pub std_error: f64,
+    /// The 95 % interval `estimate ± t(0.975, dof) · std_error` (Student's t with the
+    /// jackknife's degrees of freedom); `None` without a standard error.
+    pub ci95: Option<[f64; 2]>,
+    /// Whether the 95 % interval excludes 0 (for an extra term of an over-parameterised
+    /// model: whether the data ask for it); `None` without an interval.
+    pub differs_from_zero: Option<bool>,
     pub rel_error: f64,
 }
 
@@ -55,8 +62,16 @@ pub struct MethodReport {
     pub parameters: Vec<Parameter>,
     pub curves: Vec<Curve>,
     pub worst_rel_error: f64,
-    pub threshold: f64,
-    pub passed: bool,
+    /// The regression gate on `worst_rel_error` (mean + 4 sd over seeds, set in the
+    /// scenario's `[accept]`); `None` for baselines and comparisons.
+    pub threshold: Option<f64>,
+    /// Whether the worst error is within the gate; `None` when not gated or not applicable.
+    pub passed: Option<bool>,
+    /// Why the method does not apply to this problem (e.g. a density grid in too many
+    /// dimensions): not a failure, and not counted by the gates.
+    pub not_applicable: Option<String>,
+    /// Warnings about the estimate's reliability (e.g. too few usable cells per unknown).
+    pub warnings: Vec<String>,
     pub diagnostics: Option<Diagnostics>,
     pub weakly_determined: bool,
     pub facts: BTreeMap<String, String>,
@@ -107,9 +122,35 @@ pub struct PlotData {
     pub spectra: Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>,
 }
 
+/// What produced a report: the tool and the exact scenario.
+#[derive(Debug, Clone, Serialize)]
+pub struct Provenance {
+    pub tool: &'static str,
+    pub version: &'static str,
+    /// The git commit the binary was built from (`None` outside a git checkout), with
+    /// `-dirty` when the tree had uncommitted changes.
+    pub commit: Option<&'static str>,
+    /// SHA-256 of the scenario text as stored in the log.
+    pub scenario_sha256: String,
+}
+
+impl Provenance {
+    pub fn of_scenario(text: &str) -> Provenance {
+        use sha2::Digest;
+        let digest = sha2::Sha256::digest(text.as_bytes());
+        Provenance {
+            tool: env!("CARGO_PKG_NAME"),
+            version: env!("CARGO_PKG_VERSION"),
+            commit: option_env!("FPKBENCH_GIT_COMMIT").filter(|c| !c.is_empty()),
+            scenario_sha256: digest.iter().map(|b| format!("{b:02x}")).collect(),
+        }
+    }
+}
+
 /// The result of identifying one log.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
+    pub provenance: Provenance,
     pub scenario: String,
     pub log: String,
     pub record_length_s: f64,
@@ -133,6 +174,7 @@ pub struct Report {
     /// paper's sequence (spectral single-mass step, method `iterated`), then the one with
     /// the measured-force step (`iterated-force`). Empty without `[identify.disturbance]`.
     pub iterations: Vec<IterationReport>,
+    /// Every applicable gated method within its regression gate (and at least one gated).
     pub passed: bool,
     #[serde(skip)]
     pub plot: PlotData,

@@ -1,0 +1,206 @@
+//! `report.md`: the report as a page a reader opens first — the verdict, the estimates
+//! with their uncertainty per method, the figures embedded, the diagnostics and where the
+//! run came from. Markdown tables and image links only, so any renderer shows it.
+
+use super::text::{decimals, fixed, fmt_err, iteration_summary, GATE_MEANING};
+use super::{MethodReport, Report};
+
+/// A number for a table cell: `—` when not finite.
+fn num(x: f64, digits: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.digits$}")
+    } else {
+        "—".into()
+    }
+}
+
+/// One method's line in the verdict list.
+fn verdict(m: &MethodReport) -> String {
+    if let Some(why) = &m.not_applicable {
+        return format!("**{}**: not applicable — {why}", m.method);
+    }
+    if let Some(e) = &m.error {
+        return format!("**{}**: no estimate — {e}", m.method);
+    }
+    let gate = match (m.threshold, m.passed) {
+        (Some(t), Some(true)) => format!("within its regression gate of {}", fmt_err(t)),
+        (Some(t), Some(false)) => format!("**exceeds** its regression gate of {}", fmt_err(t)),
+        _ => "a baseline or comparison, not gated".into(),
+    };
+    let mut s = format!(
+        "**{}**: worst error {} over {} parameters and curves; {gate}",
+        m.method,
+        fmt_err(m.worst_rel_error),
+        m.parameters.len() + m.curves.len()
+    );
+    if m.weakly_determined {
+        s += "; weakly determined (singular-value ratio below 1e-3)";
+    }
+    for w in &m.warnings {
+        s += &format!("; warning: {w}");
+    }
+    s
+}
+
+/// The estimates of one method: value, standard error, 95 % interval, error.
+fn parameter_table(m: &MethodReport) -> String {
+    let mut s = String::from(
+        "| parameter | true | estimate | std. error | 95 % interval | differs from 0 | error |\n|---|---:|---:|---:|---|---|---:|\n",
+    );
+    for p in &m.parameters {
+        let d = decimals(p.std_error);
+        let ci = p
+            .ci95
+            .map_or("—".into(), |[lo, hi]| format!("[{}, {}]", fixed(lo, d), fixed(hi, d)));
+        let zero = match p.differs_from_zero {
+            Some(true) => "yes",
+            Some(false) => "no",
+            None => "—",
+        };
+        s += &format!(
+            "| `{}` | {} | {} | {} | {ci} | {zero} | {} |\n",
+            p.name,
+            num(p.true_value, 4),
+            fixed(p.estimate, d),
+            fixed(p.std_error, d),
+            fmt_err(p.rel_error)
+        );
+    }
+    s
+}
+
+/// The whole page.
+pub fn markdown(r: &Report) -> String {
+    let mut s = format!("# fpkbench report: {}\n\n", r.scenario);
+    s += &format!(
+        "{} samples every {} s from {} trajectories × {} s ({} s of record), {} scheme with dt {} s, seed {}.\n\n",
+        r.samples, r.sample_interval_s, r.trajectories, r.record_length_s, r.total_record_s, r.scheme, r.dt_s, r.seed
+    );
+    if r.samples < r.expected_samples {
+        s += &format!(
+            "> **Truncated log**: identified from the {} samples it still holds, of {} the run was to write.\n\n",
+            r.samples, r.expected_samples
+        );
+    }
+    s += "## Verdict\n\n";
+    for m in &r.methods {
+        s += &format!("- {}\n", verdict(m));
+    }
+    s += &format!(
+        "\n{} — {GATE_MEANING}.\n\n",
+        if r.passed {
+            "Every regression gate holds"
+        } else {
+            "**A regression gate is exceeded or its method failed**"
+        }
+    );
+    s += "![Identified and true characteristics](characteristics.svg)\n\n";
+    s += "## Estimates\n\n";
+    s += "Errors are relative to the truth; a coefficient whose true value is 0 is measured against its \
+          characteristic's scale over the observed range. Standard errors: delete-one jackknife over the \
+          record's batches; 95 % intervals: ± Student's t(0.975) standard errors. They measure the sampling \
+          noise only, not a method's bias.\n\n";
+    for m in &r.methods {
+        s += &format!("### {}\n\n", m.method);
+        if let Some(why) = &m.not_applicable {
+            s += &format!("Not applicable: {why}\n\n");
+            continue;
+        }
+        if let Some(e) = &m.error {
+            s += &format!("No estimate: {e}\n\n");
+            continue;
+        }
+        s += &parameter_table(m);
+        if !m.curves.is_empty() {
+            s += "\n| characteristic | relative L2 error | observed range |\n|---|---:|---|\n";
+            for c in &m.curves {
+                s += &format!(
+                    "| {} {} | {} | [{:.4}, {:.4}] |\n",
+                    c.link,
+                    c.kind,
+                    fmt_err(c.rel_l2_error),
+                    c.range[0],
+                    c.range[1]
+                );
+            }
+        }
+        s += "\n";
+        if let Some(d) = &m.diagnostics {
+            s += &format!(
+                "- identifiability: rank {}/{}, singular-value ratio {:.2e}\n",
+                d.rank, d.cols, d.sv_ratio
+            );
+        }
+        for (k, v) in &m.facts {
+            s += &format!("- {k}: {v}\n");
+        }
+        for d in &m.dissipativity {
+            if !d.holds {
+                s += &format!("- **dissipativity** {} {}: {}\n", d.link, d.kind, d.message);
+            }
+        }
+        if !m.dissipativity.is_empty() && m.dissipativity.iter().all(|d| d.holds) {
+            s += "- dissipativity (3.4): K(u)·u > 0 and C(w)·w > 0 hold over the observed ranges\n";
+        }
+        s += &format!("- time: {:.2} s\n\n", m.seconds);
+    }
+    if !r.filters.is_empty() {
+        s += "## Filtered excitations\n\n| excitation | used | A | B | fitted A | fitted B | true A | true B |\n|---|---|---:|---:|---:|---:|---:|---:|\n";
+        for f in &r.filters {
+            s += &format!(
+                "| {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |\n",
+                f.excitation, f.used, f.a, f.b, f.fitted_a, f.fitted_b, f.true_a, f.true_b
+            );
+        }
+        s += "\n";
+        if !r.plot.spectra.is_empty() {
+            s += "![Force spectra and their fits](spectrum.svg)\n\n";
+        }
+    }
+    if !r.iterations.is_empty() {
+        s += "## Iterative procedure (paper section 4)\n\n![Estimates over the steps](iteration.svg)\n\n";
+        for it in &r.iterations {
+            s += &format!("```\n{}\n```\n\n", iteration_summary(it).trim());
+        }
+    }
+    if let Some(v) = &r.validation {
+        s += &format!(
+            "## Validation\n\nThe {} model re-simulated ({} trajectories × {:.0} s, seed {}) against the data.\n\n",
+            v.method, v.trajectories, v.record_length_s, v.seed
+        );
+        match &v.error {
+            Some(e) => s += &format!("{e}\n\n"),
+            None => {
+                s += "| response | data std | model std | difference | data kurtosis | model kurtosis |\n|---|---:|---:|---:|---:|---:|\n";
+                for row in &v.rows {
+                    s += &format!(
+                        "| {} | {:.5} | {:.5} | {:+.2} % | {:.3} | {:.3} |\n",
+                        row.variable,
+                        row.data_std,
+                        row.model_std,
+                        100.0 * (row.model_std / row.data_std - 1.0),
+                        row.data_kurtosis,
+                        row.model_kurtosis
+                    );
+                }
+                s += "\n";
+            }
+        }
+        if !r.plot.marginals.is_empty() {
+            s += "![Marginal densities, data and re-simulated model](densities.svg)\n\n";
+        }
+    }
+    let p = &r.provenance;
+    s += &format!(
+        "## Provenance\n\n- {} {}{}\n- scenario SHA-256 `{}`\n- log `{}`\n- time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n",
+        p.tool,
+        p.version,
+        p.commit.map_or(String::new(), |c| format!(", commit `{c}`")),
+        p.scenario_sha256,
+        r.log,
+        r.timings_s.simulate,
+        r.timings_s.identify,
+        r.timings_s.total
+    );
+    s
+}
