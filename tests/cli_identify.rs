@@ -191,7 +191,15 @@ fn identify_reads_scenario_and_truth_from_the_log_and_writes_the_report() {
             assert!(m["diagnostics"][key].is_number());
         }
         for p in m["parameters"].as_array().unwrap() {
-            for key in ["name", "true_value", "estimate", "std_error", "ci95", "differs_from_zero", "rel_error"] {
+            for key in [
+                "name",
+                "true_value",
+                "estimate",
+                "std_error",
+                "ci95",
+                "differs_from_zero",
+                "rel_error",
+            ] {
                 assert!(!p[key].is_null(), "parameter lacks {key}: {p}");
             }
             // The interval is the estimate ± t(0.975, 31) standard errors.

@@ -345,23 +345,62 @@ fn diverging_simulation_reports_trajectory_time_and_state() {
             trajectory,
             t_from,
             t_to,
-            state,
+            last_finite,
+            cause,
         } => {
             assert_eq!(*trajectory, 0);
             assert!(*t_to > *t_from && *t_to <= 100.0);
-            assert!(state.iter().any(|(n, _)| n == "x_m1"));
+            // The last finite state, never NaN.
+            assert!(last_finite.iter().any(|(n, _)| n == "x_m1"));
+            assert!(last_finite.iter().all(|(_, v)| v.is_finite()), "{last_finite:?}");
+            // ω·h = 2000 · 0.01 = 20: the step.
+            assert!(
+                cause.contains("step is too large") && cause.contains("20.00"),
+                "{cause}"
+            );
         }
         e => panic!("unexpected error {e}"),
     }
     let msg = err.to_string();
     assert!(
-        msg.contains("trajectory 0") && msg.contains("x_m1") && msg.contains("dt"),
+        msg.contains("trajectory 0") && msg.contains("x_m1") && msg.contains("reduce dt"),
         "{msg}"
     );
     assert!(
         c.batches.is_empty(),
         "no samples may be delivered from a diverged block"
     );
+}
+
+#[test]
+fn an_escape_is_not_put_down_to_the_step() {
+    // A negative spring (refused by the scenario's validation, built here on purpose):
+    // the state grows like e^t with ω·h = 0.01 — reducing dt would not help.
+    let mut s = zoo::linear_sdof(
+        1.0,
+        1.0,
+        0.1,
+        1.0,
+        "dt = 1e-2\nrecord_length = 100.0\nsample_interval = 0.1\ntrajectories = 1\nburn_in = 0.0",
+    );
+    s.links[0].stiffness.terms = vec![(1, -1.0)];
+    let err = simulate(&Model::new(&s), &s.simulation, &mut Collect::default(), &|_| {}).unwrap_err();
+    let SimError::Diverged {
+        last_finite,
+        cause,
+        t_from,
+        ..
+    } = &err
+    else {
+        panic!("unexpected error {err}");
+    };
+    // e^t reaches 1e10 after ≈ 23 s; the last finite state is large but finite.
+    assert!(*t_from > 15.0, "{err}");
+    assert!(
+        last_finite.iter().all(|(_, v)| v.is_finite() && v.abs() < 1e10),
+        "{err}"
+    );
+    assert!(cause.contains("escaped") && cause.contains("will not help"), "{cause}");
 }
 
 /// The shaped kernel and the generic stepper give bit-identical samples for `s`.

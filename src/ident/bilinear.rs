@@ -4,8 +4,8 @@
 
 use super::poly::Poly;
 use super::{
-    data, estimate::jackknife, identify_weak, lsq, poly, weak, Estimate, IdentError, Problem, Unknown, INSEPARABLE_RATIO,
-    WEAK_RATIO,
+    data, estimate::jackknife, identify_weak, lsq, poly, weak, Estimate, IdentError, Problem, Unknown,
+    INSEPARABLE_RATIO, WEAK_RATIO,
 };
 use nalgebra::{DMatrix, DVector};
 

@@ -59,7 +59,9 @@ impl GridOptions {
                 min_count: 5,
             }
         };
-        let affordable = (samples as f64 / SAMPLES_PER_CELL).powf(1.0 / dim.max(1) as f64).floor();
+        let affordable = (samples as f64 / SAMPLES_PER_CELL)
+            .powf(1.0 / dim.max(1) as f64)
+            .floor();
         if affordable < o.bins as f64 {
             o.bins = (affordable as usize).max(MIN_AUTO_BINS);
         }
@@ -188,20 +190,27 @@ impl DensityGrid {
     pub fn leave_one_out(&self) -> impl Iterator<Item = DensityGrid> + '_ {
         let bc = self.batches.as_ref();
         let n = bc.map_or(0, |b| b.total.len());
-        (0..n).filter(move |&b| bc.is_some_and(|bc| bc.total[b] > 0)).map(move |b| {
-            let bc = bc.expect("filtered");
-            let mut g = self.clone_without_batches();
-            g.counts = self.counts.iter().zip(&bc.counts[b]).map(|(c, k)| c - *k as f64).collect();
-            g.marginals = self
-                .marginals
-                .iter()
-                .zip(&bc.marginals[b])
-                .map(|(m, k)| m.iter().zip(k).map(|(a, b)| a - b).collect())
-                .collect();
-            g.inside = self.inside - bc.inside[b];
-            g.total = self.total - bc.total[b];
-            g
-        })
+        (0..n)
+            .filter(move |&b| bc.is_some_and(|bc| bc.total[b] > 0))
+            .map(move |b| {
+                let bc = bc.expect("filtered");
+                let mut g = self.clone_without_batches();
+                g.counts = self
+                    .counts
+                    .iter()
+                    .zip(&bc.counts[b])
+                    .map(|(c, k)| c - *k as f64)
+                    .collect();
+                g.marginals = self
+                    .marginals
+                    .iter()
+                    .zip(&bc.marginals[b])
+                    .map(|(m, k)| m.iter().zip(k).map(|(a, b)| a - b).collect())
+                    .collect();
+                g.inside = self.inside - bc.inside[b];
+                g.total = self.total - bc.total[b];
+                g
+            })
     }
 
     /// A copy of the geometry and totals, without counts and per-batch counts.

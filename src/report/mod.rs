@@ -7,11 +7,11 @@ pub mod plot;
 pub mod text;
 pub mod types;
 
+pub use markdown::markdown;
 pub use plot::{
     characteristics::plot_characteristics, densities::plot_densities, iteration::plot_iteration, spectra::plot_spectra,
     sweep::plot_sweep,
 };
-pub use markdown::markdown;
 pub use text::{summary, sweep_summary};
 pub use types::*;
 

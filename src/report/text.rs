@@ -48,7 +48,8 @@ fn fmt_estimate(p: &crate::report::Parameter) -> String {
 const EST_W: usize = 22;
 
 /// What a gate is, said once per report.
-pub(crate) const GATE_MEANING: &str = "a regression gate is the mean + 4 sd of the worst error over seeds, set in the scenario's \
+pub(crate) const GATE_MEANING: &str =
+    "a regression gate is the mean + 4 sd of the worst error over seeds, set in the scenario's \
      [accept] section: it catches a regression of the method, it is not a claim of accuracy (the errors are)";
 
 /// The human summary (also the body of `report.md`).
@@ -103,7 +104,12 @@ pub fn summary(r: &Report) -> String {
     // Parameter table: per method its estimate ± standard error and its error.
     s += &format!("| {:<18} | {:>10} |", "parameter", "true");
     for m in &methods {
-        s += &format!(" {:<w$} | {:>9} |", format!("{} ± std. error", m.method), "error", w = EST_W);
+        s += &format!(
+            " {:<w$} | {:>9} |",
+            format!("{} ± std. error", m.method),
+            "error",
+            w = EST_W
+        );
     }
     s += "\n|";
     s += &"-".repeat(20);
@@ -139,7 +145,10 @@ pub fn summary(r: &Report) -> String {
     }
     s += "\nerrors are relative to the truth (a coefficient whose true value is 0: to its characteristic's scale over the \
           observed range); std. error: delete-one jackknife over the record's batches; 95 % interval: ± t(0.975) std. errors";
-    if methods.iter().any(|m| m.parameters.iter().any(|p| p.differs_from_zero == Some(false))) {
+    if methods
+        .iter()
+        .any(|m| m.parameters.iter().any(|p| p.differs_from_zero == Some(false)))
+    {
         s += "; ° its 95 % interval contains 0 (the data do not ask for this term)";
     }
     s += "\n\n";

@@ -219,6 +219,10 @@ pub(crate) struct Group {
     pub(super) v_mark: Vec<Lane>,
     /// Scratch: the displacements while a sample is taken at the velocity's instant.
     pub(super) x_keep: Vec<Lane>,
+    /// Positions and velocities at the last divergence check passed: the last finite
+    /// state a divergence reports.
+    pub(super) x_ok: Vec<Lane>,
+    pub(super) v_ok: Vec<Lane>,
     /// Per excitation: a filtered force one step before the sample, then its value at the
     /// sample's instant (see [`run_group`]).
     pub(super) p_mid: Vec<Lane>,
@@ -248,6 +252,8 @@ impl Group {
             noise: vec![0.0; NOISE_STEPS * ne * LANES],
             v_mark: vec![zero(); n],
             x_keep: vec![zero(); n],
+            x_ok: vec![zero(); n + 1],
+            v_ok: vec![zero(); n + 1],
             p_mid: vec![zero(); ne],
             bridge: std::array::from_fn(|l| {
                 Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l) ^ BRIDGE_STREAM)
@@ -360,17 +366,12 @@ impl Group {
         })
     }
 
-    /// Lane `j`'s state by name; a white excitation's `p` is its impulse since the last
-    /// sample (N·s), a filtered one's its force.
-    pub(super) fn state_of<const D: usize>(&self, m: &Model, lm: &LaneModel<D>, j: usize) -> Vec<(String, f64)> {
+    /// Positions `x` and velocities `v` by name.
+    pub(super) fn state_at(&self, m: &Model, x: &[f64], v: &[f64]) -> Vec<(String, f64)> {
         let mut s = Vec::new();
         for (i, n) in m.mass_names.iter().enumerate() {
-            s.push((Quantity::Displacement.column_name(n), self.x[i][j]));
-            s.push((Quantity::Velocity.column_name(n), self.v[i][j]));
-        }
-        for (e, n) in m.excitation_names.iter().enumerate() {
-            let scale = if lm.is_white[e] { lm.impulse_scale[e] } else { 1.0 };
-            s.push((Quantity::Force.column_name(n), self.p[e][j] * scale));
+            s.push((Quantity::Displacement.column_name(n), x[i]));
+            s.push((Quantity::Velocity.column_name(n), v[i]));
         }
         s
     }
@@ -421,13 +422,18 @@ pub(super) fn run_group<const D: usize>(
             (lm.advance)(g, lm, steps);
         }
         if let Some(j) = g.diverged_lane() {
+            let x: Vec<f64> = (0..n).map(|i| g.x_ok[i][j]).collect();
+            let v: Vec<f64> = (0..n).map(|i| g.v_ok[i][j]).collect();
             return Err(SimError::Diverged {
                 trajectory: g.first + j,
                 t_from: t0 + k as f64 * interval,
                 t_to: t0 + (k + 1) as f64 * interval,
-                state: g.state_of(m, lm, j),
+                last_finite: g.state_at(m, &x, &v),
+                cause: super::divergence_cause(m, lm.h, &x, &v),
             });
         }
+        g.x_ok.copy_from_slice(&g.x);
+        g.v_ok.copy_from_slice(&g.v);
         if record {
             // The semi-implicit step is staggered: the new velocity is the step's mean,
             // i.e. the velocity at its midpoint, so the displacement logged with it is the
