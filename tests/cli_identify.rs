@@ -245,3 +245,79 @@ fn strong_form_grid_options_out_of_range_are_usage_errors() {
         assert!(String::from_utf8_lossy(&o.stderr).contains(flag), "{flag} {value}");
     }
 }
+
+#[test]
+fn a_strong_form_that_does_not_apply_is_not_a_failed_gate() {
+    // A 3-mass chain: a 6-D state whose 320 000 samples cannot fill even a 6^6 grid at 20
+    // per cell. The strong form is reported as not applicable; the exit code follows the
+    // weak form's gate alone.
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("chain3.toml");
+    std::fs::write(&s, CHAIN3).unwrap();
+    let out = run(&[
+        "run",
+        s.to_str().unwrap(),
+        "--out",
+        dir.path().to_str().unwrap(),
+        "--json",
+        "--no-validate",
+    ]);
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let methods = r["methods"].as_array().unwrap();
+    let strong = methods.iter().find(|m| m["method"] == "strong").unwrap();
+    assert!(
+        strong["not_applicable"].as_str().unwrap().contains("6-dimensional"),
+        "{strong}"
+    );
+    assert!(strong["passed"].is_null() && strong["error"].is_null(), "{strong}");
+    let weak = methods.iter().find(|m| m["method"] == "weak").unwrap();
+    assert_eq!(r["passed"], weak["passed"]);
+    assert_eq!(out.status.code(), Some(if weak["passed"] == true { 0 } else { 1 }));
+}
+
+const CHAIN3: &str = r#"name = "chain3"
+[[mass]]
+name = "m1"
+value = 1.0
+[[mass]]
+name = "m2"
+value = 1.0
+[[mass]]
+name = "m3"
+value = 1.0
+[[link]]
+ends = ["ground", "m1"]
+stiffness = { 1 = 10.0, 3 = 20.0 }
+damping = { 1 = 0.5 }
+[[link]]
+ends = ["m1", "m2"]
+stiffness = { 1 = 5.0 }
+damping = { 1 = 0.2 }
+[[link]]
+ends = ["m2", "m3"]
+stiffness = { 1 = 5.0 }
+damping = { 1 = 0.2 }
+[[link]]
+ends = ["ground", "m3"]
+stiffness = { 1 = 8.0 }
+damping = { 1 = 0.3 }
+[[excitation]]
+kind = "white"
+sigma = 1.0
+acts_on = ["m1"]
+[[excitation]]
+kind = "white"
+sigma = 1.0
+acts_on = ["m3"]
+[simulation]
+dt = 1e-3
+record_length = 1000.0
+sample_interval = 0.1
+trajectories = 32
+seed = 1
+[identify]
+methods = ["weak", "strong"]
+[accept]
+worst_rel_error = 0.2
+methods = { strong = 1.0 }
+"#;

@@ -449,3 +449,38 @@ fn the_weak_forms_95_percent_intervals_cover_the_truth() {
     assert!((0.90..=0.98).contains(&coverage), "coverage {coverage}");
     assert!((0.8..=1.25).contains(&z_rms), "z rms {z_rms}");
 }
+
+#[test]
+fn a_strong_form_from_too_few_cells_is_flagged_and_the_grid_follows_the_sample_count() {
+    use fpkbench::pipeline::{identify_log, simulate_log, Options};
+    let dir = tempfile::tempdir().unwrap();
+    let run = |record: f64| {
+        let src = std::fs::read_to_string("scenarios/sdof_duffing.toml")
+            .unwrap()
+            .replace("record_length = 312.5", &format!("record_length = {record}"))
+            .replace("methods = [\"weak\", \"strong\"]", "methods = [\"strong\"]");
+        let s = Scenario::parse(&src, "tiny.toml", "tiny").unwrap();
+        let log = dir.path().join("tiny.mcap");
+        simulate_log(&s, &log, Default::default(), &|_| {}).unwrap();
+        let options = Options {
+            validate: false,
+            ..Options::default()
+        };
+        identify_log(&log, &options).unwrap().methods.remove(0)
+    };
+    // 1920 samples: ⌊(1920/20)^(1/2)⌋ = 9 bins, 10 usable cells for 3 unknowns (worst
+    // error 281 % on seed 1): flagged.
+    let tiny = run(6.0);
+    assert!(tiny.facts["grid"].starts_with("9 bins^2"), "{:?}", tiny.facts);
+    assert!(
+        tiny.warnings
+            .iter()
+            .any(|w| w.contains("usable cells") && w.contains("per unknown")),
+        "{:?}",
+        tiny.warnings
+    );
+    // 6400 samples: 17 bins, 63 usable cells: no warning.
+    let enough = run(20.0);
+    assert!(enough.facts["grid"].starts_with("17 bins^2"), "{:?}", enough.facts);
+    assert!(enough.warnings.is_empty(), "{:?}", enough.warnings);
+}

@@ -4,8 +4,9 @@
 
 use super::poly::Poly;
 use super::{
-    data, estimate::jackknife, identify_weak, lsq, poly, weak, Estimate, IdentError, Problem, Unknown,
-    INSEPARABLE_RATIO, WEAK_RATIO,
+    data,
+    estimate::{jackknife, std_errors},
+    identify_weak, lsq, poly, weak, Estimate, IdentError, Problem, Unknown, INSEPARABLE_RATIO, WEAK_RATIO,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -182,7 +183,8 @@ pub fn identify_weak_bilinear(problem: &Problem, data: &data::StationaryData) ->
             problem.recover_physical(&map, &m, start_b).0
         })
         .collect();
-    let std_error = jackknife(&replicates, values.len());
+    let covariance = jackknife(&replicates, values.len());
+    let std_error = std_errors(&covariance, values.len());
     let mut facts = linear.facts.clone();
     for (n, v) in mono.names.iter().zip(&linear.values) {
         facts.push((format!("monomial {n}"), format!("{v:.6}")));
@@ -196,6 +198,7 @@ pub fn identify_weak_bilinear(problem: &Problem, data: &data::StationaryData) ->
         names: phys.names.clone(),
         values,
         std_error,
+        covariance,
         dof: replicates.len().saturating_sub(1),
         weakly_determined: linear.weakly_determined || recov.sv_ratio < WEAK_RATIO,
         diagnostics: linear.diagnostics,

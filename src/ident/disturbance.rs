@@ -197,6 +197,13 @@ pub fn direct(inp: &Inputs, problem: &Problem) -> Result<Estimate, IdentError> {
         names: problem.names.clone(),
         values: order.iter().map(|&k| de.values[k]).collect(),
         std_error: order.iter().map(|&k| de.std_error[k]).collect(),
+        covariance: match de.covariance.is_empty() {
+            true => Vec::new(),
+            false => order
+                .iter()
+                .map(|&k| order.iter().map(|&l| de.covariance[k][l]).collect())
+                .collect(),
+        },
         ..de
     })
 }

@@ -28,6 +28,8 @@ pub struct Estimate {
     /// Standard errors by the delete-one-batch jackknife ([`jackknife`]); NaN without
     /// batches.
     pub std_error: Vec<f64>,
+    /// The jackknife's covariance of the estimates (empty without batches).
+    pub covariance: Vec<Vec<f64>>,
     /// Degrees of freedom of the standard errors (batches − 1): intervals use Student's t.
     pub dof: usize,
     pub diagnostics: lsq::Diagnostics,
@@ -39,20 +41,37 @@ pub struct Estimate {
     pub warnings: Vec<String>,
 }
 
-/// The delete-one jackknife's standard errors from the estimates of `replicates` (each
-/// from all data but one of `B` batches): `se² = (B−1)/B Σ (θ₋ᵦ − θ̄)²`. NaN with fewer
-/// than two replicates. It follows the estimator's nonlinearity (ratios, Gauss–Newton)
-/// from nearly all the data, where batch-by-batch solves would each see `1/B` of it.
-pub fn jackknife(replicates: &[Vec<f64>], unknowns: usize) -> Vec<f64> {
+/// The delete-one jackknife's covariance of the estimates from `replicates` (each from all
+/// data but one of `B` batches): `(B−1)/B Σ (θ₋ᵦ − θ̄)(θ₋ᵦ − θ̄)ᵀ`; empty with fewer than
+/// two replicates. It follows the estimator's nonlinearity (ratios, Gauss–Newton) from
+/// nearly all the data, where batch-by-batch solves would each see `1/B` of it.
+pub fn jackknife(replicates: &[Vec<f64>], unknowns: usize) -> Vec<Vec<f64>> {
+    if replicates.len() < 2 {
+        return Vec::new();
+    }
     let nb = replicates.len() as f64;
+    let mean: Vec<f64> = (0..unknowns)
+        .map(|k| replicates.iter().map(|b| b[k]).sum::<f64>() / nb)
+        .collect();
     (0..unknowns)
         .map(|k| {
-            if replicates.len() < 2 {
-                return f64::NAN;
-            }
-            let mean = replicates.iter().map(|b| b[k]).sum::<f64>() / nb;
-            ((nb - 1.0) / nb * replicates.iter().map(|b| (b[k] - mean).powi(2)).sum::<f64>()).sqrt()
+            (0..unknowns)
+                .map(|l| {
+                    (nb - 1.0) / nb
+                        * replicates
+                            .iter()
+                            .map(|b| (b[k] - mean[k]) * (b[l] - mean[l]))
+                            .sum::<f64>()
+                })
+                .collect()
         })
+        .collect()
+}
+
+/// Standard errors from a covariance (NaN without one).
+pub fn std_errors(covariance: &[Vec<f64>], unknowns: usize) -> Vec<f64> {
+    (0..unknowns)
+        .map(|k| covariance.get(k).map_or(f64::NAN, |row| row[k].sqrt()))
         .collect()
 }
 
@@ -75,7 +94,8 @@ pub fn estimate(
     let (values, diag) = problem.solve(total, typical, weight);
     let per_replicate: Vec<Vec<f64>> = replicates.iter().map(|b| problem.solve(b, typical, weight).0).collect();
     let nu = values.len();
-    let std_error = jackknife(&per_replicate, nu);
+    let covariance = jackknife(&per_replicate, nu);
+    let std_error = std_errors(&covariance, nu);
     let involved: Vec<usize> = (0..nu).filter(|&k| diag.weakest_direction[k].abs() >= 0.1).collect();
     let inseparable = |reason: String| IdentError::NotIdentifiable {
         names: involved.iter().map(|&k| problem.names[k].clone()).collect(),
@@ -118,6 +138,7 @@ pub fn estimate(
         names: problem.names.clone(),
         values,
         std_error,
+        covariance,
         dof: per_replicate.len().saturating_sub(1),
         weakly_determined: diag.sv_ratio < WEAK_RATIO,
         diagnostics: diag,

@@ -34,6 +34,21 @@ pub const SAMPLES_PER_CELL: f64 = 20.0;
 /// The coarsest automatic grid: a central difference needs interior cells.
 pub const MIN_AUTO_BINS: usize = 6;
 
+/// Whether the strong form applies to `samples` samples of a `dim`-dimensional state: the
+/// coarsest automatic grid ([`MIN_AUTO_BINS`] per dimension) must hold
+/// [`SAMPLES_PER_CELL`] per cell on average. The reason when not.
+pub fn applicable(dim: usize, samples: u64) -> Result<(), String> {
+    let needed = SAMPLES_PER_CELL * (MIN_AUTO_BINS as f64).powi(dim as i32);
+    if (samples as f64) < needed {
+        return Err(format!(
+            "a density grid over a {dim}-dimensional state needs at least {needed:.0} samples ({SAMPLES_PER_CELL} per \
+             cell of the coarsest grid, {MIN_AUTO_BINS}^{dim} cells); the record has {samples}. The weak form has no \
+             grid and applies"
+        ));
+    }
+    Ok(())
+}
+
 impl GridOptions {
     /// Defaults from our reference measurements: bins of 0.3–0.45 std, a ±4.5 std box in
     /// 2-D and ±3 std beyond (docs/theory.md §2), made coarser when `samples` would fill

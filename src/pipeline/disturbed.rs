@@ -195,6 +195,7 @@ pub(crate) fn identify_disturbed(
         let at = |values: &[f64]| ident::Estimate {
             values: values.to_vec(),
             std_error: vec![f64::NAN; values.len()],
+            covariance: Vec::new(),
             dof: 0,
             ..it.step0.clone()
         };

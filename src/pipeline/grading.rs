@@ -87,6 +87,7 @@ pub(crate) fn fill_accuracy(
     coef_of: &[Option<Coefficient>],
     values: &[f64],
     std_error: &[f64],
+    covariance: &[Vec<f64>],
     dof: usize,
     ranges: &[[f64; 4]],
 ) {
@@ -136,12 +137,43 @@ pub(crate) fn fill_accuracy(
             });
             let e = stats::rel_l2(&est, &truth, lo, hi);
             worst = worst.max(e);
+            // The covariance of the identified terms' coefficients, in their order.
+            let index: Vec<Option<usize>> = est
+                .terms
+                .iter()
+                .map(|&(p, _)| {
+                    coef_of.iter().position(|c| {
+                        *c == Some(Coefficient {
+                            link: l,
+                            kind,
+                            power: p,
+                        })
+                    })
+                })
+                .collect();
+            let terms_covariance = match covariance.is_empty() {
+                true => Vec::new(),
+                false => index
+                    .iter()
+                    .map(|a| {
+                        index
+                            .iter()
+                            .map(|b| match (a, b) {
+                                (Some(a), Some(b)) => covariance[*a][*b],
+                                _ => 0.0,
+                            })
+                            .collect()
+                    })
+                    .collect(),
+            };
             rep.curves.push(Curve {
                 link: s.links[l].name.clone(),
                 kind: kind.name(),
                 rel_l2_error: e,
                 range: [lo, hi],
                 identified: est.terms.clone(),
+                covariance: terms_covariance,
+                dof,
             });
             rep.dissipativity
                 .push(stats::dissipativity(&s.links[l].name, kind, &est, lo, hi));
@@ -208,6 +240,7 @@ pub(crate) fn method_report(
                 &coefficients_of(problem),
                 &e.values,
                 &e.std_error,
+                &e.covariance,
                 e.dof,
                 ranges,
             );

@@ -7,7 +7,7 @@ use super::spectra::ForceSpectra;
 use super::validation::Distributions;
 use super::{Options, PipelineError};
 use crate::ident::data::StationaryData;
-use crate::ident::strong::{DensityGrid, GridOptions};
+use crate::ident::strong::{self, DensityGrid, GridOptions};
 use crate::ident::Specification;
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
 use crate::io::log::{read_samples, LogInfo};
@@ -92,19 +92,18 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     let want_grid = methods
         .iter()
         .any(|m| matches!(m, Method::Strong | Method::StrongMarginals));
-    let mut grid = match want_grid {
-        true => Some(
-            DensityGrid::new(
-                &structure,
-                &total,
-                options
-                    .grid
-                    .unwrap_or_else(|| GridOptions::auto(structure.dim(), total.count)),
-            )
-            .map(|g| g.with_batches(data.batch_count())),
-        ),
-        false => None,
-    };
+    // The strong forms' grid: automatic from the sample count unless given, and not
+    // applicable when even the coarsest automatic grid would be too sparse.
+    let mut grid = want_grid.then(|| {
+        let grid_options = match options.grid {
+            Some(g) => g,
+            None => {
+                strong::applicable(structure.dim(), total.count).map_err(IdentError::NotApplicable)?;
+                GridOptions::auto(structure.dim(), total.count)
+            }
+        };
+        DensityGrid::new(&structure, &total, grid_options).map(|g| g.with_batches(data.batch_count()))
+    });
     let mut dist = Distributions::new(s, &structure, &data);
     forces.start_welch(sim);
     read_samples(info, |traj, t, row| {

@@ -48,9 +48,8 @@ fn fmt_estimate(p: &crate::report::Parameter) -> String {
 const EST_W: usize = 22;
 
 /// What a gate is, said once per report.
-pub(crate) const GATE_MEANING: &str =
-    "a regression gate is the mean + 4 sd of the worst error over seeds, set in the scenario's \
-     [accept] section: it catches a regression of the method, it is not a claim of accuracy (the errors are)";
+pub(crate) const GATE_MEANING: &str = "a regression gate is the mean + 4 sd of the worst error over seeds, set in the \
+     scenario's [accept] section: it catches a regression of the method; the accuracy is in the errors, not in the gate";
 
 /// The human summary (also the body of `report.md`).
 pub fn summary(r: &Report) -> String {
@@ -257,7 +256,7 @@ pub fn summary(r: &Report) -> String {
         }
     }
     s += &format!(
-        "\nresult: {} ({GATE_MEANING})\n",
+        "\nresult: {}. Note: {GATE_MEANING}.\n",
         if r.passed {
             "every regression gate holds"
         } else {

@@ -33,6 +33,25 @@ pub struct Curve {
     pub range: [f64; 2],
     /// `(power, coefficient)` of the identified characteristic.
     pub identified: Vec<(u32, f64)>,
+    /// The jackknife's covariance of those coefficients (empty without standard errors).
+    pub covariance: Vec<Vec<f64>>,
+    /// Degrees of freedom of that covariance (batches − 1).
+    pub dof: usize,
+}
+
+impl Curve {
+    /// The 95 % pointwise interval's half-width of the identified characteristic at `z`:
+    /// `t(0.975, dof) · √(gᵀ Σ g)` with `g = (z^p)`; `None` without a covariance.
+    pub fn half_width_95(&self, z: f64) -> Option<f64> {
+        if self.covariance.is_empty() || self.dof == 0 {
+            return None;
+        }
+        let g: Vec<f64> = self.identified.iter().map(|&(p, _)| z.powi(p as i32)).collect();
+        let var: f64 = (0..g.len())
+            .map(|a| (0..g.len()).map(|b| g[a] * self.covariance[a][b] * g[b]).sum::<f64>())
+            .sum();
+        Some(crate::stats::student_t_975(self.dof) * var.max(0.0).sqrt())
+    }
 }
 
 /// A filtered excitation's `A`, `B`: the fit to the measured force spectrum (3.20) and

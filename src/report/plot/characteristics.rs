@@ -1,4 +1,6 @@
-//! `characteristics.svg`: identified against true characteristics over the observed ranges.
+//! `characteristics.svg`: identified against true characteristics over the observed ranges,
+//! each estimate with its 95 % pointwise band (from the jackknife's covariance of its
+//! coefficients, [`crate::report::Curve::half_width_95`]).
 
 use super::{draw_histogram_strip, drawable, legend_box, not_drawable, svg_to_file, PlotResult, COLORS};
 use crate::model::Characteristic;
@@ -41,6 +43,8 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
             let truth = r.truth.characteristic(&link.name, *kind);
             let (lo, hi) = (hist.lo, hist.hi);
             let xs: Vec<f64> = (0..=200).map(|k| lo + (hi - lo) * k as f64 / 200.0).collect();
+            // Per method with standard errors: its 95 % pointwise band, `(lower, upper)`.
+            let mut bands: Vec<(Vec<f64>, Vec<f64>, RGBColor)> = Vec::new();
             let mut curves: Vec<(String, Vec<f64>, RGBColor, bool)> = vec![(
                 "true".into(),
                 xs.iter().map(|&z| truth.eval(z)).collect(),
@@ -50,6 +54,15 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
             for (mi, m) in r.methods.iter().enumerate() {
                 if let Some(c) = m.curves.iter().find(|c| c.link == link.name && c.kind == kind.name()) {
                     let p = stats::characteristic(&c.identified);
+                    let color = COLORS[mi % COLORS.len()];
+                    if c.half_width_95(0.0).is_some() {
+                        let half: Vec<f64> = xs.iter().map(|&z| c.half_width_95(z).unwrap_or(0.0)).collect();
+                        bands.push((
+                            xs.iter().zip(&half).map(|(&z, h)| p.eval(z) - h).collect(),
+                            xs.iter().zip(&half).map(|(&z, h)| p.eval(z) + h).collect(),
+                            color,
+                        ));
+                    }
                     curves.push((
                         format!("{} ({} error)", m.method, fmt_err(c.rel_l2_error)),
                         xs.iter().map(|&z| p.eval(z)).collect(),
@@ -109,6 +122,17 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
                 ))
                 .x_label_formatter(&|_| String::new())
                 .draw()?;
+            // Bands first, beneath every line; clipped to the panel's range.
+            for (lower, upper, color) in &bands {
+                let clip = |y: f64| y.clamp(y0, y1);
+                let outline: Vec<(f64, f64)> = xs
+                    .iter()
+                    .zip(upper)
+                    .map(|(&x, &y)| (x, clip(y)))
+                    .chain(xs.iter().zip(lower).rev().map(|(&x, &y)| (x, clip(y))))
+                    .collect();
+                chart.draw_series(std::iter::once(Polygon::new(outline, color.mix(0.18).filled())))?;
+            }
             for (name, ys, color, dashed) in &curves {
                 let pts: Vec<(f64, f64)> = xs.iter().copied().zip(ys.iter().copied()).collect();
                 let style = ShapeStyle {
