@@ -479,8 +479,22 @@ fn a_strong_form_from_too_few_cells_is_flagged_and_the_grid_follows_the_sample_c
         "{:?}",
         tiny.warnings
     );
-    // 6400 samples: 17 bins, 63 usable cells: no warning.
+    // 6400 samples: 17 bins, 63 usable cells: enough cells, but a grid coarser than the
+    // default 26 is still said to be so.
     let enough = run(20.0);
     assert!(enough.facts["grid"].starts_with("17 bins^2"), "{:?}", enough.facts);
-    assert!(enough.warnings.is_empty(), "{:?}", enough.warnings);
+    assert!(
+        !enough.warnings.iter().any(|w| w.contains("usable cells")),
+        "{:?}",
+        enough.warnings
+    );
+    assert!(
+        enough.warnings.iter().any(|w| w.contains("coarser than the default")),
+        "{:?}",
+        enough.warnings
+    );
+    // At the scenario's own length (1e5 samples) the default grid and no warning.
+    let full = run(312.5);
+    assert!(full.facts["grid"].starts_with("26 bins^2"), "{:?}", full.facts);
+    assert!(full.warnings.is_empty(), "{:?}", full.warnings);
 }

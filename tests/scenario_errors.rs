@@ -459,4 +459,24 @@ fn a_system_without_a_stationary_density_is_refused_naming_the_link() {
         "mass[1]",
         "no spring path to ground",
     );
+    // In a loop of springs: m2 held by a linear spring to ground as well, so moving m2
+    // alone stretches the even m1–m2 spring and only a lower-degree one: still escapes.
+    let looped = bad("stiffness = { 1 = 5.0 }", "stiffness = { 1 = 6.0, 2 = 3.0 }")
+        + "\n[[link]]\nends = [\"ground\", \"m2\"]\nstiffness = { 1 = 8.0 }\n";
+    run_bad(
+        "even_power_in_a_loop",
+        &looped,
+        17,
+        "link[1].stiffness",
+        "highest power 2 is even",
+    );
+}
+
+#[test]
+fn an_even_power_bounded_by_higher_degree_springs_in_its_loop_is_accepted() {
+    // Every motion that stretches the m1–m2 spring (6u + 3u²: a cubic potential) also
+    // stretches a ground spring with a cubic force (a quartic potential): bounded below.
+    let text = bad("stiffness = { 1 = 5.0 }", "stiffness = { 1 = 6.0, 2 = 3.0 }")
+        + "\n[[link]]\nends = [\"ground\", \"m2\"]\nstiffness = { 1 = 8.0, 3 = 10.0 }\n";
+    fpkbench::Scenario::parse(&text, "t.toml", "t").unwrap();
 }

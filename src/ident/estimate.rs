@@ -237,6 +237,15 @@ pub fn identify_strong(
             problem.unknowns.len()
         ));
     }
+    let default_bins = strong::GridOptions::auto(grid.dim, u64::MAX).bins;
+    if grid.options.bins < default_bins {
+        warnings.push(format!(
+            "the grid is coarser than the default ({} bins per dimension against {default_bins}) for want of samples: \
+             the central differences' bias grows with the bin width squared (duffing2dof with 1e5 samples, 8 bins: \
+             worst errors of 80–145 % over 3 seeds); trust the weak form here",
+            grid.options.bins
+        ));
+    }
     let mut facts = vec![
         (
             "standard errors".into(),

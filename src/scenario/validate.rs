@@ -364,7 +364,6 @@ pub(crate) fn check_stationary(
         }
         i
     }
-    let mut loops = false;
     let mut pairs: Vec<((usize, usize), Vec<usize>)> = Vec::new();
     for (l, link) in links.iter().enumerate() {
         let (a, b) = (node(link.ends[0]), node(link.ends[1]));
@@ -379,11 +378,7 @@ pub(crate) fn check_stationary(
             continue;
         }
         let (ra, rb) = (root(&mut parent, key.0), root(&mut parent, key.1));
-        if ra == rb {
-            loops = true;
-        } else {
-            parent[ra] = rb;
-        }
+        parent[ra] = rb;
     }
     for (i, m) in masses.iter().enumerate() {
         if root(&mut parent, i + 1) != root(&mut parent, 0) {
@@ -407,10 +402,19 @@ pub(crate) fn check_stationary(
              grows without bound and has no stationary density. Add a damping to some link",
         ));
     }
-    if loops {
-        return Ok(());
-    }
-    for (_, ls) in &pairs {
+    // Per pair of ends: its geometry `g` (x_a − x_b over the masses) and, per kind, the
+    // highest power of its combined characteristic.
+    let n = masses.len();
+    let geometry = |key: (usize, usize)| -> Vec<f64> {
+        let mut g = vec![0.0; n];
+        for (node, sign) in [(key.0, -1.0), (key.1, 1.0)] {
+            if node > 0 {
+                g[node - 1] += sign;
+            }
+        }
+        g
+    };
+    for (pi, (key, ls)) in pairs.iter().enumerate() {
         for stiffness in [true, false] {
             let poly_of = |l: usize| {
                 if stiffness {
@@ -434,6 +438,18 @@ pub(crate) fn check_stationary(
                 continue;
             };
             if p % 2 == 1 && c > 0.0 {
+                continue;
+            }
+            // The bad term decides when some motion stretches this pair and no other pair
+            // whose characteristic is of the same or a higher degree (sufficient; in a tree
+            // of springs always so). Otherwise those may bound it, and the scenario stands.
+            let others: Vec<Vec<f64>> = pairs
+                .iter()
+                .enumerate()
+                .filter(|&(pj, (_, lm))| pj != pi && lm.iter().map(|&l| poly_of(l).max_power()).max().unwrap_or(0) >= p)
+                .map(|(_, (k, _))| geometry(*k))
+                .collect();
+            if in_span(&geometry(*key), &others) {
                 continue;
             }
             let l = *ls
@@ -477,6 +493,28 @@ pub(crate) fn check_stationary(
         }
     }
     Ok(())
+}
+
+/// Whether `v` is a linear combination of `rows` (Gram–Schmidt; small integer vectors).
+fn in_span(v: &[f64], rows: &[Vec<f64>]) -> bool {
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    let reduce = |x: &mut Vec<f64>, basis: &[Vec<f64>]| {
+        for b in basis {
+            let d: f64 = x.iter().zip(b).map(|(a, b)| a * b).sum();
+            x.iter_mut().zip(b).for_each(|(a, b)| *a -= d * b);
+        }
+    };
+    for r in rows {
+        let mut x = r.clone();
+        reduce(&mut x, &basis);
+        let norm = x.iter().map(|a| a * a).sum::<f64>().sqrt();
+        if norm > 1e-9 {
+            basis.push(x.iter().map(|a| a / norm).collect());
+        }
+    }
+    let mut x = v.to_vec();
+    reduce(&mut x, &basis);
+    x.iter().map(|a| a * a).sum::<f64>().sqrt() < 1e-9
 }
 
 /// `[[excitation]]`: white or filtered processes on named masses.
