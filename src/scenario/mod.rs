@@ -191,6 +191,21 @@ pub struct Simulation {
 }
 
 impl Simulation {
+    /// The settings of a model file before its data are read (see
+    /// [`Scenario::with_data_facts`]).
+    pub fn placeholder() -> Simulation {
+        Simulation {
+            dt: 1.0,
+            record_length: 1.0,
+            burn_in: 0.0,
+            sample_interval: 1.0,
+            trajectories: 1,
+            seed: 1,
+            scheme: Scheme::default(),
+            substeps: 1,
+        }
+    }
+
     /// Integration steps (of `dt`) between two samples.
     pub fn steps_per_sample(&self) -> usize {
         (self.sample_interval / self.dt).round() as usize
@@ -421,6 +436,26 @@ impl Accept {
     }
 }
 
+/// `[data]` of a model file: where the model's quantities are in a measured table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DataMapping {
+    /// The time column (s), if the table has one.
+    pub time: Option<String>,
+    /// The sample interval when there is no time column (s).
+    pub sample_interval: Option<f64>,
+    /// The record-id column: each record is an independent trajectory.
+    pub record: Option<String>,
+    /// Per log column (`x_<mass>`, `v_<mass>`, `a_<mass>`, `p_<excitation>`): the table's
+    /// column, by name.
+    pub columns: Vec<(String, String)>,
+    /// Factors to SI units, per table column (default 1).
+    pub scale: BTreeMap<String, f64>,
+    /// Column names of a plain 2-D `.npy` array, in order.
+    pub npy_columns: Vec<String>,
+    /// Velocities the table lacks are derived from the displacements (central differences).
+    pub derive_velocity: bool,
+}
+
 /// A checked scenario.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
@@ -433,6 +468,10 @@ pub struct Scenario {
     pub simulation: Simulation,
     pub identify: Identify,
     pub accept: Accept,
+    /// `[data]`: a model file for measured data (`identify --model --data`); its
+    /// `[simulation]` is then taken from the data, and the coefficients to identify need
+    /// no values (no accuracy is reported without them).
+    pub data: Option<DataMapping>,
     /// The TOML text it was parsed from (stored in logs).
     pub source: String,
     /// The unmeasured disturbances rescaled by [`Scenario::with_disturbance_level`]

@@ -22,6 +22,20 @@ pub(crate) struct RawScenario {
     pub(super) simulation: Option<RawSimulation>,
     pub(super) identify: Option<RawIdentify>,
     pub(super) accept: Option<RawAccept>,
+    pub(super) data: Option<Spanned<RawData>>,
+}
+
+/// `[data]`: how measured data map onto the model (a model file for `identify --model`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawData {
+    pub(super) time: Option<Spanned<String>>,
+    pub(super) sample_interval: Option<Spanned<f64>>,
+    pub(super) record: Option<Spanned<String>>,
+    pub(super) columns: Spanned<BTreeMap<String, Spanned<String>>>,
+    pub(super) scale: Option<BTreeMap<String, Spanned<f64>>>,
+    pub(super) npy_columns: Option<Vec<Spanned<String>>>,
+    pub(super) derive_velocity: Option<bool>,
 }
 
 #[derive(Deserialize)]

@@ -208,7 +208,12 @@ impl Scenario {
         let links = check_links(&loc, &raw, &masses)?;
         check_stationary(&loc, &raw, &masses, &links)?;
         let excitations = check_excitations(&loc, &raw, &masses)?;
-        let simulation = check_simulation(&loc, &raw, &masses, &links)?;
+        let data = check_data(&loc, &raw, &masses, &excitations)?;
+        let simulation = match (&raw.simulation, &data) {
+            // A model file: the simulation (for the validation) is set from the data.
+            (None, Some(_)) => Simulation::placeholder(),
+            _ => check_simulation(&loc, &raw, &masses, &links)?,
+        };
         let identify = check_identify(&loc, &raw, &masses, &links, &excitations)?;
         let accept = check_accept(&loc, &raw, &identify)?;
 
@@ -222,10 +227,72 @@ impl Scenario {
             simulation,
             identify,
             accept,
+            data,
             source: src.to_string(),
             disturbance_level: None,
         })
     }
+}
+
+/// `[data]`: every mapped column a quantity of the model, every factor finite and non-zero.
+pub(crate) fn check_data(
+    loc: &Locator,
+    raw: &RawScenario,
+    masses: &[Mass],
+    excitations: &[Excitation],
+) -> Result<Option<DataMapping>, ScenarioError> {
+    let Some(d) = &raw.data else {
+        return Ok(None);
+    };
+    let mut allowed: Vec<String> = Vec::new();
+    for m in masses {
+        for q in ["x", "v", "a"] {
+            allowed.push(format!("{q}_{}", m.name));
+        }
+    }
+    for e in excitations {
+        allowed.push(format!("p_{}", e.name));
+    }
+    let mut columns = Vec::new();
+    for (k, v) in d.get_ref().columns.get_ref() {
+        if !allowed.contains(k) {
+            return Err(loc.at(
+                v.span(),
+                format!("data.columns.{k}"),
+                format!("{k:?} is not a quantity of this model: allowed are {}", allowed.join(", ")),
+            ));
+        }
+        columns.push((k.clone(), v.get_ref().clone()));
+    }
+    let d = d.get_ref();
+    let sample_interval = match &d.sample_interval {
+        Some(v) => Some(finite_positive(loc, v, "data.sample_interval", "s")?),
+        None => None,
+    };
+    if d.time.is_none() && sample_interval.is_none() {
+        return Err(loc.at(
+            raw.data.as_ref().expect("some").span(),
+            "data",
+            "give the time column (`time = \"t\"`) or the sample interval (`sample_interval = 0.01`, s)",
+        ));
+    }
+    let mut scale = BTreeMap::new();
+    for (k, v) in d.scale.iter().flatten() {
+        let f = *v.get_ref();
+        if !(f.is_finite() && f != 0.0) {
+            return Err(loc.at(v.span(), format!("data.scale.{k}"), format!("must be a finite, non-zero factor, got {f}")));
+        }
+        scale.insert(k.clone(), f);
+    }
+    Ok(Some(DataMapping {
+        time: d.time.as_ref().map(|t| t.get_ref().clone()),
+        sample_interval,
+        record: d.record.as_ref().map(|t| t.get_ref().clone()),
+        columns,
+        scale,
+        npy_columns: d.npy_columns.iter().flatten().map(|c| c.get_ref().clone()).collect(),
+        derive_velocity: d.derive_velocity.unwrap_or(false),
+    }))
 }
 
 /// `[[mass]]`: names unique, values positive.
@@ -252,6 +319,19 @@ pub(crate) fn check_masses(loc: &Locator, raw: &RawScenario) -> Result<Vec<Mass>
         masses.push(Mass { name: n, value: v });
     }
     Ok(masses)
+}
+
+/// In a model file (one with `[data]`): whether link `name`'s stiffness and damping are
+/// unknown (`[identify.links]`), so that they need no values.
+pub(crate) fn unknown_in_model_file(raw: &RawScenario, name: &str) -> (bool, bool) {
+    if raw.data.is_none() {
+        return (false, false);
+    }
+    let declared = raw.identify.as_ref().and_then(|i| i.links.as_ref()).and_then(|l| l.get(name));
+    declared.map_or((false, false), |d| {
+        let d = d.get_ref();
+        (d.stiffness.is_some(), d.damping.is_some())
+    })
 }
 
 /// The mass named by `s` (or the ground, where allowed).
@@ -323,8 +403,14 @@ pub(crate) fn check_links(loc: &Locator, raw: &RawScenario, masses: &[Mass]) -> 
         }
         let stiffness = polynomial(loc, &l.stiffness, &format!("{key}.stiffness"))?;
         let damping = polynomial(loc, &l.damping, &format!("{key}.damping"))?;
-        if stiffness.is_empty() && damping.is_empty() {
-            return Err(loc.at(l.ends.span(), &key, "a link needs `stiffness` or `damping` (or both)"));
+        let (k_unknown, c_unknown) = unknown_in_model_file(raw, &n);
+        if stiffness.is_empty() && damping.is_empty() && !k_unknown && !c_unknown {
+            return Err(loc.at(
+                l.ends.span(),
+                &key,
+                "a link needs `stiffness` or `damping` (or both; in a model file with [data], or unknown \
+                 powers in [identify.links])",
+            ));
         }
         links.push(Link {
             name: n,
@@ -373,8 +459,10 @@ pub(crate) fn check_stationary(
             None => pairs.push((key, vec![l])),
         }
     }
+    // In a model file an unknown characteristic is there, with signs the data will tell.
+    let unknown = |l: usize| unknown_in_model_file(raw, &links[l].name);
     for (key, ls) in &pairs {
-        if ls.iter().all(|&l| links[l].stiffness.is_empty()) {
+        if ls.iter().all(|&l| links[l].stiffness.is_empty() && !unknown(l).0) {
             continue;
         }
         let (ra, rb) = (root(&mut parent, key.0), root(&mut parent, key.1));
@@ -394,7 +482,7 @@ pub(crate) fn check_stationary(
             ));
         }
     }
-    if links.iter().all(|l| l.damping.is_empty()) {
+    if (0..links.len()).all(|l| links[l].damping.is_empty() && !unknown(l).1) {
         return Err(loc.at(
             raw.link.first().map_or(0..0, |l| l.ends.span()),
             "link",
@@ -437,6 +525,9 @@ pub(crate) fn check_stationary(
             let Some((&p, &c)) = sum.iter().rev().find(|t| *t.1 != 0.0) else {
                 continue;
             };
+            if ls.iter().any(|&l| if stiffness { unknown(l).0 } else { unknown(l).1 }) {
+                continue;
+            }
             if p % 2 == 1 && c > 0.0 {
                 continue;
             }
