@@ -106,7 +106,16 @@ fn positive(s: &str) -> Result<f64, String> {
 #[derive(clap::Args)]
 pub struct Args {
     /// MCAP log written by `fpkbench simulate` or `run` (scenario and truth are read from it).
-    pub log: PathBuf,
+    #[arg(required_unless_present = "model")]
+    pub log: Option<PathBuf>,
+    /// Model file for measured data (the scenario format with a [data] section; the
+    /// coefficients to identify need no values): see docs/data.md.
+    #[arg(long, requires = "data", conflicts_with = "log")]
+    pub model: Option<PathBuf>,
+    /// Measured data: CSV or .npy files, each file (or each value of the [data] record
+    /// column) an independent record.
+    #[arg(long, num_args = 1.., requires = "model")]
+    pub data: Vec<PathBuf>,
     /// Identify a truncated log (a killed writer) from the samples it still holds, instead
     /// of refusing it; the report says how many of the promised samples were used.
     #[arg(long)]
@@ -146,12 +155,44 @@ pub fn report_dir(args: &IdentifyArgs, scenario: &str) -> PathBuf {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let mut info = fpkbench::io::log::read_info(&args.log)?;
-    info.accept_truncated = args.allow_truncated;
+    let (info, inputs) = match (&args.log, &args.model) {
+        (Some(log), _) => {
+            let mut info = fpkbench::io::log::read_info(log)?;
+            info.accept_truncated = args.allow_truncated;
+            (info, vec![log.clone()])
+        }
+        (None, Some(model)) => (measured_info(model, &args.data)?, args.data.clone()),
+        (None, None) => unreachable!("clap requires one"),
+    };
     let dir = report_dir(&args.identify, &info.scenario.name);
-    for f in report::FILES {
-        refuse_same_file(&args.log, &dir.join(f))?;
+    for input in inputs.iter().chain(&args.model) {
+        for f in report::FILES {
+            refuse_same_file(input, &dir.join(f))?;
+        }
     }
     let report = identify(&info, &args.identify.options(info.scenario.masses.len() * 2))?;
     finish(&report, &args.identify)
+}
+
+/// The model file and its measured data, checked before any identification.
+fn measured_info(model: &Path, data: &[PathBuf]) -> anyhow::Result<fpkbench::io::log::LogInfo> {
+    let scenario = fpkbench::Scenario::from_file(model)?;
+    let Some(mapping) = &scenario.data else {
+        anyhow::bail!(
+            "{}: a model file needs a [data] section mapping the model's quantities onto the data's columns (docs/data.md)",
+            model.display()
+        );
+    };
+    let tables = data
+        .iter()
+        .map(|p| fpkbench::io::table::read_table(p, &mapping.npy_columns))
+        .collect::<Result<Vec<_>, _>>()?;
+    let measured = fpkbench::io::table::measured(&scenario, &tables)?;
+    for n in &measured.notes {
+        eprintln!("note: {n}");
+    }
+    let info = fpkbench::io::log::LogInfo::of_measured(scenario, measured);
+    fpkbench::pipeline::preflight(&info.scenario).map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
+    fpkbench::pipeline::check_measured(&info).map_err(|e| anyhow::anyhow!("{}: {e}", data[0].display()))?;
+    Ok(info)
 }

@@ -432,13 +432,55 @@ pub struct LogInfo {
     /// Use the readable samples of a truncated log instead of refusing it
     /// (`--allow-truncated`); see [`read_samples`].
     pub accept_truncated: bool,
+    /// Measured data standing in for the log's samples (`identify --model --data`).
+    pub measured: Option<std::sync::Arc<super::table::Measured>>,
 }
 
 impl LogInfo {
     /// Samples the run was to write (trajectories × samples per trajectory).
     pub fn expected_samples(&self) -> u64 {
+        if let Some(m) = &self.measured {
+            return m.samples();
+        }
         let s = &self.scenario.simulation;
         (s.trajectories as u64).saturating_mul(s.samples_per_trajectory() as u64)
+    }
+
+    /// The description of measured data on a model file: the model's `[simulation]` taken
+    /// from the data (records as trajectories, their sample interval and longest length;
+    /// steps of a tenth of the interval for the validation's re-simulation) and its truth
+    /// only where the model gives values.
+    pub fn of_measured(mut model: Scenario, data: super::table::Measured) -> LogInfo {
+        let sim = &mut model.simulation;
+        sim.sample_interval = data.sample_interval;
+        sim.dt = data.sample_interval / 10.0;
+        sim.record_length = data.record_length();
+        sim.trajectories = data.records.len();
+        sim.burn_in = 0.0;
+        let m = crate::model::Model::new(&model);
+        // The coefficients to identify that the model gives no value for have no truth.
+        let mut truth: Vec<(String, f64)> = model.truth();
+        for il in &model.identify.links {
+            let link = &model.links[il.link];
+            for (powers, values, symbol) in [(&il.stiffness, &link.stiffness, 'k'), (&il.damping, &link.damping, 'c')] {
+                if values.is_empty() {
+                    for p in powers.iter().flatten() {
+                        truth.push((format!("{symbol}{p}[{}]", link.name), f64::NAN));
+                    }
+                }
+            }
+        }
+        LogInfo {
+            path: data.files.first().cloned().unwrap_or_default(),
+            truth,
+            run: BTreeMap::new(),
+            columns: m.column_names(),
+            channel_metadata: BTreeMap::new(),
+            library: String::new(),
+            accept_truncated: false,
+            scenario: model,
+            measured: Some(std::sync::Arc::new(data)),
+        }
     }
 }
 
@@ -588,6 +630,7 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
         channel_metadata,
         library: found.library,
         accept_truncated: false,
+        measured: None,
     })
 }
 
@@ -674,6 +717,14 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
 /// delivering every sample that could be read — or, when the caller asked for it with
 /// [`LogInfo::accept_truncated`], the count of those samples.
 pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Result<u64, LogError> {
+    if let Some(m) = &info.measured {
+        for (r, (times, rows)) in m.records.iter().enumerate() {
+            for (s, t) in times.iter().enumerate() {
+                f(r as u32, *t, &rows[s * m.width..(s + 1) * m.width]);
+            }
+        }
+        return Ok(m.samples());
+    }
     let label = info.path.display().to_string();
     let cols = info.columns.len();
     let trajectories = info.scenario.simulation.trajectories;

@@ -1,4 +1,4 @@
-//! File formats: the MCAP run log and exports for other tools.
+//! File formats: the MCAP run log, exports for other tools and measured data tables.
 //!
 //! Everything here converts between files and the library's in-memory types; the
 //! numerics (`model`, `sim`) never import this module.
@@ -7,3 +7,4 @@ pub mod export;
 pub mod log;
 pub mod output;
 pub mod reader;
+pub mod table;

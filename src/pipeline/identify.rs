@@ -39,6 +39,52 @@ pub fn preflight(s: &Scenario) -> Result<(), IdentError> {
     Ok(())
 }
 
+/// Measured data: every quantity the identification reads is in the data (mapped, or
+/// derived), named by its log column and what needs it.
+pub fn check_measured(info: &LogInfo) -> Result<(), String> {
+    let Some(m) = &info.measured else {
+        return Ok(());
+    };
+    let s = &info.scenario;
+    let structure =
+        Problem::from_spec(&Specification::from_scenario(s), &placeholder_filters(s)).map_err(|e| e.to_string())?;
+    let mut needed: Vec<(usize, &str)> = structure
+        .columns
+        .iter()
+        .map(|&c| (c, "the identification's state"))
+        .collect();
+    let layout = structure.model.columns();
+    for f in placeholder_filters(s) {
+        if !s.identify.known_filters.contains(&f.excitation) {
+            needed.push((layout.force(f.excitation), "the spectral fit of its filter (3.20)"));
+        }
+    }
+    let Some((_, first)) = m.records.first() else {
+        return Err("the data hold no samples".into());
+    };
+    for (c, why) in needed {
+        if first[c].is_nan() {
+            return Err(format!(
+                "the data have no {} (needed for {why}): map a column to it in the model file's [data.columns]{}",
+                info.columns[c],
+                if info.columns[c].starts_with("v_") {
+                    ", or set derive_velocity = true"
+                } else {
+                    ""
+                }
+            ));
+        }
+    }
+    let unknowns = structure.unknowns.len() as u64;
+    if m.samples() < 100 * unknowns {
+        return Err(format!(
+            "{} samples for {unknowns} unknowns: at least 100 per unknown are needed (and far more for useful accuracy)",
+            m.samples()
+        ));
+    }
+    Ok(())
+}
+
 pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, PipelineError> {
     let s = &info.scenario;
     s.check_separable().map_err(IdentError::Inseparable)?;

@@ -13,7 +13,7 @@ mod identify;
 mod spectra;
 mod validation;
 
-pub use identify::preflight;
+pub use identify::{check_measured, preflight};
 pub use validation::identified_model;
 
 use self::identify::identify_info;

@@ -84,6 +84,12 @@ impl ForceSpectra {
                 unreachable!("only filtered forces are fitted")
             };
             let known = s.identify.known_filters.contains(&e);
+            // A model file's A and B of a fitted filter are placeholders, not a truth.
+            let (ta, tb) = if s.data.is_some() && !known {
+                (f64::NAN, f64::NAN)
+            } else {
+                (ta, tb)
+            };
             let (a, b) = if known { (ta, tb) } else { (fit.a, fit.b) };
             filters.push(Filter { excitation: e, a, b });
             reports.push(FilterReport {

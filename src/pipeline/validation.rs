@@ -189,6 +189,10 @@ pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coeff
             }
         }
     }
+    // The filters the identifier used (fitted to the force spectra, or known).
+    for f in &problem.filters {
+        model.excitations[f.excitation].process = Process::Filtered { a: f.a, b: f.b };
+    }
     for (k, u) in problem.unknowns.iter().enumerate() {
         match *u {
             Unknown::Mass(i) => {

@@ -77,23 +77,23 @@ pub fn summary(r: &Report) -> String {
         r.timings_s.simulate, r.timings_s.identify, r.timings_s.total
     );
     for f in &r.filters {
+        let fit = if f.true_a.is_finite() {
+            format!(
+                "A = {:.4} ({:+.2} %), B = {:.4} ({:+.2} %) vs true {}, {}",
+                f.fitted_a,
+                100.0 * (f.fitted_a / f.true_a - 1.0),
+                f.fitted_b,
+                100.0 * (f.fitted_b / f.true_b - 1.0),
+                f.true_a,
+                f.true_b
+            )
+        } else {
+            format!("A = {:.4}, B = {:.4}", f.fitted_a, f.fitted_b)
+        };
         s += &format!(
-            "filter {}: A = {:.4}, B = {:.4} 1/s used ({}); spectral fit A = {:.4} ({:+.2} %), B = {:.4} ({:+.2} %) vs true {}, {}; \
-             log residual RMS {:.3} (averaging alone: {:.3}) over {} segments of {}\n",
-            f.excitation,
-            f.a,
-            f.b,
-            f.used,
-            f.fitted_a,
-            100.0 * (f.fitted_a / f.true_a - 1.0),
-            f.fitted_b,
-            100.0 * (f.fitted_b / f.true_b - 1.0),
-            f.true_a,
-            f.true_b,
-            f.rms_log_residual,
-            f.expected_rms_log_residual,
-            f.segments,
-            f.segment_len
+            "filter {}: A = {:.4}, B = {:.4} 1/s used ({}); spectral fit {fit}; log residual RMS {:.3} (averaging alone: \
+             {:.3}) over {} segments of {}\n",
+            f.excitation, f.a, f.b, f.used, f.rms_log_residual, f.expected_rms_log_residual, f.segments, f.segment_len
         );
     }
     if !r.filters.is_empty() {
@@ -102,12 +102,16 @@ pub fn summary(r: &Report) -> String {
     let methods: Vec<_> = r.methods.iter().collect();
     // Parameter table: per method its estimate ± standard error and its error.
     s += &format!("| {:<18} | {:>10} |", "parameter", "true");
-    for m in &methods {
+    let widths: Vec<usize> = methods
+        .iter()
+        .map(|m| EST_W.max(format!("{} ± std. error", m.method).chars().count()))
+        .collect();
+    for (m, w) in methods.iter().zip(&widths) {
         s += &format!(
             " {:<w$} | {:>9} |",
             format!("{} ± std. error", m.method),
             "error",
-            w = EST_W
+            w = *w
         );
     }
     s += "\n|";
@@ -115,8 +119,8 @@ pub fn summary(r: &Report) -> String {
     s += "|";
     s += &"-".repeat(12);
     s += "|";
-    for _ in &methods {
-        s += &"-".repeat(EST_W + 2);
+    for w in &widths {
+        s += &"-".repeat(w + 2);
         s += "|";
         s += &"-".repeat(11);
         s += "|";
@@ -133,11 +137,12 @@ pub fn summary(r: &Report) -> String {
             .find_map(|m| m.parameters.get(k))
             .map(|p| p.true_value)
             .unwrap_or(f64::NAN);
-        s += &format!("| {name:<18} | {t:>10.4} |");
-        for m in &methods {
+        let t = if t.is_finite() { format!("{t:.4}") } else { "—".into() };
+        s += &format!("| {name:<18} | {t:>10} |");
+        for (m, w) in methods.iter().zip(&widths) {
             match m.parameters.get(k) {
-                Some(p) => s += &format!(" {:<w$} | {:>9} |", fmt_estimate(p), fmt_err(p.rel_error), w = EST_W),
-                None => s += &format!(" {:<w$} | {:>9} |", "—", "—", w = EST_W),
+                Some(p) => s += &format!(" {:<w$} | {:>9} |", fmt_estimate(p), fmt_err(p.rel_error), w = *w),
+                None => s += &format!(" {:<w$} | {:>9} |", "—", "—", w = *w),
             }
         }
         s += "\n";
@@ -170,6 +175,7 @@ pub fn summary(r: &Report) -> String {
                     if ok { "within" } else { "EXCEEDED" }
                 )
             }
+            _ if m.worst_rel_error.is_nan() => s += "not graded (no truth for its parameters)",
             _ => {
                 s += &format!(
                     "worst error {} (baseline or comparison, no gate)",
@@ -257,7 +263,9 @@ pub fn summary(r: &Report) -> String {
     }
     s += &format!(
         "\nresult: {}. Note: {GATE_MEANING}.\n",
-        if r.passed {
+        if r.passed && r.methods.iter().all(|m| m.threshold.is_none()) {
+            "every method gave an estimate (nothing graded: no truth)"
+        } else if r.passed {
             "every regression gate holds"
         } else {
             "a regression gate is EXCEEDED or its method failed"

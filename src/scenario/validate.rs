@@ -259,7 +259,10 @@ pub(crate) fn check_data(
             return Err(loc.at(
                 v.span(),
                 format!("data.columns.{k}"),
-                format!("{k:?} is not a quantity of this model: allowed are {}", allowed.join(", ")),
+                format!(
+                    "{k:?} is not a quantity of this model: allowed are {}",
+                    allowed.join(", ")
+                ),
             ));
         }
         columns.push((k.clone(), v.get_ref().clone()));
@@ -280,7 +283,11 @@ pub(crate) fn check_data(
     for (k, v) in d.scale.iter().flatten() {
         let f = *v.get_ref();
         if !(f.is_finite() && f != 0.0) {
-            return Err(loc.at(v.span(), format!("data.scale.{k}"), format!("must be a finite, non-zero factor, got {f}")));
+            return Err(loc.at(
+                v.span(),
+                format!("data.scale.{k}"),
+                format!("must be a finite, non-zero factor, got {f}"),
+            ));
         }
         scale.insert(k.clone(), f);
     }
@@ -327,7 +334,11 @@ pub(crate) fn unknown_in_model_file(raw: &RawScenario, name: &str) -> (bool, boo
     if raw.data.is_none() {
         return (false, false);
     }
-    let declared = raw.identify.as_ref().and_then(|i| i.links.as_ref()).and_then(|l| l.get(name));
+    let declared = raw
+        .identify
+        .as_ref()
+        .and_then(|i| i.links.as_ref())
+        .and_then(|l| l.get(name));
     declared.map_or((false, false), |d| {
         let d = d.get_ref();
         (d.stiffness.is_some(), d.damping.is_some())

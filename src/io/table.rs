@@ -1,0 +1,455 @@
+//! Measured data as tables: CSV (a header row of column names), `.npy` (fpkbench's own
+//! export, a structured array, or a plain 2-D float array whose column names the model
+//! file gives), mapped by a model file's `[data]` section onto the model's quantities and
+//! split into records (independent trajectories). Every error names the file, and where
+//! it applies the row and the column.
+//!
+//! The tables are read into memory (8 bytes per value); the identification over them then
+//! runs as over a log (see [`super::log::read_samples`]).
+
+use crate::scenario::{DataMapping, Scenario};
+use std::path::{Path, PathBuf};
+
+/// An error in measured data.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {message}")]
+pub struct DataError {
+    pub path: String,
+    pub message: String,
+}
+
+fn err(path: &Path, message: impl Into<String>) -> DataError {
+    DataError {
+        path: path.display().to_string(),
+        message: message.into(),
+    }
+}
+
+/// A table: named columns of numbers.
+#[derive(Debug, Clone)]
+pub struct Table {
+    pub path: PathBuf,
+    pub names: Vec<String>,
+    pub columns: Vec<Vec<f64>>,
+}
+
+impl Table {
+    pub fn rows(&self) -> usize {
+        self.columns.first().map_or(0, Vec::len)
+    }
+
+    /// The column named `name`, or an error listing the columns there are.
+    fn column(&self, name: &str, role: &str) -> Result<&[f64], DataError> {
+        match self.names.iter().position(|n| n == name) {
+            Some(k) => Ok(&self.columns[k]),
+            None => {
+                let close: Vec<&String> = self
+                    .names
+                    .iter()
+                    .filter(|n| n.eq_ignore_ascii_case(name) || n.contains(name) || name.contains(n.as_str()))
+                    .collect();
+                Err(err(
+                    &self.path,
+                    format!(
+                        "no column {name:?} ({role}); the table has {}{}",
+                        self.names.join(", "),
+                        if close.is_empty() {
+                            String::new()
+                        } else {
+                            format!(
+                                " — did you mean {}?",
+                                close.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(" or ")
+                            )
+                        }
+                    ),
+                ))
+            }
+        }
+    }
+}
+
+/// Read a CSV or `.npy` table (by extension); `npy_columns` names a plain 2-D array's
+/// columns.
+pub fn read_table(path: &Path, npy_columns: &[String]) -> Result<Table, DataError> {
+    let bytes = std::fs::read(path).map_err(|e| err(path, format!("cannot read: {e}")))?;
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("npy") => read_npy(path, &bytes, npy_columns),
+        _ => read_csv(path, &bytes),
+    }
+}
+
+fn read_csv(path: &Path, bytes: &[u8]) -> Result<Table, DataError> {
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+        err(
+            path,
+            format!("line {line}: not UTF-8 text (a CSV file is expected; .npy by its extension)"),
+        )
+    })?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.starts_with('#'));
+    let Some((_, header)) = lines.next() else {
+        return Err(err(path, "empty: a header row of column names is expected"));
+    };
+    let names: Vec<String> = header
+        .split(',')
+        .map(|s| s.trim().trim_matches('"').to_string())
+        .collect();
+    for (k, n) in names.iter().enumerate() {
+        if n.is_empty() {
+            return Err(err(path, format!("line 1, column {}: empty column name", k + 1)));
+        }
+        if names[..k].contains(n) {
+            return Err(err(path, format!("line 1: column name {n:?} given twice")));
+        }
+    }
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    for (i, line) in lines {
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != names.len() {
+            return Err(err(
+                path,
+                format!(
+                    "line {}: {} fields where the header has {}",
+                    i + 1,
+                    fields.len(),
+                    names.len()
+                ),
+            ));
+        }
+        for (k, f) in fields.iter().enumerate() {
+            let v: f64 = f.trim().parse().map_err(|_| {
+                err(
+                    path,
+                    format!("line {}, column {:?}: {:?} is not a number", i + 1, names[k], f.trim()),
+                )
+            })?;
+            columns[k].push(v);
+        }
+    }
+    Ok(Table {
+        path: path.to_path_buf(),
+        names,
+        columns,
+    })
+}
+
+/// `.npy` version 1–3 with a little-endian float64 (or, in a structured array, uint32)
+/// layout in C order.
+fn read_npy(path: &Path, b: &[u8], npy_columns: &[String]) -> Result<Table, DataError> {
+    if b.len() < 10 || &b[..6] != b"\x93NUMPY" {
+        return Err(err(path, "not a .npy file (no \\x93NUMPY magic)"));
+    }
+    let (len, start) = match b[6] {
+        1 => (u16::from_le_bytes([b[8], b[9]]) as usize, 10),
+        2 | 3 if b.len() >= 12 => (u32::from_le_bytes([b[8], b[9], b[10], b[11]]) as usize, 12),
+        v => return Err(err(path, format!("unsupported .npy version {v}"))),
+    };
+    let header = b
+        .get(start..start + len)
+        .and_then(|h| std::str::from_utf8(h).ok())
+        .ok_or_else(|| err(path, "truncated or non-text .npy header"))?;
+    let body = &b[start + len..];
+    if header.contains("'fortran_order': True") {
+        return Err(err(
+            path,
+            "Fortran-order arrays are not supported: save with numpy's default C order",
+        ));
+    }
+    let shape: Vec<usize> = header
+        .split("'shape':")
+        .nth(1)
+        .and_then(|s| s.split(['(', ')']).nth(1))
+        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+        .ok_or_else(|| err(path, "the .npy header has no shape"))?;
+    let descr = header
+        .split("'descr':")
+        .nth(1)
+        .ok_or_else(|| err(path, "the .npy header has no descr"))?;
+    if descr.trim_start().starts_with('[') {
+        // A structured array: fields (name, type).
+        let fields: Vec<(String, String)> = descr
+            .split(']')
+            .next()
+            .unwrap_or("")
+            .split('(')
+            .skip(1)
+            .filter_map(|f| {
+                let mut parts = f.split('\'').filter(|s| !s.trim().is_empty() && s.trim() != ",");
+                Some((parts.next()?.to_string(), parts.next()?.to_string()))
+            })
+            .collect();
+        let widths: Vec<usize> = fields
+            .iter()
+            .map(|(n, t)| match t.as_str() {
+                "<f8" => Ok(8),
+                "<u4" | "<i4" | "<f4" => Ok(4),
+                _ => Err(err(
+                    path,
+                    format!("field {n:?} has type {t}: float64, float32 or (u)int32 expected"),
+                )),
+            })
+            .collect::<Result<_, _>>()?;
+        let rec: usize = widths.iter().sum();
+        let n = *shape.first().unwrap_or(&0);
+        if body.len() < n * rec {
+            return Err(err(
+                path,
+                format!(
+                    "truncated: {n} records of {rec} bytes need {} bytes, found {}",
+                    n * rec,
+                    body.len()
+                ),
+            ));
+        }
+        let mut columns = vec![Vec::with_capacity(n); fields.len()];
+        for r in 0..n {
+            let mut at = r * rec;
+            for (k, ((_, t), w)) in fields.iter().zip(&widths).enumerate() {
+                let x = &body[at..at + w];
+                columns[k].push(match t.as_str() {
+                    "<f8" => f64::from_le_bytes(x.try_into().expect("8 bytes")),
+                    "<f4" => f32::from_le_bytes(x.try_into().expect("4 bytes")) as f64,
+                    "<u4" => u32::from_le_bytes(x.try_into().expect("4 bytes")) as f64,
+                    _ => i32::from_le_bytes(x.try_into().expect("4 bytes")) as f64,
+                });
+                at += w;
+            }
+        }
+        return Ok(Table {
+            path: path.to_path_buf(),
+            names: fields.into_iter().map(|f| f.0).collect(),
+            columns,
+        });
+    }
+    if !descr.contains("'<f8'") {
+        return Err(err(path, "a plain .npy array must be float64 ('<f8')"));
+    }
+    let (rows, cols) = match shape.as_slice() {
+        [r, c] => (*r, *c),
+        _ => {
+            return Err(err(
+                path,
+                format!("a plain .npy array must be 2-D (rows × columns), got shape {shape:?}"),
+            ))
+        }
+    };
+    if npy_columns.len() != cols {
+        return Err(err(
+            path,
+            format!(
+                "a plain 2-D array has no column names: give its {cols} columns in the model file's \
+                 [data] npy_columns (got {} names)",
+                npy_columns.len()
+            ),
+        ));
+    }
+    if body.len() < rows * cols * 8 {
+        return Err(err(path, "truncated .npy data"));
+    }
+    let mut columns = vec![Vec::with_capacity(rows); cols];
+    for r in 0..rows {
+        for (c, col) in columns.iter_mut().enumerate() {
+            let at = (r * cols + c) * 8;
+            col.push(f64::from_le_bytes(body[at..at + 8].try_into().expect("8 bytes")));
+        }
+    }
+    Ok(Table {
+        path: path.to_path_buf(),
+        names: npy_columns.to_vec(),
+        columns,
+    })
+}
+
+/// `ω·h` above which differentiating displacements is too coarse (a 0.17 % smoothing of
+/// the velocity's amplitude; the weak form's moments amplify it).
+pub const DERIVE_LIMIT: f64 = 0.1;
+
+/// Measured data mapped onto a model: per record, its start time and its samples in the
+/// log's column layout (`model::Columns`; unmapped columns NaN).
+#[derive(Debug, Clone)]
+pub struct Measured {
+    pub files: Vec<PathBuf>,
+    pub width: usize,
+    pub sample_interval: f64,
+    /// Per record: the sample times from its start and the row-major samples.
+    pub records: Vec<(Vec<f64>, Vec<f64>)>,
+    /// What the reading did that a user should know (e.g. derived velocities).
+    pub notes: Vec<String>,
+}
+
+impl Measured {
+    pub fn samples(&self) -> u64 {
+        self.records.iter().map(|r| r.0.len() as u64).sum()
+    }
+    /// The longest record (s).
+    pub fn record_length(&self) -> f64 {
+        self.records
+            .iter()
+            .map(|r| r.0.len() as f64 * self.sample_interval)
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Map the tables onto `model`'s quantities by its `[data]`: scale, split into records
+/// (files, or the record column), check the time base and every value.
+pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataError> {
+    let d: &DataMapping = model.data.as_ref().expect("a model file");
+    let m = crate::model::Model::new(model);
+    let layout = m.columns();
+    let names = m.column_names();
+    let width = layout.len();
+    let mut records = Vec::new();
+    let mut interval: Option<f64> = d.sample_interval;
+    let mut notes = Vec::new();
+    for t in tables {
+        let scale = |c: &str| d.scale.get(c).copied().unwrap_or(1.0);
+        let mapped: Vec<(usize, &str, &[f64])> = d
+            .columns
+            .iter()
+            .map(|(q, c)| {
+                let k = names.iter().position(|n| n == q).expect("checked by the model file");
+                t.column(c, &format!("mapped to {q} in [data.columns]"))
+                    .map(|v| (k, c.as_str(), v))
+            })
+            .collect::<Result<_, _>>()?;
+        let time = d
+            .time
+            .as_ref()
+            .map(|c| t.column(c, "the time column, [data] time"))
+            .transpose()?;
+        let record = d
+            .record
+            .as_ref()
+            .map(|c| t.column(c, "the record column, [data] record"))
+            .transpose()?;
+        // Every value finite.
+        for (_, c, v) in mapped
+            .iter()
+            .chain(time.map(|v| (0, d.time.as_deref().unwrap_or(""), v)).iter())
+        {
+            if let Some(r) = v.iter().position(|x| !x.is_finite()) {
+                return Err(err(
+                    &t.path,
+                    format!("row {}, column {c:?}: {} (every value must be finite)", r + 1, v[r]),
+                ));
+            }
+        }
+        for (_, c, v) in &mapped {
+            if v.len() > 1 && v.iter().all(|x| *x == v[0]) {
+                return Err(err(
+                    &t.path,
+                    format!("column {c:?} is constant ({}): a measured response varies", v[0]),
+                ));
+            }
+        }
+        // Rows per record, in order of first appearance.
+        let mut ids: Vec<f64> = Vec::new();
+        let mut rows_of: Vec<Vec<usize>> = Vec::new();
+        for r in 0..t.rows() {
+            let id = record.map_or(0.0, |c| c[r]);
+            let k = match ids.iter().position(|&x| x == id) {
+                Some(k) => k,
+                None => {
+                    ids.push(id);
+                    rows_of.push(Vec::new());
+                    ids.len() - 1
+                }
+            };
+            rows_of[k].push(r);
+        }
+        for (rk, rows) in rows_of.iter().enumerate() {
+            if let Some(time) = time {
+                for w in rows.windows(2) {
+                    let dt = time[w[1]] - time[w[0]];
+                    if dt <= 0.0 {
+                        return Err(err(
+                            &t.path,
+                            format!(
+                                "row {}: time {} does not increase (previous {}){}",
+                                w[1] + 1,
+                                time[w[1]],
+                                time[w[0]],
+                                if record.is_some() {
+                                    format!(" in record {}", ids[rk])
+                                } else {
+                                    String::new()
+                                }
+                            ),
+                        ));
+                    }
+                    let h = *interval.get_or_insert(dt);
+                    if (dt - h).abs() > 1e-6 * h {
+                        return Err(err(
+                            &t.path,
+                            format!(
+                                "row {}: time step {dt} s where the sampling is every {h} s: the samples must be \
+                                 evenly spaced (split a record at a gap with the record column)",
+                                w[1] + 1
+                            ),
+                        ));
+                    }
+                }
+            }
+            let h = interval.ok_or_else(|| err(&t.path, "one sample per record and no sample interval"))?;
+            let mut samples = vec![f64::NAN; rows.len() * width];
+            for (s, &r) in rows.iter().enumerate() {
+                for (k, c, v) in &mapped {
+                    samples[s * width + k] = v[r] * scale(c);
+                }
+            }
+            // Velocities from displacements by central differences (one-sided at the ends).
+            if d.derive_velocity {
+                for i in 0..m.masses() {
+                    let (xk, vk) = (layout.x(i), layout.v(i));
+                    if mapped.iter().any(|(k, ..)| *k == vk) || !mapped.iter().any(|(k, ..)| *k == xk) {
+                        continue;
+                    }
+                    let n = rows.len();
+                    for s in 0..n {
+                        let (a, b) = (s.saturating_sub(1), (s + 1).min(n - 1));
+                        samples[s * width + vk] =
+                            (samples[b * width + xk] - samples[a * width + xk]) / ((b - a) as f64 * h);
+                    }
+                    if rk == 0 {
+                        notes.push(format!(
+                            "{} derived from {} by central differences over 2 × {h} s (docs/data.md)",
+                            names[vk], names[xk]
+                        ));
+                        // The rule's resolution: a motion at ω is smoothed by (ω·h)²/6, with ω
+                        // the response's typical frequency std(v)/std(x).
+                        let std = |k: usize| {
+                            let v: Vec<f64> = (0..n).map(|s| samples[s * width + k]).collect();
+                            let m = v.iter().sum::<f64>() / n as f64;
+                            (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n as f64).sqrt()
+                        };
+                        let wh = std(vk) / std(xk) * h;
+                        if wh > DERIVE_LIMIT {
+                            notes.push(format!(
+                                "WARNING: the sampling is too coarse to differentiate {}: ω·h = {wh:.2} (ω = std(v)/std(x)), \
+                                 so the derived velocity is smoothed by about (ω·h)²/6 = {:.1} % and the estimates are \
+                                 biased (on sdof_duffing at ω·h = 0.33, k3 by −24 %); sample at least {:.0}× faster or \
+                                 measure the velocity",
+                                names[xk],
+                                100.0 * wh * wh / 6.0,
+                                (wh / DERIVE_LIMIT).ceil()
+                            ));
+                        }
+                    }
+                }
+            }
+            let times = (0..rows.len()).map(|s| (s + 1) as f64 * h).collect();
+            records.push((times, samples));
+        }
+    }
+    let sample_interval = interval.ok_or_else(|| err(&tables[0].path, "no sample interval"))?;
+    Ok(Measured {
+        files: tables.iter().map(|t| t.path.clone()).collect(),
+        width,
+        sample_interval,
+        records,
+        notes,
+    })
+}
