@@ -470,7 +470,11 @@ fn odd_shapes(n: usize) -> String {
             i - 1
         );
     }
-    t += &format!("[[link]]\nends = [\"m{n}\", \"ground\"]\nstiffness = {{ 1 = 8.0 }}\ndamping = {{ 1 = 0.4 }}\n");
+    // Cubic ground dampers at both ends bound the chain's even damping powers (a model with
+    // a stationary density).
+    t += &format!(
+        "[[link]]\nends = [\"m{n}\", \"ground\"]\nstiffness = {{ 1 = 8.0 }}\ndamping = {{ 1 = 0.4, 3 = 0.05 }}\n"
+    );
     t += "[[excitation]]\nkind = \"white\"\nsigma = 1.0\nacts_on = [\"m1\"]\n";
     t += "[[excitation]]\nkind = \"filtered\"\nA = 4.0\nB = 5.0\nacts_on = [\"m1\", \"m2\"]\n";
     t += "[[excitation]]\nkind = \"white\"\nsigma = 0.5\nacts_on = [\"m2\", \"m3\"]\n";
@@ -487,7 +491,7 @@ fn turned_round_and_parallel_links_are_their_rewritten_forms() {
     let two = |links: &str| -> Vec<u64> {
         let src = format!(
             "[[mass]]\nname = \"m1\"\nvalue = 1.0\n[[mass]]\nname = \"m2\"\nvalue = 2.0\n{links}\
-             [[link]]\nends = [\"ground\", \"m2\"]\nstiffness = {{ 1 = 8.0 }}\ndamping = {{ 1 = 0.3 }}\n\
+             [[link]]\nends = [\"ground\", \"m2\"]\nstiffness = {{ 1 = 8.0 }}\ndamping = {{ 1 = 0.3, 3 = 0.05 }}\n\
              [[excitation]]\nkind = \"white\"\nsigma = 1.0\nacts_on = [\"m1\"]\n\
              [simulation]\ndt = 1e-3\nrecord_length = 10.0\nburn_in = 1.0\nsample_interval = 0.1\ntrajectories = 8\nseed = 5\n"
         );
@@ -499,7 +503,8 @@ fn turned_round_and_parallel_links_are_their_rewritten_forms() {
             .flat_map(|b| b.values.iter().map(|v| v.to_bits()))
             .collect()
     };
-    let ground = "[[link]]\nends = [\"ground\", \"m1\"]\nstiffness = { 1 = 10.0 }\ndamping = { 1 = 0.5 }\n";
+    // Cubic ground dampers bound the m1–m2 link's even damping power.
+    let ground = "[[link]]\nends = [\"ground\", \"m1\"]\nstiffness = { 1 = 10.0 }\ndamping = { 1 = 0.5, 3 = 0.05 }\n";
     let turned = two(&format!(
         "{ground}[[link]]\nends = [\"m2\", \"m1\"]\nstiffness = {{ 1 = 5.0, 2 = 3.0, 3 = 2.0 }}\ndamping = {{ 1 = 0.2, 2 = 0.25 }}\n"
     ));

@@ -1,0 +1,110 @@
+"""fpkbench from Python: simulate a scenario, identify measured data with a model, or run
+the bench's main job — the same library as the ``fpkbench`` command, called in-process.
+
+    import fpkbench
+    data = fpkbench.simulate("scenarios/sdof_duffing.toml")      # dict of numpy arrays
+    res = fpkbench.identify(data, "my_model.toml")                # or a pandas DataFrame
+    res.estimates, res.std_errors, res.intervals, res.report
+
+A scenario or model is a path to its TOML file or a dict with the same structure. Errors
+raise ``ValueError`` with the command-line tool's message.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _native
+
+__version__ = _native.__version__
+__all__ = ["simulate", "identify", "run", "Result"]
+
+Spec = Union[str, "os.PathLike[str]", Mapping[str, Any]]
+
+
+def _spec(spec: Spec) -> Tuple[str, str, bool]:
+    """(text, label, is_json) of a path or a dict."""
+    if isinstance(spec, Mapping):
+        return json.dumps(spec), "<dict>", True
+    path = os.fspath(spec)
+    with open(path, encoding="utf-8") as f:
+        return f.read(), path, False
+
+
+@dataclass
+class Result:
+    """One identification: the first method's estimates, standard errors and 95 %
+    intervals by parameter name, every method's diagnostics, and the whole report (the
+    content of ``report.json``)."""
+
+    report: dict
+    method: str = ""
+    estimates: dict = field(default_factory=dict)
+    std_errors: dict = field(default_factory=dict)
+    intervals: dict = field(default_factory=dict)
+    diagnostics: dict = field(default_factory=dict)
+
+    @classmethod
+    def _of(cls, report_json: str) -> "Result":
+        report = json.loads(report_json)
+        methods = [m for m in report["methods"] if m.get("parameters")]
+        r = cls(report=report)
+        if methods:
+            first = methods[0]
+            r.method = first["method"]
+            for p in first["parameters"]:
+                se = p["std_error"]
+                r.estimates[p["name"]] = p["estimate"]
+                r.std_errors[p["name"]] = float("nan") if se is None else se
+                r.intervals[p["name"]] = tuple(p["ci95"]) if p["ci95"] else None
+        r.diagnostics = {m["method"]: m["diagnostics"] for m in report["methods"]}
+        return r
+
+
+def simulate(scenario: Spec) -> dict:
+    """Simulate a scenario in memory: ``{"trajectory", "t", <column>…}`` as numpy arrays
+    (one entry per sample; columns ``x_<mass>``, ``v_<mass>``, ``a_<mass>``,
+    ``p_<excitation>`` as in the log) and ``"truth"``, the true parameters by name."""
+    text, label, is_json = _spec(scenario)
+    columns, traj, t, values, truth = _native.simulate_scenario(text, label, is_json)
+    table = np.frombuffer(values, dtype="<f8").reshape(len(t), len(columns))
+    out = {"trajectory": np.asarray(traj, dtype=np.uint32), "t": np.asarray(t, dtype=np.float64)}
+    for k, c in enumerate(columns):
+        out[c] = table[:, k].copy()
+    out["truth"] = dict(truth)
+    return out
+
+
+def identify(
+    data: Any,
+    model: Spec,
+    methods: Optional[Sequence[str]] = None,
+    validate: bool = True,
+) -> Result:
+    """Identify ``data`` — a mapping of column name to array (a dict of numpy arrays, a
+    pandas DataFrame) — with a model (path or dict) whose ``[data]`` section maps the
+    model's quantities onto those columns (see docs/data.md)."""
+    text, label, is_json = _spec(model)
+    names, columns = [], []
+    for name in (data.columns if hasattr(data, "columns") else data.keys()):
+        if name == "truth":
+            continue
+        col = np.asarray(data[name], dtype=np.float64)
+        if col.ndim != 1:
+            raise ValueError(f"column {name!r}: one value per sample expected, got shape {col.shape}")
+        names.append(str(name))
+        columns.append(col.tolist())
+    report = _native.identify_table(text, label, is_json, names, columns, list(methods or []), validate)
+    return Result._of(report)
+
+
+def run(scenario: Spec, methods: Optional[Sequence[str]] = None, validate: bool = True) -> Result:
+    """Simulate, log (to a temporary file), identify and grade, as ``fpkbench run`` does
+    (no report files are written)."""
+    text, label, is_json = _spec(scenario)
+    return Result._of(_native.run_scenario(text, label, is_json, list(methods or []), validate))
