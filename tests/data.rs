@@ -310,3 +310,126 @@ fn the_papers_bushing_from_rig_like_csv_matches_the_log_path() {
         );
     }
 }
+
+#[test]
+fn units_that_do_not_fit_together_are_warned_about() {
+    // The displacement in degrees without its scale factor: the velocity column is then
+    // 1/57.3 of the displacement's rate of change.
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = common::small_scenario(50.0, 8);
+    s.simulation.sample_interval = 0.01;
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&s, &log);
+    let csv = dir.path().join("run.csv");
+    export(&log, "csv", &csv);
+    let t = read_table(&csv, &[]).unwrap();
+    let mut degrees = t.clone();
+    let k = degrees.names.iter().position(|n| n == "x_m1").unwrap();
+    degrees.columns[k].iter_mut().for_each(|x| *x = x.to_degrees());
+    let model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
+    let fine = measured(&model, &[t]).unwrap();
+    assert!(
+        !fine.notes.iter().any(|n| n.contains("inconsistent")),
+        "{:?}",
+        fine.notes
+    );
+    let off = measured(&model, &[degrees]).unwrap();
+    assert!(
+        off.notes
+            .iter()
+            .any(|n| n.contains("units look inconsistent") && n.contains("v_m1")),
+        "{:?}",
+        off.notes
+    );
+}
+
+#[test]
+fn json_messages_of_an_mcap_file_from_another_tool_are_read_by_topic() {
+    // The SDOF log's samples as another tool would log them: one JSON message per sample
+    // on `/rig/state`, nested fields, the run in a field, the time as the log time; a
+    // second topic beside it. Same estimates as the CSV path.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&common::small_scenario(312.5, 32), &log);
+    let csv = dir.path().join("run.csv");
+    export(&log, "csv", &csv);
+    let t = read_table(&csv, &[]).unwrap();
+    let col = |n: &str| t.columns[t.names.iter().position(|x| x == n).unwrap()].clone();
+    let (traj, time, x, v) = (col("trajectory"), col("t"), col("x_m1"), col("v_m1"));
+    let json = dir.path().join("rig.mcap");
+    {
+        let mut w = mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(&json).unwrap())).unwrap();
+        let state = w.add_channel(0, "/rig/state", "json", &Default::default()).unwrap();
+        let other = w
+            .add_channel(0, "/rig/temperature", "json", &Default::default())
+            .unwrap();
+        for r in 0..t.rows() {
+            let ns = (time[r] * 1e9).round() as u64;
+            let body = format!(
+                "{{\"run\": {}, \"pos\": {{\"x\": {:?}}}, \"vel\": {:?}}}",
+                traj[r], x[r], v[r]
+            );
+            let header = |channel_id| mcap::records::MessageHeader {
+                channel_id,
+                sequence: r as u32,
+                log_time: ns,
+                publish_time: ns,
+            };
+            w.write_to_known_channel(&header(state), body.as_bytes()).unwrap();
+            w.write_to_known_channel(&header(other), b"{\"celsius\": 21.5}")
+                .unwrap();
+        }
+        w.finish().unwrap();
+    }
+    let model_text = MODEL
+        .replace(
+            "time = \"t\"\nrecord = \"trajectory\"",
+            "topic = \"/rig/state\"\ntime = \"log_time\"\nrecord = \"run\"",
+        )
+        .replace("x_m1 = \"x_m1\"\nv_m1 = \"v_m1\"", "x_m1 = \"pos.x\"\nv_m1 = \"vel\"");
+    let model = Scenario::parse(&model_text, "model.toml", "m").unwrap();
+    let table = fpkbench::io::table::read_for(&json, model.data.as_ref().unwrap()).unwrap();
+    let from_mcap = estimates(
+        &identify(
+            &LogInfo::of_measured(model.clone(), measured(&model, &[table]).unwrap()),
+            &options(),
+        )
+        .unwrap(),
+    );
+    let csv_model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
+    let from_csv = estimates(
+        &identify(
+            &LogInfo::of_measured(
+                csv_model.clone(),
+                measured(&csv_model, &[read_table(&csv, &[]).unwrap()]).unwrap(),
+            ),
+            &options(),
+        )
+        .unwrap(),
+    );
+    for ((n, e, _), (_, c, _)) in from_mcap.iter().zip(&from_csv) {
+        assert!(
+            ((e - c) / c).abs() < 1e-9,
+            "{n}: {e} from the MCAP's JSON vs {c} from the CSV"
+        );
+    }
+    // A wrong topic names the ones there are; a missing field names the message.
+    let wrong = model_text.replace("/rig/state", "/rig/stat");
+    let m = Scenario::parse(&wrong, "model.toml", "m").unwrap();
+    let e = fpkbench::io::table::read_for(&json, m.data.as_ref().unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no messages on topic \"/rig/stat\"") && e.contains("/rig/state"),
+        "{e}"
+    );
+    let missing = model_text.replace("pos.x", "pos.y");
+    let m = Scenario::parse(&missing, "model.toml", "m").unwrap();
+    let e = fpkbench::io::table::read_for(&json, m.data.as_ref().unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("message 1") && e.contains("no numeric field \"pos.y\""),
+        "{e}"
+    );
+}

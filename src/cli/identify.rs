@@ -185,7 +185,7 @@ fn measured_info(model: &Path, data: &[PathBuf]) -> anyhow::Result<fpkbench::io:
     };
     let tables = data
         .iter()
-        .map(|p| fpkbench::io::table::read_table(p, &mapping.npy_columns))
+        .map(|p| fpkbench::io::table::read_for(p, mapping))
         .collect::<Result<Vec<_>, _>>()?;
     let measured = fpkbench::io::table::measured(&scenario, &tables)?;
     for n in &measured.notes {

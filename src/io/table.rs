@@ -68,6 +68,103 @@ impl Table {
     }
 }
 
+/// Read the table `path` holds for a model's `[data]`: CSV, npy, or — for `.mcap` — the
+/// JSON messages of its `topic`.
+pub fn read_for(path: &Path, d: &DataMapping) -> Result<Table, DataError> {
+    if path.extension().and_then(|e| e.to_str()) == Some("mcap") {
+        let Some(topic) = &d.topic else {
+            return Err(err(path, "an MCAP file needs the topic to read: [data] topic = \"/…\""));
+        };
+        let mut fields: Vec<String> = d.columns.iter().map(|c| c.1.clone()).collect();
+        fields.extend(d.time.iter().chain(&d.record).cloned());
+        fields.dedup();
+        return read_mcap_json(path, topic, &fields);
+    }
+    read_table(path, &d.npy_columns)
+}
+
+/// The JSON messages of `topic` in an MCAP file written by any tool: per message its
+/// `log_time` (s) and the numeric fields named in `fields` (a dotted path reaches into
+/// nested objects: `pose.angle`).
+pub fn read_mcap_json(path: &Path, topic: &str, fields: &[String]) -> Result<Table, DataError> {
+    use super::reader::{McapFile, Record, Scan};
+    use std::ops::ControlFlow;
+    let file = McapFile::open(path).map_err(|e| err(path, e.to_string()))?;
+    let mut channels: Vec<(u16, String, String)> = Vec::new();
+    let wanted: Vec<String> = fields.iter().filter(|f| f.as_str() != "log_time").cloned().collect();
+    let mut names = vec!["log_time".to_string()];
+    names.extend(wanted.iter().cloned());
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    let mut failure: Option<String> = None;
+    let mut count = 0usize;
+    Scan::new(file)
+        .run(|rec, offset| {
+            match rec {
+                Record::Channel {
+                    id,
+                    topic: t,
+                    message_encoding,
+                    ..
+                } => channels.push((id, t, message_encoding)),
+                Record::Message {
+                    channel_id,
+                    log_time,
+                    data,
+                } => {
+                    let Some((_, _, enc)) = channels.iter().find(|c| c.0 == channel_id && c.1 == topic) else {
+                        return ControlFlow::Continue(());
+                    };
+                    count += 1;
+                    if enc != "json" {
+                        failure = Some(format!(
+                            "topic {topic:?} has {enc:?} messages: only JSON-encoded messages are read here (export \
+                             other encodings to CSV)"
+                        ));
+                        return ControlFlow::Break(());
+                    }
+                    let v: serde_json::Value = match serde_json::from_slice(data) {
+                        Ok(v) => v,
+                        Err(e) => {
+                            failure = Some(format!("message {count} (byte {offset}) on {topic:?}: not JSON: {e}"));
+                            return ControlFlow::Break(());
+                        }
+                    };
+                    columns[0].push(log_time as f64 * 1e-9);
+                    for (k, f) in wanted.iter().enumerate() {
+                        let x = f.split('.').try_fold(&v, |v, key| v.get(key)).and_then(|x| x.as_f64());
+                        match x {
+                            Some(x) => columns[k + 1].push(x),
+                            None => {
+                                failure = Some(format!(
+                                    "message {count} (byte {offset}) on {topic:?}: no numeric field {f:?}"
+                                ));
+                                return ControlFlow::Break(());
+                            }
+                        }
+                    }
+                }
+                _ => {}
+            }
+            ControlFlow::Continue(())
+        })
+        .map_err(|e| err(path, e.to_string()))?;
+    if let Some(f) = failure {
+        return Err(err(path, f));
+    }
+    if count == 0 {
+        let topics: Vec<&str> = channels.iter().map(|c| c.1.as_str()).collect();
+        return Err(err(
+            path,
+            format!("no messages on topic {topic:?}; the file has {}", topics.join(", ")),
+        ));
+    }
+    Ok(Table {
+        path: path.to_path_buf(),
+        names,
+        columns,
+    })
+}
+
 /// Read a CSV or `.npy` table (by extension); `npy_columns` names a plain 2-D array's
 /// columns.
 pub fn read_table(path: &Path, npy_columns: &[String]) -> Result<Table, DataError> {
@@ -263,6 +360,54 @@ fn read_npy(path: &Path, b: &[u8], npy_columns: &[String]) -> Result<Table, Data
     })
 }
 
+/// Units that make no physical sense: where a mass's displacement and velocity (or velocity
+/// and acceleration) are both mapped and sampled finely (`ω·h < 0.5`), the derivative's
+/// column must have the scale of the other's rate of change, `std(Δ/2h)`, within a factor
+/// of 2 — else a warning (degrees against radians is a factor of 57.3).
+fn unit_checks(
+    samples: &[f64],
+    width: usize,
+    h: f64,
+    m: &crate::model::Model,
+    mapped: &[usize],
+    names: &[String],
+) -> Vec<String> {
+    let n = samples.len() / width;
+    let col = |k: usize| -> Vec<f64> { (0..n).map(|s| samples[s * width + k]).collect() };
+    let std = |v: &[f64]| {
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+    };
+    let layout = m.columns();
+    let mut out = Vec::new();
+    if n < 3 {
+        return out;
+    }
+    for i in 0..m.masses() {
+        for (f, d) in [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))] {
+            if !mapped.contains(&f) || !mapped.contains(&d) {
+                continue;
+            }
+            let (fv, dv) = (col(f), col(d));
+            let rate: Vec<f64> = (1..n - 1).map(|s| (fv[s + 1] - fv[s - 1]) / (2.0 * h)).collect();
+            let (sf, sr, sd) = (std(&fv), std(&rate), std(&dv));
+            let wh = sr / sf * h;
+            if sf > 0.0 && sd > 0.0 && wh < 0.5 {
+                let ratio = sd / sr;
+                if !(0.5..=2.0).contains(&ratio) {
+                    out.push(format!(
+                        "WARNING: the units look inconsistent: {} varies {ratio:.3} times as much as the rate of \
+                         change of {} (std {sd:.4e} against {sr:.4e}); check [data.scale] (degrees against \
+                         radians is a factor of 57.3)",
+                        names[d], names[f]
+                    ));
+                }
+            }
+        }
+    }
+    out
+}
+
 /// `ω·h` above which differentiating displacements is too coarse (a 0.17 % smoothing of
 /// the velocity's amplitude; the weak form's moments amplify it).
 pub const DERIVE_LIMIT: f64 = 0.1;
@@ -439,6 +584,16 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
                         }
                     }
                 }
+            }
+            if rk == 0 {
+                notes.extend(unit_checks(
+                    &samples,
+                    width,
+                    h,
+                    &m,
+                    &mapped.iter().map(|x| x.0).collect::<Vec<_>>(),
+                    &names,
+                ));
             }
             let times = (0..rows.len()).map(|s| (s + 1) as f64 * h).collect();
             records.push((times, samples));

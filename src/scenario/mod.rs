@@ -192,7 +192,7 @@ pub struct Simulation {
 
 impl Simulation {
     /// The settings of a model file before its data are read (see
-    /// [`Scenario::with_data_facts`]).
+    /// [`crate::io::log::LogInfo::of_measured`]).
     pub fn placeholder() -> Simulation {
         Simulation {
             dt: 1.0,
@@ -452,6 +452,9 @@ pub struct DataMapping {
     pub scale: BTreeMap<String, f64>,
     /// Column names of a plain 2-D `.npy` array, in order.
     pub npy_columns: Vec<String>,
+    /// The topic of an MCAP file from another tool (JSON messages; the columns are the
+    /// messages' fields, `log_time` their log time in s).
+    pub topic: Option<String>,
     /// Velocities the table lacks are derived from the displacements (central differences).
     pub derive_velocity: bool,
 }

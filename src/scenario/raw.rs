@@ -35,6 +35,7 @@ pub(crate) struct RawData {
     pub(super) columns: Spanned<BTreeMap<String, Spanned<String>>>,
     pub(super) scale: Option<BTreeMap<String, Spanned<f64>>>,
     pub(super) npy_columns: Option<Vec<Spanned<String>>>,
+    pub(super) topic: Option<Spanned<String>>,
     pub(super) derive_velocity: Option<bool>,
 }
 
