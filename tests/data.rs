@@ -203,7 +203,7 @@ fn bad_data_are_refused_naming_the_file_row_and_column() {
             "velocity missing",
             MODEL.replace("v_m1 = \"v_m1\"\n", ""),
             good.clone(),
-            vec!["no v_m1", "derive_velocity"],
+            vec!["no v_m1", "derive = true"],
         ),
         (
             "wrong field count",
@@ -230,7 +230,7 @@ fn velocities_can_be_derived_from_displacements_and_coarse_sampling_is_flagged()
     let model = Scenario::parse(
         &MODEL
             .replace("v_m1 = \"v_m1\"\n", "")
-            .replace("[data.columns]", "derive_velocity = true\n[data.columns]"),
+            .replace("[data.columns]", "derive = true\n[data.columns]"),
         "model.toml",
         "m",
     )
@@ -432,4 +432,51 @@ fn json_messages_of_an_mcap_file_from_another_tool_are_read_by_topic() {
         e.contains("message 1") && e.contains("no numeric field \"pos.y\""),
         "{e}"
     );
+}
+
+#[test]
+fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
+    // The bushing's rig table without its acceleration column, sampled every 0.01 s with
+    // ω·h ≈ 1: the acceleration is derived from the velocity, the run warns that the
+    // sampling is too coarse for it, and the missing column is otherwise refused by name.
+    let dir = tempfile::tempdir().unwrap();
+    let src = std::fs::read_to_string("scenarios/silentblock.toml").unwrap();
+    let mut s = Scenario::parse(&src, "silentblock.toml", "silentblock").unwrap();
+    s.simulation.record_length /= 8.0;
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&s, &log);
+    let csv = dir.path().join("export.csv");
+    export(&log, "csv", &csv);
+    let text = std::fs::read_to_string("models/bushing.toml")
+        .unwrap()
+        .replace("time = \"time\"", "time = \"t\"")
+        .replace("record = \"run\"", "record = \"trajectory\"")
+        .replace("x_j = \"angle_deg\"", "x_j = \"x_j\"")
+        .replace("v_j = \"omega\"", "v_j = \"v_j\"")
+        .replace("a_j = \"alpha\"\n", "")
+        .replace("p_moment = \"moment\"", "p_moment = \"p_moment\"");
+    let no_a = Scenario::parse(&text, "bushing.toml", "b").unwrap();
+    let data = measured(&no_a, &[read_table(&csv, &[]).unwrap()]).unwrap();
+    let e = fpkbench::pipeline::check_measured(&LogInfo::of_measured(no_a, data)).unwrap_err();
+    assert!(e.contains("no a_j") && e.contains("derive = true"), "{e}");
+    let derived = Scenario::parse(
+        &text.replace("[data.columns]", "derive = true\n[data.columns]"),
+        "bushing.toml",
+        "b",
+    )
+    .unwrap();
+    let data = measured(&derived, &[read_table(&csv, &[]).unwrap()]).unwrap();
+    assert!(
+        data.notes.iter().any(|n| n.contains("a_j derived from v_j")),
+        "{:?}",
+        data.notes
+    );
+    assert!(
+        data.notes.iter().any(|n| n.contains("too coarse to differentiate v_j")),
+        "{:?}",
+        data.notes
+    );
+    let info = LogInfo::of_measured(derived, data);
+    fpkbench::pipeline::check_measured(&info).unwrap();
+    assert!(identify(&info, &options()).is_ok());
 }

@@ -545,39 +545,47 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
                     samples[s * width + k] = v[r] * scale(c);
                 }
             }
-            // Velocities from displacements by central differences (one-sided at the ends).
-            if d.derive_velocity {
+            // Derivatives the table lacks, by central differences (one-sided at the ends):
+            // velocities from displacements, then accelerations from velocities.
+            if d.derive {
+                let mut present: Vec<usize> = mapped.iter().map(|x| x.0).collect();
                 for i in 0..m.masses() {
-                    let (xk, vk) = (layout.x(i), layout.v(i));
-                    if mapped.iter().any(|(k, ..)| *k == vk) || !mapped.iter().any(|(k, ..)| *k == xk) {
-                        continue;
-                    }
-                    let n = rows.len();
-                    for s in 0..n {
-                        let (a, b) = (s.saturating_sub(1), (s + 1).min(n - 1));
-                        samples[s * width + vk] =
-                            (samples[b * width + xk] - samples[a * width + xk]) / ((b - a) as f64 * h);
-                    }
-                    if rk == 0 {
+                    for (fk, dk) in [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))] {
+                        if present.contains(&dk) || !present.contains(&fk) {
+                            continue;
+                        }
+                        let n = rows.len();
+                        for s in 0..n {
+                            let (a, b) = (s.saturating_sub(1), (s + 1).min(n - 1));
+                            samples[s * width + dk] =
+                                (samples[b * width + fk] - samples[a * width + fk]) / ((b - a) as f64 * h);
+                        }
+                        present.push(dk);
+                        if rk > 0 {
+                            continue;
+                        }
                         notes.push(format!(
                             "{} derived from {} by central differences over 2 × {h} s (docs/data.md)",
-                            names[vk], names[xk]
+                            names[dk], names[fk]
                         ));
                         // The rule's resolution: a motion at ω is smoothed by (ω·h)²/6, with ω
-                        // the response's typical frequency std(v)/std(x).
+                        // the signal's typical frequency std(derivative)/std(signal).
                         let std = |k: usize| {
                             let v: Vec<f64> = (0..n).map(|s| samples[s * width + k]).collect();
                             let m = v.iter().sum::<f64>() / n as f64;
                             (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n as f64).sqrt()
                         };
-                        let wh = std(vk) / std(xk) * h;
+                        let wh = std(dk) / std(fk) * h;
                         if wh > DERIVE_LIMIT {
                             notes.push(format!(
-                                "WARNING: the sampling is too coarse to differentiate {}: ω·h = {wh:.2} (ω = std(v)/std(x)), \
-                                 so the derived velocity is smoothed by about (ω·h)²/6 = {:.1} % and the estimates are \
-                                 biased (on sdof_duffing at ω·h = 0.33, k3 by −24 %); sample at least {:.0}× faster or \
-                                 measure the velocity",
-                                names[xk],
+                                "WARNING: the sampling is too coarse to differentiate {}: ω·h = {wh:.2} (ω = \
+                                 std({})/std({})), so the derived {} is smoothed by about (ω·h)²/6 = {:.1} % and the \
+                                 estimates are biased (on sdof_duffing at ω·h = 0.33, k3 by −24 %); sample at least \
+                                 {:.0}× faster or measure it",
+                                names[fk],
+                                names[dk],
+                                names[fk],
+                                names[dk],
                                 100.0 * wh * wh / 6.0,
                                 (wh / DERIVE_LIMIT).ceil()
                             ));

@@ -67,8 +67,8 @@ pub fn check_measured(info: &LogInfo) -> Result<(), String> {
             return Err(format!(
                 "the data have no {} (needed for {why}): map a column to it in the model file's [data.columns]{}",
                 info.columns[c],
-                if info.columns[c].starts_with("v_") {
-                    ", or set derive_velocity = true"
+                if info.columns[c].starts_with("v_") || info.columns[c].starts_with("a_") {
+                    ", or set derive = true"
                 } else {
                     ""
                 }

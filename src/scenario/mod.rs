@@ -455,8 +455,9 @@ pub struct DataMapping {
     /// The topic of an MCAP file from another tool (JSON messages; the columns are the
     /// messages' fields, `log_time` their log time in s).
     pub topic: Option<String>,
-    /// Velocities the table lacks are derived from the displacements (central differences).
-    pub derive_velocity: bool,
+    /// Derivatives the table lacks are derived (central differences): velocities from
+    /// displacements, accelerations from velocities.
+    pub derive: bool,
 }
 
 /// A checked scenario.

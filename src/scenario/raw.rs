@@ -36,7 +36,7 @@ pub(crate) struct RawData {
     pub(super) scale: Option<BTreeMap<String, Spanned<f64>>>,
     pub(super) npy_columns: Option<Vec<Spanned<String>>>,
     pub(super) topic: Option<Spanned<String>>,
-    pub(super) derive_velocity: Option<bool>,
+    pub(super) derive: Option<bool>,
 }
 
 #[derive(Deserialize)]

@@ -299,7 +299,7 @@ pub(crate) fn check_data(
         scale,
         npy_columns: d.npy_columns.iter().flatten().map(|c| c.get_ref().clone()).collect(),
         topic: d.topic.as_ref().map(|t| t.get_ref().clone()),
-        derive_velocity: d.derive_velocity.unwrap_or(false),
+        derive: d.derive.unwrap_or(false),
     }))
 }
 
