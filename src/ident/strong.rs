@@ -172,32 +172,10 @@ impl DensityGrid {
         self.batches.is_some()
     }
 
-    /// Add one sample of batch `batch`.
+    /// Add one sample of batch `batch` (also to that batch's counts, if kept).
     #[inline]
     pub fn push_in(&mut self, batch: usize, row: &[f64]) {
-        let Some(bc) = self.batches.as_mut() else {
-            return self.push(row);
-        };
-        self.total += 1;
-        bc.total[batch] += 1;
-        let mut idx = 0;
-        let mut inside = true;
-        for j in 0..self.dim {
-            match crate::stats::bin((row[self.columns[j]] - self.lo[j]) / self.h[j], self.options.bins) {
-                Some(b) => {
-                    self.marginals[j][b] += 1;
-                    bc.marginals[batch][j][b] += 1;
-                    idx += b * self.stride[j];
-                }
-                None => inside = false,
-            }
-        }
-        if inside {
-            self.counts[idx] += 1.0;
-            bc.counts[batch][idx] += 1;
-            self.inside += 1;
-            bc.inside[batch] += 1;
-        }
+        self.add(Some(batch), row);
     }
 
     /// The jackknife's replicates: per non-empty batch, the grid of all samples but that
@@ -248,14 +226,27 @@ impl DensityGrid {
     /// Add one sample (`row`: the log's columns).
     #[inline]
     pub fn push(&mut self, row: &[f64]) {
+        self.add(None, row);
+    }
+
+    /// Bin one sample into the grid, its marginals and, with `batch`, that batch's counts.
+    #[inline]
+    fn add(&mut self, batch: Option<usize>, row: &[f64]) {
+        let mut bc = batch.and_then(|b| self.batches.as_mut().map(|bc| (b, bc)));
         self.total += 1;
+        if let Some((b, bc)) = bc.as_mut() {
+            bc.total[*b] += 1;
+        }
         let mut idx = 0;
         let mut inside = true;
         for j in 0..self.dim {
             match crate::stats::bin((row[self.columns[j]] - self.lo[j]) / self.h[j], self.options.bins) {
-                Some(b) => {
-                    self.marginals[j][b] += 1;
-                    idx += b * self.stride[j];
+                Some(k) => {
+                    self.marginals[j][k] += 1;
+                    if let Some((b, bc)) = bc.as_mut() {
+                        bc.marginals[*b][j][k] += 1;
+                    }
+                    idx += k * self.stride[j];
                 }
                 None => inside = false,
             }
@@ -263,6 +254,10 @@ impl DensityGrid {
         if inside {
             self.counts[idx] += 1.0;
             self.inside += 1;
+            if let Some((b, bc)) = bc {
+                bc.counts[b][idx] += 1;
+                bc.inside[b] += 1;
+            }
         }
     }
 
