@@ -480,3 +480,41 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
     fpkbench::pipeline::check_measured(&info).unwrap();
     assert!(identify(&info, &options()).is_ok());
 }
+
+/// The validation's response spectra tell the right model from a wrong one: re-simulating
+/// the identified Duffing model reproduces the data's displacement spectrum to within what
+/// the averaging alone gives, a linear model fitted to the same data does not.
+#[test]
+fn validation_spectra_tell_a_wrong_model_from_the_right_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&common::small_scenario(312.5, 32), &log);
+    let file = dir.path().join("run.npy");
+    export(&log, "npy", &file);
+    let table = read_table(&file, &[]).unwrap();
+    let with_validation = Options {
+        validate: true,
+        ..options()
+    };
+    let spectrum_of_x = |model_text: &str| {
+        let model = Scenario::parse(model_text, "model.toml", "m").unwrap();
+        let info = LogInfo::of_measured(model.clone(), measured(&model, std::slice::from_ref(&table)).unwrap());
+        let r = identify(&info, &with_validation).unwrap();
+        let v = r.validation.expect("validated");
+        let row = v.rows.iter().find(|row| row.variable == "x_m1").unwrap();
+        row.spectrum.clone().expect("compared")
+    };
+    let right = spectrum_of_x(MODEL);
+    let wrong = spectrum_of_x(&MODEL.replace("stiffness = [1, 3]", "stiffness = [1]"));
+    // With the right model the RMS is the averaging's alone: their ratio is 1 within about
+    // 1/√(2·bins) ≈ 0.1 (≈ 50 bins in the band; measured 1.03). The linear model's spectrum
+    // is off by a systematic ≈ 0.17 in ln (measured ratio 2.4 on this record).
+    assert!(
+        right.rms_log_difference < 1.3 * right.averaging_alone,
+        "right model: {right:?}"
+    );
+    assert!(
+        wrong.rms_log_difference > 1.8 * wrong.averaging_alone,
+        "linear model: {wrong:?}"
+    );
+}

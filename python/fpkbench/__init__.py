@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Optional, Sequence, Tuple, Union
 
@@ -88,7 +89,10 @@ def identify(
 ) -> Result:
     """Identify ``data`` — a mapping of column name to array (a dict of numpy arrays, a
     pandas DataFrame) — with a model (path or dict) whose ``[data]`` section maps the
-    model's quantities onto those columns (see docs/data.md)."""
+    model's quantities onto those columns (see docs/data.md). Bad data raise
+    ``ValueError`` naming the row and column; warnings about the data (sampling too coarse
+    to differentiate, units that do not fit together) are issued as ``UserWarning`` and
+    kept in ``report["data_notes"]``."""
     text, label, is_json = _spec(model)
     names, columns = [], []
     for name in (data.columns if hasattr(data, "columns") else data.keys()):
@@ -98,9 +102,14 @@ def identify(
         if col.ndim != 1:
             raise ValueError(f"column {name!r}: one value per sample expected, got shape {col.shape}")
         names.append(str(name))
-        columns.append(col.tolist())
+        columns.append(np.ascontiguousarray(col, dtype="<f8").tobytes())
     report = _native.identify_table(text, label, is_json, names, columns, list(methods or []), validate)
-    return Result._of(report)
+    result = Result._of(report)
+    # What reading the data found that a user must see (coarse sampling, units).
+    for note in result.report.get("data_notes", []):
+        if note.startswith("WARNING"):
+            warnings.warn(note, UserWarning, stacklevel=2)
+    return result
 
 
 def run(scenario: Spec, methods: Optional[Sequence[str]] = None, validate: bool = True) -> Result:

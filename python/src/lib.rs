@@ -83,7 +83,8 @@ fn simulate_scenario(
     })
 }
 
-/// Identify measured columns with a model file: the report as JSON.
+/// Identify measured columns (each the bytes of a little-endian float64 array) with a model
+/// file: the report as JSON.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 fn identify_table(
@@ -92,13 +93,22 @@ fn identify_table(
     label: &str,
     json: bool,
     names: Vec<String>,
-    columns: Vec<Vec<f64>>,
+    columns: Vec<Vec<u8>>,
     methods: Vec<String>,
     validate: bool,
 ) -> PyResult<String> {
     let model = parse(model_text, label, json)?;
     let options = options(methods, validate)?;
     py.detach(|| {
+        // Each column arrives as the bytes of a contiguous little-endian float64 array.
+        let columns: Vec<Vec<f64>> = columns
+            .iter()
+            .map(|b| {
+                b.chunks_exact(8)
+                    .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                    .collect()
+            })
+            .collect();
         if model.data.is_none() {
             return Err(err(format!("{label}: a model needs a [data] section (a \"data\" table) mapping its quantities onto the data's columns")));
         }

@@ -80,6 +80,78 @@ def test_bad_data_raise_with_the_tools_messages():
         fpkbench.identify(data, MODEL, methods=["fast"])
 
 
+def _sdof_data():
+    """The SDOF log as a rig would write it: one record after another (32 of 3125 rows)."""
+    data = fpkbench.simulate(SDOF)
+    data.pop("truth")
+    order = np.argsort(data["trajectory"], kind="stable")
+    return {k: v[order] for k, v in data.items()}
+
+
+def _with(data, name, values):
+    out = dict(data)
+    out[name] = values
+    return out
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("inf", r"row 6, column \"v_m1\": inf"),
+        ("time backwards", r"row 4: time .* does not increase .* in record 0"),
+        ("irregular time", r"row 8: time step .* evenly spaced"),
+        ("gap between records", r"split a record at a gap with the record column"),
+        ("constant column", r"column \"x_m1\" is constant"),
+        ("misspelt column", r"no column \"v_m1\" .* did you mean \"V_m1\""),
+        ("too few samples", r"250 samples for 3 unknowns: at least 100 per unknown"),
+    ],
+)
+def test_each_bad_data_case_raises_naming_the_place(case, message):
+    data = _sdof_data()
+    if case == "inf":
+        v = data["v_m1"].copy()
+        v[5] = math.inf
+        data = _with(data, "v_m1", v)
+    elif case == "time backwards":
+        t = data["t"].copy()
+        t[3] = t[1]
+        data = _with(data, "t", t)
+    elif case == "irregular time":
+        t = data["t"].copy()
+        t[7:] += 0.01
+        data = _with(data, "t", t)
+    elif case == "gap between records":
+        # Two records glued into one without telling the record column: the time jumps.
+        data = {k: v[:6250].copy() for k, v in data.items()}
+        data["trajectory"][:] = 0
+        data["t"][3125:] += 412.5
+    elif case == "constant column":
+        data = _with(data, "x_m1", np.full_like(data["x_m1"], 0.25))
+    elif case == "misspelt column":
+        data["V_m1"] = data.pop("v_m1")
+    elif case == "too few samples":
+        data = {k: v[:250] for k, v in data.items()}
+    with pytest.raises(ValueError, match=message):
+        fpkbench.identify(data, MODEL, validate=False)
+
+
+def test_units_that_do_not_fit_together_warn():
+    data = _sdof_data()
+    data["v_m1"] = data["v_m1"] * 57.29578  # degrees per second against radians
+    with pytest.warns(UserWarning, match="units look inconsistent"):
+        res = fpkbench.identify(data, MODEL, validate=False)
+    assert any("units look inconsistent" in n for n in res.report["data_notes"])
+
+
+def test_validation_compares_the_response_spectra():
+    data = _sdof_data()
+    res = fpkbench.identify(data, MODEL)
+    rows = {r["variable"]: r for r in res.report["validation"]["rows"]}
+    sp = rows["x_m1"]["spectrum"]
+    # The right model: the spectra differ by what the averaging alone gives.
+    assert sp["rms_log_difference"] < 1.3 * sp["averaging_alone"], sp
+
+
 def _sigma_unknown():
     """sdof_duffing with its intensity unknown: refused before any simulation."""
     import tomllib

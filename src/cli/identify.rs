@@ -112,8 +112,9 @@ pub struct Args {
     /// coefficients to identify need no values): see docs/data.md.
     #[arg(long, requires = "data", conflicts_with = "log")]
     pub model: Option<PathBuf>,
-    /// Measured data: CSV or .npy files, each file (or each value of the [data] record
-    /// column) an independent record.
+    /// Measured data: CSV or .npy files, or MCAP files of another tool (the [data] topic's
+    /// JSON, ROS 2 CDR or protobuf messages); each file (or each value of the [data]
+    /// record column) an independent record.
     #[arg(long, num_args = 1.., requires = "model")]
     pub data: Vec<PathBuf>,
     /// Identify a truncated log (a killed writer) from the samples it still holds, instead
@@ -188,9 +189,6 @@ fn measured_info(model: &Path, data: &[PathBuf]) -> anyhow::Result<fpkbench::io:
         .map(|p| fpkbench::io::table::read_for(p, mapping))
         .collect::<Result<Vec<_>, _>>()?;
     let measured = fpkbench::io::table::measured(&scenario, &tables)?;
-    for n in &measured.notes {
-        eprintln!("note: {n}");
-    }
     let info = fpkbench::io::log::LogInfo::of_measured(scenario, measured);
     fpkbench::pipeline::preflight(&info.scenario).map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
     fpkbench::pipeline::check_measured(&info).map_err(|e| anyhow::anyhow!("{}: {e}", data[0].display()))?;

@@ -116,6 +116,11 @@ impl Welch {
         want.next_power_of_two().clamp(64, cap.max(64))
     }
 
+    /// An empty estimator with this one's segment length and interval for `trajectories`.
+    pub fn fresh(&self, trajectories: usize) -> Welch {
+        Welch::new(self.len, self.dt, trajectories)
+    }
+
     pub fn push(&mut self, trajectory: usize, x: f64) {
         if trajectory >= self.buffers.len() {
             return;
@@ -124,10 +129,11 @@ impl Welch {
         if self.buffers[trajectory].len() == self.len {
             let seg = std::mem::take(&mut self.buffers[trajectory]);
             self.segment(&seg);
-            // 50 % overlap: keep the second half.
-            let mut rest = Vec::with_capacity(self.len);
-            rest.extend_from_slice(&seg[self.len / 2..]);
-            self.buffers[trajectory] = rest;
+            // 50 % overlap: keep the second half (in the same buffer, no allocation).
+            let mut seg = seg;
+            seg.copy_within(self.len / 2.., 0);
+            seg.truncate(self.len / 2);
+            self.buffers[trajectory] = seg;
         }
     }
 

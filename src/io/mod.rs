@@ -3,6 +3,7 @@
 //! Everything here converts between files and the library's in-memory types; the
 //! numerics (`model`, `sim`) never import this module.
 
+pub mod decode;
 pub mod export;
 pub mod log;
 pub mod output;

@@ -69,7 +69,7 @@ impl Table {
 }
 
 /// Read the table `path` holds for a model's `[data]`: CSV, npy, or — for `.mcap` — the
-/// JSON messages of its `topic`.
+/// messages of its `topic` (JSON, ROS 2 CDR or protobuf).
 pub fn read_for(path: &Path, d: &DataMapping) -> Result<Table, DataError> {
     if path.extension().and_then(|e| e.to_str()) == Some("mcap") {
         let Some(topic) = &d.topic else {
@@ -78,19 +78,23 @@ pub fn read_for(path: &Path, d: &DataMapping) -> Result<Table, DataError> {
         let mut fields: Vec<String> = d.columns.iter().map(|c| c.1.clone()).collect();
         fields.extend(d.time.iter().chain(&d.record).cloned());
         fields.dedup();
-        return read_mcap_json(path, topic, &fields);
+        return read_mcap_topic(path, topic, &fields);
     }
     read_table(path, &d.npy_columns)
 }
 
-/// The JSON messages of `topic` in an MCAP file written by any tool: per message its
-/// `log_time` (s) and the numeric fields named in `fields` (a dotted path reaches into
-/// nested objects: `pose.angle`).
-pub fn read_mcap_json(path: &Path, topic: &str, fields: &[String]) -> Result<Table, DataError> {
+/// The messages of `topic` in an MCAP file written by any tool (JSON, ROS 2 CDR or
+/// protobuf; [`super::decode`]): per message its `log_time` (s) and the numeric fields named
+/// in `fields` (a dotted path reaches into nested records and lists: `pose.angle`,
+/// `position.0`).
+pub fn read_mcap_topic(path: &Path, topic: &str, fields: &[String]) -> Result<Table, DataError> {
+    use super::decode::Decoder;
     use super::reader::{McapFile, Record, Scan};
     use std::ops::ControlFlow;
     let file = McapFile::open(path).map_err(|e| err(path, e.to_string()))?;
-    let mut channels: Vec<(u16, String, String)> = Vec::new();
+    let mut schemas: Vec<(u16, String, String, Vec<u8>)> = Vec::new();
+    // Per channel: id, topic, and its decoder (or why there is none).
+    let mut channels: Vec<(u16, String, Result<Decoder, String>)> = Vec::new();
     let wanted: Vec<String> = fields.iter().filter(|f| f.as_str() != "log_time").cloned().collect();
     let mut names = vec!["log_time".to_string()];
     names.extend(wanted.iter().cloned());
@@ -100,39 +104,57 @@ pub fn read_mcap_json(path: &Path, topic: &str, fields: &[String]) -> Result<Tab
     Scan::new(file)
         .run(|rec, offset| {
             match rec {
+                Record::Schema {
+                    id,
+                    name,
+                    encoding,
+                    data,
+                } => schemas.push((id, name, encoding, data.to_vec())),
                 Record::Channel {
                     id,
+                    schema_id,
                     topic: t,
                     message_encoding,
                     ..
-                } => channels.push((id, t, message_encoding)),
+                } => {
+                    let schema = schemas
+                        .iter()
+                        .rev()
+                        .find(|s| s.0 == schema_id && schema_id != 0)
+                        .map(|s| (s.1.as_str(), s.2.as_str(), s.3.as_slice()));
+                    let decoder = if t == topic {
+                        Decoder::new(&message_encoding, schema)
+                    } else {
+                        Err(String::new())
+                    };
+                    channels.push((id, t, decoder));
+                }
                 Record::Message {
                     channel_id,
                     log_time,
                     data,
                 } => {
-                    let Some((_, _, enc)) = channels.iter().find(|c| c.0 == channel_id && c.1 == topic) else {
+                    let Some((_, _, decoder)) = channels.iter().find(|c| c.0 == channel_id && c.1 == topic) else {
                         return ControlFlow::Continue(());
                     };
                     count += 1;
-                    if enc != "json" {
-                        failure = Some(format!(
-                            "topic {topic:?} has {enc:?} messages: only JSON-encoded messages are read here (export \
-                             other encodings to CSV)"
-                        ));
-                        return ControlFlow::Break(());
-                    }
-                    let v: serde_json::Value = match serde_json::from_slice(data) {
+                    let decoder = match decoder {
+                        Ok(d) => d,
+                        Err(why) => {
+                            failure = Some(format!("topic {topic:?}: {why}"));
+                            return ControlFlow::Break(());
+                        }
+                    };
+                    let v = match decoder.decode(data) {
                         Ok(v) => v,
                         Err(e) => {
-                            failure = Some(format!("message {count} (byte {offset}) on {topic:?}: not JSON: {e}"));
+                            failure = Some(format!("message {count} (byte {offset}) on {topic:?}: {e}"));
                             return ControlFlow::Break(());
                         }
                     };
                     columns[0].push(log_time as f64 * 1e-9);
                     for (k, f) in wanted.iter().enumerate() {
-                        let x = f.split('.').try_fold(&v, |v, key| v.get(key)).and_then(|x| x.as_f64());
-                        match x {
+                        match v.at(f) {
                             Some(x) => columns[k + 1].push(x),
                             None => {
                                 failure = Some(format!(

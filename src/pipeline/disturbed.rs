@@ -109,7 +109,7 @@ pub(crate) fn identify_disturbed(
             row[log.force(st.measured)] + m1 * row[log.a(st.free)],
             row[log.x(st.free)] - row[log.x(st.driven)],
         );
-        dist.push(row);
+        dist.push(traj as usize, row);
     })?;
 
     // Filters: P2 as the identifier uses it; the disturbances' for the bound.

@@ -72,6 +72,7 @@ pub(crate) fn assemble(
             identify: identify_s,
             total: identify_s,
         },
+        data_notes: info.measured.as_ref().map(|m| m.notes.clone()).unwrap_or_default(),
         filters,
         methods,
         validation,

@@ -156,7 +156,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         if let Some(Ok(g)) = grid.as_mut() {
             g.push_in(data.batch_of(traj, t), row);
         }
-        dist.push(row);
+        dist.push(traj as usize, row);
         forces.push(traj, row);
     })?;
 

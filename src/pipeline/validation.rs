@@ -1,19 +1,21 @@
 //! Validation by re-simulation: the identified model is simulated again (another seed) and
-//! its std, kurtosis and marginal densities are compared with the data's.
+//! its std, kurtosis, marginal densities and spectra are compared with the data's.
 
 use super::grading::coefficients_of;
 use crate::ident::data::StationaryData;
+use crate::ident::spectrum::{Spectrum, Welch};
 use crate::ident::{spectrum, Problem, Unknown};
 use crate::model::Quantity;
 use crate::model::{Characteristic, Coefficient, Model};
-use crate::report::{PlotData, Validation, ValidationRow};
+use crate::report::{PlotData, SpectrumComparison, Validation, ValidationRow};
 use crate::scenario::ReportMethod;
 use crate::scenario::{Process, Scenario};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
 use crate::stats;
 use crate::stats::Histogram;
 
-/// Per-variable sums for std and kurtosis plus a histogram, from any sample source.
+/// Per-variable sums for std and kurtosis, a histogram and a Welch spectrum, from any
+/// sample source.
 pub(crate) struct Marginals {
     cols: Vec<usize>,
     s1: Vec<f64>,
@@ -22,10 +24,11 @@ pub(crate) struct Marginals {
     s4: Vec<f64>,
     n: f64,
     hist: Vec<Histogram>,
+    welch: Vec<Welch>,
 }
 
 impl Marginals {
-    pub(crate) fn new(cols: Vec<usize>, hist: Vec<Histogram>) -> Marginals {
+    pub(crate) fn new(cols: Vec<usize>, hist: Vec<Histogram>, welch: Vec<Welch>) -> Marginals {
         let d = cols.len();
         Marginals {
             cols,
@@ -35,9 +38,10 @@ impl Marginals {
             s4: vec![0.0; d],
             n: 0.0,
             hist,
+            welch,
         }
     }
-    pub(crate) fn push(&mut self, row: &[f64]) {
+    pub(crate) fn push(&mut self, trajectory: usize, row: &[f64]) {
         for (j, &c) in self.cols.iter().enumerate() {
             let z = row[c];
             self.s1[j] += z;
@@ -45,6 +49,7 @@ impl Marginals {
             self.s3[j] += z * z * z;
             self.s4[j] += z * z * z * z;
             self.hist[j].push(z);
+            self.welch[j].push(trajectory, z);
         }
         self.n += 1.0;
     }
@@ -63,12 +68,62 @@ impl Marginals {
 
 impl SampleSink for Marginals {
     fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        b.for_each_sample(|_, _, row| self.push(row));
+        b.for_each_sample(|j, _, row| self.push(j as usize, row));
         Ok(())
     }
 }
 
 pub(crate) const HIST_BINS: usize = 80;
+
+/// The response spectra's segment length: an eighth of a trajectory (at least 8 segments
+/// with overlap), between 64 and 1024 samples.
+fn response_segment(samples_per_trajectory: usize) -> usize {
+    (samples_per_trajectory / 8).next_power_of_two().clamp(64, 1024)
+}
+
+/// How far two Welch estimates of one response differ: the RMS of `ln(model/data)` over
+/// the band that holds 99 % of the data's variance, with what the averaging alone gives
+/// (`ln` of an average of `K` periodograms scatters by about `1/√K`), and both peaks.
+pub(crate) fn compare_spectra(data: &Spectrum, model: &Spectrum) -> Option<SpectrumComparison> {
+    let total: f64 = data.density.iter().sum();
+    if !(total > 0.0) || data.omega.len() != model.omega.len() {
+        return None;
+    }
+    let mut cum = 0.0;
+    let mut band = data.density.len();
+    for (k, d) in data.density.iter().enumerate() {
+        cum += d;
+        if cum >= 0.99 * total {
+            band = k + 1;
+            break;
+        }
+    }
+    let band = band.max(4).min(data.density.len());
+    let (mut sum, mut n) = (0.0, 0usize);
+    for k in 0..band {
+        let (d, m) = (data.density[k], model.density[k]);
+        if d > 0.0 && m > 0.0 {
+            sum += (m / d).ln().powi(2);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return None;
+    }
+    let peak = |s: &Spectrum| {
+        let k = (0..band)
+            .max_by(|&a, &b| s.density[a].total_cmp(&s.density[b]))
+            .unwrap_or(0);
+        s.omega[k]
+    };
+    Some(SpectrumComparison {
+        band_rad_s: data.omega[band - 1],
+        rms_log_difference: (sum / n as f64).sqrt(),
+        averaging_alone: (1.0 / data.segments.max(1) as f64 + 1.0 / model.segments.max(1) as f64).sqrt(),
+        data_peak_rad_s: peak(data),
+        model_peak_rad_s: peak(model),
+    })
+}
 
 /// The data's distributions behind the plots and the validation, filled in pass 2:
 /// histograms of every link's relative displacement and velocity, and moments and
@@ -79,6 +134,8 @@ pub(crate) struct Distributions {
     link_hist: Vec<(Histogram, Histogram)>,
     /// Empty histograms over the data's ranges (the validation fills copies).
     state_hist: Vec<Histogram>,
+    /// Empty Welch estimators of the data's segment length (the validation fills copies).
+    welch: Welch,
     marg: Marginals,
     /// Per state variable: name, unit, data histogram, model histogram.
     names: Vec<(String, String)>,
@@ -99,6 +156,12 @@ impl Distributions {
                 (name.clone(), q.unit(s.motion).to_string())
             })
             .collect();
+        let sim = &s.simulation;
+        let welch = Welch::new(
+            response_segment(sim.samples_per_trajectory()),
+            sim.sample_interval,
+            sim.trajectories,
+        );
         Distributions {
             model: problem.model.clone(),
             link_hist: data
@@ -111,20 +174,25 @@ impl Distributions {
                     )
                 })
                 .collect(),
-            marg: Marginals::new(problem.columns.clone(), state_hist.clone()),
+            marg: Marginals::new(
+                problem.columns.clone(),
+                state_hist.clone(),
+                vec![welch.clone(); problem.dim()],
+            ),
             state_hist,
+            welch,
             names,
             model_marg: None,
         }
     }
 
-    pub(crate) fn push(&mut self, row: &[f64]) {
+    pub(crate) fn push(&mut self, trajectory: usize, row: &[f64]) {
         for (l, h) in self.link_hist.iter_mut().enumerate() {
             let (u, w) = self.model.link_motion(l, row);
             h.0.push(u);
             h.1.push(w);
         }
-        self.marg.push(row);
+        self.marg.push(trajectory, row);
     }
 
     /// The validation table for `values` (keeping the re-simulated distributions).
@@ -143,6 +211,7 @@ impl Distributions {
             method.clone(),
             &self.marg,
             &self.state_hist,
+            &self.welch,
         ) {
             Ok((val, m)) => {
                 self.model_marg = Some(m);
@@ -161,7 +230,21 @@ impl Distributions {
 
     pub(crate) fn into_plot(self, spectra: Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>) -> PlotData {
         let model_hist = |j: usize| self.model_marg.as_ref().map(|m| m.hist[j].clone());
+        let model_spectrum = |j: usize| self.model_marg.as_ref().map(|m| m.welch[j].spectrum());
         PlotData {
+            response_spectra: self
+                .names
+                .iter()
+                .enumerate()
+                .map(|(j, (name, unit))| {
+                    (
+                        name.clone(),
+                        unit.clone(),
+                        self.marg.welch[j].spectrum(),
+                        model_spectrum(j),
+                    )
+                })
+                .collect(),
             marginals: self
                 .names
                 .iter()
@@ -216,7 +299,7 @@ pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coeff
 }
 
 /// Re-simulate the identified model with the same excitation (another seed) and compare
-/// std and kurtosis of every response with the data's.
+/// std, kurtosis and spectrum of every response with the data's.
 pub(crate) fn validate(
     s: &Scenario,
     problem: &Problem,
@@ -225,6 +308,7 @@ pub(crate) fn validate(
     method: ReportMethod,
     data: &Marginals,
     hist: &[Histogram],
+    welch: &Welch,
 ) -> Result<(Validation, Marginals), SimError> {
     let model = identified_model(s, problem, coef_of, values);
     // The same run, another seed, at most 1e5 s of trajectory time: enough for std and
@@ -238,6 +322,7 @@ pub(crate) fn validate(
         hist.iter()
             .map(|h| Histogram::new(h.lo, h.hi, h.counts.len()))
             .collect(),
+        vec![welch.fresh(traj); problem.dim()],
     );
     simulate(&model, &sim, &mut m, &|_| {})?;
     let rows = (0..problem.dim())
@@ -250,6 +335,7 @@ pub(crate) fn validate(
                 model_std: ms,
                 data_kurtosis: dk,
                 model_kurtosis: mk,
+                spectrum: compare_spectra(&data.welch[j].spectrum(), &m.welch[j].spectrum()),
             }
         })
         .collect();

@@ -82,6 +82,13 @@ pub fn markdown(r: &Report) -> String {
             r.samples, r.expected_samples
         );
     }
+    if !r.data_notes.is_empty() {
+        s += "## Reading the data\n\n";
+        for n in &r.data_notes {
+            s += &format!("- {}\n", n.replacen("WARNING:", "**Warning:**", 1));
+        }
+        s += "\n";
+    }
     s += "## Verdict\n\n";
     for m in &r.methods {
         s += &format!("- {}\n", verdict(m));
@@ -171,10 +178,16 @@ pub fn markdown(r: &Report) -> String {
         match &v.error {
             Some(e) => s += &format!("{e}\n\n"),
             None => {
-                s += "| response | data std | model std | difference | data kurtosis | model kurtosis |\n|---|---:|---:|---:|---:|---:|\n";
+                s += "| response | data std | model std | difference | data kurtosis | model kurtosis | spectrum RMS ln ratio (averaging alone) | peak ω data / model (rad/s) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
                 for row in &v.rows {
+                    let (spec, peak) = row.spectrum.as_ref().map_or(("–".into(), "–".into()), |c| {
+                        (
+                            format!("{:.3} ({:.3})", c.rms_log_difference, c.averaging_alone),
+                            format!("{:.3} / {:.3}", c.data_peak_rad_s, c.model_peak_rad_s),
+                        )
+                    });
                     s += &format!(
-                        "| {} | {:.5} | {:.5} | {:+.2} % | {:.3} | {:.3} |\n",
+                        "| {} | {:.5} | {:.5} | {:+.2} % | {:.3} | {:.3} | {spec} | {peak} |\n",
                         row.variable,
                         row.data_std,
                         row.model_std,
@@ -183,11 +196,14 @@ pub fn markdown(r: &Report) -> String {
                         row.model_kurtosis
                     );
                 }
-                s += "\n";
+                s += "\nThe spectra are compared over the band that holds 99 % of the data's variance.\n\n";
             }
         }
         if !r.plot.marginals.is_empty() {
             s += "![Marginal densities, data and re-simulated model](densities.svg)\n\n";
+        }
+        if r.plot.response_spectra.iter().any(|x| x.2.segments > 0) {
+            s += "![Response spectra, data and re-simulated model](response_spectra.svg)\n\n";
         }
     }
     let p = &r.provenance;

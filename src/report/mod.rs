@@ -9,8 +9,8 @@ pub mod types;
 
 pub use markdown::markdown;
 pub use plot::{
-    characteristics::plot_characteristics, densities::plot_densities, iteration::plot_iteration, spectra::plot_spectra,
-    sweep::plot_sweep,
+    characteristics::plot_characteristics, densities::plot_densities, iteration::plot_iteration,
+    response_spectra::plot_response_spectra, spectra::plot_spectra, sweep::plot_sweep,
 };
 pub use text::{summary, sweep_summary};
 pub use types::*;
@@ -18,13 +18,14 @@ pub use types::*;
 pub use crate::io::output::write_atomic;
 
 /// Every file [`write_all`] may write into a report folder.
-pub const FILES: [&str; 6] = [
+pub const FILES: [&str; 7] = [
     "report.json",
     "report.md",
     "characteristics.svg",
     "iteration.svg",
     "spectrum.svg",
     "densities.svg",
+    "response_spectra.svg",
 ];
 use std::path::{Path, PathBuf};
 
@@ -82,6 +83,11 @@ pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     if !r.plot.marginals.is_empty() {
         let p = dir.join("densities.svg");
         plot_densities(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
+        files.push(p);
+    }
+    if r.plot.response_spectra.iter().any(|s| s.2.segments > 0) {
+        let p = dir.join("response_spectra.svg");
+        plot_response_spectra(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
         files.push(p);
     }
     Ok(files)

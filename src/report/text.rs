@@ -72,6 +72,9 @@ pub fn summary(r: &Report) -> String {
             r.samples, r.expected_samples
         );
     }
+    for n in &r.data_notes {
+        s += &format!("data: {n}\n");
+    }
     s += &format!(
         "time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n\n",
         r.timings_s.simulate, r.timings_s.identify, r.timings_s.total
@@ -244,21 +247,31 @@ pub fn summary(r: &Report) -> String {
             s += &format!("  {e}\n");
         } else {
             s += &format!(
-                "| {:<10} | {:>10} | {:>10} | {:>9} | {:>10} | {:>10} |\n",
-                "response", "data std", "model std", "diff", "data kurt", "model kurt"
+                "| {:<10} | {:>10} | {:>10} | {:>9} | {:>10} | {:>10} | {:>17} | {:>15} |\n",
+                "response", "data std", "model std", "diff", "data kurt", "model kurt", "spectrum rms ln", "peak ω d/m"
             );
-            s += "|------------|------------|------------|-----------|------------|------------|\n";
+            s += "|------------|------------|------------|-----------|------------|------------|-------------------|-----------------|\n";
             for row in &v.rows {
                 s += &format!(
-                    "| {:<10} | {:>10.5} | {:>10.5} | {:>8.2}% | {:>10.3} | {:>10.3} |\n",
+                    "| {:<10} | {:>10.5} | {:>10.5} | {:>8.2}% | {:>10.3} | {:>10.3} | {:>17} | {:>15} |\n",
                     row.variable,
                     row.data_std,
                     row.model_std,
                     100.0 * (row.model_std / row.data_std - 1.0),
                     row.data_kurtosis,
-                    row.model_kurtosis
+                    row.model_kurtosis,
+                    row.spectrum.as_ref().map_or("-".into(), |c| format!(
+                        "{:.3} ({:.3})",
+                        c.rms_log_difference, c.averaging_alone
+                    )),
+                    row.spectrum.as_ref().map_or("-".into(), |c| format!(
+                        "{:.3}/{:.3}",
+                        c.data_peak_rad_s, c.model_peak_rad_s
+                    )),
                 );
             }
+            s += "  spectrum rms ln: RMS of ln(S_model/S_data) over the band holding 99 % of the data's variance, \
+                  (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
         }
     }
     s += &format!(

@@ -107,6 +107,21 @@ pub struct ValidationRow {
     pub model_std: f64,
     pub data_kurtosis: f64,
     pub model_kurtosis: f64,
+    /// The response spectra compared (absent when either has no power).
+    pub spectrum: Option<SpectrumComparison>,
+}
+
+/// Data and re-simulated model spectra of one response (Welch, the same segments).
+#[derive(Debug, Clone, Serialize)]
+pub struct SpectrumComparison {
+    /// Upper end of the band compared: 99 % of the data's variance lies below it.
+    pub band_rad_s: f64,
+    /// RMS of `ln(S_model/S_data)` over the band.
+    pub rms_log_difference: f64,
+    /// What that RMS is from the averaging alone, `√(1/K_data + 1/K_model)`.
+    pub averaging_alone: f64,
+    pub data_peak_rad_s: f64,
+    pub model_peak_rad_s: f64,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -139,6 +154,8 @@ pub struct PlotData {
     pub model_samples: f64,
     /// Per filtered excitation: name, estimated spectrum, fit, true (A, B).
     pub spectra: Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>,
+    /// Per state variable: (name, unit, data spectrum, re-simulated model spectrum).
+    pub response_spectra: Vec<(String, String, spectrum::Spectrum, Option<spectrum::Spectrum>)>,
 }
 
 /// What produced a report: the tool and the exact scenario.
@@ -185,6 +202,9 @@ pub struct Report {
     pub scheme: String,
     pub dt_s: f64,
     pub timings_s: Timings,
+    /// What reading measured data did that a user should know: derived quantities, and
+    /// warnings (lines starting `WARNING`) about coarse sampling or inconsistent units.
+    pub data_notes: Vec<String>,
     /// Filtered excitations: fitted and used `A`, `B`.
     pub filters: Vec<FilterReport>,
     pub methods: Vec<MethodReport>,

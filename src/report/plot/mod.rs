@@ -3,6 +3,7 @@
 pub mod characteristics;
 pub mod densities;
 pub mod iteration;
+pub mod response_spectra;
 pub mod spectra;
 pub mod sweep;
 
