@@ -601,7 +601,7 @@ mod tests {
         let mut b = vec![0u8, 1, 0, 0];
         let mut body: Vec<u8> = Vec::new();
         let pad = |body: &mut Vec<u8>, a: usize| {
-            while body.len() % a != 0 {
+            while !body.len().is_multiple_of(a) {
                 body.push(0)
             }
         };

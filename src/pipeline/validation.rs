@@ -53,6 +53,18 @@ impl Marginals {
         }
         self.n += 1.0;
     }
+    /// Empty accumulators like these (the same histogram ranges and spectral segments) for
+    /// `trajectories`.
+    pub(crate) fn fresh(&self, trajectories: usize) -> Marginals {
+        Marginals::new(
+            self.cols.clone(),
+            self.hist
+                .iter()
+                .map(|h| Histogram::new(h.lo, h.hi, h.counts.len()))
+                .collect(),
+            self.welch.iter().map(|w| w.fresh(trajectories)).collect(),
+        )
+    }
     /// (std, kurtosis) of variable `j`.
     pub(crate) fn std_kurtosis(&self, j: usize) -> (f64, f64) {
         let n = self.n;
@@ -86,7 +98,7 @@ fn response_segment(samples_per_trajectory: usize) -> usize {
 /// (`ln` of an average of `K` periodograms scatters by about `1/√K`), and both peaks.
 pub(crate) fn compare_spectra(data: &Spectrum, model: &Spectrum) -> Option<SpectrumComparison> {
     let total: f64 = data.density.iter().sum();
-    if !(total > 0.0) || data.omega.len() != model.omega.len() {
+    if total.is_nan() || total <= 0.0 || data.omega.len() != model.omega.len() {
         return None;
     }
     let mut cum = 0.0;
@@ -132,10 +144,6 @@ pub(crate) fn compare_spectra(data: &Spectrum, model: &Spectrum) -> Option<Spect
 pub(crate) struct Distributions {
     model: Model,
     link_hist: Vec<(Histogram, Histogram)>,
-    /// Empty histograms over the data's ranges (the validation fills copies).
-    state_hist: Vec<Histogram>,
-    /// Empty Welch estimators of the data's segment length (the validation fills copies).
-    welch: Welch,
     marg: Marginals,
     /// Per state variable: name, unit, data histogram, model histogram.
     names: Vec<(String, String)>,
@@ -174,13 +182,7 @@ impl Distributions {
                     )
                 })
                 .collect(),
-            marg: Marginals::new(
-                problem.columns.clone(),
-                state_hist.clone(),
-                vec![welch.clone(); problem.dim()],
-            ),
-            state_hist,
-            welch,
+            marg: Marginals::new(problem.columns.clone(), state_hist, vec![welch; problem.dim()]),
             names,
             model_marg: None,
         }
@@ -210,8 +212,6 @@ impl Distributions {
             values,
             method.clone(),
             &self.marg,
-            &self.state_hist,
-            &self.welch,
         ) {
             Ok((val, m)) => {
                 self.model_marg = Some(m);
@@ -307,8 +307,6 @@ pub(crate) fn validate(
     values: &[f64],
     method: ReportMethod,
     data: &Marginals,
-    hist: &[Histogram],
-    welch: &Welch,
 ) -> Result<(Validation, Marginals), SimError> {
     let model = identified_model(s, problem, coef_of, values);
     // The same run, another seed, at most 1e5 s of trajectory time: enough for std and
@@ -317,13 +315,7 @@ pub(crate) fn validate(
     let traj = sim.trajectories;
     sim.record_length = sim.record_length.min(1e5 / traj as f64).max(sim.sample_interval);
     sim.seed = sim.seed.wrapping_add(1_000_003);
-    let mut m = Marginals::new(
-        problem.columns.clone(),
-        hist.iter()
-            .map(|h| Histogram::new(h.lo, h.hi, h.counts.len()))
-            .collect(),
-        vec![welch.fresh(traj); problem.dim()],
-    );
+    let mut m = data.fresh(traj);
     simulate(&model, &sim, &mut m, &|_| {})?;
     let rows = (0..problem.dim())
         .map(|j| {
