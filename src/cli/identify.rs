@@ -18,6 +18,10 @@ pub enum MethodArg {
     Strong,
     /// Strong form with the product of marginal densities (the paper's experiment, 3.21).
     StrongMarginals,
+    /// Baseline (not FPK, ungated): regression of velocity increments on the drift.
+    Increments,
+    /// Baseline (not FPK, ungated): binned conditional mean increments, then the drift.
+    KramersMoyal,
 }
 
 impl From<MethodArg> for Method {
@@ -26,6 +30,8 @@ impl From<MethodArg> for Method {
             MethodArg::Weak => Method::Weak,
             MethodArg::Strong => Method::Strong,
             MethodArg::StrongMarginals => Method::StrongMarginals,
+            MethodArg::Increments => Method::Increments,
+            MethodArg::KramersMoyal => Method::KramersMoyal,
         }
     }
 }

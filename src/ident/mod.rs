@@ -23,6 +23,7 @@ mod problem;
 mod spec;
 mod symmetry;
 
+pub mod baseline;
 pub mod data;
 pub mod disturbance;
 pub mod lsq;

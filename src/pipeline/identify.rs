@@ -6,6 +6,7 @@ use super::grading::{assemble, method_report, Grader};
 use super::spectra::ForceSpectra;
 use super::validation::Distributions;
 use super::{Options, PipelineError};
+use crate::ident::baseline::{self, Increments, KramersMoyal};
 use crate::ident::data::StationaryData;
 use crate::ident::strong::{self, DensityGrid, GridOptions};
 use crate::ident::Specification;
@@ -151,10 +152,35 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         DensityGrid::new(&structure, &total, grid_options).map(|g| g.with_batches(data.batch_count()))
     });
     let mut dist = Distributions::new(s, &structure, &data);
+    // The baselines on the same samples (white-noise problems only).
+    let baseline_ok = baseline::applicable(&structure);
+    let wants = |m: Method| methods.contains(&m) && baseline_ok.is_ok();
+    let mut increments =
+        wants(Method::Increments).then(|| Increments::new(&structure, sim.sample_interval, data.batch_count()));
+    let mut kramers_moyal = wants(Method::KramersMoyal).then(|| {
+        let g = GridOptions::auto(structure.dim(), total.count);
+        let mean: Vec<f64> = (0..structure.dim()).map(|j| total.mean(j)).collect();
+        let std: Vec<f64> = (0..structure.dim()).map(|j| total.std(j)).collect();
+        KramersMoyal::new(
+            &structure,
+            sim.sample_interval,
+            data.batch_count(),
+            (&mean, &std),
+            g.bins,
+            g.span_std,
+        )
+    });
     forces.start_welch(sim);
     read_samples(info, |traj, t, row| {
+        let batch = data.batch_of(traj, t);
         if let Some(Ok(g)) = grid.as_mut() {
-            g.push_in(data.batch_of(traj, t), row);
+            g.push_in(batch, row);
+        }
+        if let Some(b) = increments.as_mut() {
+            b.push(traj as usize, t, batch, row);
+        }
+        if let Some(b) = kramers_moyal.as_mut() {
+            b.push(traj as usize, t, batch, row);
         }
         dist.push(traj as usize, row);
         forces.push(traj, row);
@@ -186,6 +212,15 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
             weak: &weak_estimate,
             grid: grid.as_ref(),
             typical: &typical,
+            baseline: |m: Method| match (m, &baseline_ok) {
+                (_, Err(e)) => Err(e.clone()),
+                (Method::Increments, _) => increments
+                    .as_ref()
+                    .map_or_else(|| unreachable!(), |b| b.estimate(&typical)),
+                (_, _) => kramers_moyal
+                    .as_ref()
+                    .map_or_else(|| unreachable!(), |b| b.estimate(&typical)),
+            },
         },
         &grader,
         &data.link_ranges,
@@ -214,20 +249,22 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
 /// What the gated estimators work from: the problem, the problem the reports are about
 /// (the physical one of a bilinear problem), the weak form's estimate (computed first, as
 /// it measures identifiability), the density grid if one was asked for.
-struct Estimators<'a> {
+struct Estimators<'a, B: Fn(Method) -> Result<ident::Estimate, IdentError>> {
     problem: &'a Problem,
     reported: &'a Problem,
     weak: &'a Result<ident::Estimate, IdentError>,
     grid: Option<&'a Result<DensityGrid, IdentError>>,
     typical: &'a [f64],
+    /// A baseline's estimate (computed on demand).
+    baseline: B,
 }
 
 /// The gated rows: one per requested method, and the first estimate that succeeded (what
 /// the validation re-simulates). Unknowns that cannot be separated end the identification.
 #[allow(clippy::type_complexity)]
-fn estimator_reports(
+fn estimator_reports<B: Fn(Method) -> Result<ident::Estimate, IdentError>>(
     methods: &[Method],
-    e: &Estimators,
+    e: &Estimators<B>,
     grader: &Grader,
     ranges: &[[f64; 4]],
 ) -> Result<(Vec<MethodReport>, Option<(Vec<f64>, ReportMethod)>), PipelineError> {
@@ -238,6 +275,7 @@ fn estimator_reports(
     for m in methods {
         let t = Instant::now();
         let est = match (m, e.grid) {
+            (Method::Increments | Method::KramersMoyal, _) => (e.baseline)(*m),
             (Method::Weak, _) => e.weak.clone(),
             (Method::Strong | Method::StrongMarginals, Some(Err(err))) => Err(err.clone()),
             (Method::Strong | Method::StrongMarginals, _) if bilinear => Err(IdentError::Unsupported(
@@ -247,23 +285,16 @@ fn estimator_reports(
             (Method::StrongMarginals, Some(Ok(g))) => ident::identify_strong(e.problem, g, true, e.typical),
             (_, None) => unreachable!("grid requested"),
         };
-        if let Err(err @ IdentError::NotIdentifiable { .. }) = est {
-            return Err(err.into());
+        if let (Err(err @ IdentError::NotIdentifiable { .. }), false) = (&est, m.is_baseline()) {
+            return Err(err.clone().into());
         }
         let method = ReportMethod::Estimator(*m);
-        if let (Ok(est), None) = (&est, &first) {
+        if let (Ok(est), None, false) = (&est, &first, m.is_baseline()) {
             first = Some((est.values.clone(), method.clone()));
         }
-        let threshold = s.accept.threshold(&method);
-        reports.push(method_report(
-            method,
-            Some(threshold),
-            est,
-            grader,
-            e.reported,
-            ranges,
-            t,
-        ));
+        // Baselines are compared, never gated.
+        let threshold = (!m.is_baseline()).then(|| s.accept.threshold(&method));
+        reports.push(method_report(method, threshold, est, grader, e.reported, ranges, t));
     }
     Ok((reports, first))
 }

@@ -85,16 +85,30 @@ pub enum Method {
     Strong,
     /// Strong form with the joint density replaced by the product of marginals (3.21).
     StrongMarginals,
+    /// Baseline, not FPK: regression of the velocity increments between consecutive
+    /// samples on the drift (the Euler–Maruyama pseudo-likelihood). Ungated.
+    Increments,
+    /// Baseline, not FPK: conditional mean increments on a grid (the first Kramers–Moyal
+    /// coefficient), then least squares of the drift. Ungated.
+    KramersMoyal,
 }
 
 impl Method {
+    /// The FPK estimators: the methods a regression gate may hold.
     pub const ALL: [Method; 3] = [Method::Weak, Method::Strong, Method::StrongMarginals];
+    /// The baselines on the same samples (docs/methods.md, "Baselines").
+    pub const BASELINES: [Method; 2] = [Method::Increments, Method::KramersMoyal];
     pub fn name(self) -> &'static str {
         match self {
             Method::Weak => "weak",
             Method::Strong => "strong",
             Method::StrongMarginals => "strong-marginals",
+            Method::Increments => "increments",
+            Method::KramersMoyal => "kramers-moyal",
         }
+    }
+    pub fn is_baseline(self) -> bool {
+        Method::BASELINES.contains(&self)
     }
 }
 
