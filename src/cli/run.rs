@@ -14,13 +14,19 @@ use std::time::Instant;
 pub struct Args {
     /// Scenario file (TOML), e.g. scenarios/duffing2dof.toml.
     pub scenario: PathBuf,
+    /// Vary a scenario key without editing the file (repeatable): KEY=VALUE with KEY a
+    /// dotted path (simulation.seed, link.1.damping.1) and VALUE in TOML; validated like
+    /// the file, recorded in the log and the report; the default output folder is named
+    /// after the variant (out/<name>--seed=7/).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     #[command(flatten)]
     pub identify: IdentifyArgs,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
-    let scenario = Scenario::from_file(&args.scenario)?;
+    let scenario = Scenario::from_file_with(&args.scenario, &args.set)?;
     // Unknowns no data could separate are refused before the simulation, not after it.
     if let Err(why) = fpkbench::pipeline::preflight(&scenario) {
         anyhow::bail!("{}: {why}", args.scenario.display());
@@ -29,7 +35,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .identify
         .out
         .clone()
-        .unwrap_or_else(|| super::default_output(&scenario.name, ""));
+        .unwrap_or_else(|| super::default_output(&scenario.variant_name(), ""));
     let log = dir.join("run.mcap");
     for f in std::iter::once("run.mcap").chain(fpkbench::report::FILES) {
         refuse_same_file(&args.scenario, &dir.join(f))?;

@@ -14,6 +14,12 @@ use std::process::ExitCode;
 pub struct Args {
     /// Scenario file (TOML), e.g. scenarios/duffing2dof.toml.
     pub scenario: PathBuf,
+    /// Vary a scenario key without editing the file (repeatable): KEY=VALUE with KEY a
+    /// dotted path (simulation.seed, link.1.damping.1) and VALUE in TOML; validated like
+    /// the file, recorded in the log and the report; the default output folder is named
+    /// after the variant (out/<name>--seed=7/).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Output log [default: out/<scenario name>/run.mcap].
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -58,10 +64,10 @@ pub fn simulate_to(scenario: &Scenario, output: &Path, compression: Compression)
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let scenario = Scenario::from_file(&args.scenario)?;
+    let scenario = Scenario::from_file_with(&args.scenario, &args.set)?;
     let output = args
         .output
-        .unwrap_or_else(|| super::default_output(&scenario.name, "run.mcap"));
+        .unwrap_or_else(|| super::default_output(&scenario.variant_name(), "run.mcap"));
     refuse_same_file(&args.scenario, &output)?;
     let dir = output
         .parent()

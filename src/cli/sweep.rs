@@ -17,6 +17,12 @@ use std::process::ExitCode;
 pub struct Args {
     /// Scenario file (TOML) with `[identify.disturbance]`, e.g. scenarios/disturbed2dof.toml.
     pub scenario: PathBuf,
+    /// Vary a scenario key without editing the file (repeatable): KEY=VALUE with KEY a
+    /// dotted path (simulation.seed, link.1.damping.1) and VALUE in TOML; validated like
+    /// the file, recorded in the log and the report; the default output folder is named
+    /// after the variant (out/<name>--seed=7/).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Levels, comma-separated [default: the scenario's `[identify.disturbance] sweep`].
     #[arg(long, value_delimiter = ',')]
     pub levels: Vec<f64>,
@@ -32,7 +38,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let scenario = Scenario::from_file(&args.scenario)?;
+    let scenario = Scenario::from_file_with(&args.scenario, &args.set)?;
     let Some(d) = &scenario.identify.disturbance else {
         anyhow::bail!(
             "{}: no [identify.disturbance] section: the sweep varies the unmeasured disturbance of the paper's section-4 procedure",
@@ -50,7 +56,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let dir = args
         .out
         .clone()
-        .unwrap_or_else(|| super::default_output(&scenario.name, "sweep"));
+        .unwrap_or_else(|| super::default_output(&scenario.variant_name(), "sweep"));
     let _lock = fpkbench::io::output::FolderLock::acquire(&dir)?;
     let mut sweep = Sweep {
         scenario: scenario.name.clone(),

@@ -218,5 +218,8 @@ pub fn markdown(r: &Report) -> String {
         r.timings_s.identify,
         r.timings_s.total
     );
+    if !p.overrides.is_empty() {
+        s += &format!("- overrides: `--set {}`\n", p.overrides.join("` `--set "));
+    }
     s
 }

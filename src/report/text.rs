@@ -72,6 +72,9 @@ pub fn summary(r: &Report) -> String {
             r.samples, r.expected_samples
         );
     }
+    if !r.provenance.overrides.is_empty() {
+        s += &format!("variant: --set {}\n", r.provenance.overrides.join(" --set "));
+    }
     for n in &r.data_notes {
         s += &format!("data: {n}\n");
     }

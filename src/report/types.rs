@@ -168,6 +168,8 @@ pub struct Provenance {
     pub commit: Option<&'static str>,
     /// SHA-256 of the scenario text as stored in the log.
     pub scenario_sha256: String,
+    /// The `--set KEY=VALUE` overrides the scenario was varied by (empty: the file as is).
+    pub overrides: Vec<String>,
 }
 
 impl Provenance {
@@ -179,6 +181,11 @@ impl Provenance {
             version: env!("CARGO_PKG_VERSION"),
             commit: option_env!("FPKBENCH_GIT_COMMIT").filter(|c| !c.is_empty()),
             scenario_sha256: digest.iter().map(|b| format!("{b:02x}")).collect(),
+            overrides: text
+                .lines()
+                .map_while(|l| l.strip_prefix("# --set "))
+                .map(str::to_string)
+                .collect(),
         }
     }
 }

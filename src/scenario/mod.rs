@@ -6,6 +6,7 @@
 //! what is allowed. Nothing downstream re-validates: a `Scenario` is correct by
 //! construction. This module depends on nothing else in the crate.
 
+pub mod overrides;
 mod paper;
 mod raw;
 mod validate;
@@ -24,6 +25,9 @@ pub enum ScenarioError {
         #[source]
         source: std::io::Error,
     },
+    /// A `--set KEY=VALUE` that cannot be applied (no line: it is not in the file).
+    #[error("{path}: --set {key}: {message}")]
+    Override { path: String, key: String, message: String },
     /// A syntax error, a wrong type, an unknown key or an invalid value.
     #[error("{path}:{line}:{column}: `{key}`: {message}")]
     Invalid {
