@@ -7,6 +7,7 @@ mod identify;
 mod inspect;
 mod run;
 mod simulate;
+mod study;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -31,6 +32,7 @@ enum Command {
     Inspect(inspect::Args),
     Export(export::Args),
     Sweep(sweep::Args),
+    Study(study::Args),
 }
 
 pub fn main() -> ExitCode {
@@ -56,6 +58,7 @@ pub fn main() -> ExitCode {
         Command::Inspect(a) => inspect::run(a),
         Command::Export(a) => export::run(a),
         Command::Sweep(a) => sweep::run(a),
+        Command::Study(a) => study::run(a),
     };
     match result {
         Ok(code) => code,

@@ -434,6 +434,9 @@ pub struct LogInfo {
     pub accept_truncated: bool,
     /// Measured data standing in for the log's samples (`identify --model --data`).
     pub measured: Option<std::sync::Arc<super::table::Measured>>,
+    /// No file: every pass over the samples re-runs the scenario's simulation, which is
+    /// deterministic by its seed ([`LogInfo::of_simulation`]; studies without logs).
+    pub simulated: bool,
 }
 
 impl LogInfo {
@@ -444,6 +447,25 @@ impl LogInfo {
         }
         let s = &self.scenario.simulation;
         (s.trajectories as u64).saturating_mul(s.samples_per_trajectory() as u64)
+    }
+
+    /// A run that is not written anywhere: its samples are simulated again on every pass
+    /// (the simulation is deterministic by its seed, whatever the thread count), so an
+    /// identification streams in constant memory without a log on disk.
+    pub fn of_simulation(scenario: Scenario) -> LogInfo {
+        let m = crate::model::Model::new(&scenario);
+        LogInfo {
+            path: PathBuf::from(format!("<{} simulated in memory>", scenario.name)),
+            truth: scenario.truth(),
+            run: BTreeMap::new(),
+            columns: m.column_names(),
+            channel_metadata: BTreeMap::new(),
+            library: String::new(),
+            accept_truncated: false,
+            scenario,
+            measured: None,
+            simulated: true,
+        }
     }
 
     /// The description of measured data on a model file: the model's `[simulation]` taken
@@ -480,6 +502,7 @@ impl LogInfo {
             accept_truncated: false,
             scenario: model,
             measured: Some(std::sync::Arc::new(data)),
+            simulated: false,
         }
     }
 }
@@ -631,6 +654,7 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
         library: found.library,
         accept_truncated: false,
         measured: None,
+        simulated: false,
     })
 }
 
@@ -724,6 +748,19 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
             }
         }
         return Ok(m.samples());
+    }
+    if info.simulated {
+        let model = crate::model::Model::new(&info.scenario);
+        let mut n = 0u64;
+        let mut sink = crate::sim::ForEach(|j: u32, t: f64, row: &[f64]| {
+            n += 1;
+            f(j, t, row)
+        });
+        crate::sim::simulate(&model, &info.scenario.simulation, &mut sink, &|_| {}).map_err(|e| LogError::Io {
+            path: info.path.display().to_string(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+        return Ok(n);
     }
     let label = info.path.display().to_string();
     let cols = info.columns.len();

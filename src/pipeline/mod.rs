@@ -11,6 +11,7 @@ mod disturbed;
 mod grading;
 mod identify;
 mod spectra;
+pub mod study;
 mod validation;
 
 pub use identify::{check_measured, preflight};
@@ -39,6 +40,9 @@ pub enum PipelineError {
     /// The log's truth record names a parameter that does not exist.
     #[error("the log's truth record (`fpkbench.truth`): {0}")]
     Truth(String),
+    /// A study item's scenario is not valid.
+    #[error("{0}")]
+    Study(String),
 }
 
 /// Settings of an identification.

@@ -4,6 +4,7 @@
 
 mod markdown;
 pub mod plot;
+pub mod study;
 pub mod text;
 pub mod types;
 

@@ -71,7 +71,11 @@ pub fn apply(label: &str, text: &str, sets: &[String]) -> Result<String, Scenari
                         invalid(label, &key, format!("`{path}`: an index 0..{len} expected (an array)"))
                     })?;
                     let Some(slot) = a.get_mut(i) else {
-                        return Err(invalid(label, &key, format!("`{path}`: index {i}, the array has {len}")));
+                        return Err(invalid(
+                            label,
+                            &key,
+                            format!("`{path}`: index {i}, the array has {len}"),
+                        ));
                     };
                     if last {
                         *slot = value.clone();
@@ -135,7 +139,13 @@ impl Scenario {
             let k = k.rsplit('.').next().unwrap_or(k);
             let v: String = v
                 .chars()
-                .map(|c| if c.is_ascii_alphanumeric() || "+-._".contains(c) { c } else { '_' })
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || "+-._".contains(c) {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
                 .collect();
             name += &format!("--{k}={v}");
         }

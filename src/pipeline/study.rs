@@ -1,0 +1,461 @@
+//! Studies: one scenario over a grid of record lengths × sample intervals × seeds, every
+//! method on the same samples of each item, one row of results per item and method
+//! (docs/studies.md). Items are independent and their seeds derive from the study's seed
+//! and the item alone, so any split into shards gives the same rows; each item's rows are
+//! written atomically into its own file, so a re-run skips what is done and `merge` can
+//! gather the files of any set of shards.
+
+use super::{identify, Options, PipelineError};
+use crate::io::log::LogInfo;
+use crate::report::Report;
+use crate::scenario::{Method, Scenario, ScenarioError};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A study file (TOML).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyFile {
+    /// The scenario, relative to the study file.
+    pub scenario: PathBuf,
+    /// Seeds per configuration.
+    pub seeds: usize,
+    /// The study's seed: every item's simulation seed derives from it and the item.
+    #[serde(default)]
+    pub seed: u64,
+    /// Record lengths per trajectory (s); default the scenario's.
+    #[serde(default)]
+    pub record_lengths: Vec<f64>,
+    /// Sample intervals (s); default the scenario's.
+    #[serde(default)]
+    pub sample_intervals: Vec<f64>,
+    /// Methods run on every item's samples; default the scenario's.
+    #[serde(default)]
+    pub methods: Vec<Method>,
+    /// Overrides applied to the scenario first (`KEY=VALUE`, as `--set`).
+    #[serde(default)]
+    pub set: Vec<String>,
+}
+
+/// A study: the scenario with its base overrides, and the grid.
+#[derive(Debug, Clone)]
+pub struct Study {
+    pub name: String,
+    pub file: StudyFile,
+    pub scenario: Scenario,
+    /// SHA-256 of the study file and scenario texts: rows of another study are refused.
+    pub fingerprint: String,
+}
+
+/// One item: a configuration and a seed index.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Item {
+    pub index: usize,
+    pub record_length: f64,
+    pub sample_interval: f64,
+    pub seed_index: usize,
+    pub seed: u64,
+}
+
+impl Item {
+    /// The item's file name: its configuration, never its shard.
+    pub fn key(&self) -> String {
+        format!("T{}-h{}-s{}", self.record_length, self.sample_interval, self.seed_index)
+    }
+}
+
+/// One method's result on one item.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    pub study: String,
+    pub item: Item,
+    pub method: String,
+    pub samples: u64,
+    /// Why the method gave no estimate (then the numbers are empty).
+    pub error: Option<String>,
+    pub worst_rel_error: Option<f64>,
+    pub parameters: Vec<RowParameter>,
+    /// Writing the log (0 without logs: the simulation then runs inside the passes).
+    pub simulate_s: f64,
+    /// This method's own solve.
+    pub identify_s: f64,
+    /// The whole item (simulation, passes over the samples, every method).
+    pub item_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RowParameter {
+    pub name: String,
+    pub true_value: f64,
+    pub estimate: f64,
+    pub std_error: Option<f64>,
+    pub rel_error: f64,
+    /// Whether the 95 % interval holds the true value (`None` without an interval).
+    pub covered: Option<bool>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    #[error("{path}: {message}")]
+    File { path: String, message: String },
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+}
+
+/// SplitMix64: the item's seed from the study's seed and the item's coordinates.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+impl Study {
+    pub fn from_file(path: &Path) -> Result<Study, StudyError> {
+        let label = path.display().to_string();
+        let fail = |message: String| StudyError::File {
+            path: label.clone(),
+            message,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
+        let file: StudyFile = toml::from_str(&text).map_err(|e| {
+            let line = e.span().map_or(0, |s| text[..s.start].matches('\n').count() + 1);
+            fail(format!("line {line}: {}", e.message()))
+        })?;
+        if file.seeds == 0 {
+            return Err(fail("`seeds`: at least 1".into()));
+        }
+        for (key, v) in [
+            ("record_lengths", &file.record_lengths),
+            ("sample_intervals", &file.sample_intervals),
+        ] {
+            if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
+                return Err(fail(format!("`{key}`: {x} is not a positive number of seconds")));
+            }
+        }
+        let scenario_path = path.parent().unwrap_or(Path::new(".")).join(&file.scenario);
+        let scenario = Scenario::from_file_with(&scenario_path, &file.set)?;
+        let methods = if file.methods.is_empty() {
+            scenario.identify.methods.clone()
+        } else {
+            file.methods.clone()
+        };
+        // Every configuration must be a valid scenario: checked before any work.
+        let mut study = Study {
+            name: path.file_stem().and_then(|s| s.to_str()).unwrap_or("study").to_string(),
+            file: StudyFile { methods, ..file },
+            scenario,
+            fingerprint: String::new(),
+        };
+        for item in study.items().iter().filter(|i| i.seed_index == 0) {
+            study.scenario_of(item)?;
+        }
+        use sha2::Digest;
+        let mut h = sha2::Sha256::new();
+        h.update(text.as_bytes());
+        h.update(study.scenario.source.as_bytes());
+        study.fingerprint = h.finalize().iter().take(8).map(|b| format!("{b:02x}")).collect();
+        Ok(study)
+    }
+
+    /// Every item, in a fixed order.
+    pub fn items(&self) -> Vec<Item> {
+        let sim = &self.scenario.simulation;
+        let lengths = if self.file.record_lengths.is_empty() {
+            vec![sim.record_length]
+        } else {
+            self.file.record_lengths.clone()
+        };
+        let intervals = if self.file.sample_intervals.is_empty() {
+            vec![sim.sample_interval]
+        } else {
+            self.file.sample_intervals.clone()
+        };
+        let mut out = Vec::new();
+        for &t in &lengths {
+            for &h in &intervals {
+                for s in 0..self.file.seeds {
+                    // 63 bits: a scenario's seed is a TOML integer.
+                    let seed = mix(mix(mix(self.file.seed ^ t.to_bits()) ^ h.to_bits()) ^ s as u64) >> 1;
+                    out.push(Item {
+                        index: out.len(),
+                        record_length: t,
+                        sample_interval: h,
+                        seed_index: s,
+                        seed,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// The scenario of one item (validated like `--set` overrides).
+    pub fn scenario_of(&self, item: &Item) -> Result<Scenario, ScenarioError> {
+        // Applied as overrides: the same checks as the file's (the interval a whole number of
+        // steps, …), and the log records them.
+        let name = &self.scenario.name;
+        let text = crate::scenario::overrides::apply(
+            name,
+            &self.scenario.source,
+            &[
+                format!("simulation.record_length={}", item.record_length),
+                format!("simulation.sample_interval={}", item.sample_interval),
+                format!("simulation.seed={}", item.seed),
+            ],
+        )?;
+        Scenario::parse(&text, &format!("{name} (item {})", item.key()), name)
+    }
+
+    /// Run one item: simulate (into a log under `logs` if given, else straight into the
+    /// estimators, twice) and identify with every method; its rows.
+    pub fn run_item(&self, item: &Item, logs: Option<&Path>) -> Result<Vec<Row>, PipelineError> {
+        let s = self
+            .scenario_of(item)
+            .map_err(|e| PipelineError::Study(e.to_string()))?;
+        let options = Options {
+            methods: self.file.methods.clone(),
+            validate: false,
+            ..Options::default()
+        };
+        let start = std::time::Instant::now();
+        let (report, simulate_s) = match logs {
+            Some(dir) => {
+                let log = dir.join(format!("{}.mcap", item.key()));
+                let sim = super::simulate_log(&s, &log, Default::default(), &|_| {})?;
+                (super::identify_log(&sim.log, &options)?, sim.seconds)
+            }
+            None => (identify(&LogInfo::of_simulation(s), &options)?, 0.0),
+        };
+        let total = start.elapsed().as_secs_f64();
+        Ok(rows_of(&self.fingerprint, item, &report, simulate_s, total))
+    }
+}
+
+fn rows_of(study: &str, item: &Item, r: &Report, simulate_s: f64, item_s: f64) -> Vec<Row> {
+    r.methods
+        .iter()
+        .filter(|m| m.not_applicable.is_none())
+        .map(|m| Row {
+            study: study.to_string(),
+            item: *item,
+            method: m.method.name(),
+            samples: r.samples,
+            error: m.error.clone(),
+            worst_rel_error: m.error.is_none().then_some(m.worst_rel_error),
+            parameters: m
+                .parameters
+                .iter()
+                .map(|p| RowParameter {
+                    name: p.name.clone(),
+                    true_value: p.true_value,
+                    estimate: p.estimate,
+                    std_error: p.std_error.is_finite().then_some(p.std_error),
+                    rel_error: p.rel_error,
+                    covered: p.ci95.map(|[lo, hi]| lo <= p.true_value && p.true_value <= hi),
+                })
+                .collect(),
+            simulate_s,
+            identify_s: m.seconds,
+            item_s,
+        })
+        .collect()
+}
+
+/// The shard `(index, count)` from the flags or the scheduler's environment: Slurm job
+/// arrays (`SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN` of `SLURM_ARRAY_TASK_COUNT`), a
+/// Kubernetes Indexed Job (`JOB_COMPLETION_INDEX`, with the count given), else `(0, 1)`.
+pub fn shard_from(
+    flag: Option<(usize, usize)>,
+    count: Option<usize>,
+    env: impl Fn(&str) -> Option<String>,
+) -> Result<(usize, usize), String> {
+    let num = |k: &str| -> Result<Option<usize>, String> {
+        env(k)
+            .map(|v| {
+                v.trim()
+                    .parse::<usize>()
+                    .map_err(|_| format!("{k}={v:?} is not a whole number"))
+            })
+            .transpose()
+    };
+    let (i, n) = if let Some(f) = flag {
+        f
+    } else if let Some(id) = num("SLURM_ARRAY_TASK_ID")? {
+        let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+        let n = match count {
+            Some(n) => n,
+            None => num("SLURM_ARRAY_TASK_COUNT")?
+                .ok_or("SLURM_ARRAY_TASK_ID without SLURM_ARRAY_TASK_COUNT: give --shard-count")?,
+        };
+        (
+            id.checked_sub(min)
+                .ok_or(format!("SLURM_ARRAY_TASK_ID {id} below SLURM_ARRAY_TASK_MIN {min}"))?,
+            n,
+        )
+    } else if let Some(id) = num("JOB_COMPLETION_INDEX")? {
+        let n = count.ok_or("JOB_COMPLETION_INDEX is set: give the job's completions with --shard-count")?;
+        (id, n)
+    } else {
+        (0, count.unwrap_or(1))
+    };
+    if n == 0 || i >= n {
+        return Err(format!("shard {i} of {n}: the index must be below the count"));
+    }
+    Ok((i, n))
+}
+
+/// Summary of one configuration and method over its seeds.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    pub record_length: f64,
+    pub sample_interval: f64,
+    pub method: String,
+    /// Items with an estimate, and without.
+    pub items: usize,
+    pub failed: usize,
+    pub worst_median: f64,
+    pub worst_q1: f64,
+    pub worst_q3: f64,
+    pub worst_max: f64,
+    pub parameters: Vec<ParameterSummary>,
+    /// Median seconds per item (all its methods together).
+    pub item_s_median: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ParameterSummary {
+    pub name: String,
+    /// Mean of `(θ̂ − θ)/|θ|` over the seeds (relative to the characteristic's scale for a
+    /// zero truth: the mean signed error scaled like `rel_error`).
+    pub bias: f64,
+    /// Standard deviation of the same over the seeds.
+    pub spread: f64,
+    /// Fraction of the 95 % intervals that hold the truth (`None` without intervals).
+    pub coverage: Option<f64>,
+}
+
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let x = q * (sorted.len() - 1) as f64;
+    let (lo, hi) = (x.floor() as usize, x.ceil() as usize);
+    sorted[lo] + (sorted[hi] - sorted[lo]) * (x - lo as f64)
+}
+
+/// Per configuration and method, in the rows' order of first appearance.
+pub fn summarize(rows: &[Row]) -> Vec<Summary> {
+    let mut keys: Vec<(f64, f64, String)> = Vec::new();
+    for r in rows {
+        let k = (r.item.record_length, r.item.sample_interval, r.method.clone());
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    keys.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    keys.into_iter()
+        .map(|(t, h, method)| {
+            let group: Vec<&Row> = rows
+                .iter()
+                .filter(|r| r.item.record_length == t && r.item.sample_interval == h && r.method == method)
+                .collect();
+            let ok: Vec<&Row> = group.iter().copied().filter(|r| r.error.is_none()).collect();
+            let mut worst: Vec<f64> = ok.iter().filter_map(|r| r.worst_rel_error).collect();
+            worst.sort_by(f64::total_cmp);
+            let mut secs: Vec<f64> = group.iter().map(|r| r.item_s).collect();
+            secs.sort_by(f64::total_cmp);
+            let names: Vec<String> = ok
+                .first()
+                .map_or(Vec::new(), |r| r.parameters.iter().map(|p| p.name.clone()).collect());
+            let parameters = names
+                .iter()
+                .map(|name| {
+                    let ps: Vec<&RowParameter> = ok
+                        .iter()
+                        .filter_map(|r| r.parameters.iter().find(|p| &p.name == name))
+                        .collect();
+                    let signed: Vec<f64> = ps
+                        .iter()
+                        .map(|p| {
+                            let scale = if p.true_value != 0.0 {
+                                p.true_value.abs()
+                            } else {
+                                (p.estimate - p.true_value).abs() / p.rel_error.max(1e-300)
+                            };
+                            (p.estimate - p.true_value) / scale
+                        })
+                        .collect();
+                    let n = signed.len().max(1) as f64;
+                    let mean = signed.iter().sum::<f64>() / n;
+                    let var = signed.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+                    let cov: Vec<bool> = ps.iter().filter_map(|p| p.covered).collect();
+                    ParameterSummary {
+                        name: name.clone(),
+                        bias: mean,
+                        spread: var.sqrt(),
+                        coverage: (!cov.is_empty())
+                            .then(|| cov.iter().filter(|c| **c).count() as f64 / cov.len() as f64),
+                    }
+                })
+                .collect();
+            Summary {
+                record_length: t,
+                sample_interval: h,
+                method,
+                items: ok.len(),
+                failed: group.len() - ok.len(),
+                worst_median: quantile(&worst, 0.5),
+                worst_q1: quantile(&worst, 0.25),
+                worst_q3: quantile(&worst, 0.75),
+                worst_max: worst.last().copied().unwrap_or(f64::NAN),
+                parameters,
+                item_s_median: quantile(&secs, 0.5),
+            }
+        })
+        .collect()
+}
+
+/// Rows gathered from item files: duplicates of one item and method must agree exactly
+/// (the same study run twice); a conflict or a row of another study is refused.
+pub fn gather(files: &[PathBuf]) -> Result<Vec<Row>, String> {
+    let mut rows: Vec<Row> = Vec::new();
+    let mut study: Option<String> = None;
+    for f in files {
+        let text = std::fs::read_to_string(f).map_err(|e| format!("{}: {e}", f.display()))?;
+        for (n, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+            let row: Row = serde_json::from_str(line)
+                .map_err(|e| format!("{}: line {}: not a study row: {e}", f.display(), n + 1))?;
+            match &study {
+                Some(s) if *s != row.study => {
+                    return Err(format!(
+                        "{}: line {}: a row of study {} among rows of study {s}: merge the shards of one study only",
+                        f.display(),
+                        n + 1,
+                        row.study
+                    ))
+                }
+                None => study = Some(row.study.clone()),
+                _ => {}
+            }
+            match rows
+                .iter()
+                .find(|r| r.item.key() == row.item.key() && r.method == row.method)
+            {
+                Some(prev) if prev.item != row.item || prev.parameters != row.parameters || prev.error != row.error => {
+                    return Err(format!(
+                        "{}: line {}: item {} method {} conflicts with another file's row for it",
+                        f.display(),
+                        n + 1,
+                        row.item.key(),
+                        row.method
+                    ))
+                }
+                Some(_) => {}
+                None => rows.push(row),
+            }
+        }
+    }
+    rows.sort_by_key(|r| r.item.index);
+    Ok(rows)
+}

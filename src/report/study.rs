@@ -1,0 +1,189 @@
+//! A study's summary: `summary.json`, `summary.md` and `study.svg` (worst error against
+//! record length with a `1/√T` guide, and against the sample interval).
+
+use super::plot::{drawable, legend_box, svg_to_file, PlotResult, COLORS};
+use crate::pipeline::study::Summary;
+use plotters::prelude::*;
+use std::path::Path;
+
+fn pct(x: f64) -> String {
+    if x.is_finite() {
+        format!("{:.2} %", 100.0 * x)
+    } else {
+        "–".into()
+    }
+}
+
+/// The summary as a markdown page.
+pub fn study_markdown(name: &str, rows: usize, summary: &[Summary]) -> String {
+    let mut s = format!(
+        "# fpkbench study: {name}\n\n{rows} rows. Per configuration and method: the worst error over the \
+         parameters and curves of each item, its median, quartiles and maximum over the seeds; per parameter \
+         the bias and spread of the signed relative error over the seeds and the coverage of the 95 % \
+         intervals.\n\n![Worst error against record length and sample interval](study.svg)\n\n"
+    );
+    s += "| record length (s) | interval (s) | method | items | failed | median | q1 | q3 | max | s per item |\n\
+          |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for x in summary {
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
+            x.record_length,
+            x.sample_interval,
+            x.method,
+            x.items,
+            x.failed,
+            pct(x.worst_median),
+            pct(x.worst_q1),
+            pct(x.worst_q3),
+            pct(x.worst_max),
+            x.item_s_median
+        );
+    }
+    s += "\n## Parameters\n\n| record length (s) | interval (s) | method | parameter | bias | spread | coverage of 95 % intervals |\n\
+          |---:|---:|---|---|---:|---:|---:|\n";
+    for x in summary {
+        for p in &x.parameters {
+            s += &format!(
+                "| {} | {} | {} | {} | {:+.2} % | {:.2} % | {} |\n",
+                x.record_length,
+                x.sample_interval,
+                x.method,
+                p.name,
+                100.0 * p.bias,
+                100.0 * p.spread,
+                p.coverage.map_or("–".into(), |c| format!("{:.0} %", 100.0 * c))
+            );
+        }
+    }
+    s
+}
+
+/// `study.svg`: median worst error (quartiles as bars) against record length per method and
+/// interval, with a `1/√T` guide; and against the sample interval at the longest record.
+pub fn plot_study(summary: &[Summary], path: &Path) -> PlotResult {
+    let mut methods: Vec<&str> = Vec::new();
+    for x in summary {
+        if !methods.contains(&x.method.as_str()) {
+            methods.push(&x.method);
+        }
+    }
+    let ok: Vec<&Summary> = summary
+        .iter()
+        .filter(|x| x.worst_median.is_finite() && x.worst_median > 0.0)
+        .collect();
+    let (ylo, yhi) = ok.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+        (
+            lo.min(x.worst_q1.max(x.worst_median * 0.1)),
+            hi.max(x.worst_q3.max(x.worst_max)),
+        )
+    });
+    svg_to_file(path, (1000, 440), |root| {
+        let areas = root.split_evenly((1, 2));
+        if !(ylo > 0.0 && drawable(ylo.ln(), (yhi * 2.0).ln())) {
+            return Ok(());
+        }
+        let style = |k: usize| ShapeStyle {
+            color: COLORS[k % COLORS.len()].to_rgba(),
+            filled: true,
+            stroke_width: 2,
+        };
+        let mut intervals: Vec<f64> = ok.iter().map(|x| x.sample_interval).collect();
+        intervals.sort_by(f64::total_cmp);
+        intervals.dedup();
+        let mut lengths: Vec<f64> = ok.iter().map(|x| x.record_length).collect();
+        lengths.sort_by(f64::total_cmp);
+        lengths.dedup();
+        // Panel 1: against record length.
+        for (panel, area) in areas.iter().enumerate() {
+            let xs = if panel == 0 { &lengths } else { &intervals };
+            let (x0, x1) = (xs[0] / 1.5, xs[xs.len() - 1] * 1.5);
+            if !drawable(x0.ln(), x1.ln()) {
+                continue;
+            }
+            let mut chart = ChartBuilder::on(area)
+                .caption(
+                    if panel == 0 {
+                        "worst error against record length"
+                    } else {
+                        "worst error against sample interval"
+                    },
+                    ("sans-serif", 16),
+                )
+                .margin(12)
+                .x_label_area_size(38)
+                .y_label_area_size(60)
+                .build_cartesian_2d((x0..x1).log_scale(), (ylo / 1.5..yhi * 2.0).log_scale())?;
+            chart
+                .configure_mesh()
+                .x_desc(if panel == 0 {
+                    "record length per trajectory T (s)"
+                } else {
+                    "sample interval h (s)"
+                })
+                .y_desc("worst relative error (median, quartiles)")
+                .draw()?;
+            for (k, m) in methods.iter().enumerate() {
+                // Per interval (panel 1) or at the longest record (panel 2).
+                let groups: Vec<f64> = if panel == 0 {
+                    intervals.clone()
+                } else {
+                    vec![lengths[lengths.len() - 1]]
+                };
+                for (g, &other) in groups.iter().enumerate() {
+                    let pts: Vec<&&Summary> = ok
+                        .iter()
+                        .filter(|x| {
+                            x.method == *m
+                                && if panel == 0 {
+                                    x.sample_interval == other
+                                } else {
+                                    x.record_length == other
+                                }
+                        })
+                        .collect();
+                    if pts.is_empty() {
+                        continue;
+                    }
+                    let at = |x: &Summary| if panel == 0 { x.record_length } else { x.sample_interval };
+                    let line: Vec<(f64, f64)> = pts.iter().map(|x| (at(x), x.worst_median)).collect();
+                    let st = style(k + g * methods.len());
+                    let label = if panel == 0 && intervals.len() > 1 {
+                        format!("{m}, h = {other} s")
+                    } else {
+                        m.to_string()
+                    };
+                    chart
+                        .draw_series(LineSeries::new(line.clone(), st).point_size(3))?
+                        .label(label)
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], st));
+                    chart.draw_series(pts.iter().map(|x| {
+                        PathElement::new(vec![(at(x), x.worst_q1.max(ylo / 1.5)), (at(x), x.worst_q3)], st)
+                    }))?;
+                }
+            }
+            if panel == 0 && lengths.len() > 1 {
+                // The 1/√T guide through the first method's first point.
+                if let Some(first) = ok
+                    .iter()
+                    .find(|x| x.method == methods[0] && x.record_length == lengths[0])
+                {
+                    let guide: Vec<(f64, f64)> = lengths
+                        .iter()
+                        .map(|&t| (t, first.worst_median * (lengths[0] / t).sqrt()))
+                        .collect();
+                    let grey = ShapeStyle {
+                        color: RGBColor(120, 120, 120).to_rgba(),
+                        filled: false,
+                        stroke_width: 1,
+                    };
+                    chart
+                        .draw_series(LineSeries::new(guide, grey))?
+                        .label("1/√T")
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], grey));
+                }
+            }
+            legend_box(&mut chart, SeriesLabelPosition::UpperRight)?;
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,178 @@
+//! Studies: rows independent of the sharding, resumable, merged from any shards, conflicts
+//! refused; the shard taken from Slurm and Kubernetes environments.
+
+use fpkbench::pipeline::study::{gather, shard_from, Study};
+use std::path::Path;
+use std::process::Command;
+
+const STUDY: &str = r#"
+scenario = "SCENARIO"
+seeds = 2
+seed = 11
+sample_intervals = [0.1, 0.5]
+methods = ["weak", "increments"]
+"#;
+
+fn fpk(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn study_file(dir: &Path) -> String {
+    let scenario = std::fs::canonicalize("scenarios/sdof_duffing.toml").unwrap();
+    let p = dir.join("s.toml");
+    std::fs::write(&p, STUDY.replace("SCENARIO", scenario.to_str().unwrap())).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+fn rows(dir: &Path) -> Vec<fpkbench::pipeline::study::Row> {
+    let mut files: Vec<_> = std::fs::read_dir(dir.join("items"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    gather(&files).unwrap()
+}
+
+#[test]
+fn shards_give_the_rows_of_one_run_and_merge_refuses_conflicts() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = study_file(tmp.path());
+    let one = tmp.path().join("one");
+    let o = fpk(&["study", &file, "--out", one.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(one.join("summary.json").exists() && one.join("study.svg").exists());
+    // Two shards into two folders, then merged.
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    for (shard, dir) in [("0/2", &a), ("1/2", &b)] {
+        let o = fpk(&["study", &file, "--shard", shard, "--out", dir.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(!dir.join("summary.json").exists(), "a partial study has no summary");
+    }
+    let merged = tmp.path().join("m");
+    let o = fpk(&[
+        "study",
+        "merge",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let strip = |mut r: Vec<fpkbench::pipeline::study::Row>| {
+        for x in &mut r {
+            (x.simulate_s, x.identify_s, x.item_s) = (0.0, 0.0, 0.0);
+        }
+        r
+    };
+    let (whole, parts) = (strip(rows(&one)), strip([rows(&a), rows(&b)].concat()));
+    let mut parts = parts;
+    parts.sort_by_key(|r| (r.item.index, r.method.clone()));
+    let mut whole = whole;
+    whole.sort_by_key(|r| (r.item.index, r.method.clone()));
+    assert_eq!(whole.len(), 8);
+    assert_eq!(whole, parts, "the same rows whatever the sharding");
+    // A re-run does nothing new.
+    let o = fpk(&["study", &file, "--out", one.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("4 already done"));
+    // A conflicting row (one estimate changed) is refused, naming the item.
+    let f = std::fs::read_dir(a.join("items"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let text = std::fs::read_to_string(&f).unwrap();
+    let mut row: serde_json::Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
+    row["parameters"][0]["estimate"] = serde_json::json!(123.0);
+    let c = tmp.path().join("c/items");
+    std::fs::create_dir_all(&c).unwrap();
+    std::fs::write(c.join(f.file_name().unwrap()), format!("{row}\n")).unwrap();
+    let o = fpk(&[
+        "study",
+        "merge",
+        a.to_str().unwrap(),
+        c.parent().unwrap().to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("conflicts"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // Rows of another study are refused.
+    row["study"] = serde_json::json!("0000000000000000");
+    row["parameters"][0]["estimate"] = serde_json::json!(1.0);
+    std::fs::write(c.join("other.jsonl"), format!("{row}\n")).unwrap();
+    std::fs::remove_file(c.join(f.file_name().unwrap())).unwrap();
+    let o = fpk(&[
+        "study",
+        "merge",
+        a.to_str().unwrap(),
+        c.parent().unwrap().to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("another study")
+            || String::from_utf8_lossy(&o.stderr).contains("of study")
+    );
+}
+
+#[test]
+fn item_seeds_do_not_depend_on_the_shard_count() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = Study::from_file(Path::new(&study_file(tmp.path()))).unwrap();
+    let items = s.items();
+    assert_eq!(items.len(), 4);
+    let seeds: Vec<u64> = items.iter().map(|i| i.seed).collect();
+    let mut unique = seeds.clone();
+    unique.sort();
+    unique.dedup();
+    assert_eq!(unique.len(), 4, "distinct seeds: {seeds:?}");
+    assert!(seeds.iter().all(|&x| x <= i64::MAX as u64));
+}
+
+#[test]
+fn the_shard_comes_from_the_flag_slurm_or_kubernetes() {
+    let env = |pairs: &'static [(&'static str, &'static str)]| {
+        move |k: &str| pairs.iter().find(|p| p.0 == k).map(|p| p.1.to_string())
+    };
+    assert_eq!(shard_from(Some((2, 5)), None, env(&[])), Ok((2, 5)));
+    assert_eq!(shard_from(None, None, env(&[])), Ok((0, 1)));
+    let slurm = env(&[
+        ("SLURM_ARRAY_TASK_ID", "7"),
+        ("SLURM_ARRAY_TASK_MIN", "5"),
+        ("SLURM_ARRAY_TASK_COUNT", "4"),
+    ]);
+    assert_eq!(shard_from(None, None, slurm), Ok((2, 4)));
+    let k8s = env(&[("JOB_COMPLETION_INDEX", "3")]);
+    assert_eq!(shard_from(None, Some(8), k8s), Ok((3, 8)));
+    assert!(shard_from(None, None, env(&[("JOB_COMPLETION_INDEX", "3")]))
+        .unwrap_err()
+        .contains("--shard-count"));
+    assert!(shard_from(None, Some(2), env(&[("JOB_COMPLETION_INDEX", "3")])).is_err());
+    assert!(shard_from(
+        None,
+        None,
+        env(&[("SLURM_ARRAY_TASK_ID", "x"), ("SLURM_ARRAY_TASK_COUNT", "2")])
+    )
+    .is_err());
+}
+
+#[test]
+fn a_bad_study_file_names_the_line_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("bad.toml");
+    std::fs::write(&p, "scenario = \"x.toml\"\nseeds = 2\nsample_interval = [0.1]\n").unwrap();
+    let out = tmp.path().join("out");
+    let o = fpk(&["study", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("bad.toml: line 3") && err.contains("sample_interval"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
