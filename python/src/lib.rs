@@ -39,8 +39,10 @@ fn options(methods: Vec<String>, validate: bool) -> PyResult<Options> {
             "weak" => Ok(Method::Weak),
             "strong" => Ok(Method::Strong),
             "strong-marginals" => Ok(Method::StrongMarginals),
+            "increments" => Ok(Method::Increments),
+            "kramers-moyal" => Ok(Method::KramersMoyal),
             other => Err(err(format!(
-                "unknown method {other:?}: weak, strong or strong-marginals"
+                "unknown method {other:?}: weak, strong, strong-marginals, increments or kramers-moyal"
             ))),
         })
         .collect::<PyResult<Vec<_>>>()?;

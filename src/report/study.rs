@@ -77,8 +77,20 @@ pub fn plot_study(summary: &[Summary], path: &Path) -> PlotResult {
             hi.max(x.worst_q3.max(x.worst_max)),
         )
     });
-    svg_to_file(path, (1000, 440), |root| {
-        let areas = root.split_evenly((1, 2));
+    let count = |f: fn(&Summary) -> f64| {
+        let mut v: Vec<f64> = ok.iter().map(|x| f(x)).collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v.len()
+    };
+    // A panel per axis the study varies (the interval's when it varies neither).
+    let panels: Vec<usize> = match (count(|x| x.record_length) > 1, count(|x| x.sample_interval) > 1) {
+        (true, true) => vec![0, 1],
+        (true, false) => vec![0],
+        _ => vec![1],
+    };
+    svg_to_file(path, (520 * panels.len() as u32, 440), |root| {
+        let areas = root.split_evenly((1, panels.len()));
         if !(ylo > 0.0 && drawable(ylo.ln(), (yhi * 2.0).ln())) {
             return Ok(());
         }
@@ -93,8 +105,8 @@ pub fn plot_study(summary: &[Summary], path: &Path) -> PlotResult {
         let mut lengths: Vec<f64> = ok.iter().map(|x| x.record_length).collect();
         lengths.sort_by(f64::total_cmp);
         lengths.dedup();
-        // Panel 1: against record length.
-        for (panel, area) in areas.iter().enumerate() {
+        // Panel 0: against record length; panel 1: against the sample interval.
+        for (&panel, area) in panels.iter().zip(&areas) {
             let xs = if panel == 0 { &lengths } else { &intervals };
             let (x0, x1) = (xs[0] / 1.5, xs[xs.len() - 1] * 1.5);
             if !drawable(x0.ln(), x1.ln()) {
@@ -182,7 +194,14 @@ pub fn plot_study(summary: &[Summary], path: &Path) -> PlotResult {
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], grey));
                 }
             }
-            legend_box(&mut chart, SeriesLabelPosition::UpperRight)?;
+            legend_box(
+                &mut chart,
+                if panel == 0 {
+                    SeriesLabelPosition::UpperRight
+                } else {
+                    SeriesLabelPosition::UpperLeft
+                },
+            )?;
         }
         Ok(())
     })
