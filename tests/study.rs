@@ -176,3 +176,30 @@ fn a_bad_study_file_names_the_line_and_writes_nothing() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn overrides_are_recorded_and_a_variant_varied_again_keeps_them() {
+    use fpkbench::scenario::overrides::apply;
+    let src = std::fs::read_to_string("scenarios/sdof_duffing.toml").unwrap();
+    let once = apply("s.toml", &src, &["simulation.trajectories=16".into()]).unwrap();
+    let twice = apply(
+        "s.toml",
+        &once,
+        &["simulation.seed=9".into(), "link.0.damping.1=0.7".into()],
+    )
+    .unwrap();
+    let s = fpkbench::Scenario::parse(&twice, "s.toml", "sdof_duffing").unwrap();
+    assert_eq!(s.simulation.trajectories, 16);
+    assert_eq!(s.simulation.seed, 9);
+    assert_eq!(
+        s.overrides(),
+        [
+            "simulation.trajectories=16",
+            "simulation.seed=9",
+            "link.0.damping.1=0.7"
+        ]
+    );
+    assert_eq!(s.variant_name(), "sdof_duffing--trajectories=16--seed=9--damping.1=0.7");
+    assert!(apply("s.toml", &src, &["nokey".into()]).is_err());
+    assert!(apply("s.toml", &src, &["link.5.damping=1".into()]).is_err());
+}

@@ -48,7 +48,12 @@ pub fn apply(label: &str, text: &str, sets: &[String]) -> Result<String, Scenari
         .parse()
         .map_err(|e: toml::de::Error| invalid(label, "", format!("not valid TOML: {}", e.message())))?;
     let mut root = toml::Value::Table(doc);
-    let mut header = String::new();
+    // Overrides the text already records (a variant varied again) stay recorded.
+    let mut header: String = text
+        .lines()
+        .take_while(|l| l.starts_with(MARK))
+        .map(|l| format!("{l}\n"))
+        .collect();
     for set in sets {
         let (key, value) = parse_set(label, set)?;
         let parts: Vec<&str> = key.split('.').collect();
@@ -136,7 +141,14 @@ impl Scenario {
         let mut name = self.name.clone();
         for o in self.overrides() {
             let (k, v) = o.split_once('=').unwrap_or((&o, ""));
-            let k = k.rsplit('.').next().unwrap_or(k);
+            // The last key segment, with its parent when it is an index or a power.
+            let parts: Vec<&str> = k.split('.').collect();
+            let keep = if parts.len() > 1 && parts[parts.len() - 1].parse::<usize>().is_ok() {
+                2
+            } else {
+                1
+            };
+            let k = parts[parts.len() - keep..].join(".");
             let v: String = v
                 .chars()
                 .map(|c| {
