@@ -1,10 +1,11 @@
 //! CI accuracy regression: every scenario in `scenarios/` is run through the real binary
 //! (`fpkbench run … --json`) at a reduced record length with a fixed seed, and each
 //! method's worst relative error must stay under a threshold taken from its spread over
-//! 12 seeds (seeds 1000–1011, measured with
-//! `cargo run --release --example gate_spread -- SCENARIO RECORD 12`):
-//! threshold = mean + 4 sd of the worst error, so a healthy build fails with probability
-//! well under 1 % while a real loss of accuracy fails it.
+//! 12 seeds (seeds 1000–1011, measured through the log pipeline; today a study measures the
+//! same spread: `fpkbench study --scenario scenarios/S.toml --record-length RECORD --seeds
+//! 12`, docs/studies.md, with seeds of its own): threshold = mean + 4 sd of the worst
+//! error, so a healthy build fails with probability well under 1 % while a real loss of
+//! accuracy fails it.
 
 use std::process::Command;
 
@@ -90,7 +91,7 @@ fn every_scenario_meets_its_accuracy_gate_at_reduced_length() {
     for file in files {
         let stem = file.file_stem().unwrap().to_string_lossy().to_string();
         let gate = GATES.iter().find(|g| g.scenario == stem).unwrap_or_else(|| {
-            panic!("scenario {stem} has no accuracy gate: measure its spread with examples/gate_spread.rs and add it to GATES")
+            panic!("scenario {stem} has no accuracy gate: measure its spread with `fpkbench study --scenario … --record-length … --seeds 12` and add it to GATES")
         });
         let src = std::fs::read_to_string(&file).unwrap();
         let reduced: String = src

@@ -203,3 +203,52 @@ fn overrides_are_recorded_and_a_variant_varied_again_keeps_them() {
     assert!(apply("s.toml", &src, &["nokey".into()]).is_err());
     assert!(apply("s.toml", &src, &["link.5.damping=1".into()]).is_err());
 }
+
+#[test]
+fn flags_make_the_same_study_as_the_file_they_print() {
+    // `--scenario` and the grid flags stand for a study file: `--print` shows it, and the
+    // rows equal those of that file run as a file (the fingerprint covers the same text).
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = std::fs::canonicalize("scenarios/sdof_duffing.toml").unwrap();
+    let scenario = scenario.to_str().unwrap();
+    let flags = [
+        "study",
+        "--scenario",
+        scenario,
+        "--seeds",
+        "2",
+        "--seed",
+        "11",
+        "--record-length",
+        "100",
+        "--method",
+        "weak",
+        "--method",
+        "force-regression",
+        "--reference",
+        "weak",
+    ];
+    let printed = fpk(&[&flags[..], &["--print"]].concat());
+    assert!(printed.status.success());
+    let text = String::from_utf8(printed.stdout).unwrap();
+    assert!(text.contains("methods = [\"weak\", \"force-regression\"]"), "{text}");
+    let file = dir.path().join("flags.toml");
+    std::fs::write(&file, &text).unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let out = fpk(&[&flags[..], &["--out", a.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = fpk(&["study", file.to_str().unwrap(), "--out", b.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (ra, rb) = (rows(&a), rows(&b));
+    assert_eq!(ra.len(), 4);
+    for (x, y) in ra.iter().zip(&rb) {
+        assert_eq!((&x.item, &x.method, &x.parameters), (&y.item, &y.method, &y.parameters));
+    }
+    // The reference's paired table is in the summary.
+    let md = std::fs::read_to_string(a.join("summary.md")).unwrap();
+    assert!(md.contains("## Paired differences from `weak`"), "{md}");
+    // A misspelt method is refused by the flag, exit 2.
+    let bad = fpk(&["study", "--scenario", scenario, "--method", "wek"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("force-regression"));
+}

@@ -41,8 +41,9 @@ fn options(methods: Vec<String>, validate: bool) -> PyResult<Options> {
             "strong-marginals" => Ok(Method::StrongMarginals),
             "increments" => Ok(Method::Increments),
             "kramers-moyal" => Ok(Method::KramersMoyal),
+            "force-regression" => Ok(Method::ForceRegression),
             other => Err(err(format!(
-                "unknown method {other:?}: weak, strong, strong-marginals, increments or kramers-moyal"
+                "unknown method {other:?}: weak, strong, strong-marginals, increments, kramers-moyal or force-regression"
             ))),
         })
         .collect::<PyResult<Vec<_>>>()?;

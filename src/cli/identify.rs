@@ -22,6 +22,8 @@ pub enum MethodArg {
     Increments,
     /// Baseline (not FPK, ungated): binned conditional mean increments, then the drift.
     KramersMoyal,
+    /// Oracle bound (not FPK, ungated): equation error with the measured forces.
+    ForceRegression,
 }
 
 impl From<MethodArg> for Method {
@@ -32,6 +34,7 @@ impl From<MethodArg> for Method {
             MethodArg::StrongMarginals => Method::StrongMarginals,
             MethodArg::Increments => Method::Increments,
             MethodArg::KramersMoyal => Method::KramersMoyal,
+            MethodArg::ForceRegression => Method::ForceRegression,
         }
     }
 }

@@ -38,6 +38,69 @@ pub struct Args {
     /// Print the items this shard would run, and stop.
     #[arg(long)]
     pub dry_run: bool,
+    /// Instead of a study file: the scenario, with the grid from the flags below (the study
+    /// file's keys; `--print` shows the file they make).
+    #[arg(long, conflicts_with = "study")]
+    pub scenario: Option<PathBuf>,
+    /// Seeds per configuration (with --scenario).
+    #[arg(long, default_value_t = 10, requires = "scenario")]
+    pub seeds: usize,
+    /// The study's seed (with --scenario).
+    #[arg(long, default_value_t = 0, requires = "scenario")]
+    pub seed: u64,
+    /// A record length per trajectory, s (repeatable; with --scenario) [default: the
+    /// scenario's].
+    #[arg(long = "record-length", requires = "scenario")]
+    pub record_lengths: Vec<f64>,
+    /// A sample interval, s (repeatable; with --scenario) [default: the scenario's].
+    #[arg(long = "sample-interval", requires = "scenario")]
+    pub sample_intervals: Vec<f64>,
+    /// A method (repeatable; with --scenario) [default: the scenario's].
+    #[arg(long = "method", value_enum, requires = "scenario")]
+    pub methods: Vec<crate::cli::identify::MethodArg>,
+    /// An override KEY=VALUE applied first, as for `run` (repeatable; with --scenario).
+    #[arg(long = "set", requires = "scenario")]
+    pub set: Vec<String>,
+    /// Compare every method with this one on the same samples (with --scenario).
+    #[arg(long, requires = "scenario")]
+    pub reference: Option<String>,
+    /// Print the study file the flags make, and stop.
+    #[arg(long, requires = "scenario")]
+    pub print: bool,
+}
+
+/// The study file `--scenario` and its flags stand for.
+fn study_text(args: &Args, scenario: &Path) -> String {
+    let mut t = toml::Table::new();
+    t.insert("scenario".into(), scenario.display().to_string().into());
+    t.insert("seeds".into(), (args.seeds as i64).into());
+    t.insert("seed".into(), (args.seed as i64).into());
+    let floats = |v: &[f64]| toml::Value::Array(v.iter().map(|&x| x.into()).collect());
+    let strings = |v: &[String]| toml::Value::Array(v.iter().map(|x| x.clone().into()).collect());
+    if !args.record_lengths.is_empty() {
+        t.insert("record_lengths".into(), floats(&args.record_lengths));
+    }
+    if !args.sample_intervals.is_empty() {
+        t.insert("sample_intervals".into(), floats(&args.sample_intervals));
+    }
+    if !args.methods.is_empty() {
+        let names: Vec<String> = args
+            .methods
+            .iter()
+            .map(|&m| fpkbench::scenario::Method::from(m).name().to_string())
+            .collect();
+        t.insert("methods".into(), strings(&names));
+    }
+    if !args.set.is_empty() {
+        t.insert("set".into(), strings(&args.set));
+    }
+    if let Some(r) = &args.reference {
+        t.insert("reference".into(), r.clone().into());
+    }
+    format!(
+        "# fpkbench study from flags\n{}",
+        toml::to_string(&t).expect("a table of plain values")
+    )
 }
 
 #[derive(clap::Subcommand)]
@@ -51,6 +114,10 @@ pub enum Merge {
         /// Where the summary goes [default: the first folder].
         #[arg(short, long)]
         out: Option<PathBuf>,
+        /// Compare every method with this one on the same samples (the study file's
+        /// `reference`).
+        #[arg(long)]
+        reference: Option<String>,
     },
 }
 
@@ -81,21 +148,26 @@ fn item_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-/// summary.json, summary.md and study.svg of `rows` into `dir`.
-fn write_summary(name: &str, rows: &[Row], dir: &Path) -> anyhow::Result<()> {
+/// summary.json, summary.md and study.svg of `rows` into `dir` (with the paired
+/// differences from `reference`, if given).
+fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) -> anyhow::Result<()> {
     let summary = summarize(rows);
+    let paired = reference.map_or(Vec::new(), |r| study::paired(rows, r));
+    if let Some(r) = reference {
+        if !rows.iter().any(|x| x.method == r) {
+            anyhow::bail!("the reference method {r:?} has no rows in this study");
+        }
+    }
     write_atomic(
         &dir.join("summary.json"),
-        serde_json::to_string_pretty(&summary)?.as_bytes(),
+        serde_json::to_string_pretty(&serde_json::json!({ "summary": summary, "paired": paired }))?.as_bytes(),
     )?;
-    write_atomic(
-        &dir.join("summary.md"),
-        study_markdown(name, rows.len(), &summary).as_bytes(),
-    )?;
+    let markdown = study_markdown(name, rows.len(), &summary, &paired);
+    write_atomic(&dir.join("summary.md"), markdown.as_bytes())?;
     plot_study(&summary, &dir.join("study.svg")).map_err(|e| anyhow::anyhow!("study.svg: {e}"))?;
     println!(
         "{}",
-        study_markdown(name, rows.len(), &summary)
+        markdown
             .lines()
             .filter(|l| l.starts_with('|'))
             .take(2 + summary.len())
@@ -107,7 +179,7 @@ fn write_summary(name: &str, rows: &[Row], dir: &Path) -> anyhow::Result<()> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    if let Some(Merge::Merge { dirs, out }) = args.merge {
+    if let Some(Merge::Merge { dirs, out, reference }) = args.merge {
         let files = dirs
             .iter()
             .map(|d| item_files(d))
@@ -126,13 +198,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let dir = out.unwrap_or_else(|| dirs[0].clone());
         std::fs::create_dir_all(&dir)?;
         let name = dir.file_name().and_then(|n| n.to_str()).unwrap_or("study").to_string();
-        write_summary(&name, &rows, &dir)?;
+        write_summary(&name, &rows, &dir, reference.as_deref())?;
         return Ok(ExitCode::SUCCESS);
     }
-    let Some(file) = args.study else {
-        anyhow::bail!("a study file is needed: fpkbench study STUDY.toml (or fpkbench study merge DIR…)");
+    let study = match (&args.study, &args.scenario) {
+        (Some(file), _) => Study::from_file(file)?,
+        (None, Some(scenario)) => {
+            let text = study_text(&args, scenario);
+            if args.print {
+                print!("{text}");
+                return Ok(ExitCode::SUCCESS);
+            }
+            let name = scenario.file_stem().and_then(|s| s.to_str()).unwrap_or("study");
+            Study::from_text(&text, Path::new("(flags)"), name, Path::new("."))?
+        }
+        (None, None) => anyhow::bail!(
+            "a study is needed: fpkbench study STUDY.toml, fpkbench study --scenario SCENARIO [--seeds N …], or fpkbench study merge DIR…"
+        ),
     };
-    let study = Study::from_file(&file)?;
     let (index, count) = study::shard_from(args.shard, args.shard_count, |k| std::env::var(k).ok())
         .map_err(|e| anyhow::anyhow!("shard: {e}"))?;
     let dir = args
@@ -189,7 +272,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let files = item_files(&dir)?;
     if files.len() == all.len() {
         let rows = gather(&files).map_err(|e| anyhow::anyhow!(e))?;
-        write_summary(&study.name, &rows, &dir)?;
+        write_summary(&study.name, &rows, &dir, study.file.reference.as_deref())?;
     } else {
         eprintln!(
             "{} of {} items are in {}; the summary is written when all are (or by `fpkbench study merge`)",

@@ -19,8 +19,29 @@
 //! over `h` is not the drift), which is the point of comparing them with the weak form.
 //! Standard errors: the delete-one jackknife over the same batches as the weak form.
 
+use super::poly::{exponent, powi, Exponents, MAX_VARS};
 use super::{estimate::estimate, Estimate, IdentError, Pieces, Problem, Unknown};
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// A multiplicative hash of a grid cell's index (Fibonacci hashing): the cell map is hit
+/// once per sample pair, where the default SipHash cost as much as the rest of the pass.
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (x ^ (x >> 29)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
 
 /// Why a baseline cannot run on `problem`, if it cannot: it regresses velocity increments,
 /// so it needs white-noise forcing (no filtered excitations, no measured inputs) and
@@ -69,8 +90,22 @@ impl Normal {
                 }
                 p.t0[row] -= f * target[i];
                 p.a[row * n + i] += f * known[i];
-                for col in 0..r {
+                // Symmetric in (row, col): the upper triangle here, the rest by `symmetrize`.
+                for col in row..r {
                     p.b[(row * n + i) * r + col] += f * unit[col * n + i];
+                }
+            }
+        }
+    }
+
+    /// Fill the lower triangle of each mass's block of `b` from the upper one.
+    fn symmetrize(&mut self, problem: &Problem) {
+        let (n, r) = (problem.n, problem.unknowns.len());
+        let b = &mut self.pieces.b;
+        for i in 0..n {
+            for row in 0..r {
+                for col in 0..row {
+                    b[(row * n + i) * r + col] = b[(col * n + i) * r + row];
                 }
             }
         }
@@ -90,15 +125,70 @@ impl Normal {
     }
 }
 
-/// The drift's parts at state `y`: known force per mass, unit force per unknown and mass.
-fn drift_parts(problem: &Problem, y: &[f64], known: &mut [f64], unit: &mut [f64]) {
-    let n = problem.n;
-    for i in 0..n {
-        known[i] = problem.known_force[i].eval(y);
+/// The drift's parts (known force per mass, unit force per unknown and mass:
+/// [`Problem::known_force`], [`Problem::unit_force`]) compiled for per-sample evaluation:
+/// every distinct monomial once, then each part as a sum over its monomials.
+#[derive(Clone)]
+struct DriftParts {
+    /// Distinct monomials: per monomial, its (variable, power) factors.
+    monomials: Vec<Vec<(usize, u32)>>,
+    /// Per part (known forces, then the unit forces unknown-major, `unit[row * n + i]`):
+    /// its terms as (coefficient, monomial).
+    parts: Vec<Vec<(f64, usize)>>,
+    n: usize,
+    values: Vec<f64>,
+}
+
+impl DriftParts {
+    fn of(problem: &Problem) -> DriftParts {
+        let mut keys: Vec<Exponents> = Vec::new();
+        let parts = problem
+            .known_force
+            .iter()
+            .chain(problem.unit_force.iter().flatten())
+            .map(|p| {
+                p.terms
+                    .iter()
+                    .map(|(&e, &c)| {
+                        let k = keys.iter().position(|&x| x == e).unwrap_or_else(|| {
+                            keys.push(e);
+                            keys.len() - 1
+                        });
+                        (c, k)
+                    })
+                    .collect()
+            })
+            .collect();
+        let monomials: Vec<Vec<(usize, u32)>> = keys
+            .iter()
+            .map(|&e| {
+                (0..MAX_VARS)
+                    .filter(|&j| exponent(e, j) > 0)
+                    .map(|j| (j, exponent(e, j)))
+                    .collect()
+            })
+            .collect();
+        DriftParts {
+            values: vec![0.0; monomials.len()],
+            monomials,
+            parts,
+            n: problem.n,
+        }
     }
-    for (row, per_mass) in problem.unit_force.iter().enumerate() {
-        for i in 0..n {
-            unit[row * n + i] = per_mass[i].eval(y);
+
+    /// The parts at state `y`: known force per mass, unit force per unknown and mass.
+    fn at(&mut self, y: &[f64], known: &mut [f64], unit: &mut [f64]) {
+        for (v, m) in self.values.iter_mut().zip(&self.monomials) {
+            *v = m.iter().map(|&(j, p)| powi(y[j], p)).product();
+        }
+        let values = &self.values;
+        let eval = |terms: &Vec<(f64, usize)>| terms.iter().map(|&(c, k)| c * values[k]).sum::<f64>();
+        let (kp, up) = self.parts.split_at(self.n);
+        for (k, t) in known.iter_mut().zip(kp) {
+            *k = eval(t);
+        }
+        for (u, t) in unit.iter_mut().zip(up) {
+            *u = eval(t);
         }
     }
 }
@@ -134,14 +224,25 @@ impl Pairs {
     }
 }
 
-/// The increment regression (Euler–Maruyama pseudo-likelihood), streamed.
+/// The increment regression (Euler–Maruyama pseudo-likelihood), streamed; with measured
+/// forces, the force regression (the equation error of the equations of motion).
 pub struct Increments {
     problem: Problem,
+    parts: DriftParts,
     pairs: Pairs,
     batches: Vec<Normal>,
+    /// Force regression: per mass, the log columns of the forces acting on it, and
+    /// whether each is a mean over the interval (else a value at the sample instant).
+    forces: Option<Vec<Vec<(usize, bool)>>>,
+    /// Per state variable that is a displacement, its velocity's state variable (the
+    /// force regression interpolates displacements by cubic Hermite).
+    velocity_of: Vec<Option<usize>>,
+    y_at: Vec<f64>,
     y: Vec<f64>,
     known: Vec<f64>,
     unit: Vec<f64>,
+    known_end: Vec<f64>,
+    unit_end: Vec<f64>,
     target: Vec<f64>,
     used: u64,
 }
@@ -153,13 +254,51 @@ impl Increments {
         let (n, r) = (problem.n, problem.unknowns.len());
         Increments {
             problem: problem.clone(),
+            parts: DriftParts::of(problem),
             pairs: Pairs::new(h),
             batches: vec![Normal::new(problem); batches.max(1)],
+            forces: None,
+            velocity_of: problem
+                .columns
+                .iter()
+                .map(|&c| {
+                    (c % 3 == 0)
+                        .then(|| problem.columns.iter().position(|&v| v == c + 1))
+                        .flatten()
+                })
+                .collect(),
+            y_at: vec![0.0; problem.dim()],
             y: vec![0.0; problem.dim()],
             known: vec![0.0; n],
             unit: vec![0.0; r * n],
+            known_end: vec![0.0; n],
+            unit_end: vec![0.0; r * n],
             target: vec![0.0; n],
             used: 0,
+        }
+    }
+
+    /// The force regression: `m_i Δv_i/h − F̄_i` (the force measured as its mean over the
+    /// interval, as fpkbench logs it) regressed on the drift's parts averaged over the
+    /// interval: 3-point Gauss–Legendre on the state interpolated between the ends, the
+    /// displacements by cubic Hermite (their derivatives, the velocities, are known at
+    /// both ends), the velocities linearly. An oracle bound, not an FPK method: it
+    /// uses the excitation forces, which the FPK methods never see. Needs every force
+    /// measured ([`force_columns`]).
+    pub fn with_forces(problem: &Problem, h: f64, batches: usize, forces: Vec<Vec<(usize, bool)>>) -> Increments {
+        Increments {
+            // After the state: the instant-valued force on each mass.
+            y: vec![0.0; problem.dim() + problem.n],
+            forces: Some(forces),
+            ..Increments::new(problem, h, batches)
+        }
+    }
+
+    fn name(&self) -> &'static str {
+        if self.forces.is_some() {
+            "force-regression"
+        } else {
+            "increments"
         }
     }
 
@@ -169,16 +308,60 @@ impl Increments {
         for (j, &c) in p.columns.iter().enumerate() {
             self.y[j] = row[c];
         }
+        if let Some(forces) = &self.forces {
+            for (i, cols) in forces.iter().enumerate() {
+                self.y[p.dim() + i] = cols.iter().filter(|(_, mean)| !mean).map(|&(c, _)| row[c]).sum();
+            }
+        }
         let (known, unit, target, h) = (&mut self.known, &mut self.unit, &mut self.target, self.pairs.h);
-        let y = &self.y;
+        let (known_end, unit_end) = (&mut self.known_end, &mut self.unit_end);
+        let (y, parts, forces) = (&self.y, &mut self.parts, &self.forces);
+        let (y_at, velocity_of) = (&mut self.y_at, &self.velocity_of);
         let last = self.batches.len() - 1;
         let normal = &mut self.batches[batch.min(last)];
         let used = &mut self.used;
         self.pairs.step(trajectory, t, y, |y0| {
-            drift_parts(p, y0, known, unit);
+            parts.at(y0, known, unit);
             for i in 0..p.n {
                 let v = p.noise_var[i];
                 target[i] = (y[v] - y0[v]) / h;
+            }
+            if let Some(forces) = forces {
+                // Gauss–Legendre nodes on [0, 1] and weights.
+                const R: f64 = 0.387_298_334_620_741_7; // √15 / 10
+                const NODES: [(f64, f64); 3] = [(0.5 - R, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + R, 5.0 / 18.0)];
+                known.fill(0.0);
+                unit.fill(0.0);
+                for (tau, w) in NODES {
+                    let (t2, t3) = (tau * tau, tau * tau * tau);
+                    let (h00, h10, h01, h11) = (
+                        2.0 * t3 - 3.0 * t2 + 1.0,
+                        t3 - 2.0 * t2 + tau,
+                        3.0 * t2 - 2.0 * t3,
+                        t3 - t2,
+                    );
+                    for (j, ya) in y_at.iter_mut().enumerate().take(p.dim()) {
+                        *ya = match velocity_of[j] {
+                            Some(v) => h00 * y0[j] + h10 * h * y0[v] + h01 * y[j] + h11 * h * y[v],
+                            None => (1.0 - tau) * y0[j] + tau * y[j],
+                        };
+                    }
+                    parts.at(y_at, known_end, unit_end);
+                    for (a, b) in known
+                        .iter_mut()
+                        .zip(known_end.iter())
+                        .chain(unit.iter_mut().zip(unit_end.iter()))
+                    {
+                        *a += w * b;
+                    }
+                }
+                // The force's mean over the interval: as logged, or the trapezoid rule on its
+                // values at the two ends (their bridge's mean is linear).
+                let d = p.dim();
+                for (i, cols) in forces.iter().enumerate() {
+                    let mean: f64 = cols.iter().filter(|(_, mean)| *mean).map(|&(c, _)| row[c]).sum();
+                    target[i] -= (mean + 0.5 * (y0[d + i] + y[d + i])) / p.model.mass[i];
+                }
             }
             normal.add(p, 1.0, target, known, unit);
             *used += 1;
@@ -186,22 +369,43 @@ impl Increments {
     }
 
     pub fn estimate(&self, typical: &[f64]) -> Result<Estimate, IdentError> {
+        let regression = match self.forces {
+            None => "Δv/h on the drift at the interval's start (Euler–Maruyama pseudo-likelihood)",
+            Some(_) => "Δv/h − F̄/m on the drift's mean over the interval (3-point Gauss–Legendre, displacements by cubic Hermite), the forces measured (an oracle)",
+        };
         let facts = vec![
             ("pairs".into(), format!("{} consecutive sample pairs", self.used)),
-            (
-                "regression".into(),
-                format!(
-                    "Δv/h on the drift, h = {} s (Euler–Maruyama pseudo-likelihood)",
-                    self.pairs.h
-                ),
-            ),
+            ("regression".into(), format!("{regression}, h = {} s", self.pairs.h)),
             (
                 "standard errors".into(),
                 format!("delete-one jackknife over {} batches", self.batches.len()),
             ),
         ];
-        solve_batches(&self.problem, "increments", &self.batches, typical, facts, self.used)
+        solve_batches(&self.problem, self.name(), &self.batches, typical, facts, self.used)
     }
+}
+
+/// The log columns of the forces on each mass (per mass, the columns of the excitations
+/// acting on it, each with whether it holds means over the sample interval, per
+/// excitation `interval_means`: white forces in fpkbench's logs; else values at the sample
+/// instants), or why the force regression cannot run: an excitation's force is not
+/// measured.
+pub fn force_columns(problem: &Problem, interval_means: &[bool]) -> Result<Vec<Vec<(usize, bool)>>, IdentError> {
+    let m = &problem.model;
+    let layout = crate::model::Columns::new(m.masses(), m.excitations.len());
+    let mut cols = vec![Vec::new(); problem.n];
+    for (e, exc) in m.excitations.iter().enumerate() {
+        if !exc.measured {
+            return Err(IdentError::NotApplicable(format!(
+                "the force regression needs every excitation's force, and `{}` is not measured",
+                m.excitation_names[e]
+            )));
+        }
+        for &i in &exc.targets {
+            cols[i].push((layout.force(e), interval_means[e]));
+        }
+    }
+    Ok(cols)
 }
 
 /// Solve the sum of the batches' normal equations, and each leave-one-out replicate.
@@ -229,23 +433,34 @@ fn solve_batches(
             .map(|b| {
                 let mut r = total.clone();
                 r.merge(b, -1.0);
+                r.symmetrize(problem);
                 r.pieces
             })
             .collect()
     } else {
         Vec::new()
     };
+    total.symmetrize(problem);
     estimate(problem, method, &total.pieces, &replicates, typical, facts, None)
 }
 
 /// The binned conditional-mean increments (first Kramers–Moyal coefficient), streamed.
 pub struct KramersMoyal {
     problem: Problem,
+    parts: DriftParts,
     pairs: Pairs,
     grid: Grid,
-    /// Per occupied cell: the sum of the states `y` it holds, then per batch the count and
-    /// the sum of `Δv_i/h` per mass.
-    cells: HashMap<u64, Vec<f64>>,
+    /// Per occupied cell, where its slot starts in `arena`.
+    cells: CellIndex,
+    /// The cells' slots: per batch, the count of pairs starting in the cell, the sum of
+    /// `Δv_i/h` per mass and the sum of the starting states `y` (kept together, so a
+    /// sample touches one cache line: the pass is bound by memory, not arithmetic).
+    arena: Vec<f64>,
+    /// The last pair binned: where it goes in `arena` and its `Δv/h` then `y`. It is
+    /// added on the next pair (or by [`KramersMoyal::finish`]), once the prefetch of its
+    /// slot has had the other estimators' work to arrive: a slot is a cache miss.
+    pending: Option<usize>,
+    pending_values: Vec<f64>,
     nb: usize,
     y: Vec<f64>,
     y0: Vec<f64>,
@@ -256,6 +471,71 @@ pub struct KramersMoyal {
 
 /// Smallest count of a cell whose mean increment enters the fit.
 pub const KM_MIN_COUNT: f64 = 10.0;
+
+/// Where each occupied cell's slot is: a dense table when the grid is small enough
+/// (`bins^dim` ≤ [`CellIndex::DENSE_MAX`] cells), else a hash map.
+enum CellIndex {
+    Dense(Vec<u32>),
+    Sparse(HashMap<u64, usize, BuildHasherDefault<CellHasher>>),
+}
+
+impl CellIndex {
+    const DENSE_MAX: u64 = 1 << 22;
+    const EMPTY: u32 = u32::MAX;
+
+    fn new(cells: u64) -> CellIndex {
+        if cells <= Self::DENSE_MAX {
+            CellIndex::Dense(vec![Self::EMPTY; cells as usize])
+        } else {
+            CellIndex::Sparse(HashMap::default())
+        }
+    }
+
+    /// The slot of cell `c`, made (by `make`, which returns its start) if new.
+    #[inline]
+    fn slot(&mut self, c: u64, make: impl FnOnce() -> usize) -> usize {
+        match self {
+            CellIndex::Dense(v) => {
+                let e = &mut v[c as usize];
+                if *e == Self::EMPTY {
+                    let at = make();
+                    *e = u32::try_from(at).expect("a dense grid's arena is indexable by u32");
+                }
+                *e as usize
+            }
+            CellIndex::Sparse(m) => *m.entry(c).or_insert_with(make),
+        }
+    }
+
+    /// The occupied cells and their slots, by cell index.
+    fn occupied(&self) -> Vec<(u64, usize)> {
+        match self {
+            CellIndex::Dense(v) => v
+                .iter()
+                .enumerate()
+                .filter(|(_, &e)| e != Self::EMPTY)
+                .map(|(c, &e)| (c as u64, e as usize))
+                .collect(),
+            CellIndex::Sparse(m) => {
+                let mut o: Vec<(u64, usize)> = m.iter().map(|(&c, &at)| (c, at)).collect();
+                o.sort_unstable();
+                o
+            }
+        }
+    }
+}
+
+/// Ask for the cache line holding `x` (no effect where there is no prefetch instruction).
+#[inline(always)]
+fn prefetch(x: &f64) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that never faults; SSE is part of x86_64.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((x as *const f64).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
 
 /// A regular grid of `bins` per variable over mean ± `span` std.
 struct Grid {
@@ -292,6 +572,7 @@ impl KramersMoyal {
     ) -> KramersMoyal {
         KramersMoyal {
             problem: problem.clone(),
+            parts: DriftParts::of(problem),
             pairs: Pairs::new(h),
             grid: Grid {
                 lo: mean.iter().zip(std).map(|(m, s)| m - span * s).collect(),
@@ -299,7 +580,10 @@ impl KramersMoyal {
                 bins,
                 span,
             },
-            cells: HashMap::new(),
+            cells: CellIndex::new((bins as u64).saturating_pow(problem.dim() as u32)),
+            arena: Vec::new(),
+            pending: None,
+            pending_values: vec![0.0; problem.n + problem.dim()],
             nb: batches.max(1),
             y: vec![0.0; problem.dim()],
             y0: vec![0.0; problem.dim()],
@@ -331,54 +615,72 @@ impl KramersMoyal {
             None => {}
             Some(None) => self.outside += 1,
             Some(Some(c)) => {
-                let (dim, stride, nb) = (p.dim(), 1 + p.n, self.nb);
-                let acc = self.cells.entry(c).or_insert_with(|| vec![0.0; dim + nb * stride]);
-                for (a, y) in acc.iter_mut().zip(&self.y0) {
-                    *a += y;
-                }
-                let b = dim + batch.min(nb - 1) * stride;
-                acc[b] += 1.0;
-                for (i, d) in self.incr.iter().enumerate() {
-                    acc[b + 1 + i] += d;
-                }
+                let (n, stride, nb) = (p.n, 1 + p.n + p.dim(), self.nb);
+                let slot = nb * stride;
+                let arena = &mut self.arena;
+                let at = self.cells.slot(c, || {
+                    arena.resize(arena.len() + slot, 0.0);
+                    arena.len() - slot
+                }) + batch.min(nb - 1) * stride;
+                prefetch(&self.arena[at]);
+                self.finish();
+                self.pending = Some(at);
+                self.pending_values[..n].copy_from_slice(&self.incr);
+                self.pending_values[n..].copy_from_slice(&self.y0);
                 self.used += 1;
             }
         }
     }
 
+    /// Add the pair still pending (call after the last sample).
+    pub fn finish(&mut self) {
+        if let Some(at) = self.pending.take() {
+            let acc = &mut self.arena[at..at + 1 + self.pending_values.len()];
+            acc[0] += 1.0;
+            for (a, v) in acc[1..].iter_mut().zip(&self.pending_values) {
+                *a += v;
+            }
+        }
+    }
+
+    /// The estimate, after [`KramersMoyal::finish`].
     pub fn estimate(&self, typical: &[f64]) -> Result<Estimate, IdentError> {
+        assert!(self.pending.is_none(), "KramersMoyal::finish before estimate");
         let p = &self.problem;
         let (n, r) = (p.n, p.unknowns.len());
-        let stride = 1 + n;
+        let (dim, stride) = (p.dim(), 1 + n + p.dim());
         let mut batches = vec![Normal::new(p); self.nb];
-        let (mut y, mut known, mut unit, mut mean) = (vec![0.0; p.dim()], vec![0.0; n], vec![0.0; r * n], vec![0.0; n]);
-        let mut keys: Vec<u64> = self.cells.keys().copied().collect();
-        keys.sort_unstable();
+        let (mut y, mut known, mut unit, mut mean) = (vec![0.0; dim], vec![0.0; n], vec![0.0; r * n], vec![0.0; n]);
         let mut used_cells = 0usize;
+        let mut parts = self.parts.clone();
         // Each cell enters with weight `count` and its mean increment; split over the
         // batches as (count_b, sum_b / count_b), the batches' normal equations sum to it
         // exactly, and all but one batch give the same fit on the remaining samples: the
         // delete-one-batch jackknife (which cells enter is decided once, by the full counts).
-        let dim = p.dim();
-        for c in keys {
-            let acc = &self.cells[&c];
-            let count: f64 = (0..self.nb).map(|b| acc[dim + b * stride]).sum();
+        for (_, at) in self.cells.occupied() {
+            let acc = &self.arena[at..at + self.nb * stride];
+            let count: f64 = acc.chunks_exact(stride).map(|b| b[0]).sum();
             if count < KM_MIN_COUNT {
                 continue;
             }
             used_cells += 1;
-            for (yj, sum) in y.iter_mut().zip(&acc[..dim]) {
-                *yj = sum / count;
+            y.fill(0.0);
+            for b in acc.chunks_exact(stride) {
+                for (yj, sum) in y.iter_mut().zip(&b[1 + n..]) {
+                    *yj += sum;
+                }
             }
-            drift_parts(p, &y, &mut known, &mut unit);
-            for (b, normal) in batches.iter_mut().enumerate() {
-                let at = dim + b * stride;
-                let cb = acc[at];
+            for yj in y.iter_mut() {
+                *yj /= count;
+            }
+            parts.at(&y, &mut known, &mut unit);
+            for (b, normal) in acc.chunks_exact(stride).zip(batches.iter_mut()) {
+                let cb = b[0];
                 if cb == 0.0 {
                     continue;
                 }
-                for (i, m) in mean.iter_mut().enumerate() {
-                    *m = acc[at + 1 + i] / cb;
+                for (m, sum) in mean.iter_mut().zip(&b[1..]) {
+                    *m = sum / cb;
                 }
                 normal.add(p, cb, &mean, &known, &unit);
             }

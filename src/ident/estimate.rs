@@ -214,7 +214,7 @@ pub fn identify_strong(
     marginals: bool,
     typical: &[f64],
 ) -> Result<Estimate, IdentError> {
-    let (pc, usable) = grid.pieces(problem, marginals);
+    let (pc, usable, stencils) = grid.pieces_with(problem, marginals, None);
     if usable < 2 * problem.unknowns.len() {
         return Err(IdentError::TooLittleData(format!(
             "only {usable} usable grid cells for {} unknowns (grid {} bins per dimension, minimum count {}); use more samples, fewer bins or the weak form",
@@ -225,7 +225,10 @@ pub fn identify_strong(
     let replicates: Vec<Pieces> = {
         use rayon::prelude::*;
         let grids: Vec<strong::DensityGrid> = grid.leave_one_out().collect();
-        grids.par_iter().map(|g| g.pieces(problem, marginals).0).collect()
+        grids
+            .par_iter()
+            .map(|g| g.pieces_with(problem, marginals, Some(&stencils)).0)
+            .collect()
     };
     let cells = grid.counts.len();
     let per_unknown = usable as f64 / problem.unknowns.len() as f64;

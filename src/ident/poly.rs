@@ -100,12 +100,38 @@ impl Poly {
     pub fn eval(&self, y: &[f64]) -> f64 {
         self.terms
             .iter()
-            .map(|(&e, &c)| c * (0..y.len()).map(|j| y[j].powi(exponent(e, j) as i32)).product::<f64>())
+            .map(|(&e, &c)| {
+                let mut m = 1.0;
+                for (j, &x) in y.iter().enumerate() {
+                    let p = exponent(e, j);
+                    if p > 0 {
+                        m *= powi(x, p);
+                    }
+                }
+                c * m
+            })
             .sum()
     }
     /// `E[p(Y)]` from raw moments `E[Y^β]`.
     pub fn expectation(&self, moment: impl Fn(Exponents) -> f64) -> f64 {
         self.terms.iter().map(|(&e, &c)| c * moment(e)).sum()
+    }
+}
+
+/// `x^p` by repeated squaring, as `f64::powi` computes it (the same products in the same
+/// order, so the same bits), inlined: evaluations sit in per-sample loops.
+#[inline]
+pub(crate) fn powi(mut x: f64, mut p: u32) -> f64 {
+    let mut r = 1.0;
+    loop {
+        if p & 1 == 1 {
+            r *= x;
+        }
+        p /= 2;
+        if p == 0 {
+            return r;
+        }
+        x *= x;
     }
 }
 

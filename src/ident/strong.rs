@@ -12,7 +12,7 @@
 //! The histogram is filled in one streaming pass; memory is the grid, not the samples.
 
 use super::moments::RawMoments;
-use super::{Pieces, Problem};
+use super::{poly::Poly, Pieces, Problem};
 
 /// Grid settings; [`GridOptions::auto`] gives the defaults.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
@@ -320,41 +320,63 @@ impl DensityGrid {
     /// The residual's pieces over the usable cells, from the joint histogram or (with
     /// `marginals`) from the product of the marginal histograms.
     pub fn pieces(&self, problem: &Problem, marginals: bool) -> (Pieces, usize) {
+        let (pc, usable, _) = self.pieces_with(problem, marginals, None);
+        (pc, usable)
+    }
+
+    /// [`DensityGrid::pieces`], reusing the stencil values `known` of a grid with the same
+    /// bins where it has them; also the values it evaluated (none when `known` is given).
+    pub fn pieces_with(
+        &self,
+        problem: &Problem,
+        marginals: bool,
+        known: Option<&Stencils>,
+    ) -> (Pieces, usize, Stencils) {
         let d = self.dim;
         let n = problem.n;
         let rc = problem.coefficient_count();
         let nb = self.options.bins;
         let vol: f64 = self.h.iter().product();
         let total = self.total as f64;
-        // Equivalent count and density of a cell.
-        let count = |flat: usize| -> f64 {
-            if marginals {
-                let mut c = total;
-                let mut rest = flat;
-                for j in 0..d {
-                    c *= self.marginals[j][rest % nb] as f64 / total;
-                    rest /= nb;
-                }
-                c
-            } else {
-                self.counts[flat]
-            }
+        // Equivalent count of every cell: the joint histogram's, or the product of the
+        // marginals' (computed once: the stencils below read each cell many times).
+        let product;
+        let eq: &[f64] = if marginals {
+            let scaled: Vec<Vec<f64>> = self
+                .marginals
+                .iter()
+                .map(|m| m.iter().map(|&c| c as f64 / total).collect())
+                .collect();
+            product = (0..self.counts.len())
+                .map(|flat| {
+                    let mut c = total;
+                    let mut rest = flat;
+                    for m in &scaled {
+                        c *= m[rest % nb];
+                        rest /= nb;
+                    }
+                    c
+                })
+                .collect::<Vec<f64>>();
+            &product
+        } else {
+            &self.counts
         };
+        let count = |flat: usize| eq[flat];
         let cross = problem.white.iter().any(|(t, _, _)| t.len() > 1);
         let min = self.options.min_count as f64;
-        let mut rows: Vec<(usize, Vec<usize>)> = Vec::new();
-        let mut idx = vec![0usize; d];
+        let mut rows: Vec<usize> = Vec::new();
         'cells: for flat in 0..self.counts.len() {
-            let mut rest = flat;
-            for j in 0..d {
-                idx[j] = rest % nb;
-                rest /= nb;
-                if idx[j] == 0 || idx[j] == nb - 1 {
-                    continue 'cells;
-                }
-            }
             if count(flat) < min {
                 continue;
+            }
+            let mut rest = flat;
+            for _ in 0..d {
+                let i = rest % nb;
+                rest /= nb;
+                if i == 0 || i == nb - 1 {
+                    continue 'cells;
+                }
             }
             for j in 0..d {
                 if count(flat + self.stride[j]) < min || count(flat - self.stride[j]) < min {
@@ -375,38 +397,75 @@ impl DensityGrid {
                     }
                 }
             }
-            rows.push((flat, idx.clone()));
+            rows.push(flat);
         }
         let f = |flat: usize| count(flat) / (total * vol);
         let mut pc = Pieces::new(rows.len(), n, rc);
-        for (k, (flat, idx)) in rows.iter().enumerate() {
-            let flat = *flat;
-            let y = self.center(idx);
+        // The drift's parts at each row's stencil: from the full grid's values when given
+        // (a replicate's usable cells are among the full grid's: its counts are smaller).
+        let width = 2 * problem.free_drift.len() + 2 * n * (1 + rc);
+        let mut evaluated = Stencils {
+            rows: Vec::new(),
+            width,
+            values: Vec::new(),
+        };
+        let mut buf = vec![0.0; width];
+        let (mut y, mut yu, mut yd) = (vec![0.0; d], vec![0.0; d], vec![0.0; d]);
+        for (k, &flat) in rows.iter().enumerate() {
+            let vals: &[f64] = match known.and_then(|c| c.of(flat)) {
+                Some(v) => v,
+                None => {
+                    let mut rest = flat;
+                    for j in 0..d {
+                        y[j] = self.lo[j] + ((rest % nb) as f64 + 0.5) * self.h[j];
+                        rest /= nb;
+                    }
+                    let mut at = 0;
+                    let mut shifted = |j: usize, buf: &mut [f64], at: &mut usize, g: &Poly| {
+                        yu.copy_from_slice(&y);
+                        yu[j] += self.h[j];
+                        yd.copy_from_slice(&y);
+                        yd[j] -= self.h[j];
+                        buf[*at] = g.eval(&yu);
+                        buf[*at + 1] = g.eval(&yd);
+                        *at += 2;
+                    };
+                    for (j, drift) in &problem.free_drift {
+                        shifted(*j, &mut buf, &mut at, drift);
+                    }
+                    for i in 0..n {
+                        let j = problem.noise_var[i];
+                        shifted(j, &mut buf, &mut at, &problem.known_force[i]);
+                        for r in 0..rc {
+                            shifted(j, &mut buf, &mut at, &problem.unit_force[r][i]);
+                        }
+                    }
+                    if known.is_none() {
+                        evaluated.rows.push(flat);
+                        evaluated.values.extend_from_slice(&buf);
+                    }
+                    &buf
+                }
+            };
+            let mut vals = vals.chunks_exact(2);
             // −Σ_j ∂(drift_j f)/∂y_j for the known, unscaled drift terms.
             let mut t0 = 0.0;
-            for (j, drift) in &problem.free_drift {
+            for (j, _) in &problem.free_drift {
                 let j = *j;
-                let mut yu = y.clone();
-                yu[j] += self.h[j];
-                let mut yd = y.clone();
-                yd[j] -= self.h[j];
-                t0 -= (drift.eval(&yu) * f(flat + self.stride[j]) - drift.eval(&yd) * f(flat - self.stride[j]))
-                    / (2.0 * self.h[j]);
+                let g = vals.next().expect("stencil values");
+                t0 -= (g[0] * f(flat + self.stride[j]) - g[1] * f(flat - self.stride[j])) / (2.0 * self.h[j]);
             }
             pc.t0[k] = t0;
             for i in 0..n {
                 let j = problem.noise_var[i];
                 let (up, dn) = (flat + self.stride[j], flat - self.stride[j]);
                 let (fu, fd) = (f(up), f(dn));
-                let mut yu = y.clone();
-                yu[j] += self.h[j];
-                let mut yd = y.clone();
-                yd[j] -= self.h[j];
                 let h2 = 2.0 * self.h[j];
-                pc.a[k * n + i] = -(problem.known_force[i].eval(&yu) * fu - problem.known_force[i].eval(&yd) * fd) / h2;
+                let g = vals.next().expect("stencil values");
+                pc.a[k * n + i] = -(g[0] * fu - g[1] * fd) / h2;
                 for r in 0..rc {
-                    let g = &problem.unit_force[r][i];
-                    pc.b[(k * n + i) * rc + r] = -(g.eval(&yu) * fu - g.eval(&yd) * fd) / h2;
+                    let g = vals.next().expect("stencil values");
+                    pc.b[(k * n + i) * rc + r] = -(g[0] * fu - g[1] * fd) / h2;
                 }
                 for m in 0..n {
                     let jm = problem.noise_var[m];
@@ -422,6 +481,23 @@ impl DensityGrid {
                 }
             }
         }
-        (pc, rows.len())
+        (pc, rows.len(), evaluated)
+    }
+}
+
+/// The drift's parts (free drift, known and unit forces) evaluated at the stencil of each
+/// usable cell of a grid, kept so that the jackknife's replicates, whose usable cells are
+/// among the full grid's, do not evaluate them again.
+pub struct Stencils {
+    /// Usable cells, ascending.
+    rows: Vec<usize>,
+    width: usize,
+    values: Vec<f64>,
+}
+
+impl Stencils {
+    fn of(&self, flat: usize) -> Option<&[f64]> {
+        let k = self.rows.binary_search(&flat).ok()?;
+        Some(&self.values[k * self.width..(k + 1) * self.width])
     }
 }

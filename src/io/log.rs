@@ -434,9 +434,49 @@ pub struct LogInfo {
     pub accept_truncated: bool,
     /// Measured data standing in for the log's samples (`identify --model --data`).
     pub measured: Option<std::sync::Arc<super::table::Measured>>,
-    /// No file: every pass over the samples re-runs the scenario's simulation, which is
-    /// deterministic by its seed ([`LogInfo::of_simulation`]; studies without logs).
-    pub simulated: bool,
+    /// No file: the scenario's simulation stands in for the samples
+    /// ([`LogInfo::of_simulation`]; studies without logs).
+    pub simulated: Option<std::sync::Arc<Replay>>,
+}
+
+/// The samples of a run simulated without a log: the first pass keeps them in memory when
+/// they fit in [`Replay::BUDGET`] and later passes replay them; otherwise every pass runs
+/// the simulation again (deterministic by its seed, whatever the thread count), so memory
+/// stays bounded either way.
+#[derive(Default)]
+pub struct Replay {
+    kept: std::sync::OnceLock<Vec<f64>>,
+}
+
+impl Replay {
+    /// Bytes of samples kept for replay, at most (`(2 + columns) × 8` bytes per sample: a
+    /// 3.2e6-sample run of duffing2dof takes 282 MB). Above it, passes re-simulate.
+    pub const BUDGET: u64 = 512 << 20;
+}
+
+/// Buffers of replays that ended, for the next ones: a study runs many items of the same
+/// size, and touching fresh pages cost a tenth of an item's time. At most one per thread.
+static SPARE: std::sync::Mutex<Vec<Vec<f64>>> = std::sync::Mutex::new(Vec::new());
+
+impl Drop for Replay {
+    fn drop(&mut self) {
+        if let Some(mut v) = self.kept.take() {
+            v.clear();
+            let mut spare = SPARE.lock().unwrap_or_else(|e| e.into_inner());
+            if spare.len() < rayon::current_num_threads() {
+                spare.push(v);
+            }
+        }
+    }
+}
+
+impl std::fmt::Debug for Replay {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.kept.get() {
+            Some(v) => write!(f, "Replay({} values kept)", v.len()),
+            None => write!(f, "Replay(nothing kept)"),
+        }
+    }
 }
 
 impl LogInfo {
@@ -449,9 +489,9 @@ impl LogInfo {
         (s.trajectories as u64).saturating_mul(s.samples_per_trajectory() as u64)
     }
 
-    /// A run that is not written anywhere: its samples are simulated again on every pass
-    /// (the simulation is deterministic by its seed, whatever the thread count), so an
-    /// identification streams in constant memory without a log on disk.
+    /// A run that is not written anywhere: its samples come from the simulation, kept in
+    /// memory for later passes when small enough, else simulated again on every pass
+    /// ([`Replay`]), so an identification needs no log on disk.
     pub fn of_simulation(scenario: Scenario) -> LogInfo {
         let m = crate::model::Model::new(&scenario);
         LogInfo {
@@ -464,7 +504,7 @@ impl LogInfo {
             accept_truncated: false,
             scenario,
             measured: None,
-            simulated: true,
+            simulated: Some(Default::default()),
         }
     }
 
@@ -502,7 +542,7 @@ impl LogInfo {
             accept_truncated: false,
             scenario: model,
             measured: Some(std::sync::Arc::new(data)),
-            simulated: false,
+            simulated: None,
         }
     }
 }
@@ -654,7 +694,7 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
         library: found.library,
         accept_truncated: false,
         measured: None,
-        simulated: false,
+        simulated: None,
     })
 }
 
@@ -749,17 +789,43 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
         }
         return Ok(m.samples());
     }
-    if info.simulated {
+    if let Some(replay) = &info.simulated {
+        let width = 2 + info.columns.len();
+        if let Some(kept) = replay.kept.get() {
+            for s in kept.chunks_exact(width) {
+                f(s[0] as u32, s[1], &s[2..]);
+            }
+            return Ok((kept.len() / width) as u64);
+        }
+        let bytes = info.expected_samples().saturating_mul(8 * width as u64);
+        let keep = bytes <= Replay::BUDGET;
+        let mut kept = Vec::new();
+        if keep {
+            kept = SPARE
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .pop()
+                .unwrap_or_default();
+            kept.reserve_exact(bytes as usize / 8);
+        }
         let model = crate::model::Model::new(&info.scenario);
         let mut n = 0u64;
         let mut sink = crate::sim::ForEach(|j: u32, t: f64, row: &[f64]| {
             n += 1;
+            if keep {
+                kept.push(j as f64);
+                kept.push(t);
+                kept.extend_from_slice(row);
+            }
             f(j, t, row)
         });
         crate::sim::simulate(&model, &info.scenario.simulation, &mut sink, &|_| {}).map_err(|e| LogError::Io {
             path: info.path.display().to_string(),
             source: std::io::Error::other(e.to_string()),
         })?;
+        if keep {
+            let _ = replay.kept.set(kept);
+        }
         return Ok(n);
     }
     let label = info.path.display().to_string();

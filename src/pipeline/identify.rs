@@ -157,6 +157,35 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     let wants = |m: Method| methods.contains(&m) && baseline_ok.is_ok();
     let mut increments =
         wants(Method::Increments).then(|| Increments::new(&structure, sim.sample_interval, data.batch_count()));
+    // The force regression: on the mechanical problem (filtered forces are measured like
+    // white ones, so their filters' states are not needed), when every force is measured.
+    let force_problem = match &naive_structure {
+        Some(p) if p.unknowns != structure.unknowns => Err(IdentError::NotApplicable(
+            "the force regression estimates the mechanical coefficients only, and this problem has filter unknowns"
+                .into(),
+        )),
+        Some(p) => Ok(p),
+        None => Ok(&structure),
+    };
+    // fpkbench logs a white force as its mean over the sample interval; measured data and
+    // filtered forces hold values at the sample instants.
+    let interval_means: Vec<bool> = s
+        .excitations
+        .iter()
+        .map(|e| info.measured.is_none() && matches!(e.process, crate::scenario::Process::White { .. }))
+        .collect();
+    let force_ok = force_problem
+        .and_then(|p| baseline::applicable(p).map(|()| p))
+        .and_then(|p| baseline::force_columns(p, &interval_means).map(|c| (p, c)));
+    let mut force_regression = match (&force_ok, methods.contains(&Method::ForceRegression)) {
+        (Ok((p, cols)), true) => Some(Increments::with_forces(
+            p,
+            sim.sample_interval,
+            data.batch_count(),
+            cols.clone(),
+        )),
+        _ => None,
+    };
     let mut kramers_moyal = wants(Method::KramersMoyal).then(|| {
         let g = GridOptions::auto(structure.dim(), total.count);
         let mean: Vec<f64> = (0..structure.dim()).map(|j| total.mean(j)).collect();
@@ -171,6 +200,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         )
     });
     forces.start_welch(sim);
+    let keep_dist = options.validate || options.plots;
     read_samples(info, |traj, t, row| {
         let batch = data.batch_of(traj, t);
         if let Some(Ok(g)) = grid.as_mut() {
@@ -182,10 +212,18 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         if let Some(b) = kramers_moyal.as_mut() {
             b.push(traj as usize, t, batch, row);
         }
-        dist.push(traj as usize, row);
+        if let Some(b) = force_regression.as_mut() {
+            b.push(traj as usize, t, batch, row);
+        }
+        if keep_dist {
+            dist.push(traj as usize, row);
+        }
         forces.push(traj, row);
     })?;
 
+    if let Some(b) = kramers_moyal.as_mut() {
+        b.finish();
+    }
     // Filters: fitted to the spectra, or known.
     let (filters, filter_reports, spectra) = forces.filters(s);
     let problem = Problem::from_spec(&spec, &filters)?;
@@ -213,6 +251,10 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
             grid: grid.as_ref(),
             typical: &typical,
             baseline: |m: Method| match (m, &baseline_ok) {
+                (Method::ForceRegression, _) => match (&force_ok, &force_regression) {
+                    (Err(e), _) => Err(e.clone()),
+                    (Ok(_), b) => b.as_ref().map_or_else(|| unreachable!(), |b| b.estimate(&typical)),
+                },
                 (_, Err(e)) => Err(e.clone()),
                 (Method::Increments, _) => increments
                     .as_ref()
@@ -275,7 +317,7 @@ fn estimator_reports<B: Fn(Method) -> Result<ident::Estimate, IdentError>>(
     for m in methods {
         let t = Instant::now();
         let est = match (m, e.grid) {
-            (Method::Increments | Method::KramersMoyal, _) => (e.baseline)(*m),
+            (Method::Increments | Method::KramersMoyal | Method::ForceRegression, _) => (e.baseline)(*m),
             (Method::Weak, _) => e.weak.clone(),
             (Method::Strong | Method::StrongMarginals, Some(Err(err))) => Err(err.clone()),
             (Method::Strong | Method::StrongMarginals, _) if bilinear => Err(IdentError::Unsupported(

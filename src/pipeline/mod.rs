@@ -57,6 +57,9 @@ pub struct Options {
     pub batches: usize,
     /// Re-simulate the identified model for the validation table.
     pub validate: bool,
+    /// Gather what the plots draw (histograms, response spectra); a study, which plots
+    /// none of it, skips that work.
+    pub plots: bool,
     /// Override `[identify.disturbance] max_steps` of the iterative procedure.
     pub max_steps: Option<usize>,
     /// Override `[identify.disturbance] tolerance` of the iterative procedure.
@@ -70,6 +73,7 @@ impl Default for Options {
             grid: None,
             batches: 32,
             validate: true,
+            plots: true,
             max_steps: None,
             tolerance: None,
         }

@@ -35,6 +35,16 @@ pub struct StudyFile {
     /// Overrides applied to the scenario first (`KEY=VALUE`, as `--set`).
     #[serde(default)]
     pub set: Vec<String>,
+    /// The unmeasured disturbance's level, for a scenario with `[identify.disturbance]`
+    /// (0 removes it; as `sweep` sets it).
+    #[serde(default)]
+    pub disturbance_level: Option<f64>,
+    /// A method every other method is compared with on the same samples: per parameter the
+    /// mean and spread of `(θ̂_method − θ̂_reference)`, in units of the reference's spread
+    /// over the seeds (how far a method moves from the reference, e.g. an iteration from
+    /// its step 0).
+    #[serde(default)]
+    pub reference: Option<String>,
 }
 
 /// A study: the scenario with its base overrides, and the grid.
@@ -112,18 +122,33 @@ fn mix(mut z: u64) -> u64 {
 
 impl Study {
     pub fn from_file(path: &Path) -> Result<Study, StudyError> {
-        let label = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| StudyError::File {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("study");
+        Study::from_text(&text, path, name, path.parent().unwrap_or(Path::new(".")))
+    }
+
+    /// A study from its TOML `text` (`label` names it in errors; the scenario is relative
+    /// to `base`): a file's, or the one `fpkbench study --scenario …` writes from its flags.
+    pub fn from_text(text: &str, label: &Path, name: &str, base: &Path) -> Result<Study, StudyError> {
+        let label = label.display().to_string();
         let fail = |message: String| StudyError::File {
             path: label.clone(),
             message,
         };
-        let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
-        let file: StudyFile = toml::from_str(&text).map_err(|e| {
+        let file: StudyFile = toml::from_str(text).map_err(|e| {
             let line = e.span().map_or(0, |s| text[..s.start].matches('\n').count() + 1);
             fail(format!("line {line}: {}", e.message()))
         })?;
         if file.seeds == 0 {
             return Err(fail("`seeds`: at least 1".into()));
+        }
+        if let Some(l) = file.disturbance_level {
+            if !(l.is_finite() && l >= 0.0) {
+                return Err(fail(format!("`disturbance_level`: {l} is not a level >= 0")));
+            }
         }
         for (key, v) in [
             ("record_lengths", &file.record_lengths),
@@ -133,7 +158,7 @@ impl Study {
                 return Err(fail(format!("`{key}`: {x} is not a positive number of seconds")));
             }
         }
-        let scenario_path = path.parent().unwrap_or(Path::new(".")).join(&file.scenario);
+        let scenario_path = base.join(&file.scenario);
         let scenario = Scenario::from_file_with(&scenario_path, &file.set)?;
         let methods = if file.methods.is_empty() {
             scenario.identify.methods.clone()
@@ -142,7 +167,7 @@ impl Study {
         };
         // Every configuration must be a valid scenario: checked before any work.
         let mut study = Study {
-            name: path.file_stem().and_then(|s| s.to_str()).unwrap_or("study").to_string(),
+            name: name.to_string(),
             file: StudyFile { methods, ..file },
             scenario,
             fingerprint: String::new(),
@@ -204,7 +229,11 @@ impl Study {
                 format!("simulation.seed={}", item.seed),
             ],
         )?;
-        Scenario::parse(&text, &format!("{name} (item {})", item.key()), name)
+        let s = Scenario::parse(&text, &format!("{name} (item {})", item.key()), name)?;
+        Ok(match self.file.disturbance_level {
+            Some(level) => s.with_disturbance_level(level),
+            None => s,
+        })
     }
 
     /// Run one item: simulate (into a log under `logs` if given, else straight into the
@@ -216,6 +245,7 @@ impl Study {
         let options = Options {
             methods: self.file.methods.clone(),
             validate: false,
+            plots: false,
             ..Options::default()
         };
         let start = std::time::Instant::now();
@@ -318,6 +348,12 @@ pub struct Summary {
     pub worst_q1: f64,
     pub worst_q3: f64,
     pub worst_max: f64,
+    /// Mean and standard deviation of the worst error over the seeds (a regression gate
+    /// is about the mean + 4 sd).
+    pub worst_mean: f64,
+    pub worst_sd: f64,
+    /// Fraction of all 95 % intervals (every parameter of every item) that hold the truth.
+    pub coverage: Option<f64>,
     pub parameters: Vec<ParameterSummary>,
     /// Median seconds per item (all its methods together).
     pub item_s_median: f64,
@@ -399,12 +435,21 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                     }
                 })
                 .collect();
+            let (worst_mean, worst_sd) = mean_sd(&worst);
+            let covered: Vec<bool> = ok
+                .iter()
+                .flat_map(|r| r.parameters.iter().filter_map(|p| p.covered))
+                .collect();
             Summary {
                 record_length: t,
                 sample_interval: h,
                 method,
                 items: ok.len(),
                 failed: group.len() - ok.len(),
+                worst_mean,
+                worst_sd,
+                coverage: (!covered.is_empty())
+                    .then(|| covered.iter().filter(|c| **c).count() as f64 / covered.len() as f64),
                 worst_median: quantile(&worst, 0.5),
                 worst_q1: quantile(&worst, 0.25),
                 worst_q3: quantile(&worst, 0.75),
@@ -414,6 +459,72 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
             }
         })
         .collect()
+}
+
+/// How far a method's estimates sit from the reference method's on the same samples.
+#[derive(Debug, Clone, Serialize)]
+pub struct Paired {
+    pub record_length: f64,
+    pub sample_interval: f64,
+    pub method: String,
+    pub reference: String,
+    pub parameter: String,
+    /// Seed standard deviation of the reference's estimate (absolute).
+    pub reference_sd: f64,
+    /// Mean, standard deviation and largest magnitude of `(θ̂ − θ̂_reference) / reference_sd`
+    /// over the items.
+    pub mean: f64,
+    pub sd: f64,
+    pub max_abs: f64,
+}
+
+/// Per configuration, method and parameter: the paired differences from `reference`.
+pub fn paired(rows: &[Row], reference: &str) -> Vec<Paired> {
+    let mut out = Vec::new();
+    for x in summarize(rows).iter().filter(|x| x.method != reference) {
+        let same = |r: &&Row| {
+            r.item.record_length == x.record_length && r.item.sample_interval == x.sample_interval && r.error.is_none()
+        };
+        let refs: Vec<&Row> = rows.iter().filter(same).filter(|r| r.method == reference).collect();
+        let mine: Vec<&Row> = rows.iter().filter(same).filter(|r| r.method == x.method).collect();
+        for p in &x.parameters {
+            let value = |r: &Row| r.parameters.iter().find(|q| q.name == p.name).map(|q| q.estimate);
+            let reference_values: Vec<f64> = refs.iter().filter_map(|r| value(r)).collect();
+            let (_, reference_sd) = mean_sd(&reference_values);
+            let d: Vec<f64> = mine
+                .iter()
+                .filter_map(|r| {
+                    let base = refs.iter().find(|q| q.item.index == r.item.index)?;
+                    Some((value(r)? - value(base)?) / reference_sd)
+                })
+                .collect();
+            if d.is_empty() {
+                continue;
+            }
+            let (mean, sd) = mean_sd(&d);
+            out.push(Paired {
+                record_length: x.record_length,
+                sample_interval: x.sample_interval,
+                method: x.method.clone(),
+                reference: reference.to_string(),
+                parameter: p.name.clone(),
+                reference_sd,
+                mean,
+                sd,
+                max_abs: d.iter().fold(0.0, |m, v| m.max(v.abs())),
+            });
+        }
+    }
+    out
+}
+
+fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    (
+        mean,
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt(),
+    )
 }
 
 /// Rows gathered from item files: duplicates of one item and method must agree exactly
@@ -458,4 +569,60 @@ pub fn gather(files: &[PathBuf]) -> Result<Vec<Row>, String> {
     }
     rows.sort_by_key(|r| r.item.index);
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(index: usize, method: &str, estimate: f64, covered: bool) -> Row {
+        Row {
+            study: "s".into(),
+            item: Item {
+                index,
+                record_length: 10.0,
+                sample_interval: 0.1,
+                seed_index: index,
+                seed: index as u64,
+            },
+            method: method.into(),
+            samples: 100,
+            error: None,
+            worst_rel_error: Some((estimate - 2.0).abs() / 2.0),
+            parameters: vec![RowParameter {
+                name: "k1".into(),
+                true_value: 2.0,
+                estimate,
+                std_error: Some(0.1),
+                rel_error: (estimate - 2.0).abs() / 2.0,
+                covered: Some(covered),
+            }],
+            simulate_s: 0.0,
+            identify_s: 0.0,
+            item_s: 1.0,
+        }
+    }
+
+    #[test]
+    fn summary_and_paired_differences_by_hand() {
+        // Reference estimates 1.9, 2.0, 2.1 (sd 0.1); the other method adds 0.05, 0.10, 0.15.
+        let mut rows = Vec::new();
+        for (i, (r, d)) in [(1.9, 0.05), (2.0, 0.10), (2.1, 0.15)].into_iter().enumerate() {
+            rows.push(row(i, "step-0", r, true));
+            rows.push(row(i, "final", r + d, i != 2));
+        }
+        let s = summarize(&rows);
+        let fin = s.iter().find(|x| x.method == "final").unwrap();
+        // Worst errors 0.025, 0.05, 0.125: mean 0.0667, sd 0.0520.
+        assert!((fin.worst_mean - 0.2 / 3.0).abs() < 1e-12);
+        assert!((fin.worst_sd - 0.052_041_65).abs() < 1e-7, "{}", fin.worst_sd);
+        assert_eq!(fin.coverage, Some(2.0 / 3.0));
+        let p = paired(&rows, "step-0");
+        assert_eq!(p.len(), 1);
+        let p = &p[0];
+        assert_eq!((p.method.as_str(), p.parameter.as_str()), ("final", "k1"));
+        assert!((p.reference_sd - 0.1).abs() < 1e-12);
+        // Differences 0.5, 1.0, 1.5 reference sds: mean 1, sd 0.5, largest 1.5.
+        assert!((p.mean - 1.0).abs() < 1e-9 && (p.sd - 0.5).abs() < 1e-9 && (p.max_abs - 1.5).abs() < 1e-9);
+    }
 }

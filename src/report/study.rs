@@ -1,8 +1,9 @@
 //! A study's summary: `summary.json`, `summary.md` and `study.svg` (worst error against
-//! record length with a `1/√T` guide, and against the sample interval).
+//! record length with a `1/√T` guide, against the sample interval, and the coverage of the
+//! 95 % intervals).
 
 use super::plot::{drawable, legend_box, svg_to_file, PlotResult, COLORS};
-use crate::pipeline::study::Summary;
+use crate::pipeline::study::{Paired, Summary};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -14,19 +15,22 @@ fn pct(x: f64) -> String {
     }
 }
 
-/// The summary as a markdown page.
-pub fn study_markdown(name: &str, rows: usize, summary: &[Summary]) -> String {
+/// The summary as a markdown page (with the paired differences from a reference method,
+/// if the study names one).
+pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Paired]) -> String {
     let mut s = format!(
         "# fpkbench study: {name}\n\n{rows} rows. Per configuration and method: the worst error over the \
          parameters and curves of each item, its median, quartiles and maximum over the seeds; per parameter \
          the bias and spread of the signed relative error over the seeds and the coverage of the 95 % \
-         intervals.\n\n![Worst error against record length and sample interval](study.svg)\n\n"
+         intervals; the mean and standard deviation of the worst error (a regression gate is about the \
+         mean + 4 sd) and the coverage of all 95 % intervals.\n\n![Worst error against record length and \
+         sample interval, coverage](study.svg)\n\n"
     );
-    s += "| record length (s) | interval (s) | method | items | failed | median | q1 | q3 | max | s per item |\n\
-          |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    s += "| record length (s) | interval (s) | method | items | failed | median | q1 | q3 | max | mean | sd | coverage | s per item |\n\
+          |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for x in summary {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
             x.record_length,
             x.sample_interval,
             x.method,
@@ -36,6 +40,9 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary]) -> String {
             pct(x.worst_q1),
             pct(x.worst_q3),
             pct(x.worst_max),
+            pct(x.worst_mean),
+            pct(x.worst_sd),
+            x.coverage.map_or("–".into(), |c| format!("{:.1} %", 100.0 * c)),
             x.item_s_median
         );
     }
@@ -52,6 +59,21 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary]) -> String {
                 100.0 * p.bias,
                 100.0 * p.spread,
                 p.coverage.map_or("–".into(), |c| format!("{:.0} %", 100.0 * c))
+            );
+        }
+    }
+    if let Some(first) = paired.first() {
+        s += &format!(
+            "\n## Paired differences from `{}`\n\nOn the same samples: `(θ̂ − θ̂_{0}) / sd`, with `sd` the seed \
+             standard deviation of `{0}`'s estimate; mean, standard deviation and largest magnitude over the \
+             items.\n\n| record length (s) | interval (s) | method | parameter | sd of {0} | mean | sd | max abs |\n\
+             |---:|---:|---|---|---:|---:|---:|---:|\n",
+            first.reference
+        );
+        for p in paired {
+            s += &format!(
+                "| {} | {} | {} | {} | {:.5} | {:+.2} | {:.2} | {:.2} |\n",
+                p.record_length, p.sample_interval, p.method, p.parameter, p.reference_sd, p.mean, p.sd, p.max_abs
             );
         }
     }
@@ -89,8 +111,11 @@ pub fn plot_study(summary: &[Summary], path: &Path) -> PlotResult {
         (true, false) => vec![0],
         _ => vec![1],
     };
-    svg_to_file(path, (520 * panels.len() as u32, 440), |root| {
-        let areas = root.split_evenly((1, panels.len()));
+    // And the coverage of the 95 % intervals, against the first varied axis.
+    let with_coverage = ok.iter().any(|x| x.coverage.is_some());
+    let width = 520 * (panels.len() + with_coverage as usize) as u32;
+    svg_to_file(path, (width, 440), |root| {
+        let areas = root.split_evenly((1, panels.len() + with_coverage as usize));
         if !(ylo > 0.0 && drawable(ylo.ln(), (yhi * 2.0).ln())) {
             return Ok(());
         }
@@ -202,6 +227,70 @@ pub fn plot_study(summary: &[Summary], path: &Path) -> PlotResult {
                     SeriesLabelPosition::UpperLeft
                 },
             )?;
+        }
+        if with_coverage {
+            let panel = panels[0];
+            let xs = if panel == 0 { &lengths } else { &intervals };
+            let (x0, x1) = (xs[0] / 1.5, xs[xs.len() - 1] * 1.5);
+            if !drawable(x0.ln(), x1.ln()) {
+                return Ok(());
+            }
+            let lowest = ok.iter().filter_map(|x| x.coverage).fold(1.0f64, f64::min);
+            let y0 = if lowest > 0.8 { 0.75 } else { 0.0 };
+            let mut chart = ChartBuilder::on(&areas[panels.len()])
+                .caption("coverage of the 95 % intervals", ("sans-serif", 16))
+                .margin(12)
+                .x_label_area_size(38)
+                .y_label_area_size(60)
+                .build_cartesian_2d((x0..x1).log_scale(), y0..1.02)?;
+            chart
+                .configure_mesh()
+                .x_desc(if panel == 0 {
+                    "record length per trajectory T (s)"
+                } else {
+                    "sample interval h (s)"
+                })
+                .y_desc("fraction of intervals holding the truth")
+                .draw()?;
+            let grey = ShapeStyle {
+                color: RGBColor(120, 120, 120).to_rgba(),
+                filled: false,
+                stroke_width: 1,
+            };
+            chart
+                .draw_series(DashedLineSeries::new(vec![(x0, 0.95), (x1, 0.95)], 6, 4, grey))?
+                .label("nominal 0.95")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], grey));
+            for (k, m) in methods.iter().enumerate() {
+                let groups: Vec<f64> = if panel == 0 {
+                    intervals.clone()
+                } else {
+                    vec![lengths[lengths.len() - 1]]
+                };
+                for (g, &other) in groups.iter().enumerate() {
+                    let pts: Vec<(f64, f64)> = ok
+                        .iter()
+                        .filter(|x| {
+                            x.method == *m
+                                && if panel == 0 {
+                                    x.sample_interval == other
+                                } else {
+                                    x.record_length == other
+                                }
+                        })
+                        .filter_map(|x| {
+                            let at = if panel == 0 { x.record_length } else { x.sample_interval };
+                            x.coverage.map(|c| (at, c.max(y0)))
+                        })
+                        .collect();
+                    if pts.is_empty() {
+                        continue;
+                    }
+                    let st = style(k + g * methods.len());
+                    chart.draw_series(LineSeries::new(pts, st).point_size(3))?;
+                }
+            }
+            legend_box(&mut chart, SeriesLabelPosition::LowerLeft)?;
         }
         Ok(())
     })

@@ -95,13 +95,16 @@ pub enum Method {
     /// Baseline, not FPK: conditional mean increments on a grid (the first Kramers–Moyal
     /// coefficient), then least squares of the drift. Ungated.
     KramersMoyal,
+    /// Oracle bound, not FPK: the equation error of the equations of motion with the
+    /// measured excitation forces, information the FPK methods never use. Ungated.
+    ForceRegression,
 }
 
 impl Method {
     /// The FPK estimators: the methods a regression gate may hold.
     pub const ALL: [Method; 3] = [Method::Weak, Method::Strong, Method::StrongMarginals];
     /// The baselines on the same samples (docs/methods.md, "Baselines").
-    pub const BASELINES: [Method; 2] = [Method::Increments, Method::KramersMoyal];
+    pub const BASELINES: [Method; 3] = [Method::Increments, Method::KramersMoyal, Method::ForceRegression];
     pub fn name(self) -> &'static str {
         match self {
             Method::Weak => "weak",
@@ -109,6 +112,7 @@ impl Method {
             Method::StrongMarginals => "strong-marginals",
             Method::Increments => "increments",
             Method::KramersMoyal => "kramers-moyal",
+            Method::ForceRegression => "force-regression",
         }
     }
     pub fn is_baseline(self) -> bool {
