@@ -44,9 +44,9 @@ fn shards_give_the_rows_of_one_run_and_merge_refuses_conflicts() {
     let o = fpk(&["study", &file, "--out", one.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(one.join("summary.json").exists() && one.join("study.svg").exists());
-    // Two shards into two folders, then merged.
-    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
-    for (shard, dir) in [("0/2", &a), ("1/2", &b)] {
+    // Three shards into three folders, then merged: rows equal bit for bit.
+    let (a, b, c) = (tmp.path().join("a"), tmp.path().join("b"), tmp.path().join("c"));
+    for (shard, dir) in [("0/3", &a), ("1/3", &b), ("2/3", &c)] {
         let o = fpk(&["study", &file, "--shard", shard, "--out", dir.to_str().unwrap()]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert!(!dir.join("summary.json").exists(), "a partial study has no summary");
@@ -57,6 +57,7 @@ fn shards_give_the_rows_of_one_run_and_merge_refuses_conflicts() {
         "merge",
         a.to_str().unwrap(),
         b.to_str().unwrap(),
+        c.to_str().unwrap(),
         "--out",
         merged.to_str().unwrap(),
     ]);
@@ -67,7 +68,7 @@ fn shards_give_the_rows_of_one_run_and_merge_refuses_conflicts() {
         }
         r
     };
-    let (whole, parts) = (strip(rows(&one)), strip([rows(&a), rows(&b)].concat()));
+    let (whole, parts) = (strip(rows(&one)), strip([rows(&a), rows(&b), rows(&c)].concat()));
     let mut parts = parts;
     parts.sort_by_key(|r| (r.item.index, r.method.clone()));
     let mut whole = whole;
