@@ -120,25 +120,6 @@ fn dense_sampling_makes_both_baselines_consistent() {
     }
 }
 
-/// The force regression's estimates for seed `seed`.
-fn force_estimates(h: f64, record: f64, seed: u64) -> Vec<(f64, f64)> {
-    let dir = tempfile::tempdir().unwrap();
-    let log = dir.path().join("run.mcap");
-    common::fresh_log(&linear(h, record, seed), &log);
-    let r = identify_log(
-        &log,
-        &Options {
-            methods: vec![Method::ForceRegression],
-            validate: false,
-            ..Options::default()
-        },
-    )
-    .unwrap();
-    let m = &r.methods[0];
-    assert!(m.threshold.is_none(), "a baseline is never gated");
-    m.parameters.iter().map(|p| (p.estimate, p.std_error)).collect()
-}
-
 #[test]
 fn force_regression_is_an_oracle_with_a_second_order_bias() {
     // With the forces measured nothing random is left in the equation error but the
@@ -146,7 +127,7 @@ fn force_regression_is_an_oracle_with_a_second_order_bias() {
     // Over seeds 1–6 (32 × 200 s): at h = 0.01 s k̂ 4.00079–4.00084 (se 2.5e-5: the
     // simulator's own dt = 1 ms bias, +0.02 %), ĉ 0.40001–0.40003; ĉ − c at h = 0.1 s
     // 0.00122–0.00133, at 0.2 s 0.00470–0.00538, a ratio of 3.6–4.4 (h²: 4).
-    let dense = force_estimates(0.01, 200.0, 7);
+    let dense = estimates(0.01, 200.0, Method::ForceRegression);
     let noisy = estimates(0.01, 200.0, Method::Increments);
     println!("force regression at h = 0.01 s: {dense:?}; increments {noisy:?}");
     for ((value, se), truth) in dense.iter().zip([K, C]) {
@@ -157,7 +138,7 @@ fn force_regression_is_an_oracle_with_a_second_order_bias() {
             "se {se} vs increments {noisy:?}"
         );
     }
-    let bias = |h: f64| force_estimates(h, 200.0, 7)[1].0 - C;
+    let bias = |h: f64| estimates(h, 200.0, Method::ForceRegression)[1].0 - C;
     let (b1, b2) = (bias(0.1), bias(0.2));
     println!("ĉ − c: {b1} at h = 0.1 s, {b2} at 0.2 s, ratio {}", b2 / b1);
     assert!(
