@@ -176,7 +176,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
     let dir = report_dir(&args.identify, &info.scenario.name);
     for input in inputs.iter().chain(&args.model) {
-        for f in report::FILES {
+        for f in report::files() {
             refuse_same_file(input, &dir.join(f))?;
         }
     }

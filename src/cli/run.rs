@@ -37,7 +37,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| super::default_output(&scenario.variant_name(), ""));
     let log = dir.join("run.mcap");
-    for f in std::iter::once("run.mcap").chain(fpkbench::report::FILES) {
+    for f in std::iter::once("run.mcap".to_string()).chain(fpkbench::report::files()) {
         refuse_same_file(&args.scenario, &dir.join(f))?;
     }
     // One run per folder at a time: a second one is refused, not interleaved.

@@ -148,7 +148,7 @@ fn item_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-/// summary.json, summary.md and study.svg of `rows` into `dir` (with the paired
+/// summary.json, summary.md, study.html and study.svg (.png, .pdf) of `rows` into `dir` (with the paired
 /// differences from `reference`, if given).
 fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) -> anyhow::Result<()> {
     let summary = summarize(rows);
@@ -163,8 +163,10 @@ fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) 
         serde_json::to_string_pretty(&serde_json::json!({ "summary": summary, "paired": paired }))?.as_bytes(),
     )?;
     let markdown = study_markdown(name, rows.len(), &summary, &paired);
-    write_atomic(&dir.join("summary.md"), markdown.as_bytes())?;
     plot_study(&summary, &dir.join("study.svg")).map_err(|e| anyhow::anyhow!("study.svg: {e}"))?;
+    write_atomic(&dir.join("summary.md"), markdown.as_bytes())?;
+    let html = fpkbench::report::html::page(&format!("fpkbench study: {name}"), &markdown, dir)?;
+    write_atomic(&dir.join("study.html"), html.as_bytes())?;
     println!(
         "{}",
         markdown
@@ -174,7 +176,10 @@ fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) 
             .collect::<Vec<_>>()
             .join("\n")
     );
-    eprintln!("wrote {}/summary.json, summary.md, study.svg", dir.display());
+    eprintln!(
+        "wrote {}/summary.json, summary.md, study.html, study.svg (.png, .pdf)",
+        dir.display()
+    );
     Ok(())
 }
 

@@ -1,6 +1,7 @@
 //! `report.md`: the report as a page a reader opens first — the verdict, the estimates
 //! with their uncertainty per method, the figures embedded, the diagnostics and where the
-//! run came from. Markdown tables and image links only, so any renderer shows it.
+//! run came from. Markdown tables and image links only, so any renderer shows it; `report.html`
+//! is made from the same text ([`super::html`]), folding the blocks after `<!-- fold: … -->`.
 
 use super::text::{decimals, fixed, fmt_err, iteration_summary, GATE_MEANING};
 use super::{MethodReport, Report};
@@ -131,7 +132,7 @@ pub fn markdown(r: &Report) -> String {
                 );
             }
         }
-        s += "\n";
+        s += &format!("\n<!-- fold: diagnostics of {} -->\n", m.method);
         if let Some(d) = &m.diagnostics {
             s += &format!(
                 "- identifiability: rank {}/{}, singular-value ratio {:.2e}\n",
@@ -151,6 +152,9 @@ pub fn markdown(r: &Report) -> String {
         }
         s += &format!("- time: {:.2} s\n\n", m.seconds);
     }
+    if super::plot::compare::has_comparisons(r) {
+        s += "## Models compared\n\n![The scenario's model and its comparison models](compare.svg)\n\n";
+    }
     if !r.filters.is_empty() {
         s += "## Filtered excitations\n\n| excitation | used | A | B | fitted A | fitted B | true A | true B |\n|---|---|---:|---:|---:|---:|---:|---:|\n";
         for f in &r.filters {
@@ -167,7 +171,11 @@ pub fn markdown(r: &Report) -> String {
     if !r.iterations.is_empty() {
         s += "## Iterative procedure (paper section 4)\n\n![Estimates over the steps](iteration.svg)\n\n";
         for it in &r.iterations {
-            s += &format!("```\n{}\n```\n\n", iteration_summary(it).trim());
+            s += &format!(
+                "<!-- fold: {} step by step -->\n```\n{}\n```\n\n",
+                it.method,
+                iteration_summary(it).trim()
+            );
         }
     }
     if let Some(v) = &r.validation {
@@ -208,7 +216,7 @@ pub fn markdown(r: &Report) -> String {
     }
     let p = &r.provenance;
     s += &format!(
-        "## Provenance\n\n- {} {}{}\n- scenario SHA-256 `{}`\n- log `{}`\n- time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n",
+        "## Provenance\n\n<!-- fold: tool, scenario hash, log and timings -->\n- {} {}{}\n- scenario SHA-256 `{}`\n- log `{}`\n- time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n",
         p.tool,
         p.version,
         p.commit.map_or(String::new(), |c| format!(", commit `{c}`")),

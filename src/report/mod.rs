@@ -1,9 +1,14 @@
 //! Reports: the result types ([`types`]), the console text ([`text`]), `report.json`,
-//! `report.md` and the SVG plots ([`plot`]), all written atomically under the run's folder.
+//! `report.md`, `report.html` ([`html`]) and the figures ([`plot`], drawn with [`figure`],
+//! rasterised by `raster`), all written atomically under the run's folder.
 //! Depends on the result types only; never on the numerics' internals.
 
+pub mod figure;
+pub mod html;
 mod markdown;
 pub mod plot;
+#[cfg(feature = "raster")]
+pub mod raster;
 pub mod study;
 pub mod text;
 pub mod types;
@@ -18,16 +23,26 @@ pub use types::*;
 
 pub use crate::io::output::write_atomic;
 
-/// Every file [`write_all`] may write into a report folder.
-pub const FILES: [&str; 7] = [
-    "report.json",
-    "report.md",
-    "characteristics.svg",
-    "iteration.svg",
-    "spectrum.svg",
-    "densities.svg",
-    "response_spectra.svg",
+/// The figures [`write_all`] may write, each as `.svg`, `.png` and `.pdf`.
+pub const FIGURES: [&str; 6] = [
+    "characteristics",
+    "compare",
+    "iteration",
+    "spectrum",
+    "densities",
+    "response_spectra",
 ];
+
+/// Every file [`write_all`] may write into a report folder.
+pub fn files() -> Vec<String> {
+    let mut out: Vec<String> = ["report.json", "report.md", "report.html"].map(String::from).to_vec();
+    for f in FIGURES {
+        for ext in ["svg", "png", "pdf"] {
+            out.push(format!("{f}.{ext}"));
+        }
+    }
+    out
+}
 use std::path::{Path, PathBuf};
 
 /// Write `sweep.json`, `sweep.md` and `sweep.svg` into `dir`.
@@ -51,45 +66,43 @@ pub fn write_sweep(sw: &crate::report::Sweep, dir: &Path) -> std::io::Result<Vec
         .as_bytes(),
     )?;
     files.push(p);
-    let p = dir.join("sweep.svg");
-    plot_sweep(sw, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
-    files.push(p);
+    files.extend(plot_sweep(sw, &dir.join("sweep.svg"))?);
     Ok(files)
 }
 
-/// Write `report.json`, `report.md` and the plots into `dir`; returns the files written.
+/// Write `report.json`, `report.md`, `report.html` and the figures (SVG, with PNG and PDF
+/// beside each) into `dir`; returns the files written.
 pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     let json = serde_json::to_string_pretty(r).map_err(std::io::Error::other)?;
     let p = dir.join("report.json");
     write_atomic(&p, json.as_bytes())?;
     files.push(p);
+    files.extend(plot_characteristics(r, &dir.join("characteristics.svg"))?);
+    if plot::compare::has_comparisons(r) {
+        files.extend(plot::compare::plot_compare(r, &dir.join("compare.svg"))?);
+    }
+    if !r.iterations.is_empty() {
+        files.extend(plot_iteration(r, &dir.join("iteration.svg"))?);
+    }
+    if !r.plot.spectra.is_empty() {
+        files.extend(plot_spectra(r, &dir.join("spectrum.svg"))?);
+    }
+    if !r.plot.marginals.is_empty() {
+        files.extend(plot_densities(r, &dir.join("densities.svg"))?);
+    }
+    if r.plot.response_spectra.iter().any(|s| s.2.segments > 0) {
+        files.extend(plot_response_spectra(r, &dir.join("response_spectra.svg"))?);
+    }
     let md = markdown(r);
     let p = dir.join("report.md");
     write_atomic(&p, md.as_bytes())?;
     files.push(p);
-    let p = dir.join("characteristics.svg");
-    plot_characteristics(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
+    let p = dir.join("report.html");
+    write_atomic(
+        &p,
+        html::page(&format!("fpkbench report: {}", r.scenario), &md, dir)?.as_bytes(),
+    )?;
     files.push(p);
-    if !r.iterations.is_empty() {
-        let p = dir.join("iteration.svg");
-        plot_iteration(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
-        files.push(p);
-    }
-    if !r.plot.spectra.is_empty() {
-        let p = dir.join("spectrum.svg");
-        plot_spectra(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
-        files.push(p);
-    }
-    if !r.plot.marginals.is_empty() {
-        let p = dir.join("densities.svg");
-        plot_densities(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
-        files.push(p);
-    }
-    if r.plot.response_spectra.iter().any(|s| s.2.segments > 0) {
-        let p = dir.join("response_spectra.svg");
-        plot_response_spectra(r, &p).map_err(|e| std::io::Error::other(e.to_string()))?;
-        files.push(p);
-    }
     Ok(files)
 }

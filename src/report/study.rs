@@ -1,11 +1,11 @@
-//! A study's summary: `summary.json`, `summary.md` and `study.svg` (worst error against
-//! record length with a `1/√T` guide, against the sample interval, and the coverage of the
-//! 95 % intervals).
+//! A study's summary: `summary.json`, `summary.md`, `study.html` and `study.svg` (worst
+//! error against record length with a `1/√T` guide, against the sample interval, and the
+//! coverage of the 95 % intervals; PNG and PDF beside it).
 
-use super::plot::{drawable, legend_box, svg_to_file, PlotResult, COLORS};
+use super::figure::{color, log_range, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, GREY};
+use super::plot::write_figure;
 use crate::pipeline::study::{Paired, Summary};
-use plotters::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 fn pct(x: f64) -> String {
     if x.is_finite() {
@@ -80,9 +80,10 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
     s
 }
 
-/// `study.svg`: median worst error (quartiles as bars) against record length per method and
-/// interval, with a `1/√T` guide; and against the sample interval at the longest record.
-pub fn plot_study(summary: &[Summary], path: &Path) -> PlotResult {
+/// `study.svg` (with PNG and PDF): median worst error (quartiles as bars) against record
+/// length per method and interval, with a `1/√T` guide; against the sample interval at the
+/// longest record; and the coverage of the 95 % intervals against the first varied axis.
+pub fn plot_study(summary: &[Summary], path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut methods: Vec<&str> = Vec::new();
     for x in summary {
         if !methods.contains(&x.method.as_str()) {
@@ -93,205 +94,171 @@ pub fn plot_study(summary: &[Summary], path: &Path) -> PlotResult {
         .iter()
         .filter(|x| x.worst_median.is_finite() && x.worst_median > 0.0)
         .collect();
-    let (ylo, yhi) = ok.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
-        (
-            lo.min(x.worst_q1.max(x.worst_median * 0.1)),
-            hi.max(x.worst_q3.max(x.worst_max)),
-        )
-    });
-    let count = |f: fn(&Summary) -> f64| {
+    let sorted = |f: fn(&Summary) -> f64| {
         let mut v: Vec<f64> = ok.iter().map(|x| f(x)).collect();
         v.sort_by(f64::total_cmp);
         v.dedup();
-        v.len()
+        v
     };
+    let lengths = sorted(|x| x.record_length);
+    let intervals = sorted(|x| x.sample_interval);
     // A panel per axis the study varies (the interval's when it varies neither).
-    let panels: Vec<usize> = match (count(|x| x.record_length) > 1, count(|x| x.sample_interval) > 1) {
-        (true, true) => vec![0, 1],
-        (true, false) => vec![0],
-        _ => vec![1],
+    let axes: Vec<bool> = match (lengths.len() > 1, intervals.len() > 1) {
+        (true, true) => vec![true, false],
+        (true, false) => vec![true],
+        _ => vec![false],
     };
-    // And the coverage of the 95 % intervals, against the first varied axis.
-    let with_coverage = ok.iter().any(|x| x.coverage.is_some());
-    let width = 520 * (panels.len() + with_coverage as usize) as u32;
-    svg_to_file(path, (width, 440), |root| {
-        let areas = root.split_evenly((1, panels.len() + with_coverage as usize));
-        if !(ylo > 0.0 && drawable(ylo.ln(), (yhi * 2.0).ln())) {
-            return Ok(());
+    // The items of one line: a method at one value of the other axis (every interval
+    // against record length; the longest record against the interval).
+    let groups = |by_length: bool| -> Vec<f64> {
+        if by_length {
+            intervals.clone()
+        } else {
+            lengths.last().copied().into_iter().collect()
         }
-        let style = |k: usize| ShapeStyle {
-            color: COLORS[k % COLORS.len()].to_rgba(),
-            filled: true,
-            stroke_width: 2,
-        };
-        let mut intervals: Vec<f64> = ok.iter().map(|x| x.sample_interval).collect();
-        intervals.sort_by(f64::total_cmp);
-        intervals.dedup();
-        let mut lengths: Vec<f64> = ok.iter().map(|x| x.record_length).collect();
-        lengths.sort_by(f64::total_cmp);
-        lengths.dedup();
-        // Panel 0: against record length; panel 1: against the sample interval.
-        for (&panel, area) in panels.iter().zip(&areas) {
-            let xs = if panel == 0 { &lengths } else { &intervals };
-            let (x0, x1) = (xs[0] / 1.5, xs[xs.len() - 1] * 1.5);
-            if !drawable(x0.ln(), x1.ln()) {
-                continue;
-            }
-            let mut chart = ChartBuilder::on(area)
-                .caption(
-                    if panel == 0 {
-                        "worst error against record length"
+    };
+    let line_of = |m: &str, by_length: bool, other: f64| -> Vec<&Summary> {
+        ok.iter()
+            .copied()
+            .filter(|x| {
+                x.method == m
+                    && if by_length {
+                        x.sample_interval == other
                     } else {
-                        "worst error against sample interval"
-                    },
-                    ("sans-serif", 16),
-                )
-                .margin(12)
-                .x_label_area_size(38)
-                .y_label_area_size(60)
-                .build_cartesian_2d((x0..x1).log_scale(), (ylo / 1.5..yhi * 2.0).log_scale())?;
-            chart
-                .configure_mesh()
-                .x_desc(if panel == 0 {
-                    "record length per trajectory T (s)"
-                } else {
-                    "sample interval h (s)"
-                })
-                .y_desc("worst relative error (median, quartiles)")
-                .draw()?;
-            for (k, m) in methods.iter().enumerate() {
-                // Per interval (panel 1) or at the longest record (panel 2).
-                let groups: Vec<f64> = if panel == 0 {
-                    intervals.clone()
-                } else {
-                    vec![lengths[lengths.len() - 1]]
-                };
-                for (g, &other) in groups.iter().enumerate() {
-                    let pts: Vec<&&Summary> = ok
-                        .iter()
-                        .filter(|x| {
-                            x.method == *m
-                                && if panel == 0 {
-                                    x.sample_interval == other
-                                } else {
-                                    x.record_length == other
-                                }
-                        })
-                        .collect();
-                    if pts.is_empty() {
-                        continue;
+                        x.record_length == other
                     }
-                    let at = |x: &Summary| if panel == 0 { x.record_length } else { x.sample_interval };
-                    let line: Vec<(f64, f64)> = pts.iter().map(|x| (at(x), x.worst_median)).collect();
-                    let st = style(k + g * methods.len());
-                    let label = if panel == 0 && intervals.len() > 1 {
-                        format!("{m}, h = {other} s")
-                    } else {
-                        m.to_string()
-                    };
-                    chart
-                        .draw_series(LineSeries::new(line.clone(), st).point_size(3))?
-                        .label(label)
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], st));
-                    chart.draw_series(pts.iter().map(|x| {
-                        PathElement::new(vec![(at(x), x.worst_q1.max(ylo / 1.5)), (at(x), x.worst_q3)], st)
-                    }))?;
+            })
+            .collect()
+    };
+    let at = |x: &Summary, by_length: bool| if by_length { x.record_length } else { x.sample_interval };
+    let x_axis = |by_length: bool, values: &[f64]| {
+        let (lo, hi) = (
+            values.first().copied().unwrap_or(1.0),
+            values.last().copied().unwrap_or(1.0),
+        );
+        Axis::log(
+            lo / 1.5,
+            hi * 1.5,
+            if by_length {
+                "record length per trajectory T (s)"
+            } else {
+                "sample interval h (s)"
+            },
+        )
+    };
+    let (ylo, yhi) = log_range(
+        ok.iter()
+            .flat_map(|x| [x.worst_q1.max(x.worst_median * 0.1), x.worst_q3, x.worst_max]),
+        1.6,
+    );
+    let mut panels = Vec::new();
+    for &by_length in &axes {
+        let mut p = Panel::new(
+            if by_length {
+                "worst error against record length"
+            } else {
+                "worst error against sample interval"
+            },
+            x_axis(by_length, if by_length { &lengths } else { &intervals }),
+            Axis::log(
+                100.0 * ylo,
+                100.0 * yhi * 2.5,
+                "worst relative error (%): median, quartiles",
+            ),
+        );
+        for (k, m) in methods.iter().enumerate() {
+            for (g, &other) in groups(by_length).iter().enumerate() {
+                let pts = line_of(m, by_length, other);
+                if pts.is_empty() {
+                    continue;
                 }
+                let col = color(k + g * methods.len());
+                let stroke = Stroke::solid(col, 2.0);
+                let line: Vec<(f64, f64)> = pts.iter().map(|x| (at(x, by_length), 100.0 * x.worst_median)).collect();
+                p.mark(Mark::Bars {
+                    bars: pts
+                        .iter()
+                        .map(|x| (at(x, by_length), 100.0 * x.worst_q1, 100.0 * x.worst_q3))
+                        .collect(),
+                    stroke: Stroke::solid(col, 1.5),
+                });
+                p.mark(Mark::Line {
+                    points: line.clone(),
+                    stroke,
+                });
+                p.mark(Mark::Points {
+                    points: line,
+                    color: col,
+                    radius: 3.0,
+                });
+                let label = if by_length && intervals.len() > 1 {
+                    format!("{m}, h = {other} s")
+                } else {
+                    m.to_string()
+                };
+                p.entry(Swatch::LinePoint(stroke, 3.0), label);
             }
-            if panel == 0 && lengths.len() > 1 {
-                // The 1/√T guide through the first method's first point.
-                if let Some(first) = ok
+        }
+        if by_length && lengths.len() > 1 {
+            // The 1/√T guide through the first method's first point.
+            if let Some(first) = ok
+                .iter()
+                .find(|x| x.method == methods[0] && x.record_length == lengths[0])
+            {
+                let guide = lengths
                     .iter()
-                    .find(|x| x.method == methods[0] && x.record_length == lengths[0])
-                {
-                    let guide: Vec<(f64, f64)> = lengths
-                        .iter()
-                        .map(|&t| (t, first.worst_median * (lengths[0] / t).sqrt()))
-                        .collect();
-                    let grey = ShapeStyle {
-                        color: RGBColor(120, 120, 120).to_rgba(),
-                        filled: false,
-                        stroke_width: 1,
-                    };
-                    chart
-                        .draw_series(LineSeries::new(guide, grey))?
-                        .label("1/√T")
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], grey));
-                }
+                    .map(|&t| (t, 100.0 * first.worst_median * (lengths[0] / t).sqrt()))
+                    .collect();
+                p.line(guide, Stroke::dashed(GREY, 1.2, 6.0, 4.0), Some("1/√T".into()));
             }
-            legend_box(
-                &mut chart,
-                if panel == 0 {
-                    SeriesLabelPosition::UpperRight
-                } else {
-                    SeriesLabelPosition::UpperLeft
-                },
-            )?;
         }
-        if with_coverage {
-            let panel = panels[0];
-            let xs = if panel == 0 { &lengths } else { &intervals };
-            let (x0, x1) = (xs[0] / 1.5, xs[xs.len() - 1] * 1.5);
-            if !drawable(x0.ln(), x1.ln()) {
-                return Ok(());
-            }
-            let lowest = ok.iter().filter_map(|x| x.coverage).fold(1.0f64, f64::min);
-            let y0 = if lowest > 0.8 { 0.75 } else { 0.0 };
-            let mut chart = ChartBuilder::on(&areas[panels.len()])
-                .caption("coverage of the 95 % intervals", ("sans-serif", 16))
-                .margin(12)
-                .x_label_area_size(38)
-                .y_label_area_size(60)
-                .build_cartesian_2d((x0..x1).log_scale(), y0..1.02)?;
-            chart
-                .configure_mesh()
-                .x_desc(if panel == 0 {
-                    "record length per trajectory T (s)"
-                } else {
-                    "sample interval h (s)"
-                })
-                .y_desc("fraction of intervals holding the truth")
-                .draw()?;
-            let grey = ShapeStyle {
-                color: RGBColor(120, 120, 120).to_rgba(),
-                filled: false,
-                stroke_width: 1,
-            };
-            chart
-                .draw_series(DashedLineSeries::new(vec![(x0, 0.95), (x1, 0.95)], 6, 4, grey))?
-                .label("nominal 0.95")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], grey));
-            for (k, m) in methods.iter().enumerate() {
-                let groups: Vec<f64> = if panel == 0 {
-                    intervals.clone()
-                } else {
-                    vec![lengths[lengths.len() - 1]]
-                };
-                for (g, &other) in groups.iter().enumerate() {
-                    let pts: Vec<(f64, f64)> = ok
-                        .iter()
-                        .filter(|x| {
-                            x.method == *m
-                                && if panel == 0 {
-                                    x.sample_interval == other
-                                } else {
-                                    x.record_length == other
-                                }
-                        })
-                        .filter_map(|x| {
-                            let at = if panel == 0 { x.record_length } else { x.sample_interval };
-                            x.coverage.map(|c| (at, c.max(y0)))
-                        })
-                        .collect();
-                    if pts.is_empty() {
-                        continue;
-                    }
-                    let st = style(k + g * methods.len());
-                    chart.draw_series(LineSeries::new(pts, st).point_size(3))?;
+        p.legend_at = if by_length {
+            Corner::UpperRight
+        } else {
+            Corner::UpperLeft
+        };
+        panels.push(p);
+    }
+    if ok.iter().any(|x| x.coverage.is_some()) {
+        let by_length = axes[0];
+        let lowest = ok.iter().filter_map(|x| x.coverage).fold(1.0f64, f64::min);
+        let y0 = if lowest > 0.8 { 75.0 } else { 0.0 };
+        let mut p = Panel::new(
+            "coverage of the 95 % intervals",
+            x_axis(by_length, if by_length { &lengths } else { &intervals }),
+            Axis::linear(y0, 102.0, "intervals holding the truth (%)"),
+        );
+        let nominal = Stroke::dashed(GREY, 1.2, 6.0, 4.0);
+        p.mark(Mark::HLine {
+            y: 95.0,
+            stroke: nominal,
+        });
+        p.entry(Swatch::Line(nominal), "nominal 95 %");
+        for (k, m) in methods.iter().enumerate() {
+            for (g, &other) in groups(by_length).iter().enumerate() {
+                let pts: Vec<(f64, f64)> = line_of(m, by_length, other)
+                    .iter()
+                    .filter_map(|x| x.coverage.map(|c| (at(x, by_length), (100.0 * c).max(y0))))
+                    .collect();
+                if pts.is_empty() {
+                    continue;
                 }
+                let col = color(k + g * methods.len());
+                p.mark(Mark::Line {
+                    points: pts.clone(),
+                    stroke: Stroke::solid(col, 2.0),
+                });
+                p.mark(Mark::Points {
+                    points: pts,
+                    color: col,
+                    radius: 3.0,
+                });
             }
-            legend_box(&mut chart, SeriesLabelPosition::LowerLeft)?;
         }
-        Ok(())
-    })
+        p.legend_at = Corner::LowerLeft;
+        panels.push(p);
+    }
+    let mut fig = Figure::new(540.0 * panels.len() as f64);
+    fig.row(460.0, panels.into_iter().map(Some).collect());
+    write_figure(path, &fig)
 }

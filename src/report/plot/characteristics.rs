@@ -1,21 +1,41 @@
-//! `characteristics.svg`: identified against true characteristics over the observed ranges,
-//! each estimate with its 95 % pointwise band (from the jackknife's covariance of its
-//! coefficients, [`crate::report::Curve::half_width_95`]).
+//! `characteristics.svg`: identified against true characteristics over the observed ranges.
+//! The truth is a thin black line drawn on top, so every estimate stays visible beneath
+//! it; each FPK estimate carries its 95 % pointwise band (from the jackknife's covariance of
+//! its coefficients, [`crate::report::Curve::half_width_95`]). The y-range is set by the
+//! truth and the FPK estimators that are meant to be right; baselines and deliberately
+//! wrong models (naive white noise, product of marginals, comparison models) are dashed
+//! and clipped, with an arrow where they leave the range.
 
-use super::{draw_histogram_strip, drawable, legend_box, not_drawable, svg_to_file, PlotResult, COLORS};
+use super::{histogram_strip, write_figure};
 use crate::model::Characteristic;
+use crate::report::figure::{color, padded, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK};
 use crate::report::text::fmt_err;
-use crate::report::Report;
+use crate::report::{MethodReport, Report};
+use crate::scenario::{Method, ReportMethod};
 use crate::stats;
-use plotters::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Whether a method's curve is meant to be right, and so sets the y-range: a gated FPK
+/// estimator other than the product of marginals.
+pub(crate) fn sets_range(m: &MethodReport) -> bool {
+    m.gated && m.method != ReportMethod::Estimator(Method::StrongMarginals)
+}
+
+/// Names for a characteristic's panel: (what it is, its function, its argument).
+pub(crate) fn words(kind: Characteristic) -> (&'static str, &'static str, &'static str) {
+    match kind {
+        Characteristic::Stiffness => ("spring force", "K(u)", "u"),
+        Characteristic::Damping => ("damper force", "C(w)", "w"),
+    }
+}
 
 /// For every link and characteristic: truth and each method's estimate over the observed
 /// range, with the data's distribution beneath.
-pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
+pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let s = r.scenario_def.as_ref().expect("scenario");
-    let [ux, uv, _, uf, _] = s.motion.units();
+    let [ux, uv, _, uf, _] = s.motion.units().map(unit);
     let mut panels = Vec::new();
+    let mut strips = Vec::new();
     for (l, link) in s.links.iter().enumerate() {
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
             let truth = r.truth.characteristic(&link.name, kind);
@@ -26,139 +46,122 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> PlotResult {
             if truth.is_empty() && !identified {
                 continue;
             }
-            panels.push((l, kind));
-        }
-    }
-    let cols = 2usize;
-    let rows = panels.len().div_ceil(cols).max(1);
-    svg_to_file(path, (1100, 420 * rows as u32), |root| {
-        let areas = root.split_evenly((rows, cols));
-        for ((l, kind), area) in panels.iter().zip(areas) {
-            let link = &s.links[*l];
-            let (hist, var, unit) = match kind {
-                Characteristic::Stiffness => (&r.plot.link_hist[*l].0, "u", ux),
-                Characteristic::Damping => (&r.plot.link_hist[*l].1, "w", uv),
+            let (hist, unit) = match kind {
+                Characteristic::Stiffness => (&r.plot.link_hist[l].0, ux.as_str()),
+                Characteristic::Damping => (&r.plot.link_hist[l].1, uv.as_str()),
             };
-            let (top, bottom) = area.split_vertically((area.dim_in_pixel().1 as f64 * 0.74) as u32);
-            let truth = r.truth.characteristic(&link.name, *kind);
+            let (what, func, var) = words(kind);
             let (lo, hi) = (hist.lo, hist.hi);
-            let xs: Vec<f64> = (0..=200).map(|k| lo + (hi - lo) * k as f64 / 200.0).collect();
-            // Per method with standard errors: its 95 % pointwise band, `(lower, upper)`.
-            let mut bands: Vec<(Vec<f64>, Vec<f64>, RGBColor)> = Vec::new();
-            let mut curves: Vec<(String, Vec<f64>, RGBColor, bool)> = vec![(
-                "true".into(),
-                xs.iter().map(|&z| truth.eval(z)).collect(),
-                RGBColor(0, 0, 0),
-                false,
-            )];
+            let xs: Vec<f64> = (0..=240).map(|k| lo + (hi - lo) * k as f64 / 240.0).collect();
+            let true_ys: Vec<f64> = xs.iter().map(|&z| truth.eval(z)).collect();
+            let known = !truth.is_empty();
+            let mut range_values: Vec<f64> = if known { true_ys.clone() } else { Vec::new() };
+            let mut marks = Vec::new();
+            let mut lines = Vec::new();
+            let mut legend = Vec::new();
             for (mi, m) in r.methods.iter().enumerate() {
-                if let Some(c) = m.curves.iter().find(|c| c.link == link.name && c.kind == kind.name()) {
-                    let p = stats::characteristic(&c.identified);
-                    let color = COLORS[mi % COLORS.len()];
+                let Some(c) = m.curves.iter().find(|c| c.link == link.name && c.kind == kind.name()) else {
+                    continue;
+                };
+                let p = stats::characteristic(&c.identified);
+                let ys: Vec<f64> = xs.iter().map(|&z| p.eval(z)).collect();
+                let col = color(mi);
+                let right = sets_range(m);
+                if right {
+                    range_values.extend(&ys);
                     if c.half_width_95(0.0).is_some() {
                         let half: Vec<f64> = xs.iter().map(|&z| c.half_width_95(z).unwrap_or(0.0)).collect();
-                        bands.push((
-                            xs.iter().zip(&half).map(|(&z, h)| p.eval(z) - h).collect(),
-                            xs.iter().zip(&half).map(|(&z, h)| p.eval(z) + h).collect(),
-                            color,
-                        ));
+                        marks.push(Mark::Band {
+                            xs: xs.clone(),
+                            lower: ys.iter().zip(&half).map(|(y, h)| y - h).collect(),
+                            upper: ys.iter().zip(&half).map(|(y, h)| y + h).collect(),
+                            color: col,
+                            opacity: 0.2,
+                        });
                     }
-                    curves.push((
-                        format!("{} ({} error)", m.method, fmt_err(c.rel_l2_error)),
-                        xs.iter().map(|&z| p.eval(z)).collect(),
-                        COLORS[mi % COLORS.len()],
-                        true,
-                    ));
                 }
-            }
-            let ymin = curves
-                .iter()
-                .flat_map(|c| c.1.iter())
-                .copied()
-                .fold(f64::INFINITY, f64::min);
-            let ymax = curves
-                .iter()
-                .flat_map(|c| c.1.iter())
-                .copied()
-                .fold(f64::NEG_INFINITY, f64::max);
-            let pad = 0.05 * (ymax - ymin).max(1e-12);
-            let title = format!(
-                "{} {}: {} force vs {var} ({})",
-                link.name,
-                kind.name(),
-                if *kind == Characteristic::Stiffness {
-                    "spring"
+                let stroke = if right {
+                    Stroke::solid(col, 3.2)
                 } else {
-                    "damper"
-                },
-                if *kind == Characteristic::Stiffness {
-                    "relative displacement"
-                } else {
-                    "relative velocity"
-                }
-            );
-            let (y0, y1) = (ymin - pad, ymax + pad);
-            if !drawable(lo, hi) || !drawable(y0, y1) {
-                not_drawable(&top, &title, (lo, hi), (y0, y1))?;
-                continue;
-            }
-            let mut chart = ChartBuilder::on(&top)
-                .caption(title, ("sans-serif", 16))
-                .margin_left(10)
-                .margin_right(15)
-                .margin_top(5)
-                .x_label_area_size(20)
-                .y_label_area_size(60)
-                .build_cartesian_2d(lo..hi, y0..y1)?;
-            chart
-                .configure_mesh()
-                .y_desc(format!(
-                    "{} ({uf})",
-                    if *kind == Characteristic::Stiffness {
-                        "K(u)"
-                    } else {
-                        "C(w)"
-                    }
-                ))
-                .x_label_formatter(&|_| String::new())
-                .draw()?;
-            // Bands first, beneath every line; clipped to the panel's range.
-            for (lower, upper, color) in &bands {
-                let clip = |y: f64| y.clamp(y0, y1);
-                let outline: Vec<(f64, f64)> = xs
-                    .iter()
-                    .zip(upper)
-                    .map(|(&x, &y)| (x, clip(y)))
-                    .chain(xs.iter().zip(lower).rev().map(|(&x, &y)| (x, clip(y))))
-                    .collect();
-                chart.draw_series(std::iter::once(Polygon::new(outline, color.mix(0.18).filled())))?;
-            }
-            for (name, ys, color, dashed) in &curves {
-                let pts: Vec<(f64, f64)> = xs.iter().copied().zip(ys.iter().copied()).collect();
-                let style = ShapeStyle {
-                    color: color.to_rgba(),
-                    filled: false,
-                    stroke_width: if *dashed { 2 } else { 3 },
+                    Stroke::dashed(col, 1.6, 7.0, 4.0)
                 };
-                if *dashed {
-                    chart
-                        .draw_series(DashedLineSeries::new(pts, 8, 5, style))?
-                        .label(name.clone())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
-                } else {
-                    chart
-                        .draw_series(LineSeries::new(pts, style))?
-                        .label(name.clone())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                let label = format!(
+                    "{} ({} error{})",
+                    m.method,
+                    fmt_err(c.rel_l2_error),
+                    if right && !c.covariance.is_empty() {
+                        ", 95 % band"
+                    } else {
+                        ""
+                    }
+                );
+                lines.push((xs.iter().copied().zip(ys).collect::<Vec<_>>(), stroke, label));
+            }
+            if range_values.is_empty() {
+                // Nothing is meant to be right (measured data, baselines only): every curve.
+                range_values = lines.iter().flat_map(|l| l.0.iter().map(|p| p.1)).collect();
+            }
+            let (y0, y1) = padded(range_values, 0.06);
+            for (pts, stroke, mut label) in lines {
+                if pts.iter().any(|p| p.1 < y0 || p.1 > y1) {
+                    label += " — off scale ▲▼";
+                }
+                legend.push((Swatch::Line(stroke), label));
+                marks.push(Mark::Line { points: pts, stroke });
+            }
+            let mut title = format!("{} {}: {what} {func}", link.name, kind.name());
+            let mut notes = Vec::new();
+            if known {
+                let truth_stroke = Stroke::solid(BLACK, 1.3);
+                marks.push(Mark::Line {
+                    points: xs.iter().copied().zip(true_ys).collect(),
+                    stroke: truth_stroke,
+                });
+                legend.insert(0, (Swatch::Line(truth_stroke), "true".into()));
+                if legend.len() == 1 {
+                    title += " — known, not identified";
+                    notes.push("given in the scenario as known; no method estimates it".to_string());
                 }
             }
-            legend_box(&mut chart, SeriesLabelPosition::UpperLeft)?;
-            draw_histogram_strip(
-                &bottom,
+            let mut panel = Panel::new(
+                title,
+                Axis::linear(lo, hi, "").unlabelled(),
+                Axis::linear(y0, y1, format!("{func} ({uf})")),
+            );
+            panel.marks = marks;
+            panel.legend = legend;
+            panel.legend_at = Corner::UpperLeft;
+            panel.notes = notes;
+            panel.mark_exits = true;
+            panels.push(panel);
+            strips.push(histogram_strip(
                 hist,
-                &format!("{var} ({unit}) — observed range; grey: distribution of the data"),
-            )?;
+                &format!(
+                    "{var} ({unit}): relative {} over the observed range; grey: the data's distribution",
+                    if kind == Characteristic::Stiffness {
+                        "displacement"
+                    } else {
+                        "velocity"
+                    }
+                ),
+            ));
         }
-        Ok(())
-    })
+    }
+    let mut fig = Figure::new(1200.0);
+    let cols = 2;
+    let mut panels = panels.into_iter();
+    let mut strips = strips.into_iter();
+    loop {
+        let top: Vec<Option<Panel>> = panels.by_ref().take(cols).map(Some).collect();
+        if top.is_empty() {
+            break;
+        }
+        let mut bottom: Vec<Option<Panel>> = strips.by_ref().take(top.len()).map(Some).collect();
+        let mut top = top;
+        top.resize_with(cols, || None);
+        bottom.resize_with(cols, || None);
+        fig.row(360.0, top);
+        fig.row(100.0, bottom);
+    }
+    write_figure(path, &fig)
 }

@@ -1,62 +1,65 @@
-//! `densities.svg`: marginal densities of the data against the identified model's.
+//! `densities.svg`: marginal densities of the data against the re-simulated identified
+//! model's, each on a linear scale and on a log scale (the tails, where a nonlinearity shows).
 
-use super::{drawable, legend_box, not_drawable, svg_to_file, PlotResult, COLORS};
+use super::write_figure;
+use crate::report::figure::{color, log_range, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, LIGHT_GREY};
 use crate::report::Report;
-use plotters::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Marginal density of every response: data against the re-simulated identified model.
-pub fn plot_densities(r: &Report, path: &Path) -> PlotResult {
-    let m = &r.plot.marginals;
-    let cols = 2usize;
-    let rows = m.len().div_ceil(cols).max(1);
+pub fn plot_densities(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let model_name = r.validation.as_ref().map_or("model".to_string(), |v| v.method.name());
-    svg_to_file(path, (1000, 340 * rows as u32), |root| {
-        for ((name, unit, data, model), area) in m.iter().zip(root.split_evenly((rows, cols))) {
-            let dd = data.density(r.plot.samples.max(1.0));
-            let md = model.as_ref().map(|h| h.density(r.plot.model_samples.max(1.0)));
-            let ymax = dd.iter().chain(md.iter().flatten()).copied().fold(0.0, f64::max) * 1.08;
-            let w = (data.hi - data.lo) / data.counts.len() as f64;
-            if !drawable(data.lo, data.hi) || !drawable(0.0, ymax.max(1e-12)) {
-                not_drawable(&area, name, (data.lo, data.hi), (0.0, ymax))?;
-                continue;
-            }
-            let mut chart = ChartBuilder::on(&area)
-                .caption(format!("marginal density of {name}"), ("sans-serif", 16))
-                .margin(10)
-                .x_label_area_size(35)
-                .y_label_area_size(55)
-                .build_cartesian_2d(data.lo..data.hi, 0.0..ymax.max(1e-12))?;
-            chart
-                .configure_mesh()
-                .x_desc(format!("{name} ({unit})"))
-                .y_desc(format!("density (1/{unit})"))
-                .draw()?;
-            chart
-                .draw_series(dd.iter().enumerate().map(|(i, &d)| {
-                    let x0 = data.lo + i as f64 * w;
-                    Rectangle::new([(x0, 0.0), (x0 + w, d)], RGBColor(170, 170, 170).filled())
-                }))?
-                .label("data (histogram)")
-                .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], RGBColor(170, 170, 170).filled()));
-            if let Some(md) = md {
-                let pts: Vec<(f64, f64)> = md
+    let mut panels = Vec::new();
+    for (name, raw_unit, data, model) in &r.plot.marginals {
+        let unit = unit(raw_unit);
+        let dd = data.density(r.plot.samples.max(1.0));
+        let md = model.as_ref().map(|h| h.density(r.plot.model_samples.max(1.0)));
+        let w = (data.hi - data.lo) / data.counts.len().max(1) as f64;
+        let ymax = dd.iter().chain(md.iter().flatten()).copied().fold(0.0, f64::max) * 1.08;
+        for log in [false, true] {
+            let y = if log {
+                let (_, hi) = log_range(dd.iter().chain(md.iter().flatten()).copied(), 2.0);
+                // Down to the smallest density the data resolve (one sample in a bin), at
+                // most five decades below the peak.
+                let floor = 1.0 / (r.plot.samples.max(1.0) * w);
+                Axis::log(floor.max(hi * 1e-5) / 2.0, hi, format!("density (1/{unit}), log scale"))
+            } else {
+                Axis::linear(0.0, ymax.max(1e-300), format!("density (1/{unit})"))
+            };
+            let mut p = Panel::new(
+                format!("marginal density of {name}{}", if log { ": the tails" } else { "" }),
+                Axis::linear(data.lo, data.hi, format!("{name} ({unit})")),
+                y,
+            );
+            p.mark(Mark::Histogram {
+                lo: data.lo,
+                width: w,
+                heights: dd.clone(),
+                color: LIGHT_GREY,
+            });
+            p.entry(Swatch::Patch(LIGHT_GREY, 1.0), "data (histogram)");
+            if let Some(md) = &md {
+                let pts = md
                     .iter()
                     .enumerate()
-                    .map(|(i, &d)| (data.lo + (i as f64 + 0.5) * w, d))
+                    .map(|(i, &d)| {
+                        (
+                            data.lo + (i as f64 + 0.5) * w,
+                            if log && d <= 0.0 { f64::NAN } else { d },
+                        )
+                    })
                     .collect();
-                let style = ShapeStyle {
-                    color: COLORS[0].to_rgba(),
-                    filled: false,
-                    stroke_width: 2,
-                };
-                chart
-                    .draw_series(LineSeries::new(pts, style))?
-                    .label(format!("re-simulated {model_name} model"))
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                p.line(
+                    pts,
+                    Stroke::solid(color(0), 2.0),
+                    Some(format!("re-simulated {model_name} model")),
+                );
             }
-            legend_box(&mut chart, SeriesLabelPosition::UpperRight)?;
+            p.legend_at = if log { Corner::LowerMiddle } else { Corner::UpperRight };
+            panels.push(p);
         }
-        Ok(())
-    })
+    }
+    let mut fig = Figure::new(1100.0);
+    fig.grid(2, 330.0, panels);
+    write_figure(path, &fig)
 }

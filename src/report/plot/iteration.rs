@@ -1,148 +1,156 @@
 //! `iteration.svg`: the section-4 sequences step by step.
 
-use super::{drawable, not_drawable, svg_to_file, PlotResult, COLORS};
+use super::write_figure;
+use crate::model::{Characteristic, ParameterName};
+use crate::report::figure::{color, padded, Axis, Figure, Mark, Panel, Stroke, Swatch, BLACK};
 use crate::report::Report;
-use crate::scenario::ReportMethod;
-use plotters::prelude::*;
-use std::path::Path;
+use crate::scenario::{Motion, ReportMethod};
+use std::path::{Path, PathBuf};
+
+/// The unit of a parameter named as in reports (`k3[ground-m1]`: N/m³), empty when unknown.
+pub(crate) fn parameter_unit(name: &str, motion: Motion) -> String {
+    let [ux, uv, _, uf, um] = motion.units().map(crate::report::figure::unit);
+    let (ux, uv, uf, um) = (ux.as_str(), uv.as_str(), uf.as_str(), um.as_str());
+    let sup = |p: u32| match p {
+        1 => String::new(),
+        2 => "²".into(),
+        3 => "³".into(),
+        p => format!("^{p}"),
+    };
+    // `m` to a power: `m³`; a compound unit in brackets: `(m/s)³`, and `N/(m/s)`.
+    let over = |u: &str, p: u32| {
+        if u.contains('/') {
+            format!("({u}){}", sup(p))
+        } else {
+            format!("{u}{}", sup(p))
+        }
+    };
+    match name.parse::<ParameterName>() {
+        Ok(ParameterName::Mass(_)) => um.into(),
+        Ok(ParameterName::Coefficient { kind, power, .. }) => match kind {
+            Characteristic::Stiffness => format!("{uf}/{}", over(ux, power)),
+            Characteristic::Damping => format!("{uf}/{}", over(uv, power)),
+        },
+        Ok(ParameterName::Corner(_)) => "1/s".into(),
+        _ => String::new(),
+    }
+}
 
 /// Every parameter of the iterative procedure against the step number, one line per
-/// sequence, with the true value (dashed), each sequence's bound — the estimate with the
-/// disturbance given as measured (dotted, in the sequence's colour) — and the one-step
+/// sequence, with the true value (dashed black), each sequence's bound — the estimate with
+/// the disturbance given as measured (dotted, in the sequence's colour) — and the one-step
 /// `direct-force` estimate (long dashes); one legend for all panels in a cell of its own.
-pub fn plot_iteration(r: &Report, path: &Path) -> PlotResult {
+pub fn plot_iteration(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let Some(first) = r.iterations.first() else {
-        return Ok(());
+        return Ok(Vec::new());
     };
+    let motion = r.scenario_def.as_ref().map_or(Motion::Translational, |s| s.motion);
     let names = &first.iteration.names;
-    // One cell more than the panels: the legend's.
-    let rows = (names.len() + 1).div_ceil(2);
     let estimates = |method: &ReportMethod| {
         r.methods
             .iter()
             .find(|m| m.method == *method && m.error.is_none())
             .map(|m| m.parameters.iter().map(|p| p.estimate).collect::<Vec<f64>>())
     };
-    // Reference lines: (style, label, estimates, dash, gap): each sequence's bound, in its
-    // colour, and the one-step estimate.
-    let mut lines: Vec<(ShapeStyle, String, Vec<f64>, u32, u32)> = r
+    // Reference lines: (stroke, label, estimates): each sequence's bound, in its colour,
+    // and the one-step estimate.
+    let mut lines: Vec<(Stroke, String, Vec<f64>)> = r
         .iterations
         .iter()
         .enumerate()
         .filter_map(|(j, it)| {
             let v = estimates(&it.bound)?;
             let label = format!("{}: P_z given as measured, bound of {}", it.bound, it.method);
-            Some((COLORS[j].stroke_width(1), label, v, 2, 3))
+            Some((Stroke::dashed(color(j), 1.3, 2.0, 3.0), label, v))
         })
         .collect();
     if let Some(v) = estimates(&ReportMethod::DirectForce) {
         let label = format!("{}: one solve of (4.8), no iteration", ReportMethod::DirectForce);
-        lines.push((COLORS[r.iterations.len()].stroke_width(2), label, v, 10, 4));
+        lines.push((Stroke::dashed(color(r.iterations.len()), 2.0, 10.0, 4.0), label, v));
     }
-    let tstyle = ShapeStyle {
-        color: BLACK.to_rgba(),
-        filled: false,
-        stroke_width: 1,
-    };
-    svg_to_file(path, (1000, 300 * rows as u32), |root| {
-        let cells = root.split_evenly((rows, 2));
-        for (k, area) in cells.iter().enumerate().take(names.len()) {
-            let sequences: Vec<Vec<(f64, f64)>> = r
-                .iterations
-                .iter()
-                .map(|it| {
-                    it.iteration
-                        .steps
-                        .iter()
-                        .map(|s| (s.step as f64, s.values[k]))
-                        .collect()
-                })
-                .collect();
-            let truth = first.truth[k];
-            let ys = sequences
+    let truth_stroke = Stroke::dashed(BLACK, 1.2, 6.0, 4.0);
+    let steps = r
+        .iterations
+        .iter()
+        .map(|it| it.iteration.steps.len())
+        .max()
+        .unwrap_or(0);
+    let last = steps.max(2) as f64 - 1.0;
+    let mut panels = Vec::new();
+    for (k, name) in names.iter().enumerate() {
+        let sequences: Vec<Vec<(f64, f64)>> = r
+            .iterations
+            .iter()
+            .map(|it| {
+                it.iteration
+                    .steps
+                    .iter()
+                    .map(|s| (s.step as f64, s.values[k]))
+                    .collect()
+            })
+            .collect();
+        let truth = first.truth[k];
+        let (lo, hi) = padded(
+            sequences
                 .iter()
                 .flat_map(|v| v.iter().map(|p| p.1))
                 .chain([truth])
-                .chain(lines.iter().map(|l| l.2[k]))
-                .filter(|y| y.is_finite());
-            let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(y), h.max(y)));
-            let pad = 0.1 * (hi - lo).max(1e-3 * truth.abs().max(1e-12));
-            let steps = sequences.iter().map(Vec::len).max().unwrap_or(0);
-            let last = steps.max(2) as f64 - 1.0;
-            if !drawable(lo - pad, hi + pad) {
-                not_drawable(area, &names[k], (-0.2, last + 0.2), (lo - pad, hi + pad))?;
-                continue;
-            }
-            let mut chart = ChartBuilder::on(area)
-                .caption(&names[k], ("sans-serif", 16))
-                .margin(10)
-                .x_label_area_size(34)
-                .y_label_area_size(70)
-                .build_cartesian_2d(-0.2..last + 0.2, lo - pad..hi + pad)?;
-            chart
-                .configure_mesh()
-                .x_desc("step")
-                .y_desc("estimate")
-                .x_labels(steps.clamp(2, 12))
-                .draw()?;
-            chart.draw_series(DashedLineSeries::new(
-                vec![(-0.2, truth), (last + 0.2, truth)],
-                6,
-                4,
-                tstyle,
-            ))?;
-            for (style, _, values, dash, gap) in &lines {
-                let b = values[k];
-                if b.is_finite() {
-                    chart.draw_series(DashedLineSeries::new(
-                        vec![(-0.2, b), (last + 0.2, b)],
-                        *dash,
-                        *gap,
-                        *style,
-                    ))?;
-                }
-            }
-            for (j, values) in sequences.into_iter().enumerate() {
-                let c = COLORS[j];
-                chart.draw_series(LineSeries::new(values.clone(), c.stroke_width(2)))?;
-                chart.draw_series(values.iter().map(|&(x, y)| Circle::new((x, y), 4, c.filled())))?;
-            }
-        }
-        // The legend, in the first free cell.
-        let area = &cells[names.len()];
-        let font = ("sans-serif", 15).into_font();
-        let mut y = 30;
-        let mut entry = |sample: &dyn Fn(i32) -> PlotResult, label: &str| -> PlotResult {
-            sample(y)?;
-            area.draw(&Text::new(label.to_string(), (90, y - 8), font.clone()))?;
-            y += 28;
-            Ok(())
-        };
-        for (j, it) in r.iterations.iter().enumerate() {
-            let c = COLORS[j];
-            entry(
-                &|y| {
-                    area.draw(&PathElement::new(vec![(30, y), (75, y)], c.stroke_width(2)))?;
-                    area.draw(&Circle::new((52, y), 4, c.filled()))?;
-                    Ok(())
+                .chain(lines.iter().map(|l| l.2[k])),
+            0.1,
+        );
+        let unit = parameter_unit(name, motion);
+        let mut p = Panel::new(
+            name.clone(),
+            Axis::linear(-0.2, last + 0.2, "step"),
+            Axis::linear(
+                lo,
+                hi,
+                if unit.is_empty() {
+                    "estimate".to_string()
+                } else {
+                    format!("estimate ({unit})")
                 },
-                &format!("{}: {} single-mass step", it.method, it.iteration.single_mass.name()),
-            )?;
+            ),
+        );
+        p.mark(Mark::HLine {
+            y: truth,
+            stroke: truth_stroke,
+        });
+        for (stroke, _, values) in &lines {
+            p.mark(Mark::HLine {
+                y: values[k],
+                stroke: *stroke,
+            });
         }
-        // A dashed sample of the panels' pattern (in pixels).
-        let dashed = |y: i32, dash: u32, gap: u32, style: ShapeStyle| -> PlotResult {
-            let mut x = 30;
-            while x < 75 {
-                let end = (x + dash as i32).min(75);
-                area.draw(&PathElement::new(vec![(x, y), (end, y)], style))?;
-                x = end + gap as i32;
-            }
-            Ok(())
-        };
-        entry(&|y| dashed(y, 6, 4, tstyle), "true value")?;
-        for (style, label, _, dash, gap) in &lines {
-            entry(&|y| dashed(y, *dash, *gap, *style), label)?;
+        for (j, values) in sequences.into_iter().enumerate() {
+            p.mark(Mark::Line {
+                points: values.clone(),
+                stroke: Stroke::solid(color(j), 2.0),
+            });
+            p.mark(Mark::Points {
+                points: values,
+                color: color(j),
+                radius: 3.5,
+            });
         }
-        Ok(())
-    })
+        panels.push(p);
+    }
+    // The legend, in a cell of its own after the panels.
+    let mut entries: Vec<(Swatch, String)> = r
+        .iterations
+        .iter()
+        .enumerate()
+        .map(|(j, it)| {
+            (
+                Swatch::LinePoint(Stroke::solid(color(j), 2.0), 3.5),
+                format!("{}: {} single-mass step", it.method, it.iteration.single_mass.name()),
+            )
+        })
+        .collect();
+    entries.push((Swatch::Line(truth_stroke), "true value".into()));
+    entries.extend(lines.iter().map(|(s, l, _)| (Swatch::Line(*s), l.clone())));
+    panels.push(Panel::legend_cell(entries));
+    let mut fig = Figure::new(1100.0);
+    fig.grid(2, 300.0, panels);
+    write_figure(path, &fig)
 }

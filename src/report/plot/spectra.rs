@@ -1,92 +1,68 @@
-//! `spectrum.svg`: measured force spectra with their rational fits (3.20).
+//! `spectrum.svg`, the paper's Fig. 6: the measured force's spectral density (Welch
+//! estimate), the rational spectrum (3.20) fitted to it and the true one, log–log.
 
-use super::{drawable, legend_box, not_drawable, svg_to_file, PlotResult, COLORS};
+use super::write_figure;
+use crate::ident::spectrum::sampled_ou_density;
+use crate::report::figure::{color, log_range, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
 use crate::report::Report;
-use plotters::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Estimated force spectra with the fitted (3.20) and true curves, log–log (the paper's
-/// Fig. 6).
-pub fn plot_spectra(r: &Report, path: &Path) -> PlotResult {
-    let sp = &r.plot.spectra;
-    let unit = r.scenario_def.as_ref().map(|s| s.motion.units()[3]).unwrap_or("N");
-    svg_to_file(path, (900, 420 * sp.len().max(1) as u32), |root| {
-        for ((name, spec, fit, (ta, tb)), area) in sp.iter().zip(root.split_evenly((sp.len().max(1), 1))) {
-            let (w0, w1) = (spec.omega[0], spec.omega[spec.omega.len() - 1]);
-            let dmin = spec
-                .density
+/// Estimated force spectra with the fitted (3.20) and true curves, log–log.
+pub fn plot_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let unit = unit(r.scenario_def.as_ref().map(|s| s.motion.units()[3]).unwrap_or("N"));
+    let mut panels = Vec::new();
+    for (name, spec, fit, (ta, tb)) in &r.plot.spectra {
+        let (w0, w1) = (
+            spec.omega.first().copied().unwrap_or(0.0),
+            spec.omega.last().copied().unwrap_or(0.0),
+        );
+        let (y0, y1) = log_range(spec.density.iter().copied(), 2.0);
+        let mut p = Panel::new(
+            format!("spectral density of the force p_{name}"),
+            Axis::log(w0, w1, "ω (rad/s)"),
+            Axis::log(y0, y1, format!("S(ω) ({unit}²·s/rad)")),
+        );
+        p.mark(Mark::Points {
+            points: spec.omega.iter().copied().zip(spec.density.iter().copied()).collect(),
+            color: GREY,
+            radius: 1.8,
+        });
+        p.entry(
+            Swatch::Point(GREY, 3.0),
+            format!(
+                "Welch estimate ({} segments of {} samples)",
+                spec.segments, spec.segment_len
+            ),
+        );
+        let curve = |a: f64, b: f64| -> Vec<(f64, f64)> {
+            spec.omega
                 .iter()
-                .copied()
-                .filter(|d| *d > 0.0)
-                .fold(f64::INFINITY, f64::min);
-            let dmax = spec.density.iter().copied().fold(0.0, f64::max);
-            let positive = |a: f64, b: f64| a > 0.0 && drawable(a.ln(), b.ln());
-            if !positive(w0, w1) || !positive(dmin * 0.5, dmax * 2.0) {
-                not_drawable(&area, &format!("spectrum of p_{name}"), (w0, w1), (dmin, dmax))?;
-                continue;
-            }
-            let mut chart = ChartBuilder::on(&area)
-                .caption(format!("spectral density of the force p_{name}"), ("sans-serif", 16))
-                .margin(10)
-                .x_label_area_size(38)
-                .y_label_area_size(70)
-                .build_cartesian_2d((w0..w1).log_scale(), (dmin * 0.5..dmax * 2.0).log_scale())?;
-            chart
-                .configure_mesh()
-                .x_desc("ω (rad/s)")
-                .y_desc(format!("S(ω) (({unit})²·s/rad)"))
-                .draw()?;
-            chart
-                .draw_series(
-                    spec.omega
-                        .iter()
-                        .zip(&spec.density)
-                        .map(|(&w, &d)| Circle::new((w, d), 2, RGBColor(150, 150, 150).filled())),
-                )?
-                .label(format!("Welch estimate ({} segments)", spec.segments))
-                .legend(|(x, y)| Circle::new((x + 9, y), 3, RGBColor(150, 150, 150).filled()));
-            let fitted: Vec<(f64, f64)> = spec
-                .omega
-                .iter()
-                .map(|&w| {
-                    (
-                        w,
-                        crate::ident::spectrum::sampled_ou_density(fit.a, fit.b, spec.sample_interval, w),
-                    )
-                })
-                .collect();
-            let style = ShapeStyle {
-                color: COLORS[0].to_rgba(),
-                filled: false,
-                stroke_width: 2,
-            };
-            chart
-                .draw_series(LineSeries::new(fitted, style))?
-                .label(format!("fit: A = {:.3}, B = {:.3} 1/s", fit.a, fit.b))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
-            let truth: Vec<(f64, f64)> = spec
-                .omega
-                .iter()
-                .map(|&w| {
-                    (
-                        w,
-                        crate::ident::spectrum::sampled_ou_density(*ta, *tb, spec.sample_interval, w),
-                    )
-                })
-                .collect();
-            let tstyle = ShapeStyle {
-                color: BLACK.to_rgba(),
-                filled: false,
-                stroke_width: 1,
-            };
-            if ta.is_finite() {
-                chart
-                    .draw_series(DashedLineSeries::new(truth, 6, 4, tstyle))?
-                    .label(format!("true: A = {ta}, B = {tb} 1/s"))
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], tstyle));
-            }
-            legend_box(&mut chart, SeriesLabelPosition::LowerLeft)?;
+                .map(|&w| (w, sampled_ou_density(a, b, spec.sample_interval, w)))
+                .collect()
+        };
+        p.line(
+            curve(fit.a, fit.b),
+            Stroke::solid(color(0), 2.2),
+            Some(format!("fitted (3.20): A = {:.4}, B = {:.4} 1/s", fit.a, fit.b)),
+        );
+        if ta.is_finite() {
+            p.line(
+                curve(*ta, *tb),
+                Stroke::dashed(BLACK, 1.3, 6.0, 4.0),
+                Some(format!("true: A = {ta}, B = {tb} 1/s")),
+            );
         }
-        Ok(())
-    })
+        p.legend_at = Corner::LowerLeft;
+        panels.push(p);
+    }
+    let mut fig = Figure::new(900.0);
+    fig.grid(1, 430.0, panels);
+    fig.caption.push(format!(
+        "The paper's Fig. 6: points, the spectral density of the measured excitation estimated by Welch's method; \
+         solid, the first-order rational spectrum S(ω) = A²/(2π(B² + ω²)) (3.20) fitted to them (as sampled every {} s, \
+         with its aliasing); dashed, the true spectrum. The fitted A and B define the filter the identifier's \
+         augmented state uses.",
+        r.sample_interval_s
+    ));
+    write_figure(path, &fig)
 }
