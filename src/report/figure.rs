@@ -202,6 +202,15 @@ pub fn unit(u: &str) -> String {
     u.replace('*', "·").replace("^2", "²").replace("^3", "³")
 }
 
+/// A unit squared: `m²`, `(N·m)²`, `(m/s)²`.
+pub fn squared(u: &str) -> String {
+    if u.contains(['·', '/', '*']) {
+        format!("({})²", unit(u))
+    } else {
+        format!("{}²", unit(u))
+    }
+}
+
 /// A range padded by `pad` of its width on both sides (or around a single value).
 pub fn padded(values: impl IntoIterator<Item = f64>, pad: f64) -> (f64, f64) {
     let (lo, hi) = values

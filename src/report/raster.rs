@@ -45,7 +45,21 @@ pub fn png(svg: &str) -> Result<Vec<u8>, String> {
         tiny_skia::Transform::from_scale(PNG_SCALE, PNG_SCALE),
         &mut pixmap.as_mut(),
     );
-    pixmap.encode_png().map_err(|e| format!("PNG encoding: {e}"))
+    // Opaque (drawn on white): RGB with adaptive filters, a quarter of the RGBA file.
+    let rgb: Vec<u8> = pixmap.data().chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(png::Compression::Default);
+        enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
+        let mut writer = enc.write_header().map_err(|e| format!("PNG encoding: {e}"))?;
+        writer
+            .write_image_data(&rgb)
+            .map_err(|e| format!("PNG encoding: {e}"))?;
+    }
+    Ok(out)
 }
 
 /// The SVG as a one-page vector PDF with the font embedded (subset).

@@ -3,7 +3,7 @@
 
 use super::write_figure;
 use crate::ident::spectrum::Spectrum;
-use crate::report::figure::{color, log_range, unit, Axis, Corner, Figure, Panel, Stroke, GREY};
+use crate::report::figure::{color, log_range, squared, unit, Axis, Corner, Figure, Panel, Stroke, GREY};
 use crate::report::Report;
 use std::path::{Path, PathBuf};
 
@@ -28,7 +28,7 @@ pub fn plot_response_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<Pat
         let mut p = Panel::new(
             format!("spectral density of {name}"),
             Axis::log(w0, w1, "ω (rad/s)"),
-            Axis::log(y0, y1, format!("S(ω) ({unit}²·s/rad)")),
+            Axis::log(y0, y1, format!("S(ω) ({}·s/rad)", squared(&unit))),
         );
         p.line(
             dp,

@@ -3,7 +3,9 @@
 
 use super::write_figure;
 use crate::ident::spectrum::sampled_ou_density;
-use crate::report::figure::{color, log_range, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
+use crate::report::figure::{
+    color, log_range, squared, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY,
+};
 use crate::report::Report;
 use std::path::{Path, PathBuf};
 
@@ -20,7 +22,7 @@ pub fn plot_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
         let mut p = Panel::new(
             format!("spectral density of the force p_{name}"),
             Axis::log(w0, w1, "ω (rad/s)"),
-            Axis::log(y0, y1, format!("S(ω) ({unit}²·s/rad)")),
+            Axis::log(y0, y1, format!("S(ω) ({}·s/rad)", squared(&unit))),
         );
         p.mark(Mark::Points {
             points: spec.omega.iter().copied().zip(spec.density.iter().copied()).collect(),
