@@ -67,6 +67,9 @@ pub fn applicable(problem: &Problem) -> Result<(), IdentError> {
 #[derive(Clone)]
 struct Normal {
     pieces: Pieces,
+    /// Per mass: the unknowns whose unit force on it is not identically zero (an unknown
+    /// acts on the one or two masses its link joins), ascending.
+    acting: Vec<Vec<usize>>,
 }
 
 impl Normal {
@@ -74,16 +77,21 @@ impl Normal {
         let r = problem.unknowns.len();
         Normal {
             pieces: Pieces::new(r, problem.n, r),
+            acting: (0..problem.n)
+                .map(|i| (0..r).filter(|&row| !problem.unit_force[row][i].terms.is_empty()).collect())
+                .collect(),
         }
     }
 
     /// One equation per mass: `target_i ≈ μ_i (known_i + Σ_r θ_r unit_ir)`, weight `w`.
+    /// Only the unknowns acting on mass `i` enter its terms (the others' unit forces are
+    /// identically zero there).
     fn add(&mut self, problem: &Problem, w: f64, target: &[f64], known: &[f64], unit: &[f64]) {
         let (n, r) = (problem.n, problem.unknowns.len());
         let p = &mut self.pieces;
-        for i in 0..n {
+        for (i, acting) in self.acting.iter().enumerate() {
             let mu = 1.0 / problem.model.mass[i];
-            for row in 0..r {
+            for (k, &row) in acting.iter().enumerate() {
                 let f = w * mu * unit[row * n + i];
                 if f == 0.0 {
                     continue;
@@ -91,8 +99,9 @@ impl Normal {
                 p.t0[row] -= f * target[i];
                 p.a[row * n + i] += f * known[i];
                 // Symmetric in (row, col): the upper triangle here, the rest by `symmetrize`.
-                for col in row..r {
-                    p.b[(row * n + i) * r + col] += f * unit[col * n + i];
+                let b = &mut p.b[(row * n + i) * r..(row * n + i + 1) * r];
+                for &col in &acting[k..] {
+                    b[col] += f * unit[col * n + i];
                 }
             }
         }
@@ -321,7 +330,9 @@ impl Increments {
         let normal = &mut self.batches[batch.min(last)];
         let used = &mut self.used;
         self.pairs.step(trajectory, t, y, |y0| {
-            parts.at(y0, known, unit);
+            if forces.is_none() {
+                parts.at(y0, known, unit);
+            }
             for i in 0..p.n {
                 let v = p.noise_var[i];
                 target[i] = (y[v] - y0[v]) / h;
