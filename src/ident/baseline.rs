@@ -78,7 +78,11 @@ impl Normal {
         Normal {
             pieces: Pieces::new(r, problem.n, r),
             acting: (0..problem.n)
-                .map(|i| (0..r).filter(|&row| !problem.unit_force[row][i].terms.is_empty()).collect())
+                .map(|i| {
+                    (0..r)
+                        .filter(|&row| !problem.unit_force[row][i].terms.is_empty())
+                        .collect()
+                })
                 .collect(),
         }
     }
