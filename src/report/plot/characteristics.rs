@@ -13,6 +13,7 @@ use crate::report::text::fmt_err;
 use crate::report::{MethodReport, Report};
 use crate::scenario::{Method, ReportMethod};
 use crate::stats;
+use crate::stats::Histogram;
 use std::path::{Path, PathBuf};
 
 /// Whether a method's curve is meant to be right, and so sets the y-range: a gated FPK
@@ -29,11 +30,24 @@ pub(crate) fn words(kind: Characteristic) -> (&'static str, &'static str, &'stat
     }
 }
 
+/// A characteristic's argument over link `l`'s observed range: the data's histogram, the
+/// argument's unit and 241 points spanning the range.
+pub(crate) fn observed(r: &Report, l: usize, kind: Characteristic) -> (&Histogram, String, Vec<f64>) {
+    let [ux, uv, ..] = r.scenario_def.as_ref().expect("scenario").motion.units();
+    let (hist, u) = match kind {
+        Characteristic::Stiffness => (&r.plot.link_hist[l].0, ux),
+        Characteristic::Damping => (&r.plot.link_hist[l].1, uv),
+    };
+    let (lo, hi) = (hist.lo, hist.hi);
+    let xs = (0..=240).map(|k| lo + (hi - lo) * k as f64 / 240.0).collect();
+    (hist, unit(u), xs)
+}
+
 /// For every link and characteristic: truth and each method's estimate over the observed
 /// range, with the data's distribution beneath.
 pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let s = r.scenario_def.as_ref().expect("scenario");
-    let [ux, uv, _, uf, _] = s.motion.units().map(unit);
+    let uf = unit(s.motion.units()[3]);
     let mut panels = Vec::new();
     let mut strips = Vec::new();
     for (l, link) in s.links.iter().enumerate() {
@@ -46,13 +60,9 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
             if truth.is_empty() && !identified {
                 continue;
             }
-            let (hist, unit) = match kind {
-                Characteristic::Stiffness => (&r.plot.link_hist[l].0, ux.as_str()),
-                Characteristic::Damping => (&r.plot.link_hist[l].1, uv.as_str()),
-            };
+            let (hist, unit, xs) = observed(r, l, kind);
             let (what, func, var) = words(kind);
             let (lo, hi) = (hist.lo, hist.hi);
-            let xs: Vec<f64> = (0..=240).map(|k| lo + (hi - lo) * k as f64 / 240.0).collect();
             let true_ys: Vec<f64> = xs.iter().map(|&z| truth.eval(z)).collect();
             let known = !truth.is_empty();
             let mut range_values: Vec<f64> = if known { true_ys.clone() } else { Vec::new() };

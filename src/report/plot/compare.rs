@@ -4,7 +4,7 @@
 //! On `silentblock` this is the identified cubic `K_N` (3.27) against the equivalent-linear
 //! `K_L` (3.23).
 
-use super::characteristics::words;
+use super::characteristics::{observed, words};
 use super::{histogram_strip, write_figure};
 use crate::model::Characteristic;
 use crate::report::figure::{color, padded, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK};
@@ -66,7 +66,7 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let Some(s) = r.scenario_def.as_ref() else {
         return Ok(Vec::new());
     };
-    let [ux, uv, _, uf, _] = s.motion.units().map(unit);
+    let uf = unit(s.motion.units()[3]);
     let main = r
         .methods
         .iter()
@@ -90,13 +90,9 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
             if compared.is_empty() {
                 continue;
             }
-            let (hist, unit) = match kind {
-                Characteristic::Stiffness => (&r.plot.link_hist[l].0, ux.as_str()),
-                Characteristic::Damping => (&r.plot.link_hist[l].1, uv.as_str()),
-            };
+            let (hist, unit, xs) = observed(r, l, kind);
             let (what, func, var) = words(kind);
             let (lo, hi) = (hist.lo, hist.hi);
-            let xs: Vec<f64> = (0..=240).map(|k| lo + (hi - lo) * k as f64 / 240.0).collect();
             let mut p = Panel::new(
                 format!(
                     "{} {}: {what} {func}, identified models compared",
