@@ -2,7 +2,7 @@
 //! batches, and identifiability measured (rank, singular values, spread over batches)
 //! before any number is reported (`docs/theory.md` §6).
 
-use super::{data, lsq, moments, strong, weak, IdentError, Pieces, Problem};
+use super::{data, kernel, lsq, moments, strong, weak, IdentError, Pieces, Problem};
 use nalgebra::{DMatrix, DVector};
 
 /// Singular-value ratio below which unknowns count as inseparable outright.
@@ -301,4 +301,57 @@ pub fn identify_strong(
     )?;
     e.warnings = warnings;
     Ok(e)
+}
+
+/// The strong-form estimate from kernel estimates of the density and its fluxes
+/// ([`kernel`], the default `strong`).
+pub fn identify_kernel(
+    problem: &Problem,
+    lattice: &kernel::FluxLattice,
+    typical: &[f64],
+) -> Result<Estimate, IdentError> {
+    let (pc, replicates, rows) = lattice.pieces(problem);
+    if rows < 2 * problem.unknowns.len() {
+        return Err(IdentError::TooLittleData(format!(
+            "only {rows} lattice nodes hold {} effective samples under their kernel, for {} unknowns; use more samples, \
+             a wider --smoothing or the weak form",
+            lattice.options.min_count,
+            problem.unknowns.len()
+        )));
+    }
+    let o = lattice.options;
+    let mut facts = vec![
+        (
+            "standard errors".into(),
+            match replicates.len() {
+                0 => "none: the lattice is too large to keep the jackknife's groups".to_string(),
+                b => format!("delete-one jackknife over {b} groups of batches"),
+            },
+        ),
+        (
+            "density".into(),
+            format!(
+                "Gaussian kernel of {:.3} std on the density and on every flux (docs/methods.md)",
+                o.smoothing
+            ),
+        ),
+        (
+            "lattice".into(),
+            format!(
+                "{} nodes^{} = {} over mean ± {:.2} std, {} residual nodes (>= {} effective samples each)",
+                lattice.nodes,
+                lattice.dim,
+                lattice.nodes.pow(lattice.dim as u32),
+                (lattice.nodes / 2) as f64 * lattice.h[0] / lattice.s[0] * o.smoothing,
+                rows,
+                o.min_count
+            ),
+        ),
+        (
+            "samples in lattice".into(),
+            format!("{} of {}", lattice.inside, lattice.total),
+        ),
+    ];
+    facts.sort();
+    estimate(problem, "strong", &pc, &replicates, typical, facts, None)
 }

@@ -26,6 +26,7 @@ mod symmetry;
 pub mod baseline;
 pub mod data;
 pub mod disturbance;
+pub mod kernel;
 pub mod lsq;
 pub mod moments;
 pub mod poly;
@@ -35,7 +36,8 @@ pub mod weak;
 
 pub use bilinear::identify_weak_bilinear;
 pub use estimate::{
-    estimate, identify_strong, identify_weak, jackknife, Estimate, INSEPARABLE_RATIO, SPREAD_CHECK_RATIO, WEAK_RATIO,
+    estimate, identify_kernel, identify_strong, identify_weak, jackknife, Estimate, INSEPARABLE_RATIO,
+    SPREAD_CHECK_RATIO, WEAK_RATIO,
 };
 pub use problem::{y, Filter, Layout, Pieces, Problem, Unknown};
 pub use spec::Specification;

@@ -8,6 +8,7 @@ use super::validation::Distributions;
 use super::{Options, PipelineError};
 use crate::ident::baseline::{self, Increments, KramersMoyal};
 use crate::ident::data::StationaryData;
+use crate::ident::kernel::{FluxLattice, KernelOptions};
 use crate::ident::strong::{self, DensityGrid, GridOptions};
 use crate::ident::Specification;
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
@@ -136,9 +137,11 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     let total = data.total();
 
     // Pass 2: grid, histograms, force spectra.
+    let kernel_density = options.density == super::StrongDensity::Kernel;
     let want_grid = methods
         .iter()
-        .any(|m| matches!(m, Method::Strong | Method::StrongMarginals));
+        .any(|m| *m == Method::StrongMarginals || (*m == Method::Strong && !kernel_density));
+    let want_lattice = kernel_density && methods.contains(&Method::Strong);
     // The strong forms' grid: automatic from the sample count unless given, and not
     // applicable when even the coarsest automatic grid would be too sparse.
     let mut grid = want_grid.then(|| {
@@ -228,6 +231,24 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     let (filters, filter_reports, spectra) = forces.filters(s);
     let problem = Problem::from_spec(&spec, &filters)?;
     let typical = problem.typical(&total);
+    // Pass 3 (strong form from kernel estimates): the fluxes are the drift's parts, known
+    // only now that the filters are.
+    let lattice = want_lattice.then(|| -> Result<FluxLattice, PipelineError> {
+        let o = options
+            .kernel
+            .unwrap_or_else(|| KernelOptions::auto(problem.dim(), total.count));
+        let mean: Vec<f64> = (0..problem.dim()).map(|j| total.mean(j)).collect();
+        let std: Vec<f64> = (0..problem.dim()).map(|j| total.std(j)).collect();
+        let mut lattice = FluxLattice::new(&problem, &mean, &std, o, data.batch_count())?;
+        read_samples(info, |traj, t, row| lattice.push_in(data.batch_of(traj, t), row))?;
+        Ok(lattice)
+    });
+    let lattice = match lattice {
+        Some(Err(PipelineError::Ident(e))) => Some(Err(e)),
+        Some(Err(e)) => return Err(e),
+        Some(Ok(l)) => Some(Ok(l)),
+        None => None,
+    };
     // Identifiability is a property of the unknowns and the data: measured once, with the
     // weak form's batches, whatever methods were asked for (no estimates on failure).
     let bilinear = problem.unknowns.iter().any(|u| matches!(u, Unknown::Corner(_)));
@@ -249,6 +270,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
             reported: &reported,
             weak: &weak_estimate,
             grid: grid.as_ref(),
+            lattice: lattice.as_ref(),
             typical: &typical,
             baseline: |m: Method| match (m, &baseline_ok) {
                 (Method::ForceRegression, _) => match (&force_ok, &force_regression) {
@@ -296,6 +318,8 @@ struct Estimators<'a, B: Fn(Method) -> Result<ident::Estimate, IdentError>> {
     reported: &'a Problem,
     weak: &'a Result<ident::Estimate, IdentError>,
     grid: Option<&'a Result<DensityGrid, IdentError>>,
+    /// The strong form's kernel lattice, if the kernel density was asked for.
+    lattice: Option<&'a Result<FluxLattice, IdentError>>,
     typical: &'a [f64],
     /// A baseline's estimate (computed on demand).
     baseline: B,
@@ -319,6 +343,14 @@ fn estimator_reports<B: Fn(Method) -> Result<ident::Estimate, IdentError>>(
         let est = match (m, e.grid) {
             (Method::Increments | Method::KramersMoyal | Method::ForceRegression, _) => (e.baseline)(*m),
             (Method::Weak, _) => e.weak.clone(),
+            (Method::Strong, _) if bilinear && e.lattice.is_some() => Err(IdentError::Unsupported(
+                "an unknown corner B makes the drift bilinear; the strong form here solves linear problems only".into(),
+            )),
+            (Method::Strong, _) if e.lattice.is_some() => match e.lattice {
+                Some(Ok(l)) => ident::identify_kernel(e.problem, l, e.typical),
+                Some(Err(err)) => Err(err.clone()),
+                None => unreachable!("lattice requested"),
+            },
             (Method::Strong | Method::StrongMarginals, Some(Err(err))) => Err(err.clone()),
             (Method::Strong | Method::StrongMarginals, _) if bilinear => Err(IdentError::Unsupported(
                 "an unknown corner B makes the drift bilinear; the strong form here solves linear problems only".into(),

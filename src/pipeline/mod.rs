@@ -18,6 +18,7 @@ pub use identify::{check_measured, preflight};
 pub use validation::identified_model;
 
 use self::identify::identify_info;
+use crate::ident::kernel::KernelOptions;
 use crate::ident::strong::GridOptions;
 use crate::ident::IdentError;
 use crate::io::log::{read_info, Compression, LogError, LogInfo, LogWriter};
@@ -45,12 +46,30 @@ pub enum PipelineError {
     Study(String),
 }
 
+/// The strong form's density estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StrongDensity {
+    /// Gaussian kernel estimates of the density and of every probability flux
+    /// (`ident::kernel`, docs/methods.md).
+    #[default]
+    Kernel,
+    /// The paper's procedure as written: a histogram and central differences
+    /// (`ident::strong`).
+    Histogram,
+}
+
 /// Settings of an identification.
 #[derive(Debug, Clone)]
 pub struct Options {
     /// Methods to run; empty: the scenario's `[identify] methods`.
     pub methods: Vec<Method>,
-    /// Strong-form grid; `None`: automatic.
+    /// How `strong` estimates the density: kernel estimates of the density and its
+    /// fluxes (default) or the paper's histogram (`--density histogram`).
+    pub density: StrongDensity,
+    /// Strong form's kernel; `None`: automatic.
+    pub kernel: Option<KernelOptions>,
+    /// Strong-form histogram grid (`--density histogram`, `strong-marginals`); `None`:
+    /// automatic.
     pub grid: Option<GridOptions>,
     /// Batches (groups of the fine trajectory-group × time batches) for the jackknife's
     /// standard errors and the identifiability spread.
@@ -70,6 +89,8 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             methods: Vec::new(),
+            density: StrongDensity::Kernel,
+            kernel: None,
             grid: None,
             batches: 32,
             validate: true,

@@ -231,8 +231,8 @@ pub fn summary(r: &Report) -> String {
         s +=
             &format!(
             "\nproduct of marginals (3.21): replacing the joint density by the product of its marginals ignores the \
-             dependence between the state variables; on the same grid it gives a worst error of {} against {} for the \
-             joint density{}.\n",
+             dependence between the state variables; it gives a worst error of {} against {} for the strong form on \
+             the joint density{}.\n",
             fmt_err(m.worst_rel_error),
             fmt_err(j.worst_rel_error),
             worst.map(|p| format!(" ({} off by {})", p.name, fmt_err(p.rel_error))).unwrap_or_default()

@@ -85,7 +85,9 @@ impl Scheme {
 pub enum Method {
     /// Weak form: stationarity of test-function expectations (docs/theory.md §5).
     Weak,
-    /// Strong form: the paper's FPK residual on a density grid (3.8)–(3.15).
+    /// Strong form: the paper's FPK residual (3.8) point by point on a lattice, least squares
+    /// (3.13)–(3.15); the density from kernel estimates of it and its fluxes, or the paper's
+    /// histogram (`pipeline::StrongDensity`).
     Strong,
     /// Strong form with the joint density replaced by the product of marginals (3.21).
     StrongMarginals,

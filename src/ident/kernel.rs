@@ -1,0 +1,540 @@
+//! Strong form from kernel estimates of the density *and of its probability fluxes*: the
+//! default `strong` estimator (docs/methods.md, "The strong form's density").
+//!
+//! The paper's residual (3.8) in a point `y` is
+//! `−Σ_j ∂(g_j f)/∂y_j + ½ Σ Q_im ∂²f/∂v_i∂v_m` with the drift's parts `g_j` (the free
+//! drift `v` of each displacement, the known and the unit forces of each velocity). The
+//! plain procedure (module [`super::strong`], `--density histogram`) estimates `f` by a
+//! histogram and multiplies by `g_j` at the cell centre. Here every product `g_j f` is
+//! estimated *itself*, by the same Gaussian kernel smoothing as `f`:
+//!
+//! `(g f)^(y) = (1/N) Σ_n G_s(y − Y_n) g(Y_n)`,
+//!
+//! and the derivatives are those of the kernel. Smoothing is a convolution, and a
+//! convolution commutes with the derivatives of (3.8): the expected residual is
+//! `G_s * (FPK residual of f) = 0` at the true coefficients, whatever the width `s`. The
+//! width trades variance only, never bias — unlike smoothing the density and then
+//! multiplying by the drift (which flattens a cubic spring) and unlike the histogram's
+//! differences (a bias of order bin²). Equivalently, the residual in node `y_k` is the
+//! stationary identity `E[L φ_k(Y)] = 0` of the generator `L` with the Gaussian bump
+//! `φ_k = G_s(y_k − ·)` as test function.
+//!
+//! Computation, in constant memory over the samples: one streaming pass spreads each
+//! sample's value of every flux (1, `g_j(Y)`) over the `2^d` nodes of its lattice cell with
+//! linear weights (a convolution with a tent of one node spacing, the same for every flux,
+//! hence no bias either; adding each sample to its nearest node instead, a box, measured
+//! worse: `sdof_duffing` seeds 2 and 4 gave 2.7 % and 2.6 % against 1.7 % and 1.1 %); the
+//! kernel's derivatives are then applied as separable filters on the lattice. Nodes are
+//! `h = min(s, 0.5 std)` apart: the sampled kernel's aliasing is then
+//! `exp(−2π² s²/h²) ≈ 3·10⁻⁹` of the signal (times `(2π s/h)²` for the second
+//! derivative), and the lattice resolves the density itself (nodes 1.25 std apart biased
+//! `k3` of `sdof_duffing` by 19 %). Residual rows are the nodes within the box of
+//! `span_std` whose kernel holds at least `min_count` effective samples; the lattice
+//! reaches [`MARGIN`] std beyond the box, and a kernel that reaches further sees no
+//! samples there (the report counts the samples outside the lattice).
+
+use super::{poly::Poly, IdentError, Pieces, Problem};
+use rayon::prelude::*;
+
+/// Settings of the kernel estimate; [`KernelOptions::auto`] gives the defaults.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct KernelOptions {
+    /// Kernel width `s` in standard deviations of each state variable.
+    pub smoothing: f64,
+    /// Half-width of the box of residual nodes, in standard deviations around the mean.
+    pub span_std: f64,
+    /// Effective samples under a node's kernel, `N f̂(y_k) (2√π s)^d`, below which the node
+    /// is not a residual row.
+    pub min_count: f64,
+}
+
+/// Node spacing in kernel widths (see the module docs: aliasing `≈ 3·10⁻⁹`; at 1.25 the
+/// sampled second derivative biased `c1` of the exact SDOF density by 5·10⁻³).
+pub const SPACING: f64 = 1.0;
+
+/// Largest node spacing in standard deviations: the lattice must also resolve the
+/// density itself (the aliasing of the binned fluxes; measured on `sdof_duffing`, where
+/// nodes 1.25 std apart biased `k3` by 19 %, docs/methods.md).
+pub const MAX_SPACING: f64 = 0.5;
+
+/// The lattice reaches this many standard deviations beyond the box of residual nodes
+/// (or the kernel's cut, if nearer): a node's kernel may reach past the lattice, where a
+/// stationary response holds almost no samples (the report counts those outside).
+pub const MARGIN: f64 = 1.5;
+
+/// The kernel is cut at this many widths (`exp(−12.5) ≈ 4·10⁻⁶` of its peak; at 4 widths
+/// the exact SDOF density's `k3` was off by 10⁻³).
+pub const CUT: f64 = 5.0;
+
+/// Memory of the lattice's fluxes (one `f64` per node and flux) beyond which the estimate
+/// is refused as not applicable.
+pub const MAX_BYTES: usize = 256 << 20;
+
+/// Memory for the jackknife groups' fluxes (`f32`), beyond which fewer groups are kept.
+pub const GROUP_BUDGET: usize = 128 << 20;
+
+/// Most jackknife groups: each costs a filtering of the lattice.
+pub const MAX_GROUPS: usize = 16;
+
+/// Nodes per parallel work item of the filters.
+const CHUNK: usize = 4096;
+
+/// Fewest jackknife groups worth keeping.
+pub const MIN_GROUPS: usize = 8;
+
+impl KernelOptions {
+    /// The default: a width of `1.3 · (N/10⁵)^(−1/5)` standard deviations for `N` samples
+    /// (measured: the best width on `sdof_duffing` and `sparse2dof` at 10⁵ samples, on
+    /// `duffing2dof` at 3.2·10⁶; docs/methods.md), residual nodes within ±4.5 std in 2-D,
+    /// ±3.5 in 3-D, ±3 beyond.
+    pub fn auto(dim: usize, samples: u64) -> KernelOptions {
+        let smoothing = 1.3 * (samples.max(1) as f64 / 1e5).powf(-0.2);
+        KernelOptions {
+            smoothing,
+            span_std: match dim {
+                0..=2 => 4.5,
+                3 => 3.5,
+                _ => 3.0,
+            },
+            min_count: 10.0,
+        }
+    }
+}
+
+/// Where each of the residual's pieces comes from: a flux channel (0 is the density).
+#[derive(Debug, Clone)]
+struct Channels {
+    polys: Vec<Poly>,
+    /// `(direction, channel)` of each free-drift part.
+    free: Vec<(usize, usize)>,
+    /// Per mass: the known force's channel (`None`: zero).
+    known: Vec<Option<usize>>,
+    /// Per mass and coefficient: the unit force's channel (`None`: zero).
+    unit: Vec<Vec<Option<usize>>>,
+}
+
+impl Channels {
+    fn new(problem: &Problem) -> Channels {
+        let mut polys = vec![Poly::constant(1.0)];
+        let mut add = |p: &Poly| {
+            if p.terms.is_empty() {
+                None
+            } else {
+                polys.push(p.clone());
+                Some(polys.len() - 1)
+            }
+        };
+        let free = problem
+            .free_drift
+            .iter()
+            .filter_map(|(j, g)| add(g).map(|c| (*j, c)))
+            .collect();
+        let known = problem.known_force.iter().map(&mut add).collect();
+        let unit = (0..problem.n)
+            .map(|i| problem.unit_force.iter().map(|u| add(&u[i])).collect())
+            .collect();
+        Channels {
+            polys,
+            free,
+            known,
+            unit,
+        }
+    }
+    fn len(&self) -> usize {
+        self.polys.len()
+    }
+}
+
+/// Per jackknife group, its share of the fluxes.
+#[derive(Debug, Clone)]
+struct Groups {
+    of_batch: Vec<usize>,
+    fluxes: Vec<Vec<f32>>,
+    total: Vec<u64>,
+}
+
+/// The linearly binned fluxes of a record on a lattice over the state.
+#[derive(Debug, Clone)]
+pub struct FluxLattice {
+    pub dim: usize,
+    pub options: KernelOptions,
+    /// Nodes per dimension.
+    pub nodes: usize,
+    /// First node, spacing and kernel width per dimension.
+    pub lo: Vec<f64>,
+    pub h: Vec<f64>,
+    pub s: Vec<f64>,
+    /// Kernel taps either side of the centre.
+    taps: usize,
+    /// Residual nodes lie within this many nodes of the centre in every dimension.
+    row_half: usize,
+    columns: Vec<usize>,
+    stride: Vec<usize>,
+    channels: Channels,
+    /// Node-major: `fluxes[node · channels + channel]`.
+    fluxes: Vec<f64>,
+    pub inside: u64,
+    pub total: u64,
+    groups: Option<Groups>,
+    // Scratch of one sample.
+    y: Vec<f64>,
+    values: Vec<f64>,
+    /// Per dimension: the sample's cell (flat offset) and position in it.
+    corner: Vec<(usize, f64)>,
+}
+
+impl FluxLattice {
+    /// A lattice for `problem` over mean ± (span + [`MARGIN`]) std of each state variable
+    /// (from the record's `mean` and `std`), keeping `batches` batches' shares in jackknife groups
+    /// when they fit in [`GROUP_BUDGET`].
+    pub fn new(
+        problem: &Problem,
+        mean: &[f64],
+        std: &[f64],
+        options: KernelOptions,
+        batches: usize,
+    ) -> Result<FluxLattice, IdentError> {
+        let d = problem.dim();
+        let h_std = (options.smoothing * SPACING).min(MAX_SPACING);
+        let taps = (CUT * options.smoothing / h_std).ceil() as usize;
+        let half_width = (options.span_std + CUT * options.smoothing).min(options.span_std + MARGIN);
+        let nodes = 2 * (half_width / h_std).ceil() as usize + 1;
+        let row_half = ((options.span_std / h_std) + 1e-9).floor() as usize;
+        let cells = (nodes as f64).powi(d as i32);
+        let channels = Channels::new(problem);
+        let bytes = cells * channels.len() as f64 * 8.0;
+        if bytes > MAX_BYTES as f64 {
+            return Err(IdentError::NotApplicable(format!(
+                "a {d}-dimensional lattice of {nodes} nodes per dimension has {cells:.1e} nodes, {:.1e} bytes for its {} \
+                 fluxes (limit {MAX_BYTES:.1e}): the strong form does not scale to this state; use the weak form",
+                bytes,
+                channels.len()
+            )));
+        }
+        let cells = cells as usize;
+        let half = (nodes / 2) as f64;
+        let (mut lo, mut h, mut s) = (Vec::new(), Vec::new(), Vec::new());
+        for j in 0..d {
+            let sd = std[j].max(1e-300);
+            h.push(h_std * sd);
+            s.push(options.smoothing * sd);
+            lo.push(mean[j] - half * h_std * sd);
+        }
+        let mut stride = vec![1; d];
+        for j in 1..d {
+            stride[j] = stride[j - 1] * nodes;
+        }
+        let width = channels.len();
+        let per_group = cells * width * std::mem::size_of::<f32>();
+        let count = (GROUP_BUDGET / per_group.max(1)).min(batches).min(MAX_GROUPS);
+        let groups = (count >= MIN_GROUPS).then(|| Groups {
+            of_batch: (0..batches).map(|b| b * count / batches).collect(),
+            fluxes: vec![vec![0.0; cells * width]; count],
+            total: vec![0; count],
+        });
+        Ok(FluxLattice {
+            dim: d,
+            options,
+            nodes,
+            lo,
+            h,
+            s,
+            taps,
+            row_half,
+            columns: problem.columns.clone(),
+            stride,
+            fluxes: vec![0.0; cells * width],
+            inside: 0,
+            total: 0,
+            groups,
+            y: vec![0.0; d],
+            values: vec![0.0; width],
+            corner: vec![(0, 0.0); d],
+            channels,
+        })
+    }
+
+    /// A lattice holding the fluxes of an exact density `f` (reference tests): each node
+    /// gets `g(y) f(y) h^d`, what the binned samples hold on average up to the tent's
+    /// smoothing. No jackknife groups.
+    pub fn from_density(
+        problem: &Problem,
+        mean: &[f64],
+        std: &[f64],
+        options: KernelOptions,
+        f: impl Fn(&[f64]) -> f64,
+    ) -> Result<FluxLattice, IdentError> {
+        let mut l = FluxLattice::new(problem, mean, std, options, 0)?;
+        let width = l.channels.len();
+        let volume: f64 = l.h.iter().product();
+        let mut y = vec![0.0; l.dim];
+        for node in 0..l.fluxes.len() / width {
+            let mut rest = node;
+            for j in 0..l.dim {
+                y[j] = l.lo[j] + (rest % l.nodes) as f64 * l.h[j];
+                rest /= l.nodes;
+            }
+            let mass = f(&y) * volume;
+            for (c, p) in l.channels.polys.iter().enumerate() {
+                l.fluxes[node * width + c] = mass * p.eval(&y);
+            }
+        }
+        // Effective samples under a kernel are relative to a large record.
+        l.total = 1_000_000;
+        l.inside = l.total;
+        for x in &mut l.fluxes {
+            *x *= l.total as f64;
+        }
+        Ok(l)
+    }
+
+    /// Jackknife groups kept (0: none, the lattice is too large).
+    pub fn group_count(&self) -> usize {
+        self.groups.as_ref().map_or(0, |g| g.total.len())
+    }
+
+    /// Add one sample of batch `batch` (`row`: the log's columns).
+    pub fn push_in(&mut self, batch: usize, row: &[f64]) {
+        self.total += 1;
+        let group = self.groups.as_mut().map(|g| {
+            let k = g.of_batch[batch];
+            g.total[k] += 1;
+            k
+        });
+        let d = self.dim;
+        let corner = &mut self.corner;
+        for j in 0..d {
+            let yj = row[self.columns[j]];
+            self.y[j] = yj;
+            let u = (yj - self.lo[j]) / self.h[j];
+            if !(u >= 0.0 && u < (self.nodes - 1) as f64) {
+                return;
+            }
+            let i = u as usize;
+            corner[j] = (i * self.stride[j], u - i as f64);
+        }
+        self.inside += 1;
+        for (v, p) in self.values.iter_mut().zip(&self.channels.polys).skip(1) {
+            *v = p.eval(&self.y);
+        }
+        self.values[0] = 1.0;
+        let width = self.values.len();
+        for mask in 0..1usize << d {
+            let (mut at, mut w) = (0, 1.0);
+            for (j, &(base, t)) in corner.iter().enumerate() {
+                if mask >> j & 1 == 1 {
+                    at += base + self.stride[j];
+                    w *= t;
+                } else {
+                    at += base;
+                    w *= 1.0 - t;
+                }
+            }
+            let cell = &mut self.fluxes[at * width..(at + 1) * width];
+            for (c, v) in cell.iter_mut().zip(&self.values) {
+                *c += w * v;
+            }
+            if let (Some(g), Some(k)) = (self.groups.as_mut(), group) {
+                let cell = &mut g.fluxes[k][at * width..(at + 1) * width];
+                for (c, v) in cell.iter_mut().zip(&self.values) {
+                    *c += (w * v) as f32;
+                }
+            }
+        }
+    }
+
+    /// The sampled kernel `G_s`, its first and its second derivative along dimension `j`
+    /// (taps `−taps..=taps`, node `m` at offset `m h`).
+    fn kernels(&self, j: usize) -> [Vec<f64>; 3] {
+        let (h, s) = (self.h[j], self.s[j]);
+        let norm = 1.0 / ((2.0 * std::f64::consts::PI).sqrt() * s);
+        let t = |m: isize| m as f64 * h;
+        let g = |m: isize| norm * (-t(m) * t(m) / (2.0 * s * s)).exp();
+        let r = -(self.taps as isize)..=self.taps as isize;
+        [
+            r.clone().map(g).collect(),
+            r.clone().map(|m| -t(m) / (s * s) * g(m)).collect(),
+            r.map(|m| (t(m) * t(m) / s.powi(4) - 1.0 / (s * s)) * g(m)).collect(),
+        ]
+    }
+
+    /// Apply a separable filter (`order[j]`: 0 smooth, 1 first, 2 second derivative along
+    /// dimension `j`) to the channels `which` of `fluxes`; the result holds `which.len()`
+    /// values per node of `at` (in that order), or per node of the lattice without `at`
+    /// (then valid inside the box of residual nodes only). The pass along dimension `j`
+    /// works only where later passes read: nodes inside the box in dimensions `0..=j`.
+    fn filter(&self, fluxes: &[f64], which: &[usize], order: &[usize], at: Option<&[usize]>) -> Vec<f64> {
+        let width = self.channels.len();
+        let w = which.len();
+        let cells = fluxes.len() / width;
+        let mut cur: Vec<f64> = Vec::with_capacity(cells * w);
+        for node in 0..cells {
+            cur.extend(which.iter().map(|&c| fluxes[node * width + c]));
+        }
+        let mut next = vec![0.0; cells * w];
+        let taps = self.taps as isize;
+        let nb = self.nodes as isize;
+        let centre = self.nodes / 2;
+        let (lo, hi) = (centre.saturating_sub(self.row_half), centre + self.row_half);
+        let inside = |node: usize, upto: usize| {
+            (0..=upto).all(|k| {
+                let i = node / self.stride[k] % self.nodes;
+                (lo..=hi).contains(&i)
+            })
+        };
+        // One output node of the pass along `j` from `cur`.
+        let one = |j: usize, kernel: &[f64], cur: &[f64], node: usize, o: &mut [f64]| {
+            let st = self.stride[j] as isize;
+            let i = (node / self.stride[j] % self.nodes) as isize;
+            o.fill(0.0);
+            for m in (i - (nb - 1)).max(-taps)..=i.min(taps) {
+                let k = kernel[(m + taps) as usize];
+                let from = (node as isize - m * st) as usize * w;
+                for (x, y) in o.iter_mut().zip(&cur[from..from + w]) {
+                    *x += k * y;
+                }
+            }
+        };
+        let last = self.dim - 1;
+        for j in 0..self.dim {
+            let kernel = &self.kernels(j)[order[j]];
+            if let (true, Some(at)) = (j == last, at) {
+                let mut out = vec![0.0; at.len() * w];
+                out.par_chunks_mut(CHUNK * w).enumerate().for_each(|(chunk, out)| {
+                    for (local, o) in out.chunks_exact_mut(w).enumerate() {
+                        one(j, kernel, &cur, at[chunk * CHUNK + local], o);
+                    }
+                });
+                return out;
+            }
+            next.par_chunks_mut(CHUNK * w).enumerate().for_each(|(chunk, out)| {
+                for (local, o) in out.chunks_exact_mut(w).enumerate() {
+                    let node = chunk * CHUNK + local;
+                    if inside(node, j) {
+                        one(j, kernel, &cur, node, o);
+                    }
+                }
+            });
+            std::mem::swap(&mut cur, &mut next);
+        }
+        cur
+    }
+
+    /// The residual rows: nodes within `span_std` of the mean whose kernel holds at least
+    /// `min_count` effective samples.
+    fn rows(&self) -> Vec<usize> {
+        let density = self.filter(&self.fluxes, &[0], &vec![0; self.dim], None);
+        let volume: f64 = self.s.iter().map(|s| 2.0 * std::f64::consts::PI.sqrt() * s).product();
+        let scale = volume; // N f̂ (2√π s)^d with f̂ = density / N
+        let centre = self.nodes / 2;
+        let (lo, hi) = (centre.saturating_sub(self.row_half), centre + self.row_half);
+        (0..density.len())
+            .filter(|&node| {
+                let mut rest = node;
+                for _ in 0..self.dim {
+                    let i = rest % self.nodes;
+                    rest /= self.nodes;
+                    if i < lo || i > hi {
+                        return false;
+                    }
+                }
+                density[node] * scale >= self.options.min_count
+            })
+            .collect()
+    }
+
+    /// The residual's pieces at `rows` from `fluxes` (the whole record's, or a jackknife
+    /// replicate's) holding `total` samples.
+    fn pieces_of(&self, problem: &Problem, fluxes: &[f64], total: f64, rows: &[usize]) -> Pieces {
+        let (n, rc, d) = (problem.n, problem.coefficient_count(), self.dim);
+        let ch = &self.channels;
+        let mut pc = Pieces::new(rows.len(), n, rc);
+        // Per direction, the first derivative of every flux that is differentiated along it.
+        let mut dirs: Vec<(usize, Vec<usize>)> = Vec::new();
+        let mut need = |j: usize, c: usize| match dirs.iter_mut().find(|(k, _)| *k == j) {
+            Some((_, cs)) if !cs.contains(&c) => cs.push(c),
+            Some(_) => {}
+            None => dirs.push((j, vec![c])),
+        };
+        for &(j, c) in &ch.free {
+            need(j, c);
+        }
+        for i in 0..n {
+            let j = problem.noise_var[i];
+            for c in ch.known[i].iter().chain(ch.unit[i].iter().flatten()) {
+                need(j, *c);
+            }
+        }
+        let scale = 1.0 / total;
+        for (j, cs) in &dirs {
+            let order: Vec<usize> = (0..d).map(|k| usize::from(k == *j)).collect();
+            let out = self.filter(fluxes, cs, &order, Some(rows));
+            let at = |row: usize, c: usize| {
+                let q = cs.iter().position(|&x| x == c).expect("requested");
+                -out[row * cs.len() + q] * scale
+            };
+            for row in 0..rows.len() {
+                for &(jj, c) in &ch.free {
+                    if jj == *j {
+                        pc.t0[row] += at(row, c);
+                    }
+                }
+                for i in (0..n).filter(|&i| problem.noise_var[i] == *j) {
+                    if let Some(c) = ch.known[i] {
+                        pc.a[row * n + i] = at(row, c);
+                    }
+                    for r in 0..rc {
+                        if let Some(c) = ch.unit[i][r] {
+                            pc.b[(row * n + i) * rc + r] = at(row, c);
+                        }
+                    }
+                }
+            }
+        }
+        // Second derivatives of the density along the noisy velocities.
+        let cross = problem.white.iter().any(|(t, _, _)| t.len() > 1);
+        for i in 0..n {
+            for m in 0..n {
+                if m != i && !cross || m < i {
+                    continue;
+                }
+                let (ji, jm) = (problem.noise_var[i], problem.noise_var[m]);
+                let mut order = vec![0; d];
+                order[ji] += 1;
+                order[jm] += 1;
+                let out = self.filter(fluxes, &[0], &order, Some(rows));
+                for row in 0..rows.len() {
+                    let v = out[row] * scale;
+                    pc.c[(row * n + i) * n + m] = v;
+                    pc.c[(row * n + m) * n + i] = v;
+                }
+            }
+        }
+        pc
+    }
+
+    /// The pieces of the whole record and of each jackknife replicate (all but one group),
+    /// and the number of residual rows.
+    pub fn pieces(&self, problem: &Problem) -> (Pieces, Vec<Pieces>, usize) {
+        let rows = self.rows();
+        let total = self.pieces_of(problem, &self.fluxes, self.inside.max(1) as f64, &rows);
+        let replicates = match &self.groups {
+            None => Vec::new(),
+            Some(g) => (0..g.total.len())
+                .filter(|&k| g.total[k] > 0)
+                .map(|k| {
+                    let fluxes: Vec<f64> = self
+                        .fluxes
+                        .iter()
+                        .zip(&g.fluxes[k])
+                        .map(|(a, b)| a - *b as f64)
+                        .collect();
+                    let inside = self.inside as f64 * (1.0 - g.total[k] as f64 / self.total.max(1) as f64);
+                    self.pieces_of(problem, &fluxes, inside.max(1.0), &rows)
+                })
+                .collect(),
+        };
+        let count = rows.len();
+        (total, replicates, count)
+    }
+}
