@@ -61,19 +61,24 @@ fn weak_form_with_exact_gaussian_moments_recovers_linear_2dof() {
     }
 }
 
+/// The exact stationary density of the SDOF Duffing oscillator (linear damping), up to its
+/// normalisation: `exp(−(2c/σ²)(m v²/2 + k1 x²/2 + k3 x⁴/4))`.
+fn sdof_density(y: &[f64]) -> f64 {
+    let (k1, k3, c, sigma, m) = (10.0, 20.0, 0.5, 1.0, 1.0);
+    let beta = 2.0 * c / (sigma * sigma);
+    (-beta * (m * y[1] * y[1] / 2.0 + k1 * y[0] * y[0] / 2.0 + k3 * y[0].powi(4) / 4.0)).exp()
+}
+
 /// Exact SDOF Duffing density (linear damping) on a grid of `bins²` cells over ±4.5 std.
 fn sdof_strong_errors(bins: usize) -> Vec<f64> {
     use fpkbench::ident::strong::DensityGrid;
     let s = sdof_duffing("");
     let p = Problem::new(&s).unwrap();
-    let (k1, k3, c, sigma, m) = (10.0, 20.0, 0.5, 1.0, 1.0);
-    let beta = 2.0 * c / (sigma * sigma);
     let mom = sdof_exact(6);
     let (sx, sv) = (mom.std(0), mom.std(1));
     let lo = vec![-4.5 * sx, -4.5 * sv];
     let h = vec![9.0 * sx / bins as f64, 9.0 * sv / bins as f64];
-    let f = |y: &[f64]| (-beta * (m * y[1] * y[1] / 2.0 + k1 * y[0] * y[0] / 2.0 + k3 * y[0].powi(4) / 4.0)).exp();
-    let grid = DensityGrid::from_density(&p, lo, h, bins, f);
+    let grid = DensityGrid::from_density(&p, lo, h, bins, sdof_density);
     let e = fpkbench::ident::identify_strong(&p, &grid, false, &p.typical(&mom)).unwrap();
     e.values
         .iter()
@@ -508,15 +513,12 @@ fn sdof_kernel_errors(smoothing: f64) -> Vec<f64> {
     use fpkbench::ident::kernel::{FluxLattice, KernelOptions};
     let s = sdof_duffing("");
     let p = Problem::new(&s).unwrap();
-    let (k1, k3, c, sigma, m) = (10.0, 20.0, 0.5, 1.0, 1.0);
-    let beta = 2.0 * c / (sigma * sigma);
     let mom = sdof_exact(6);
-    let f = |y: &[f64]| (-beta * (m * y[1] * y[1] / 2.0 + k1 * y[0] * y[0] / 2.0 + k3 * y[0].powi(4) / 4.0)).exp();
     let options = KernelOptions {
         smoothing,
         ..KernelOptions::auto(2, 100_000)
     };
-    let lattice = FluxLattice::from_density(&p, &[0.0, 0.0], &[mom.std(0), mom.std(1)], options, f).unwrap();
+    let lattice = FluxLattice::from_density(&p, &[0.0, 0.0], &[mom.std(0), mom.std(1)], options, sdof_density).unwrap();
     let e = fpkbench::ident::identify_kernel(&p, &lattice, &p.typical(&mom)).unwrap();
     e.values
         .iter()
