@@ -79,7 +79,7 @@ fn main() {
     });
     let weak_rate = n as f64 / t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let mut data = StationaryData::new(&p, deg, s.simulation.record_length, 8);
+    let mut data = StationaryData::new(&p, deg, s.simulation.record_length, s.simulation.trajectories, 8);
     for (tr, tt, r) in &full_rows {
         data.push(*tr, *tt, r);
     }
@@ -102,7 +102,7 @@ fn main() {
     );
     println!(
         "weak form, {} moments to degree {deg}, 1 thread {:>10.3e} samples/s per core (target >= 3e7)",
-        weak::accumulator(&p).monomials.len() - 1,
+        weak::accumulator(&p).monomials().len() - 1,
         weak_rate
     );
     println!(

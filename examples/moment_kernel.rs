@@ -20,9 +20,9 @@ fn main() {
         let s = t.elapsed().as_secs_f64();
         println!(
             "{} monomials: {:.3e} samples/s ({:.2} ns per sample-monomial)",
-            m.monomials.len() - 1,
+            m.monomials().len() - 1,
             n as f64 / s,
-            s / n as f64 / (m.monomials.len() - 1) as f64 * 1e9
+            s / n as f64 / (m.monomials().len() - 1) as f64 * 1e9
         );
     }
 }

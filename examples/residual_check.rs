@@ -13,7 +13,13 @@ fn main() {
     let s = Scenario::from_file(std::path::Path::new(&a[1])).unwrap();
     let p = Problem::new(&s).unwrap();
     let truth = fpkbench::zoo::true_values(&s, &p);
-    let mut d = StationaryData::new(&p, weak::moment_degree(&p), s.simulation.record_length, 16);
+    let mut d = StationaryData::new(
+        &p,
+        weak::moment_degree(&p),
+        s.simulation.record_length,
+        s.simulation.trajectories,
+        16,
+    );
     simulate(
         &Model::new(&s),
         &s.simulation,

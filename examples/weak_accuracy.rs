@@ -21,7 +21,13 @@ fn main() {
     for seed in 0..seeds {
         s.simulation.seed = seed;
         let m = Model::new(&s);
-        let mut d = StationaryData::new(&p, weak::moment_degree(&p), s.simulation.record_length, 8);
+        let mut d = StationaryData::new(
+            &p,
+            weak::moment_degree(&p),
+            s.simulation.record_length,
+            s.simulation.trajectories,
+            8,
+        );
         let t = std::time::Instant::now();
         simulate(
             &m,

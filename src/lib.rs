@@ -21,7 +21,7 @@
 //! simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
 //!
 //! let problem = Problem::new(&s).unwrap(); // k1 and c1 unknown
-//! let mut data = StationaryData::new(&problem, weak::moment_degree(&problem), 2000.0, 8);
+//! let mut data = StationaryData::new(&problem, weak::moment_degree(&problem), 2000.0, s.simulation.trajectories, 8);
 //! for b in &samples.batches {
 //!     b.for_each_sample(|trajectory, t, values| data.push(trajectory, t, values));
 //! }

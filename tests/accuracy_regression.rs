@@ -68,6 +68,16 @@ const GATES: &[Gate] = &[
         record_length: 3125.0,
         thresholds: &[("weak", 0.147)],
     },
+    // 64 × 1000 s, the weighted weak form with 1000 equations, 42 seeds (the 12 of
+    // studies/chain5.toml and `fpkbench study --scenario scenarios/chain5.toml
+    // --record-length 1000 --seeds 30 --seed 7`): weak mean 0.0371, sd 0.0170, median
+    // 0.0326, max 0.103. (The 12 seeds alone gave sd 0.0123, max 0.058, and a gate of 0.083
+    // that this seed's 0.091 exceeded: the tail is heavier than 12 seeds show.)
+    Gate {
+        scenario: "chain5",
+        record_length: 1000.0,
+        thresholds: &[("weak", 0.105)],
+    },
     // 64 × 625 s. weak: mean 0.0477, sd 0.0288, max 0.112; strong (kernel estimates of the
     // density and its fluxes, a study of 12 seeds; the 4-D histogram, starved at 4e5
     // samples, gave mean 4.36): mean 0.0570, sd 0.0233, max 0.103; strong-marginals (the

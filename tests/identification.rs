@@ -315,7 +315,21 @@ fn the_compiled_pieces_map_equals_direct_assembly_and_exact_moments_stay_exact_u
     let p = Problem::new(&s).unwrap();
     let mom = sdof_exact(weak::moment_degree(&p));
     let direct = weak::pieces(&p, &mom);
-    let mapped = weak::PiecesMap::new(&p, &mom).apply(&mom);
+    let map = weak::PiecesMap::new(&p, &mom);
+    let mapped = map.apply(&mom);
+    // The residual map (the fine batches' residuals for the weighting) gives the residual
+    // of the pieces at any parameters, here the truth moved by 10–30 %.
+    let at: Vec<f64> = zoo::true_values(&s, &p)
+        .iter()
+        .enumerate()
+        .map(|(k, v)| v * (1.1 + 0.1 * k as f64))
+        .collect();
+    let want = p.residual(&mapped, &at).0;
+    let mut got = vec![0.0; mapped.rows];
+    map.residual_map(&p, &at).apply_into(&mom, &mut got);
+    for (x, y) in want.iter().zip(&got) {
+        assert!((x - y).abs() <= 1e-12 * (1.0 + x.abs()), "residual {x} vs mapped {y}");
+    }
     for (a, b) in [
         (&direct.t0, &mapped.t0),
         (&direct.a, &mapped.a),
@@ -361,7 +375,7 @@ fn the_equation_weighting_whitens_a_known_covariance() {
         })
         .collect();
     let counts = vec![100u64; residuals.len()];
-    let t = weak::weighting(&residuals, &counts).expect("enough batches");
+    let t = weak::weighting(nalgebra::DMatrix::from_columns(&residuals), &counts).expect("enough batches");
     let white = &t * &s * t.transpose();
     for i in 0..3 {
         for j in 0..3 {
@@ -374,7 +388,7 @@ fn the_equation_weighting_whitens_a_known_covariance() {
         }
     }
     // Too few batches for the equations: no weighting.
-    assert!(weak::weighting(&residuals[..8], &counts[..8]).is_none());
+    assert!(weak::weighting(nalgebra::DMatrix::from_columns(&residuals[..8]), &counts[..8]).is_none());
 }
 
 /// An over-parameterised model (powers the truth does not have, so true values of 0) is

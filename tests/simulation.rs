@@ -403,7 +403,8 @@ fn an_escape_is_not_put_down_to_the_step() {
     assert!(cause.contains("escaped") && cause.contains("will not help"), "{cause}");
 }
 
-/// The shaped kernel and the generic stepper give bit-identical samples for `s`.
+/// The kernel `s` runs on (shaped or blocked) and the generic stepper give bit-identical
+/// samples for `s`.
 fn assert_kernel_matches_generic(s: &Scenario, label: &str) {
     let m = Model::new(s);
     let (mut a, mut b) = (Collect::default(), Collect::default());
@@ -444,16 +445,20 @@ fn shaped_kernel_is_bit_identical_to_the_generic_stepper() {
         "dt = 1e-3\nrecord_length = 20.0\nsample_interval = 0.1\ntrajectories = 33",
     );
     assert_kernel_matches_generic(&s, "filtered_sdof");
-    // Three and four masses: links turned round (`m2`–`m1`), even powers, parallel links,
-    // empty link slots (no `m1`–`m3` link), four excitations with a filtered one on two
-    // masses; both schemes.
-    for n in [3, 4] {
+    // Three and four masses (the shaped kernel), five and seven (the blocked kernel): links
+    // turned round (`m2`–`m1`), even powers, parallel links, empty link slots (no `m1`–`m3`
+    // link), four excitations with a filtered one on two masses; both schemes.
+    for n in [3, 4, 5, 7] {
         for scheme in [Scheme::SemiImplicit, Scheme::EulerMaruyama] {
             let mut s = Scenario::parse(&odd_shapes(n), "odd_shapes.toml", "t").unwrap();
             s.simulation.scheme = scheme;
             assert_kernel_matches_generic(&s, &format!("{n} masses, {scheme:?}"));
         }
     }
+    // A degree-7 stiffness: no shaped kernel at that degree, three masses on the blocked one.
+    let src = odd_shapes(3).replace("3 = 20.0 }", "3 = 20.0, 7 = 0.5 }");
+    let s = Scenario::parse(&src, "odd_shapes.toml", "t").unwrap();
+    assert_kernel_matches_generic(&s, "degree 7");
 }
 
 /// A chain of `n` masses with awkward links: see its use.

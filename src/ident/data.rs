@@ -20,20 +20,53 @@ const BLOCK: usize = 1 << 16;
 
 /// Fine batches: the spread of the weak form's equations over them gives the equations'
 /// covariance, from which the weak form weights them (see [`super::weak`]). A fine batch
-/// is one of [`TRAJECTORY_GROUPS`] groups of trajectories (trajectory mod groups) over one
-/// of [`TIME_WINDOWS`] consecutive time windows: groups are independent, and windows are
-/// long enough to be nearly so even for short records.
-pub const FINE_BATCHES: usize = TRAJECTORY_GROUPS * TIME_WINDOWS;
+/// holds the samples of one of [`TRAJECTORY_GROUPS`] groups of trajectories (trajectory
+/// mod groups) — or of a sub-group of it, when the equations need more batches than
+/// [`MIN_FINE_BATCHES`] — over one of at least [`TIME_WINDOWS`] consecutive time windows:
+/// groups are independent, and windows are long enough to be nearly so even for short
+/// records. A covariance of `r` equations needs [`super::weak::BATCHES_PER_EQUATION`]` · r`
+/// batches: sub-groups first (independent trajectories), then shorter windows.
 pub const TRAJECTORY_GROUPS: usize = 8;
 pub const TIME_WINDOWS: usize = 128;
+/// Fine batches of a model with few equations: 8 groups × 128 windows.
+pub const MIN_FINE_BATCHES: usize = TRAJECTORY_GROUPS * TIME_WINDOWS;
+
+/// How the fine batches divide the samples: `TRAJECTORY_GROUPS` groups, each split into
+/// `subgroups` by trajectory, over `windows` time windows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FineLayout {
+    pub subgroups: usize,
+    pub windows: usize,
+}
+
+impl FineLayout {
+    /// The layout giving at least `wanted` fine batches for a record of `trajectories`:
+    /// each trajectory group split by trajectory as far as it has trajectories, the windows
+    /// a multiple of 4 (so the coarse batches stay quarters of each group's record).
+    pub fn for_batches(wanted: usize, trajectories: usize) -> FineLayout {
+        let per_group = wanted.max(MIN_FINE_BATCHES).div_ceil(TRAJECTORY_GROUPS);
+        let subgroups = trajectories
+            .div_ceil(TRAJECTORY_GROUPS)
+            .clamp(1, per_group.div_ceil(TIME_WINDOWS));
+        let windows = per_group.div_ceil(subgroups).next_multiple_of(4).max(TIME_WINDOWS);
+        FineLayout { subgroups, windows }
+    }
+
+    /// Number of fine batches.
+    pub fn count(&self) -> usize {
+        TRAJECTORY_GROUPS * self.subgroups * self.windows
+    }
+}
 
 /// Moments and ranges of the state, per time batch.
 #[derive(Debug, Clone)]
 pub struct StationaryData {
-    /// Fine batch `g · TIME_WINDOWS + w` holds the samples of trajectories `≡ g` (mod
-    /// [`TRAJECTORY_GROUPS`]) with `t` in `[w, w+1) · record_length / TIME_WINDOWS`. Their
-    /// sum is the whole record's moments.
+    /// Fine batch `(g · windows + w) · subgroups + s` holds the samples of trajectories
+    /// `j ≡ g` (mod [`TRAJECTORY_GROUPS`]) with `(j / TRAJECTORY_GROUPS) mod subgroups = s`
+    /// and `t` in `[w, w+1) · record_length / windows` (see [`FineLayout`]). Their sum is the
+    /// whole record's moments.
     pub fine: Vec<RawMoments>,
+    pub layout: FineLayout,
     /// Coarse batches for the jackknife's standard errors (groups of consecutive fine
     /// batches: with 8, exactly the trajectory groups; with 32, their quarters).
     coarse: usize,
@@ -56,28 +89,44 @@ type XvColumns = (usize, usize);
 
 impl StationaryData {
     /// `degree`: highest moment degree; `record_length`: time span of `t` per trajectory;
-    /// `batches`: coarse time batches for standard errors.
-    pub fn new(problem: &Problem, degree: u32, record_length: f64, batches: usize) -> StationaryData {
-        StationaryData::from_accumulator(problem, || accumulator(problem, degree), record_length, batches)
+    /// `trajectories`: how many the record has; `batches`: coarse time batches for
+    /// standard errors. With the weak form's degree, the fine batches are enough for its
+    /// equations' covariance ([`FineLayout::for_batches`]).
+    pub fn new(
+        problem: &Problem,
+        degree: u32,
+        record_length: f64,
+        trajectories: usize,
+        batches: usize,
+    ) -> StationaryData {
+        let wanted = if degree == super::weak::moment_degree(problem) {
+            super::weak::BATCHES_PER_EQUATION * super::weak::test_functions(problem).len()
+        } else {
+            MIN_FINE_BATCHES
+        };
+        let layout = FineLayout::for_batches(wanted, trajectories);
+        StationaryData::from_accumulator(problem, accumulator(problem, degree), layout, record_length, batches)
     }
 
     /// Every raw moment up to `degree` (for several problems over the same state).
     pub fn with_all_moments(problem: &Problem, degree: u32, record_length: f64, batches: usize) -> StationaryData {
         let d = problem.dim();
-        StationaryData::from_accumulator(problem, || RawMoments::new(d, degree), record_length, batches)
+        let layout = FineLayout::for_batches(MIN_FINE_BATCHES, 1);
+        StationaryData::from_accumulator(problem, RawMoments::new(d, degree), layout, record_length, batches)
     }
 
     fn from_accumulator(
         problem: &Problem,
-        make: impl Fn() -> RawMoments,
+        first: RawMoments,
+        layout: FineLayout,
         record_length: f64,
         batches: usize,
     ) -> StationaryData {
         let d = problem.dim();
-        let first = make();
         StationaryData {
-            fine: vec![first; FINE_BATCHES],
-            coarse: batches.clamp(1, FINE_BATCHES),
+            fine: vec![first; layout.count()],
+            layout,
+            coarse: batches.clamp(1, layout.count()),
             record_length,
             columns: problem.columns.clone(),
             buffer: Vec::with_capacity(BLOCK * d),
@@ -100,20 +149,27 @@ impl StationaryData {
 
     /// The fine batch of a sample of `trajectory` at time `t`.
     fn fine_batch(&self, trajectory: u32, t: f64) -> usize {
-        let nw = TIME_WINDOWS;
-        let w = ((t / self.record_length * nw as f64).ceil() as usize).clamp(1, nw) - 1;
-        (trajectory as usize % TRAJECTORY_GROUPS) * nw + w
+        let FineLayout { subgroups, windows } = self.layout;
+        let w = ((t / self.record_length * windows as f64).ceil() as usize).clamp(1, windows) - 1;
+        let j = trajectory as usize;
+        let (g, s) = (j % TRAJECTORY_GROUPS, (j / TRAJECTORY_GROUPS) % subgroups);
+        (g * windows + w) * subgroups + s
+    }
+
+    /// Fine batches per coarse batch.
+    fn per_coarse(&self) -> usize {
+        self.layout.count().div_ceil(self.coarse)
     }
 
     /// The coarse batch (see [`StationaryData::batches`]) of a sample of `trajectory` at
     /// time `t`: other estimators' jackknives use the same batches.
     pub fn batch_of(&self, trajectory: u32, t: f64) -> usize {
-        self.fine_batch(trajectory, t) / FINE_BATCHES.div_ceil(self.coarse)
+        self.fine_batch(trajectory, t) / self.per_coarse()
     }
 
     /// Number of coarse batches.
     pub fn batch_count(&self) -> usize {
-        FINE_BATCHES.div_ceil(FINE_BATCHES.div_ceil(self.coarse))
+        self.layout.count().div_ceil(self.per_coarse())
     }
 
     /// Add one sample (`row`: the log's columns) of `trajectory` taken at time `t` after
@@ -147,11 +203,12 @@ impl StationaryData {
         // trajectory groups: a stable counting sort by batch makes each batch's samples one
         // run, summed in whole chunks (the order within a batch is kept: deterministic).
         let d = self.columns.len();
-        let mut start = vec![0usize; FINE_BATCHES + 1];
+        let fine = self.fine.len();
+        let mut start = vec![0usize; fine + 1];
         for &b in &self.ids {
             start[b as usize + 1] += 1;
         }
-        for b in 0..FINE_BATCHES {
+        for b in 0..fine {
             start[b + 1] += start[b];
         }
         self.sorted.resize(self.buffer.len(), 0.0);
@@ -175,8 +232,7 @@ impl StationaryData {
     /// The coarse batches (consecutive groups of fine ones: with 32, each trajectory
     /// group's four quarters of the record).
     pub fn batches(&self) -> Vec<RawMoments> {
-        let per = FINE_BATCHES.div_ceil(self.coarse);
-        self.fine.chunks(per).map(sum_of).collect()
+        self.fine.chunks(self.per_coarse()).map(sum_of).collect()
     }
 
     /// The jackknife's replicates: per non-empty coarse batch, the moments of the whole

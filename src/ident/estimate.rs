@@ -3,7 +3,7 @@
 //! before any number is reported (`docs/theory.md` §6).
 
 use super::{data, kernel, lsq, moments, strong, weak, IdentError, Pieces, Problem};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 
 /// Singular-value ratio below which unknowns count as inseparable outright.
 pub const INSEPARABLE_RATIO: f64 = 1e-8;
@@ -162,14 +162,24 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
     let pc = map.apply(&total);
     let replicates: Vec<Pieces> = data.leave_one_out().iter().map(|b| map.apply(b)).collect();
     // The equations' covariance from the fine batches' residuals at a first estimate.
-    let fine: Vec<&moments::RawMoments> = data.fine.iter().filter(|b| b.count > 0).collect();
-    let fine_pieces: Vec<Pieces> = fine.iter().map(|b| map.apply(b)).collect();
-    let counts: Vec<u64> = fine.iter().map(|b| b.count).collect();
     // Two-step: the covariance at the unweighted estimate (iterating it changed nothing
-    // measurable on silentblock).
+    // measurable on silentblock). Each batch's equations are formed and reduced to their
+    // residual one at a time: a thousand equations' pieces for thousands of batches would
+    // not fit in memory.
+    let fine: Vec<&moments::RawMoments> = data.fine.iter().filter(|b| b.count > 0).collect();
+    let counts: Vec<u64> = fine.iter().map(|b| b.count).collect();
     let (first, _) = problem.solve(&pc, &typical, None);
-    let residuals: Vec<DVector<f64>> = fine_pieces.iter().map(|b| problem.residual(b, &first).0).collect();
-    let weight = weak::weighting(&residuals, &counts);
+    let rmap = map.residual_map(problem, first.as_slice());
+    let residuals = {
+        use rayon::prelude::*;
+        let rows = rmap.rows();
+        let mut flat = vec![0.0; rows * fine.len()];
+        flat.par_chunks_mut(rows.max(1))
+            .zip(fine.par_iter())
+            .for_each(|(out, b)| rmap.apply_into(b, out));
+        DMatrix::from_vec(rows, fine.len(), flat)
+    };
+    let weight = weak::weighting(residuals, &counts);
     let mut facts = vec![
         (
             "test functions".into(),
@@ -179,7 +189,7 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
             "moments".into(),
             format!(
                 "{} raw moments of degree <= {}",
-                total.monomials.len() - 1,
+                total.monomials().len() - 1,
                 weak::moment_degree(problem)
             ),
         ),

@@ -10,6 +10,7 @@ use super::poly::{exponent, monomials, var, Exponents};
 use multiversion::multiversion;
 use rayon::prelude::*;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// Samples per parallel chunk (fixed, so sums do not depend on the thread count).
 const CHUNK: usize = 4096;
@@ -23,14 +24,9 @@ const BLOCK: usize = 512;
 pub struct RawMoments {
     pub vars: usize,
     pub max_degree: u32,
-    /// Monomials in evaluation order (degree 1 first); index 0 is the constant 1.
-    pub monomials: Vec<Exponents>,
-    /// For monomial `k ≥ 1`: the monomial it is `parent × y_var` of.
-    parent: Vec<usize>,
-    var: Vec<usize>,
-    /// Whether monomial `k` is some other monomial's parent (its values must be kept).
-    is_parent: Vec<bool>,
-    index: HashMap<Exponents, usize>,
+    /// Which monomials, in which order: shared by every accumulator cloned from this one
+    /// (a weak form's thousands of fine batches hold only their sums).
+    shape: Arc<Shape>,
     pub sums: Vec<f64>,
     pub count: u64,
     /// Per variable: smallest and largest value seen.
@@ -38,7 +34,28 @@ pub struct RawMoments {
     pub max: Vec<f64>,
 }
 
+/// The monomials an accumulator sums and the recursion that evaluates them.
+#[derive(Debug)]
+struct Shape {
+    /// Monomials in evaluation order (degree 1 first); index 0 is the constant 1.
+    monomials: Vec<Exponents>,
+    /// For monomial `k ≥ 1`: the monomial it is `parent × y_var` of.
+    parent: Vec<usize>,
+    var: Vec<usize>,
+    /// Per monomial: its row among the kept values if it is some other monomial's parent
+    /// (its values must be kept), else `usize::MAX` (a leaf: only summed).
+    kept: Vec<usize>,
+    /// Monomials whose values are kept.
+    parents: usize,
+    index: HashMap<Exponents, usize>,
+}
+
 impl RawMoments {
+    /// The monomials accumulated, in evaluation order (index 0 is the constant 1).
+    pub fn monomials(&self) -> &[Exponents] {
+        &self.shape.monomials
+    }
+
     pub fn new(vars: usize, max_degree: u32) -> RawMoments {
         Self::with_monomials(vars, max_degree, &monomials(vars, max_degree))
     }
@@ -75,18 +92,34 @@ impl RawMoments {
             vr[k] = j;
         }
         let mut is_parent = vec![false; mons.len()];
+        is_parent[0] = true;
         for &p in &parent[1..] {
             is_parent[p] = true;
         }
+        let mut parents = 0;
+        let kept = is_parent
+            .iter()
+            .map(|&p| {
+                if p {
+                    parents += 1;
+                    parents - 1
+                } else {
+                    usize::MAX
+                }
+            })
+            .collect();
         RawMoments {
             vars,
             max_degree,
-            is_parent,
             sums: vec![0.0; mons.len()],
-            monomials: mons,
-            parent,
-            var: vr,
-            index,
+            shape: Arc::new(Shape {
+                kept,
+                parents,
+                monomials: mons,
+                parent,
+                var: vr,
+                index,
+            }),
             count: 0,
             min: vec![f64::INFINITY; vars],
             max: vec![f64::NEG_INFINITY; vars],
@@ -97,7 +130,7 @@ impl RawMoments {
     pub fn exact(vars: usize, max_degree: u32, moment: impl Fn(Exponents) -> f64) -> RawMoments {
         let mut m = RawMoments::new(vars, max_degree);
         m.sums = m
-            .monomials
+            .monomials()
             .iter()
             .map(|&e| if e == 0 { 1.0 } else { moment(e) })
             .collect();
@@ -108,6 +141,7 @@ impl RawMoments {
     /// `E[Y^β]`; panics if `β` is beyond the accumulated degree.
     pub fn moment(&self, e: Exponents) -> f64 {
         let k = *self
+            .shape
             .index
             .get(&e)
             .unwrap_or_else(|| panic!("moment of degree {} not accumulated", super::poly::degree(e)));
@@ -115,7 +149,7 @@ impl RawMoments {
     }
 
     pub fn has(&self, e: Exponents) -> bool {
-        self.index.contains_key(&e)
+        self.shape.index.contains_key(&e)
     }
 
     pub fn mean(&self, j: usize) -> f64 {
@@ -185,7 +219,7 @@ impl RawMoments {
 
     /// Index of monomial `e` in [`RawMoments::sums`], if accumulated.
     pub fn index_of(&self, e: Exponents) -> Option<usize> {
-        self.index.get(&e).copied()
+        self.shape.index.get(&e).copied()
     }
 }
 
@@ -198,54 +232,55 @@ impl RawMoments {
 ))]
 fn chunk_sums(moments: &RawMoments, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let d = moments.vars;
-    let m = moments.monomials.len();
+    let shape = &*moments.shape;
+    let m = shape.monomials.len();
     let mut lo = vec![f64::INFINITY; d];
     let mut hi = vec![f64::NEG_INFINITY; d];
-    // vals[k][s]: monomial k of the block's samples; acc[k][l]: per-lane partial sums,
+    // vals[kept[k]·sb + s]: monomial k of the block's samples (parents only); acc[k][l]: per-lane partial sums,
     // reduced once per chunk (the order is fixed, so results do not depend on threads).
-    let mut vals = vec![[0.0f64; BLOCK]; m];
-    let mut acc = vec![[0.0f64; CHUNK_LANES]; m];
-    let mut y = vec![[0.0f64; BLOCK]; d];
+    // A block is at most BLOCK samples, and no wider than the piece (a fine batch's run
+    // may be a few dozen samples).
     let n = rows.len() / d;
+    let sb = n.clamp(1, BLOCK).next_multiple_of(CHUNK_LANES);
+    let mut vals = vec![0.0f64; shape.parents * sb];
+    let mut acc = vec![[0.0f64; CHUNK_LANES]; m];
+    let mut y = vec![0.0f64; d * sb];
     let mut start = 0;
     while start < n {
-        let len = (n - start).min(BLOCK);
+        let len = (n - start).min(sb);
         for j in 0..d {
-            if len == BLOCK {
-                for (s, v) in y[j].iter_mut().enumerate() {
-                    *v = rows[(start + s) * d + j];
-                }
-            } else {
-                for s in 0..BLOCK {
-                    y[j][s] = if s < len { rows[(start + s) * d + j] } else { 0.0 };
-                }
+            let yj = &mut y[j * sb..(j + 1) * sb];
+            for (s, v) in yj.iter_mut().enumerate() {
+                *v = if s < len { rows[(start + s) * d + j] } else { 0.0 };
             }
             // Per-lane extremes over whole 8-sample chunks (vectorises), then the tail.
             let full = len / CHUNK_LANES * CHUNK_LANES;
             let (mut lo8, mut hi8) = ([lo[j]; CHUNK_LANES], [hi[j]; CHUNK_LANES]);
-            for c in y[j][..full].chunks_exact(CHUNK_LANES) {
+            for c in yj[..full].chunks_exact(CHUNK_LANES) {
                 for l in 0..CHUNK_LANES {
                     lo8[l] = if c[l] < lo8[l] { c[l] } else { lo8[l] };
                     hi8[l] = if c[l] > hi8[l] { c[l] } else { hi8[l] };
                 }
             }
-            for &v in &y[j][full..len] {
+            for &v in &yj[full..len] {
                 lo8[0] = lo8[0].min(v);
                 hi8[0] = hi8[0].max(v);
             }
             lo[j] = lo8.iter().fold(lo[j], |a, &b| a.min(b));
             hi[j] = hi8.iter().fold(hi[j], |a, &b| a.max(b));
         }
-        for s in 0..BLOCK {
-            vals[0][s] = if s < len { 1.0 } else { 0.0 };
+        for (s, v) in vals[..sb].iter_mut().enumerate() {
+            *v = if s < len { 1.0 } else { 0.0 };
         }
         for k in 1..m {
-            let (p, j) = (moments.parent[k], moments.var[k]);
-            let (head, tail) = vals.split_at_mut(k);
-            let (pv, out) = (&head[p], &mut tail[0]);
-            let yj = &y[j];
+            let (p, j) = (shape.kept[shape.parent[k]], shape.var[k]);
+            let yj = &y[j * sb..(j + 1) * sb];
             let mut a = acc[k];
-            if moments.is_parent[k] {
+            let slot = shape.kept[k];
+            if slot != usize::MAX {
+                // Parents are kept in evaluation order, so a parent's row precedes its child's.
+                let (head, tail) = vals.split_at_mut(slot * sb);
+                let (pv, out) = (&head[p * sb..(p + 1) * sb], &mut tail[..sb]);
                 // Two plain loops (product, then lane sums) vectorise; a fused loop with
                 // the store did not.
                 for ((o, &p), &y) in out.iter_mut().zip(pv.iter()).zip(yj.iter()) {
@@ -258,6 +293,7 @@ fn chunk_sums(moments: &RawMoments, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f6
                 }
             } else {
                 // A leaf: accumulate the product directly.
+                let pv = &vals[p * sb..(p + 1) * sb];
                 for (pc, yc) in pv.chunks_exact(CHUNK_LANES).zip(yj.chunks_exact(CHUNK_LANES)) {
                     for l in 0..CHUNK_LANES {
                         a[l] += pc[l] * yc[l];
@@ -266,7 +302,7 @@ fn chunk_sums(moments: &RawMoments, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f6
             }
             acc[k] = a;
         }
-        for c in vals[0].chunks_exact(CHUNK_LANES) {
+        for c in vals[..sb].chunks_exact(CHUNK_LANES) {
             for l in 0..CHUNK_LANES {
                 acc[0][l] += c[l];
             }

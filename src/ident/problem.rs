@@ -296,7 +296,7 @@ impl Problem {
     }
 
     /// `μ_i = 1/m_i` and the velocity noise covariance `Q` for parameter values `p`.
-    fn mu_q(&self, p: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    pub(crate) fn mu_q(&self, p: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
         let mut mu: Vec<f64> = self.model.mass.iter().map(|m| 1.0 / m).collect();
         for (k, u) in self.unknowns.iter().enumerate() {

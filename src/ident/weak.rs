@@ -198,35 +198,99 @@ impl PiecesMap {
     }
 }
 
+/// The residual of the weak form's equations at fixed parameters as a linear map of the
+/// raw moments (one sparse row per equation): the residual of each of thousands of fine
+/// batches without forming its pieces.
+#[derive(Debug, Clone)]
+pub struct ResidualMap {
+    rows: usize,
+    /// `(equation, moment index, coefficient)`, one entry per pair.
+    entries: Vec<(u32, u32, f64)>,
+}
+
+impl PiecesMap {
+    /// The residual map at parameters `p` of `problem` (the residual of
+    /// [`Problem::residual`], as a map of the moments).
+    pub fn residual_map(&self, problem: &Problem, p: &[f64]) -> ResidualMap {
+        let (n, rc) = (self.n, self.rc);
+        let (mu, q) = problem.mu_q(p);
+        let mut merged: std::collections::BTreeMap<(u32, u32), f64> = std::collections::BTreeMap::new();
+        for &(slot, idx, c) in &self.entries {
+            let (k, factor) = match slot {
+                Slot::T0(k) => (k, 1.0),
+                Slot::A(ki) => (ki / n, mu[ki % n]),
+                Slot::B(kir) => {
+                    let (ki, r) = (kir / rc, kir % rc);
+                    (ki / n, mu[ki % n] * p[r])
+                }
+                Slot::C(kij) => {
+                    let (ki, j) = (kij / n, kij % n);
+                    (ki / n, 0.5 * q[(ki % n) * n + j])
+                }
+            };
+            if factor != 0.0 {
+                *merged.entry((k as u32, idx as u32)).or_insert(0.0) += c * factor;
+            }
+        }
+        ResidualMap {
+            rows: self.rows,
+            entries: merged.into_iter().map(|((k, i), c)| (k, i, c)).collect(),
+        }
+    }
+}
+
+impl ResidualMap {
+    /// The residual of one accumulator's equations, into `out` (one per equation).
+    pub fn apply_into(&self, mom: &RawMoments, out: &mut [f64]) {
+        debug_assert_eq!(out.len(), self.rows);
+        out.fill(0.0);
+        let inv = 1.0 / mom.count.max(1) as f64;
+        for &(k, idx, c) in &self.entries {
+            out[k as usize] += c * mom.sums[idx as usize] * inv;
+        }
+    }
+
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+}
+
 /// Batches needed per equation before the weak form weights its equations by their
 /// covariance (fewer: plain least squares at the natural scales).
 pub const BATCHES_PER_EQUATION: usize = 4;
 
 /// The equation weighting of the efficient (generalised-method-of-moments) weak form:
 /// the test functions' equations are correlated and differ in noise by orders of
-/// magnitude, so plain least squares lets noisy equations dominate. `residuals[b]` is
-/// batch `b`'s residual vector at a first (unweighted) estimate and `counts[b]` its
+/// magnitude, so plain least squares lets noisy equations dominate. Column `b` of
+/// `residuals` is batch `b`'s residual vector at a first (unweighted) estimate and `counts[b]` its
 /// sample count; their spread estimates the covariance `S` of the equations, shrunk
 /// towards its diagonal by `rows / batches` (a noisy full covariance otherwise
 /// over-fits), and the returned `T = S^(-1/2)` whitens them (rows of zero variance are
 /// dropped). `None` when there are too few batches for the equations.
-pub fn weighting(residuals: &[nalgebra::DVector<f64>], counts: &[u64]) -> Option<nalgebra::DMatrix<f64>> {
-    let rows = residuals.first()?.len();
-    let nb = residuals.len();
-    if nb < BATCHES_PER_EQUATION * rows || nb < 2 {
+pub fn weighting(residuals: nalgebra::DMatrix<f64>, counts: &[u64]) -> Option<nalgebra::DMatrix<f64>> {
+    let (rows, nb) = residuals.shape();
+    if nb < BATCHES_PER_EQUATION * rows || nb < 2 || rows == 0 {
         return None;
     }
     let total: f64 = counts.iter().map(|&c| c as f64).sum();
     let mut mean = nalgebra::DVector::zeros(rows);
-    for (r, &c) in residuals.iter().zip(counts) {
-        mean += r * (c as f64 / total);
+    for (r, &c) in residuals.column_iter().zip(counts) {
+        mean.axpy(c as f64 / total, &r, 1.0);
     }
-    // Covariance of a sample's contribution: Σ n_b (r_b − r̄)(r_b − r̄)ᵀ / Σ n_b.
+    // Covariance of a sample's contribution: Σ n_b (r_b − r̄)(r_b − r̄)ᵀ / Σ n_b, as one
+    // matrix product of the weighted deviations (formed in place).
+    let mut dev = residuals;
+    for (mut r, &c) in dev.column_iter_mut().zip(counts) {
+        r -= &mean;
+        r *= (c as f64 / total).sqrt();
+    }
+    // In blocks of batches, so no transposed copy of the whole matrix is made.
     let mut s = nalgebra::DMatrix::zeros(rows, rows);
-    for (r, &c) in residuals.iter().zip(counts) {
-        let dv = r - &mean;
-        s.ger(c as f64 / total, &dv, &dv, 1.0);
+    for start in (0..nb).step_by(256) {
+        let block = dev.columns(start, 256.min(nb - start));
+        s.gemm(1.0, &block, &block.transpose(), 1.0);
     }
+    drop(dev);
     let lambda = rows as f64 / nb as f64;
     for i in 0..rows {
         for j in 0..rows {

@@ -56,7 +56,15 @@ pub(crate) fn identify_disturbed(
         sim.record_length,
         options.batches,
     );
-    let data_for = |p: &Problem| StationaryData::new(p, weak::moment_degree(p), sim.record_length, options.batches);
+    let data_for = |p: &Problem| {
+        StationaryData::new(
+            p,
+            weak::moment_degree(p),
+            sim.record_length,
+            sim.trajectories,
+            options.batches,
+        )
+    };
     let mut driven = data_for(&driven_structure);
     let force_structure = disturbance::force_problem(s, &st, 1.0)?;
     let force_bound = disturbance::force_bound_problem(s, &st)?;

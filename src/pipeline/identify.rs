@@ -117,11 +117,18 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         &structure,
         weak::moment_degree(&structure),
         sim.record_length,
+        sim.trajectories,
         options.batches,
     );
-    let mut naive_data = naive_structure
-        .as_ref()
-        .map(|p| StationaryData::new(p, weak::moment_degree(p), sim.record_length, options.batches));
+    let mut naive_data = naive_structure.as_ref().map(|p| {
+        StationaryData::new(
+            p,
+            weak::moment_degree(p),
+            sim.record_length,
+            sim.trajectories,
+            options.batches,
+        )
+    });
     let mut forces = ForceSpectra::new(s, &filtered);
     read_samples(info, |traj, t, row| {
         data.push(traj, t, row);

@@ -124,12 +124,14 @@ impl<const D: usize> LaneModel<D> {
         if let Some(kernel) = shaped(&lm) {
             lm.complete_links();
             lm.advance = kernel;
+        } else {
+            lm.advance = super::blocked::advance_blocked::<D>;
         }
         lm
     }
 }
 
-/// For padded degrees without a shaped kernel.
+/// For padded degrees without a shaped kernel (they run on the blocked one).
 pub(crate) fn no_kernel<const D: usize>(_: &LaneModel<D>) -> Option<Stepper<D>> {
     None
 }
@@ -215,6 +217,9 @@ pub(crate) struct Group {
     pub(super) dw: Vec<Lane>,
     /// Scratch: a block of standard normals for the shaped kernel (see [`fill_noise`]).
     pub(super) noise: Vec<f64>,
+    /// Scratch of the blocked kernel ([`super::blocked`]): `x`, `v`, `f` of the `n` masses,
+    /// then one part per excitation, for the lanes it works on.
+    pub(super) scratch: Vec<super::shaped::Part>,
     /// Velocities at the previous sample (for `Δv ÷ interval`).
     pub(super) v_mark: Vec<Lane>,
     /// Scratch: the displacements while a sample is taken at the velocity's instant.
@@ -250,6 +255,7 @@ impl Group {
             p: vec![zero(); ne],
             dw: vec![zero(); ne],
             noise: vec![0.0; NOISE_STEPS * ne * LANES],
+            scratch: vec![[0.0; super::shaped::W]; 3 * n + ne],
             v_mark: vec![zero(); n],
             x_keep: vec![zero(); n],
             x_ok: vec![zero(); n + 1],

@@ -8,7 +8,9 @@
 //! two kinds of work: the normals of a block of steps are drawn first, one generator at a
 //! time (`fill_noise`), then the steps run over them as straight-line vector arithmetic,
 //! 16 lanes at a time in registers, with every link's ends known at compile time (the
-//! links are rewritten as one per pair of ends, `LaneModel::complete_links`). Each
+//! links are rewritten as one per pair of ends, `LaneModel::complete_links`). Larger
+//! systems run on the blocked kernel (`advance_blocked`), which works the same way with the
+//! shape read at run time. Each
 //! lane has its own `Xoshiro256PlusPlus`, seeded from `(seed, trajectory)`, so the output is
 //! bit-identical whatever the number of threads. Time advances in blocks of samples: in a
 //! block every lane group runs in parallel (rayon), then the block's samples are handed,
@@ -17,6 +19,7 @@
 //! This module knows nothing of files: sinks (the MCAP writer, moment accumulators in
 //! tests) are supplied by the caller.
 
+mod blocked;
 mod lanes;
 mod shaped;
 mod sinks;
@@ -147,26 +150,38 @@ pub fn simulate(
     sink: &mut dyn SampleSink,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RunStats, SimError> {
-    simulate_with(model, sim, sink, progress, false)
+    simulate_stepping(model, sim, sink, progress, Stepping::Fastest)
 }
 
-/// [`simulate`] with the generic stepper only (no shaped kernel, but the same rewritten
-/// links): the reference the kernel is tested against, bit for bit.
+/// [`simulate`] with the generic stepper only (no shaped or blocked kernel, but the same
+/// rewritten links): the reference the kernels are tested against, bit for bit.
 pub fn simulate_generic(
     model: &Model,
     sim: &Simulation,
     sink: &mut dyn SampleSink,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RunStats, SimError> {
-    simulate_with(model, sim, sink, progress, true)
+    simulate_stepping(model, sim, sink, progress, Stepping::Generic)
 }
 
-pub(crate) fn simulate_with(
+/// Which stepper advances the lane groups (all give the same samples, bit for bit).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stepping {
+    /// The shaped kernel where one fits the model, else the blocked kernel.
+    Fastest,
+    /// The blocked kernel whatever the model (for the bench's comparison).
+    Blocked,
+    /// The generic stepper (the reference).
+    Generic,
+}
+
+/// [`simulate`] with the stepper chosen (the bench compares them; the samples are the same).
+pub fn simulate_stepping(
     model: &Model,
     sim: &Simulation,
     sink: &mut dyn SampleSink,
     progress: &(dyn Fn(u64) + Sync),
-    generic: bool,
+    stepping: Stepping,
 ) -> Result<RunStats, SimError> {
     let degree = (0..model.links())
         .map(|l| model.k_len[l].max(model.c_len[l]))
@@ -174,11 +189,11 @@ pub(crate) fn simulate_with(
         .unwrap_or(1);
     // One monomorphised stepper per padded degree.
     match degree {
-        0 | 1 => simulate_padded::<1>(model, sim, sink, progress, generic, shaped_kernel),
-        2 | 3 => simulate_padded::<3>(model, sim, sink, progress, generic, shaped_kernel),
-        4 | 5 => simulate_padded::<5>(model, sim, sink, progress, generic, shaped_kernel),
-        6 | 7 => simulate_padded::<7>(model, sim, sink, progress, generic, no_kernel),
-        _ => simulate_padded::<15>(model, sim, sink, progress, generic, no_kernel),
+        0 | 1 => simulate_padded::<1>(model, sim, sink, progress, stepping, shaped_kernel),
+        2 | 3 => simulate_padded::<3>(model, sim, sink, progress, stepping, shaped_kernel),
+        4 | 5 => simulate_padded::<5>(model, sim, sink, progress, stepping, shaped_kernel),
+        6 | 7 => simulate_padded::<7>(model, sim, sink, progress, stepping, no_kernel),
+        _ => simulate_padded::<15>(model, sim, sink, progress, stepping, no_kernel),
     }
 }
 
@@ -187,13 +202,18 @@ pub(crate) fn simulate_padded<const D: usize>(
     sim: &Simulation,
     sink: &mut dyn SampleSink,
     progress: &(dyn Fn(u64) + Sync),
-    generic: bool,
+    stepping: Stepping,
     shaped: fn(&LaneModel<D>) -> Option<Stepper<D>>,
 ) -> Result<RunStats, SimError> {
-    let mut lm = LaneModel::<D>::new(model, sim, shaped);
-    if generic {
-        lm.advance = advance_generic::<D>;
-    }
+    let lm = match stepping {
+        Stepping::Fastest => LaneModel::<D>::new(model, sim, shaped),
+        Stepping::Blocked => LaneModel::<D>::new(model, sim, no_kernel),
+        Stepping::Generic => {
+            let mut lm = LaneModel::<D>::new(model, sim, shaped);
+            lm.advance = advance_generic::<D>;
+            lm
+        }
+    };
     let steps = sim.steps_per_sample() * sim.substeps;
     let interval = sim.sample_interval;
     let total = sim.samples_per_trajectory();
