@@ -61,12 +61,14 @@ const GATES: &[Gate] = &[
             ("direct-force", 0.053),
         ],
     },
-    // At its shipped length, 16 × 3125 s every 0.5 s (the study studies/sparse2dof.toml, 10
-    // seeds): weak mean 0.052, sd 0.024, max 0.103. The baselines are ungated.
+    // At its shipped length, 16 × 3125 s every 0.5 s, 52 seeds (the 10 of the study
+    // studies/sparse2dof.toml at 0.5 s and 42 of two flag studies, see the scenario's
+    // comment): weak mean 0.077, sd 0.041, max 0.196. (The 10 alone, mean 0.052, sd 0.024,
+    // gave 0.147, exceeded by 1 seed in 12 later.) The baselines are ungated.
     Gate {
         scenario: "sparse2dof",
         record_length: 3125.0,
-        thresholds: &[("weak", 0.147)],
+        thresholds: &[("weak", 0.24)],
     },
     // 64 × 1000 s, the weighted weak form with 1000 equations, 42 seeds (the 12 of
     // studies/chain5.toml and `fpkbench study --scenario scenarios/chain5.toml

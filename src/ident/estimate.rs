@@ -163,9 +163,9 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
     let replicates: Vec<Pieces> = data.leave_one_out().iter().map(|b| map.apply(b)).collect();
     // The equations' covariance from the fine batches' residuals at a first estimate.
     // Two-step: the covariance at the unweighted estimate (iterating it changed nothing
-    // measurable on silentblock). Each batch's equations are formed and reduced to their
-    // residual one at a time: a thousand equations' pieces for thousands of batches would
-    // not fit in memory.
+    // measurable on silentblock). Each batch's moments go straight to its residual through
+    // one sparse map, in parallel: a thousand equations' pieces for thousands of batches
+    // would not fit in memory.
     let fine: Vec<&moments::RawMoments> = data.fine.iter().filter(|b| b.count > 0).collect();
     let counts: Vec<u64> = fine.iter().map(|b| b.count).collect();
     let (first, _) = problem.solve(&pc, &typical, None);
