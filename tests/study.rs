@@ -179,6 +179,22 @@ fn a_bad_study_file_names_the_line_and_writes_nothing() {
 }
 
 #[test]
+fn grid_flags_beside_a_study_file_are_refused_not_ignored() {
+    // They would be outvoted by the file's own keys without a word (a study of 100 seeds
+    // run where 8 were asked for).
+    let tmp = tempfile::tempdir().unwrap();
+    let file = study_file(tmp.path());
+    let out = tmp.path().join("out");
+    for flags in [&["--seeds", "8"][..], &["--method", "weak", "--seed", "3"]] {
+        let o = fpk(&[&["study", &file, "--out", out.to_str().unwrap()][..], flags].concat());
+        assert_eq!(o.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("s.toml") && err.contains(flags[0]), "{err}");
+        assert!(!out.exists());
+    }
+}
+
+#[test]
 fn overrides_are_recorded_and_a_variant_varied_again_keeps_them() {
     use fpkbench::scenario::overrides::apply;
     let src = std::fs::read_to_string("scenarios/sdof_duffing.toml").unwrap();

@@ -42,12 +42,12 @@ pub struct Args {
     /// file's keys; `--print` shows the file they make).
     #[arg(long, conflicts_with = "study")]
     pub scenario: Option<PathBuf>,
-    /// Seeds per configuration (with --scenario).
-    #[arg(long, default_value_t = 10, requires = "scenario")]
-    pub seeds: usize,
-    /// The study's seed (with --scenario).
-    #[arg(long, default_value_t = 0, requires = "scenario")]
-    pub seed: u64,
+    /// Seeds per configuration (with --scenario) [default: 10].
+    #[arg(long, requires = "scenario")]
+    pub seeds: Option<usize>,
+    /// The study's seed (with --scenario) [default: 0].
+    #[arg(long, requires = "scenario")]
+    pub seed: Option<u64>,
     /// A record length per trajectory, s (repeatable; with --scenario) [default: the
     /// scenario's].
     #[arg(long = "record-length", requires = "scenario")]
@@ -73,8 +73,8 @@ pub struct Args {
 fn study_text(args: &Args, scenario: &Path) -> String {
     let mut t = toml::Table::new();
     t.insert("scenario".into(), scenario.display().to_string().into());
-    t.insert("seeds".into(), (args.seeds as i64).into());
-    t.insert("seed".into(), (args.seed as i64).into());
+    t.insert("seeds".into(), (args.seeds.unwrap_or(10) as i64).into());
+    t.insert("seed".into(), (args.seed.unwrap_or(0) as i64).into());
     let floats = |v: &[f64]| toml::Value::Array(v.iter().map(|&x| x.into()).collect());
     let strings = |v: &[String]| toml::Value::Array(v.iter().map(|x| x.clone().into()).collect());
     if !args.record_lengths.is_empty() {
@@ -207,7 +207,31 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let study = match (&args.study, &args.scenario) {
-        (Some(file), _) => Study::from_file(file)?,
+        (Some(file), _) => {
+            // The grid flags build a study from --scenario; with a study file they would be
+            // silently outvoted by the file's keys.
+            let flags = [
+                ("--seeds", args.seeds.is_some()),
+                ("--seed", args.seed.is_some()),
+                ("--record-length", !args.record_lengths.is_empty()),
+                ("--sample-interval", !args.sample_intervals.is_empty()),
+                ("--method", !args.methods.is_empty()),
+                ("--set", !args.set.is_empty()),
+                ("--reference", args.reference.is_some()),
+                ("--print", args.print),
+            ];
+            let given: Vec<&str> = flags.iter().filter(|f| f.1).map(|f| f.0).collect();
+            if !given.is_empty() {
+                anyhow::bail!(
+                    "{}: {} describe a study made with --scenario; a study file has its own keys \
+                     (seeds, seed, record_lengths, sample_intervals, methods, set, reference): edit the file, \
+                     or run fpkbench study --scenario SCENARIO with the flags",
+                    file.display(),
+                    given.join(", ")
+                );
+            }
+            Study::from_file(file)?
+        }
         (None, Some(scenario)) => {
             let text = study_text(&args, scenario);
             if args.print {

@@ -19,8 +19,9 @@
 //! over `h` is not the drift), which is the point of comparing them with the weak form.
 //! Standard errors: the delete-one jackknife over the same batches as the weak form.
 
-use super::poly::{exponent, powi, Exponents, MAX_VARS};
-use super::{estimate::estimate, Estimate, IdentError, Pieces, Problem, Unknown};
+use super::estimate::{estimate, solve_replicates};
+use super::poly::Compiled;
+use super::{Estimate, IdentError, Pieces, Problem, Unknown};
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
@@ -139,51 +140,20 @@ impl Normal {
 }
 
 /// The drift's parts (known force per mass, unit force per unknown and mass:
-/// [`Problem::known_force`], [`Problem::unit_force`]) compiled for per-sample evaluation:
-/// every distinct monomial once, then each part as a sum over its monomials.
+/// [`Problem::known_force`], [`Problem::unit_force`]) compiled for per-sample evaluation.
 #[derive(Clone)]
 struct DriftParts {
-    /// Distinct monomials: per monomial, its (variable, power) factors.
-    monomials: Vec<Vec<(usize, u32)>>,
-    /// Per part (known forces, then the unit forces unknown-major, `unit[row * n + i]`):
-    /// its terms as (coefficient, monomial).
-    parts: Vec<Vec<(f64, usize)>>,
+    /// Known forces, then the unit forces unknown-major (`unit[row * n + i]`).
+    parts: Compiled,
     n: usize,
     values: Vec<f64>,
 }
 
 impl DriftParts {
     fn of(problem: &Problem) -> DriftParts {
-        let mut keys: Vec<Exponents> = Vec::new();
-        let parts = problem
-            .known_force
-            .iter()
-            .chain(problem.unit_force.iter().flatten())
-            .map(|p| {
-                p.terms
-                    .iter()
-                    .map(|(&e, &c)| {
-                        let k = keys.iter().position(|&x| x == e).unwrap_or_else(|| {
-                            keys.push(e);
-                            keys.len() - 1
-                        });
-                        (c, k)
-                    })
-                    .collect()
-            })
-            .collect();
-        let monomials: Vec<Vec<(usize, u32)>> = keys
-            .iter()
-            .map(|&e| {
-                (0..MAX_VARS)
-                    .filter(|&j| exponent(e, j) > 0)
-                    .map(|j| (j, exponent(e, j)))
-                    .collect()
-            })
-            .collect();
+        let parts = Compiled::new(problem.known_force.iter().chain(problem.unit_force.iter().flatten()));
         DriftParts {
-            values: vec![0.0; monomials.len()],
-            monomials,
+            values: vec![0.0; parts.len()],
             parts,
             n: problem.n,
         }
@@ -191,17 +161,13 @@ impl DriftParts {
 
     /// The parts at state `y`: known force per mass, unit force per unknown and mass.
     fn at(&mut self, y: &[f64], known: &mut [f64], unit: &mut [f64]) {
-        for (v, m) in self.values.iter_mut().zip(&self.monomials) {
-            *v = m.iter().map(|&(j, p)| powi(y[j], p)).product();
+        self.parts.eval(y, &mut self.values);
+        let (kv, uv) = self.values.split_at(self.n);
+        for (k, v) in known.iter_mut().zip(kv) {
+            *k = *v;
         }
-        let values = &self.values;
-        let eval = |terms: &Vec<(f64, usize)>| terms.iter().map(|&(c, k)| c * values[k]).sum::<f64>();
-        let (kp, up) = self.parts.split_at(self.n);
-        for (k, t) in known.iter_mut().zip(kp) {
-            *k = eval(t);
-        }
-        for (u, t) in unit.iter_mut().zip(up) {
-            *u = eval(t);
+        for (u, v) in unit.iter_mut().zip(uv) {
+            *u = *v;
         }
     }
 }
@@ -456,6 +422,7 @@ fn solve_batches(
         Vec::new()
     };
     total.symmetrize(problem);
+    let replicates = solve_replicates(problem, method, replicates, typical, None)?;
     estimate(problem, method, &total.pieces, &replicates, typical, facts, None)
 }
 

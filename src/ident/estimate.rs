@@ -4,6 +4,7 @@
 
 use super::{data, kernel, lsq, moments, strong, weak, IdentError, Pieces, Problem};
 use nalgebra::DMatrix;
+use rayon::prelude::*;
 
 /// Singular-value ratio below which unknowns count as inseparable outright.
 pub const INSEPARABLE_RATIO: f64 = 1e-8;
@@ -79,22 +80,42 @@ pub fn std_errors(covariance: &[Vec<f64>], unknowns: usize) -> Vec<f64> {
 /// estimates from one eighth of the record each.
 const SPREAD_BATCHES: f64 = 8.0;
 
-/// Solve `pieces` built from all data and from each jackknife replicate (all data but one
-/// batch; with the equations weighted by `weight`, if given); decide identifiability.
+/// The solution from each jackknife replicate's pieces, in order; each replicate's pieces
+/// are dropped once solved (a thousand replicates' pieces need not be held at once).
+/// Replicates holding non-finite numbers are refused as [`Pieces::check_finite`] refuses
+/// the whole record's.
+pub fn solve_replicates(
+    problem: &Problem,
+    method: &str,
+    replicates: impl IntoParallelIterator<Item = Pieces, Iter: IndexedParallelIterator>,
+    typical: &[f64],
+    weight: Option<&DMatrix<f64>>,
+) -> Result<Vec<Vec<f64>>, IdentError> {
+    replicates
+        .into_par_iter()
+        .map(|b| {
+            b.check_finite(method)?;
+            Ok(problem.solve(&b, typical, weight).0)
+        })
+        .collect()
+}
+
+/// Solve `pieces` built from all data, and take `per_replicate`, the solutions from each
+/// jackknife replicate (all data but one batch: `solve_replicates`); with the equations
+/// weighted by `weight`, if given; decide identifiability.
 pub fn estimate(
     problem: &Problem,
     method: &'static str,
     total: &Pieces,
-    replicates: &[Pieces],
+    per_replicate: &[Vec<f64>],
     typical: &[f64],
     facts: Vec<(String, String)>,
     weight: Option<&DMatrix<f64>>,
 ) -> Result<Estimate, IdentError> {
     total.check_finite(method)?;
     let (values, diag) = problem.solve(total, typical, weight);
-    let per_replicate: Vec<Vec<f64>> = replicates.iter().map(|b| problem.solve(b, typical, weight).0).collect();
     let nu = values.len();
-    let covariance = jackknife(&per_replicate, nu);
+    let covariance = jackknife(per_replicate, nu);
     let std_error = std_errors(&covariance, nu);
     let involved: Vec<usize> = (0..nu).filter(|&k| diag.weakest_direction[k].abs() >= 0.1).collect();
     let inseparable = |reason: String| IdentError::NotIdentifiable {
@@ -180,6 +201,7 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
         DMatrix::from_vec(rows, fine.len(), flat)
     };
     let weight = weak::weighting(residuals, &counts);
+    let replicates = solve_replicates(problem, "weak", replicates, &typical, weight.as_ref())?;
     let mut facts = vec![
         (
             "test functions".into(),
@@ -232,13 +254,17 @@ pub fn identify_strong(
         )));
     }
     // Standard errors: the jackknife over the weak form's batches (the grid without each).
-    let replicates: Vec<Pieces> = {
-        use rayon::prelude::*;
+    let method = if marginals { "strong-marginals" } else { "strong" };
+    let replicates: Vec<Vec<f64>> = {
         let grids: Vec<strong::DensityGrid> = grid.leave_one_out().collect();
         grids
             .par_iter()
-            .map(|g| g.pieces_with(problem, marginals, Some(&stencils)).0)
-            .collect()
+            .map(|g| {
+                let pieces = g.pieces_with(problem, marginals, Some(&stencils)).0;
+                pieces.check_finite(method)?;
+                Ok(problem.solve(&pieces, typical, None).0)
+            })
+            .collect::<Result<_, IdentError>>()?
     };
     let cells = grid.counts.len();
     let per_unknown = usable as f64 / problem.unknowns.len() as f64;
@@ -300,15 +326,7 @@ pub fn identify_strong(
         ),
     ];
     facts.sort();
-    let mut e = estimate(
-        problem,
-        if marginals { "strong-marginals" } else { "strong" },
-        &pc,
-        &replicates,
-        typical,
-        facts,
-        None,
-    )?;
+    let mut e = estimate(problem, method, &pc, &replicates, typical, facts, None)?;
     e.warnings = warnings;
     Ok(e)
 }
@@ -329,6 +347,7 @@ pub fn identify_kernel(
             problem.unknowns.len()
         )));
     }
+    let replicates = solve_replicates(problem, "strong", replicates, typical, None)?;
     let o = lattice.options;
     let mut facts = vec![
         (

@@ -24,7 +24,9 @@
 //! linear weights (a convolution with a tent of one node spacing, the same for every flux,
 //! hence no bias either; adding each sample to its nearest node instead, a box, measured
 //! worse: `sdof_duffing` seeds 2 and 4 gave 2.7 % and 2.6 % against 1.7 % and 1.1 %); the
-//! kernel's derivatives are then applied as separable filters on the lattice. Nodes are
+//! kernel's derivatives are then applied as separable filters on the lattice (samples are
+//! gathered in a bounded buffer and spread in the order of their cells, for the caches;
+//! each filter pass runs over whole lines of nodes). Nodes are
 //! `h = min(s, 0.5 std)` apart: the sampled kernel's aliasing is then
 //! `exp(−2π² s²/h²) ≈ 3·10⁻⁹` of the signal (times `(2π s/h)²` for the second
 //! derivative), and the lattice resolves the density itself (nodes 1.25 std apart biased
@@ -33,7 +35,9 @@
 //! reaches [`MARGIN`] std beyond the box, and a kernel that reaches further sees no
 //! samples there (the report counts the samples outside the lattice).
 
-use super::{poly::Poly, IdentError, Pieces, Problem};
+use super::poly::{Compiled, Poly};
+use super::{IdentError, Pieces, Problem};
+use multiversion::multiversion;
 use rayon::prelude::*;
 
 /// Settings of the kernel estimate; [`KernelOptions::auto`] gives the defaults.
@@ -176,11 +180,61 @@ pub struct FluxLattice {
     pub inside: u64,
     pub total: u64,
     groups: Option<Groups>,
+    /// Samples inside the lattice not yet spread: `(first node of the cell << 32 | entry)`
+    /// and per entry the jackknife group and the state (`dim` values).
+    pending_keys: Vec<u64>,
+    pending_group: Vec<u32>,
+    pending_y: Vec<f64>,
+    /// The fluxes but the density (channels `1..`), compiled.
+    compiled: Compiled,
     // Scratch of one sample.
     y: Vec<f64>,
     values: Vec<f64>,
     /// Per dimension: the sample's cell (flat offset) and position in it.
     corner: Vec<(usize, f64)>,
+}
+
+/// Samples gathered before they are spread over the lattice in the order of their cells
+/// (see [`FluxLattice::push_in`]): 11 MB for a 4-D state.
+const PENDING: usize = 1 << 18;
+
+/// One sample's fluxes `values` over the `2^d` nodes of its cell (`corner`: per dimension
+/// the cell's flat offset and the position in it) with linear weights, into the record's
+/// lattice and its jackknife group's.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
+fn spread_sample(
+    corner: &[(usize, f64)],
+    stride: &[usize],
+    values: &[f64],
+    fluxes: &mut [f64],
+    mut group: Option<&mut [f32]>,
+) {
+    let width = values.len();
+    for mask in 0..1usize << corner.len() {
+        let (mut at, mut w) = (0, 1.0);
+        for (j, &(base, t)) in corner.iter().enumerate() {
+            if mask >> j & 1 == 1 {
+                at += base + stride[j];
+                w *= t;
+            } else {
+                at += base;
+                w *= 1.0 - t;
+            }
+        }
+        let cell = &mut fluxes[at * width..(at + 1) * width];
+        for (c, v) in cell.iter_mut().zip(values) {
+            *c += w * v;
+        }
+        if let Some(g) = group.as_mut() {
+            let cell = &mut g[at * width..(at + 1) * width];
+            for (c, v) in cell.iter_mut().zip(values) {
+                *c += (w * v) as f32;
+            }
+        }
+    }
 }
 
 impl FluxLattice {
@@ -247,6 +301,10 @@ impl FluxLattice {
             inside: 0,
             total: 0,
             groups,
+            pending_keys: Vec::with_capacity(PENDING),
+            pending_group: Vec::with_capacity(PENDING),
+            pending_y: Vec::with_capacity(PENDING * d),
+            compiled: Compiled::new(&channels.polys[1..]),
             y: vec![0.0; d],
             values: vec![0.0; width],
             corner: vec![(0, 0.0); d],
@@ -293,54 +351,69 @@ impl FluxLattice {
         self.groups.as_ref().map_or(0, |g| g.total.len())
     }
 
-    /// Add one sample of batch `batch` (`row`: the log's columns).
+    /// Add one sample of batch `batch` (`row`: the log's columns); [`FluxLattice::finish`]
+    /// after the last.
+    ///
+    /// A sample's fluxes go to the `2^d` nodes of its cell, and consecutive samples of a
+    /// record (many trajectories interleaved) land all over a lattice far larger than the
+    /// caches, so spreading each at once waits on memory for every cell. Samples are
+    /// gathered instead and spread `PENDING` at a time in the order of their cells: the
+    /// lattice is then swept once per batch of samples, neighbours share cache lines.
     pub fn push_in(&mut self, batch: usize, row: &[f64]) {
         self.total += 1;
-        let group = self.groups.as_mut().map(|g| {
+        let group = self.groups.as_mut().map_or(0, |g| {
             let k = g.of_batch[batch];
             g.total[k] += 1;
             k
         });
-        let d = self.dim;
-        let corner = &mut self.corner;
-        for j in 0..d {
+        let mut first = 0;
+        for j in 0..self.dim {
             let yj = row[self.columns[j]];
-            self.y[j] = yj;
             let u = (yj - self.lo[j]) / self.h[j];
             if !(u >= 0.0 && u < (self.nodes - 1) as f64) {
                 return;
             }
-            let i = u as usize;
-            corner[j] = (i * self.stride[j], u - i as f64);
+            first += u as usize * self.stride[j];
         }
         self.inside += 1;
-        for (v, p) in self.values.iter_mut().zip(&self.channels.polys).skip(1) {
-            *v = p.eval(&self.y);
+        let entry = self.pending_group.len();
+        self.pending_keys.push((first as u64) << 32 | entry as u64);
+        self.pending_group.push(group as u32);
+        self.pending_y.extend(self.columns.iter().map(|&c| row[c]));
+        if entry + 1 == PENDING {
+            self.spread();
         }
-        self.values[0] = 1.0;
-        let width = self.values.len();
-        for mask in 0..1usize << d {
-            let (mut at, mut w) = (0, 1.0);
-            for (j, &(base, t)) in corner.iter().enumerate() {
-                if mask >> j & 1 == 1 {
-                    at += base + self.stride[j];
-                    w *= t;
-                } else {
-                    at += base;
-                    w *= 1.0 - t;
-                }
+    }
+
+    /// Spread the samples still gathered; call after the last [`FluxLattice::push_in`].
+    pub fn finish(&mut self) {
+        self.spread();
+    }
+
+    /// Spread the gathered samples in the order of their cells (ties in the order they
+    /// came, so the sums do not depend on anything but the samples' order).
+    fn spread(&mut self) {
+        let mut keys = std::mem::take(&mut self.pending_keys);
+        keys.sort_unstable();
+        let d = self.dim;
+        for &key in &keys {
+            let entry = (key & 0xffff_ffff) as usize;
+            let group = self.pending_group[entry] as usize;
+            self.y.copy_from_slice(&self.pending_y[entry * d..(entry + 1) * d]);
+            for j in 0..d {
+                let u = (self.y[j] - self.lo[j]) / self.h[j];
+                let i = u as usize;
+                self.corner[j] = (i * self.stride[j], u - i as f64);
             }
-            let cell = &mut self.fluxes[at * width..(at + 1) * width];
-            for (c, v) in cell.iter_mut().zip(&self.values) {
-                *c += w * v;
-            }
-            if let (Some(g), Some(k)) = (self.groups.as_mut(), group) {
-                let cell = &mut g.fluxes[k][at * width..(at + 1) * width];
-                for (c, v) in cell.iter_mut().zip(&self.values) {
-                    *c += (w * v) as f32;
-                }
-            }
+            self.compiled.eval(&self.y, &mut self.values[1..]);
+            self.values[0] = 1.0;
+            let group_fluxes = self.groups.as_mut().map(|g| &mut g.fluxes[group][..]);
+            spread_sample(&self.corner, &self.stride, &self.values, &mut self.fluxes, group_fluxes);
         }
+        keys.clear();
+        self.pending_keys = keys;
+        self.pending_group.clear();
+        self.pending_y.clear();
     }
 
     /// The sampled kernel `G_s`, its first and its second derivative along dimension `j`
@@ -376,12 +449,6 @@ impl FluxLattice {
         let nb = self.nodes as isize;
         let centre = self.nodes / 2;
         let (lo, hi) = (centre.saturating_sub(self.row_half), centre + self.row_half);
-        let inside = |node: usize, upto: usize| {
-            (0..=upto).all(|k| {
-                let i = node / self.stride[k] % self.nodes;
-                (lo..=hi).contains(&i)
-            })
-        };
         // One output node of the pass along `j` from `cur`.
         let one = |j: usize, kernel: &[f64], cur: &[f64], node: usize, o: &mut [f64]| {
             let st = self.stride[j] as isize;
@@ -407,11 +474,37 @@ impl FluxLattice {
                 });
                 return out;
             }
-            next.par_chunks_mut(CHUNK * w).enumerate().for_each(|(chunk, out)| {
-                for (local, o) in out.chunks_exact_mut(w).enumerate() {
-                    let node = chunk * CHUNK + local;
-                    if inside(node, j) {
-                        one(j, kernel, &cur, node, o);
+            // Whole lines along dimension 0 at a time: for each tap, one scaled vector
+            // added over the line's nodes inside the box (per node the same sums in the
+            // same order as `one`).
+            let line = self.nodes * w;
+            let st = self.stride[j] as isize;
+            next.par_chunks_mut(line).enumerate().for_each(|(l, out)| {
+                let first = l * self.nodes;
+                if !(1..=j).all(|k| (lo..=hi).contains(&(first / self.stride[k] % self.nodes))) {
+                    return;
+                }
+                let run = &mut out[lo * w..(hi + 1) * w];
+                run.fill(0.0);
+                let i = (first / self.stride[j] % self.nodes) as isize;
+                for m in -taps..=taps {
+                    let k = kernel[(m + taps) as usize];
+                    // Nodes of the run whose source node `node − m·stride_j` is on the lattice.
+                    let (a, b) = if j == 0 {
+                        ((lo as isize).max(m), (hi as isize).min(nb - 1 + m))
+                    } else if i - m >= 0 && i - m < nb {
+                        (lo as isize, hi as isize)
+                    } else {
+                        continue;
+                    };
+                    if a > b {
+                        continue;
+                    }
+                    let from = (first as isize + a - m * st) as usize * w;
+                    let len = (b - a + 1) as usize * w;
+                    let to = (a as usize - lo) * w;
+                    for (x, y) in run[to..to + len].iter_mut().zip(&cur[from..from + len]) {
+                        *x += k * y;
                     }
                 }
             });
@@ -516,6 +609,7 @@ impl FluxLattice {
     /// The pieces of the whole record and of each jackknife replicate (all but one group),
     /// and the number of residual rows.
     pub fn pieces(&self, problem: &Problem) -> (Pieces, Vec<Pieces>, usize) {
+        assert!(self.pending_keys.is_empty(), "FluxLattice::finish was not called");
         let rows = self.rows();
         let total = self.pieces_of(problem, &self.fluxes, self.inside.max(1) as f64, &rows);
         let replicates = match &self.groups {

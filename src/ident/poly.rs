@@ -118,6 +118,92 @@ impl Poly {
     }
 }
 
+/// Polynomials compiled for evaluation in per-sample loops: every distinct power of a
+/// variable once, every distinct monomial once as a product of those powers, then each
+/// polynomial as a sum over its monomials. The values are those of [`Poly::eval`], bit for
+/// bit (the same products and sums in the same order).
+#[derive(Debug, Clone)]
+pub struct Compiled {
+    /// Distinct (variable, power) factors.
+    powers: Vec<(usize, u32)>,
+    /// Per monomial `k`, its factors (indices into `powers`) are
+    /// `factors[monomial_ends[k − 1]..monomial_ends[k]]`, by variable.
+    factors: Vec<usize>,
+    monomial_ends: Vec<usize>,
+    /// Per polynomial `i`, its terms (coefficient, monomial) are
+    /// `terms[poly_ends[i − 1]..poly_ends[i]]`, in [`Poly::terms`] order.
+    terms: Vec<(f64, usize)>,
+    poly_ends: Vec<usize>,
+    power_values: Vec<f64>,
+    monomial_values: Vec<f64>,
+}
+
+impl Compiled {
+    pub fn new<'a>(polys: impl IntoIterator<Item = &'a Poly>) -> Compiled {
+        let mut keys: Vec<Exponents> = Vec::new();
+        let (mut terms, mut poly_ends) = (Vec::new(), Vec::new());
+        for p in polys {
+            for (&e, &c) in &p.terms {
+                let k = keys.iter().position(|&x| x == e).unwrap_or_else(|| {
+                    keys.push(e);
+                    keys.len() - 1
+                });
+                terms.push((c, k));
+            }
+            poly_ends.push(terms.len());
+        }
+        let (mut powers, mut factors, mut monomial_ends) = (Vec::new(), Vec::new(), Vec::new());
+        for &e in &keys {
+            for j in (0..MAX_VARS).filter(|&j| exponent(e, j) > 0) {
+                let f = (j, exponent(e, j));
+                let at = powers.iter().position(|&x| x == f).unwrap_or_else(|| {
+                    powers.push(f);
+                    powers.len() - 1
+                });
+                factors.push(at);
+            }
+            monomial_ends.push(factors.len());
+        }
+        Compiled {
+            power_values: vec![0.0; powers.len()],
+            monomial_values: vec![0.0; keys.len()],
+            powers,
+            factors,
+            monomial_ends,
+            terms,
+            poly_ends,
+        }
+    }
+
+    /// Number of polynomials.
+    pub fn len(&self) -> usize {
+        self.poly_ends.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.poly_ends.is_empty()
+    }
+
+    /// Every polynomial at `y`, into `out` (one value per polynomial).
+    #[inline]
+    pub fn eval(&mut self, y: &[f64], out: &mut [f64]) {
+        for (v, &(j, p)) in self.power_values.iter_mut().zip(&self.powers) {
+            *v = powi(y[j], p);
+        }
+        let mut from = 0;
+        for (v, &end) in self.monomial_values.iter_mut().zip(&self.monomial_ends) {
+            *v = self.factors[from..end].iter().map(|&f| self.power_values[f]).product();
+            from = end;
+        }
+        let values = &self.monomial_values;
+        let mut from = 0;
+        for (o, &end) in out.iter_mut().zip(&self.poly_ends) {
+            *o = self.terms[from..end].iter().map(|&(c, k)| c * values[k]).sum::<f64>();
+            from = end;
+        }
+    }
+}
+
 /// `x^p` by repeated squaring, as `f64::powi` computes it (the same products in the same
 /// order, so the same bits), inlined: evaluations sit in per-sample loops.
 #[inline]
@@ -154,4 +240,27 @@ pub fn monomials(vars: usize, max_degree: u32) -> Vec<Exponents> {
     }
     out.remove(0);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compiled_polynomials_evaluate_as_poly_eval() {
+        let (a, b) = (
+            Poly::linear(&[(0, 1.5), (2, -2.0)]),
+            Poly::monomial(var(1) * 3 + var(2), 0.25),
+        );
+        let c = a.mul(&b).pow(2);
+        let polys = [a, b, c, Poly::zero(), Poly::constant(3.0)];
+        let mut compiled = Compiled::new(&polys);
+        let mut out = [0.0; 5];
+        for y in [[0.3, -1.2, 2.5], [-0.7, 0.0, 1e3]] {
+            compiled.eval(&y, &mut out);
+            for (o, p) in out.iter().zip(&polys) {
+                assert_eq!(o.to_bits(), p.eval(&y).to_bits());
+            }
+        }
+    }
 }

@@ -248,6 +248,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         let std: Vec<f64> = (0..problem.dim()).map(|j| total.std(j)).collect();
         let mut lattice = FluxLattice::new(&problem, &mean, &std, o, data.batch_count())?;
         read_samples(info, |traj, t, row| lattice.push_in(data.batch_of(traj, t), row))?;
+        lattice.finish();
         Ok(lattice)
     });
     let lattice = match lattice {

@@ -2,6 +2,7 @@
 //! noise draws, the generic stepper (any shape) and a group's run over sample intervals
 //! with sampling and the divergence check.
 
+use super::normals::{self, Xoshiro};
 use super::{trajectory_seed, Lane, SimError, DIVERGENCE_LIMIT, LANES};
 use crate::model::{Model, Quantity, GROUND};
 use crate::scenario::{Process, Scheme, Simulation};
@@ -144,7 +145,7 @@ pub(crate) fn no_kernel<const D: usize>(_: &LaneModel<D>) -> Option<Stepper<D>> 
 #[inline(always)]
 pub(crate) fn draw_noise<const D: usize>(
     lm: &LaneModel<D>,
-    rng: &mut [Xoshiro256PlusPlus; LANES],
+    rng: &mut [Xoshiro; LANES],
     p: &mut [Lane],
     dw: &mut [Lane],
 ) {
@@ -185,26 +186,20 @@ pub(crate) fn advance_generic<const D: usize>(g: &mut Group, lm: &LaneModel<D>, 
 pub(crate) const NOISE_STEPS: usize = 32;
 
 /// Draws the normals of `steps` steps for every lane into `noise[(t·nz + slot)·LANES + j]`,
-/// one lane at a time so its generator's state stays in registers across the run. Each
-/// lane's generator is consumed in exactly the order of [`draw_noise`] (per step: white
-/// slots, then filtered), so the samples do not depend on the blocking. Kept out of line:
-/// the generator's slow path calls `exp`, which would force the kernel's vector state out
-/// of registers.
+/// all lanes side by side ([`normals::fill`]). Each lane's generator is consumed in exactly
+/// the order of [`draw_noise`] (per step: white slots, then filtered), so the samples do
+/// not depend on the blocking. Kept out of line: the generator's slow path calls `exp`,
+/// which would force the kernel's vector state out of registers.
 #[inline(never)]
-pub(crate) fn fill_noise(rng: &mut [Xoshiro256PlusPlus; LANES], nz: usize, steps: usize, noise: &mut [f64]) {
-    let noise = &mut noise[..steps * nz * LANES];
-    for (j, r) in rng.iter_mut().enumerate() {
-        for z in noise[j..].iter_mut().step_by(LANES) {
-            *z = StandardNormal.sample(r);
-        }
-    }
+pub(crate) fn fill_noise(rng: &mut [Xoshiro; LANES], nz: usize, steps: usize, noise: &mut [f64]) {
+    normals::fill(rng, steps * nz, noise);
 }
 
 /// `LANES` trajectories in struct-of-arrays form.
 pub(crate) struct Group {
     pub(super) first: usize,
     pub(super) active: usize,
-    pub(super) rng: [Xoshiro256PlusPlus; LANES],
+    pub(super) rng: [Xoshiro; LANES],
     /// Positions and velocities of the `n` masses and the phantom ground (index `n`).
     pub(super) x: Vec<Lane>,
     pub(super) v: Vec<Lane>,
@@ -248,7 +243,7 @@ impl Group {
         Group {
             first,
             active,
-            rng: std::array::from_fn(|l| Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l))),
+            rng: std::array::from_fn(|l| Xoshiro::seed_from_u64(trajectory_seed(seed, first + l))),
             x: vec![zero(); n + 1],
             v: vec![zero(); n + 1],
             f: vec![zero(); n + 1],

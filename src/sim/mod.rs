@@ -5,13 +5,13 @@
 //! lanes, so the CPU always has independent work while one lane waits on its state's
 //! dependency chain, and the per-link polynomial loop is amortised over the lanes. The
 //! shaped kernel (`advance_shaped`, up to four masses and four excitations) separates the
-//! two kinds of work: the normals of a block of steps are drawn first, one generator at a
-//! time (`fill_noise`), then the steps run over them as straight-line vector arithmetic,
+//! two kinds of work: the normals of a block of steps are drawn first, every lane's
+//! generator stepped side by side (`fill_noise`, module `normals`), then the steps run over them as straight-line vector arithmetic,
 //! 16 lanes at a time in registers, with every link's ends known at compile time (the
 //! links are rewritten as one per pair of ends, `LaneModel::complete_links`). Larger
 //! systems run on the blocked kernel (`advance_blocked`), which works the same way with the
 //! shape read at run time. Each
-//! lane has its own `Xoshiro256PlusPlus`, seeded from `(seed, trajectory)`, so the output is
+//! lane has its own xoshiro256++ generator (`rand`'s `Xoshiro256PlusPlus`), seeded from `(seed, trajectory)`, so the output is
 //! bit-identical whatever the number of threads. Time advances in blocks of samples: in a
 //! block every lane group runs in parallel (rayon), then the block's samples are handed,
 //! in (time, trajectory) order, to a [`SampleSink`] — memory is bounded by one block.
@@ -21,9 +21,11 @@
 
 mod blocked;
 mod lanes;
+mod normals;
 mod shaped;
 mod sinks;
 
+pub use normals::LaneNormals;
 pub use sinks::{Collect, ForEach, Moments, SampleBatch, SampleSink};
 
 use crate::model::Model;
