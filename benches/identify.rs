@@ -1,11 +1,14 @@
 //! Identification throughput: weak-form moment accumulation (4-D samples per second per
 //! core, 9 unknowns, target ≥ 3e7) and the strong form's 20⁴ grid (seconds per 1e7
-//! samples, target ≤ 0.3), on duffing2dof samples held in memory.
+//! samples, target ≤ 0.3), on duffing2dof samples held in memory; the drift's parts (what
+//! the pair regressions and the kernel strong form evaluate per sample) one state at a time
+//! against 64 states at once, as a ratio.
 //! Run: `cargo bench --bench identify` (add `-- --quick` for a cheap pass).
 
 use criterion::{Criterion, Throughput};
 use fpkbench::ident::data::StationaryData;
 use fpkbench::ident::moments::RawMoments;
+use fpkbench::ident::poly::Compiled;
 use fpkbench::ident::strong::{DensityGrid, GridOptions};
 use fpkbench::ident::{weak, Problem};
 use fpkbench::sim::{simulate, Collect};
@@ -67,6 +70,35 @@ fn main() {
             black_box(grid.inside)
         })
     });
+    // The drift's parts: known forces, then every unit force per mass.
+    let parts = || Compiled::new(p.known_force.iter().chain(p.unit_force.iter().flatten()));
+    let width = parts().len();
+    g.bench_function("drift parts, one state at a time", |b| {
+        let (mut c, mut out) = (parts(), vec![0.0; width]);
+        b.iter(|| {
+            let mut acc = 0.0;
+            for y in rows.chunks_exact(4) {
+                c.eval(y, &mut out);
+                acc += out[width - 1];
+            }
+            black_box(acc)
+        })
+    });
+    let block_rows: Vec<f64> = rows
+        .chunks_exact(4 * 64)
+        .flat_map(|b| (0..4).flat_map(move |j| (0..64).map(move |l| b[l * 4 + j])))
+        .collect();
+    g.bench_function("drift parts, 64 states at once", |b| {
+        let (mut c, mut out) = (parts(), vec![0.0; width * 64]);
+        b.iter(|| {
+            let mut acc = 0.0;
+            for y in block_rows.chunks_exact(4 * 64) {
+                c.eval_block(y, 64, &mut out);
+                acc += out[width * 64 - 1];
+            }
+            black_box(acc)
+        })
+    });
     g.finish();
     cr.final_summary();
 
@@ -96,6 +128,19 @@ fn main() {
     let typical = p.typical(&data.total());
     let _ = black_box(fpkbench::ident::identify_strong(&p, &grid, false, &typical));
     let solve = t.elapsed().as_secs_f64();
+    let (mut c, mut out) = (parts(), vec![0.0; width * 64]);
+    let t = Instant::now();
+    for y in rows.chunks_exact(4) {
+        c.eval(y, &mut out[..width]);
+        black_box(out[0]);
+    }
+    let one_by_one = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    for y in block_rows.chunks_exact(4 * 64) {
+        c.eval_block(y, 64, &mut out);
+        black_box(out[0]);
+    }
+    let blocked = t.elapsed().as_secs_f64();
     println!(
         "\n== identification figures measured in this run (duffing2dof, 4-D state, {} unknowns, {n} samples) ==",
         est.values.len()
@@ -116,5 +161,10 @@ fn main() {
     println!(
         "strong form, FPK residual + least squares   {:>10.3} s (independent of the sample count)",
         solve
+    );
+    println!(
+        "drift parts ({width} polynomials), 64 at once  {:>10.2}x the rate one state at a time ({:.3e} states/s)",
+        one_by_one / blocked,
+        (block_rows.len() / 4) as f64 / blocked
     );
 }

@@ -21,7 +21,7 @@
 
 use super::estimate::{estimate, solve_replicates};
 use super::poly::Compiled;
-use super::{Estimate, IdentError, Pieces, Problem, Unknown};
+use super::{prefetch, Estimate, IdentError, Pieces, Problem, Unknown};
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
@@ -64,77 +64,108 @@ pub fn applicable(problem: &Problem) -> Result<(), IdentError> {
 }
 
 /// The normal equations of a weighted linear least-squares fit of the velocity equations,
-/// as [`Pieces`] with one row per unknown (row `R` is `Σ w μ_i b_iR · residual_i`).
+/// kept per mass over the unknowns acting on it ([`Normal::pieces`]: as [`Pieces`] with
+/// one row per unknown, row `R` being `Σ w μ_i b_iR · residual_i`).
 #[derive(Clone)]
 struct Normal {
-    pieces: Pieces,
+    /// Unknowns and masses.
+    r: usize,
+    n: usize,
     /// Per mass: the unknowns whose unit force on it is not identically zero (an unknown
     /// acts on the one or two masses its link joins), ascending.
     acting: Vec<Vec<usize>>,
+    /// Per mass, `1 / m_i`.
+    mu: Vec<f64>,
+    /// Per unknown: `−Σ f target`.
+    t0: Vec<f64>,
+    /// Per mass and acting unknown: `Σ f known`.
+    a: Vec<Vec<f64>>,
+    /// Per mass: the upper triangle of `Σ f unit` over its acting unknowns, row by row.
+    b: Vec<Vec<f64>>,
+    /// Scratch: one mass's unit forces of its acting unknowns.
+    unit: Vec<f64>,
 }
 
 impl Normal {
     fn new(problem: &Problem) -> Normal {
-        let r = problem.unknowns.len();
+        let (n, r) = (problem.n, problem.unknowns.len());
+        let acting: Vec<Vec<usize>> = (0..n)
+            .map(|i| {
+                (0..r)
+                    .filter(|&row| !problem.unit_force[row][i].terms.is_empty())
+                    .collect()
+            })
+            .collect();
         Normal {
-            pieces: Pieces::new(r, problem.n, r),
-            acting: (0..problem.n)
-                .map(|i| {
-                    (0..r)
-                        .filter(|&row| !problem.unit_force[row][i].terms.is_empty())
-                        .collect()
-                })
-                .collect(),
+            r,
+            n,
+            mu: problem.model.mass.iter().map(|m| 1.0 / m).collect(),
+            t0: vec![0.0; r],
+            a: acting.iter().map(|u| vec![0.0; u.len()]).collect(),
+            b: acting.iter().map(|u| vec![0.0; u.len() * (u.len() + 1) / 2]).collect(),
+            unit: vec![0.0; r],
+            acting,
         }
     }
 
     /// One equation per mass: `target_i ≈ μ_i (known_i + Σ_r θ_r unit_ir)`, weight `w`.
     /// Only the unknowns acting on mass `i` enter its terms (the others' unit forces are
     /// identically zero there).
-    fn add(&mut self, problem: &Problem, w: f64, target: &[f64], known: &[f64], unit: &[f64]) {
-        let (n, r) = (problem.n, problem.unknowns.len());
-        let p = &mut self.pieces;
+    fn add(&mut self, w: f64, target: &[f64], known: &[f64], unit: &[f64]) {
+        let n = self.n;
         for (i, acting) in self.acting.iter().enumerate() {
-            let mu = 1.0 / problem.model.mass[i];
-            for (k, &row) in acting.iter().enumerate() {
-                let f = w * mu * unit[row * n + i];
-                if f == 0.0 {
-                    continue;
+            let m = acting.len();
+            let u = &mut self.unit[..m];
+            for (u, &row) in u.iter_mut().zip(acting) {
+                *u = unit[row * n + i];
+            }
+            let (a, b, wmu) = (&mut self.a[i], &mut self.b[i], w * self.mu[i]);
+            let mut at = 0;
+            for k in 0..m {
+                let f = wmu * u[k];
+                if f != 0.0 {
+                    self.t0[acting[k]] -= f * target[i];
+                    a[k] += f * known[i];
+                    // Symmetric in (row, col): the upper triangle, the rest in `pieces`.
+                    for (b, &v) in b[at..at + m - k].iter_mut().zip(&u[k..]) {
+                        *b += f * v;
+                    }
                 }
-                p.t0[row] -= f * target[i];
-                p.a[row * n + i] += f * known[i];
-                // Symmetric in (row, col): the upper triangle here, the rest by `symmetrize`.
-                let b = &mut p.b[(row * n + i) * r..(row * n + i + 1) * r];
-                for &col in &acting[k..] {
-                    b[col] += f * unit[col * n + i];
-                }
+                at += m - k;
             }
         }
     }
 
-    /// Fill the lower triangle of each mass's block of `b` from the upper one.
-    fn symmetrize(&mut self, problem: &Problem) {
-        let (n, r) = (problem.n, problem.unknowns.len());
-        let b = &mut self.pieces.b;
-        for i in 0..n {
-            for row in 0..r {
-                for col in 0..row {
-                    b[(row * n + i) * r + col] = b[(col * n + i) * r + row];
+    /// The equations as [`Pieces`] (both triangles).
+    fn pieces(&self) -> Pieces {
+        let (n, r) = (self.n, self.r);
+        let mut p = Pieces::new(r, n, r);
+        p.t0.copy_from_slice(&self.t0);
+        for (i, acting) in self.acting.iter().enumerate() {
+            let mut at = 0;
+            for (k, &row) in acting.iter().enumerate() {
+                p.a[row * n + i] = self.a[i][k];
+                for &col in &acting[k..] {
+                    let v = self.b[i][at];
+                    p.b[(row * n + i) * r + col] = v;
+                    p.b[(col * n + i) * r + row] = v;
+                    at += 1;
                 }
             }
         }
+        p
     }
 
     fn merge(&mut self, other: &Normal, sign: f64) {
-        let (a, b) = (&mut self.pieces, &other.pieces);
-        for (x, y) in a.t0.iter_mut().zip(&b.t0) {
-            *x += sign * y;
-        }
-        for (x, y) in a.a.iter_mut().zip(&b.a) {
-            *x += sign * y;
-        }
-        for (x, y) in a.b.iter_mut().zip(&b.b) {
-            *x += sign * y;
+        let pairs = self
+            .a
+            .iter_mut()
+            .chain(self.b.iter_mut())
+            .zip(other.a.iter().chain(&other.b));
+        for (x, y) in std::iter::once((&mut self.t0, &other.t0)).chain(pairs) {
+            for (x, y) in x.iter_mut().zip(y) {
+                *x += sign * y;
+            }
         }
     }
 }
@@ -203,8 +234,15 @@ impl Pairs {
     }
 }
 
+/// Sample pairs an [`Increments`] gathers before it evaluates their drifts together.
+const BLOCK: usize = 64;
+
 /// The increment regression (Euler–Maruyama pseudo-likelihood), streamed; with measured
 /// forces, the force regression (the equation error of the equations of motion).
+///
+/// Pairs are gathered 64 at a time and their drifts' parts evaluated along the
+/// block ([`Compiled::eval_block`]); each pair then enters its batch's normal equations
+/// in the order it came, so the sums are those of a pair-by-pair pass, bit for bit.
 pub struct Increments {
     problem: Problem,
     parts: DriftParts,
@@ -216,13 +254,23 @@ pub struct Increments {
     /// Per state variable that is a displacement, its velocity's state variable (the
     /// force regression interpolates displacements by cubic Hermite).
     velocity_of: Vec<Option<usize>>,
-    y_at: Vec<f64>,
+    /// The sample in problem order (then, for the force regression, the instant-valued
+    /// force on each mass).
     y: Vec<f64>,
+    /// The block: each pair's states at its start and end (variable-major,
+    /// `[j * BLOCK + pair]`), targets `Δv_i/h` (− the forces) pair-major, and batch.
+    start: Vec<f64>,
+    end: Vec<f64>,
+    target: Vec<f64>,
+    batch_of: Vec<usize>,
+    /// Scratch: states where the parts are evaluated, the parts there (part-major), and
+    /// their Gauss–Legendre sum (force regression).
+    at: Vec<f64>,
+    values: Vec<f64>,
+    sum: Vec<f64>,
+    /// One pair's known and unit forces.
     known: Vec<f64>,
     unit: Vec<f64>,
-    known_end: Vec<f64>,
-    unit_end: Vec<f64>,
-    target: Vec<f64>,
     used: u64,
 }
 
@@ -230,10 +278,12 @@ impl Increments {
     /// For `problem` (see [`applicable`]), samples every `h` seconds, `batches` jackknife
     /// batches (the weak form's: [`super::data::StationaryData::batch_of`]).
     pub fn new(problem: &Problem, h: f64, batches: usize) -> Increments {
-        let (n, r) = (problem.n, problem.unknowns.len());
+        let (n, r, d) = (problem.n, problem.unknowns.len(), problem.dim());
+        let parts = DriftParts::of(problem);
+        let width = parts.parts.len();
         Increments {
             problem: problem.clone(),
-            parts: DriftParts::of(problem),
+            parts,
             pairs: Pairs::new(h),
             batches: vec![Normal::new(problem); batches.max(1)],
             forces: None,
@@ -246,13 +296,16 @@ impl Increments {
                         .flatten()
                 })
                 .collect(),
-            y_at: vec![0.0; problem.dim()],
-            y: vec![0.0; problem.dim()],
+            y: vec![0.0; d],
+            start: vec![0.0; d * BLOCK],
+            end: vec![0.0; d * BLOCK],
+            target: Vec::with_capacity(n * BLOCK),
+            batch_of: Vec::with_capacity(BLOCK),
+            at: vec![0.0; d * BLOCK],
+            values: vec![0.0; width * BLOCK],
+            sum: vec![0.0; width * BLOCK],
             known: vec![0.0; n],
             unit: vec![0.0; r * n],
-            known_end: vec![0.0; n],
-            unit_end: vec![0.0; r * n],
-            target: vec![0.0; n],
             used: 0,
         }
     }
@@ -281,75 +334,127 @@ impl Increments {
         }
     }
 
-    /// One sample (a log row) of `trajectory` at `t`, in batch `batch`.
+    /// One sample (a log row) of `trajectory` at `t`, in batch `batch`; [`Increments::finish`]
+    /// after the last.
     pub fn push(&mut self, trajectory: usize, t: f64, batch: usize, row: &[f64]) {
         let p = &self.problem;
+        let d = p.dim();
         for (j, &c) in p.columns.iter().enumerate() {
             self.y[j] = row[c];
         }
         if let Some(forces) = &self.forces {
             for (i, cols) in forces.iter().enumerate() {
-                self.y[p.dim() + i] = cols.iter().filter(|(_, mean)| !mean).map(|&(c, _)| row[c]).sum();
+                self.y[d + i] = cols.iter().filter(|(_, mean)| !mean).map(|&(c, _)| row[c]).sum();
             }
         }
-        let (known, unit, target, h) = (&mut self.known, &mut self.unit, &mut self.target, self.pairs.h);
-        let (known_end, unit_end) = (&mut self.known_end, &mut self.unit_end);
-        let (y, parts, forces) = (&self.y, &mut self.parts, &self.forces);
-        let (y_at, velocity_of) = (&mut self.y_at, &self.velocity_of);
-        let last = self.batches.len() - 1;
-        let normal = &mut self.batches[batch.min(last)];
-        let used = &mut self.used;
+        let (y, h, forces) = (&self.y, self.pairs.h, &self.forces);
+        let (start, end, target) = (&mut self.start, &mut self.end, &mut self.target);
+        let l = self.batch_of.len();
+        let mut paired = false;
         self.pairs.step(trajectory, t, y, |y0| {
-            if forces.is_none() {
-                parts.at(y0, known, unit);
+            paired = true;
+            for j in 0..d {
+                start[j * BLOCK + l] = y0[j];
+                end[j * BLOCK + l] = y[j];
             }
             for i in 0..p.n {
                 let v = p.noise_var[i];
-                target[i] = (y[v] - y0[v]) / h;
-            }
-            if let Some(forces) = forces {
-                // Gauss–Legendre nodes on [0, 1] and weights.
-                const R: f64 = 0.387_298_334_620_741_7; // √15 / 10
-                const NODES: [(f64, f64); 3] = [(0.5 - R, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + R, 5.0 / 18.0)];
-                known.fill(0.0);
-                unit.fill(0.0);
-                for (tau, w) in NODES {
-                    let (t2, t3) = (tau * tau, tau * tau * tau);
-                    let (h00, h10, h01, h11) = (
-                        2.0 * t3 - 3.0 * t2 + 1.0,
-                        t3 - 2.0 * t2 + tau,
-                        3.0 * t2 - 2.0 * t3,
-                        t3 - t2,
-                    );
-                    for (j, ya) in y_at.iter_mut().enumerate().take(p.dim()) {
-                        *ya = match velocity_of[j] {
-                            Some(v) => h00 * y0[j] + h10 * h * y0[v] + h01 * y[j] + h11 * h * y[v],
-                            None => (1.0 - tau) * y0[j] + tau * y[j],
-                        };
-                    }
-                    parts.at(y_at, known_end, unit_end);
-                    for (a, b) in known
-                        .iter_mut()
-                        .zip(known_end.iter())
-                        .chain(unit.iter_mut().zip(unit_end.iter()))
-                    {
-                        *a += w * b;
-                    }
+                let mut g = (y[v] - y0[v]) / h;
+                if let Some(forces) = forces {
+                    // The force's mean over the interval: as logged, or the trapezoid rule
+                    // on its values at the two ends (their bridge's mean is linear).
+                    let mean: f64 = forces[i].iter().filter(|(_, mean)| *mean).map(|&(c, _)| row[c]).sum();
+                    g -= (mean + 0.5 * (y0[d + i] + y[d + i])) / p.model.mass[i];
                 }
-                // The force's mean over the interval: as logged, or the trapezoid rule on its
-                // values at the two ends (their bridge's mean is linear).
-                let d = p.dim();
-                for (i, cols) in forces.iter().enumerate() {
-                    let mean: f64 = cols.iter().filter(|(_, mean)| *mean).map(|&(c, _)| row[c]).sum();
-                    target[i] -= (mean + 0.5 * (y0[d + i] + y[d + i])) / p.model.mass[i];
-                }
+                target.push(g);
             }
-            normal.add(p, 1.0, target, known, unit);
-            *used += 1;
         });
+        if paired {
+            self.batch_of.push(batch);
+            if self.batch_of.len() == BLOCK {
+                self.add_block();
+            }
+        }
     }
 
+    /// Add the pairs still gathered; call after the last [`Increments::push`].
+    pub fn finish(&mut self) {
+        self.add_block();
+    }
+
+    /// The gathered pairs' drift parts, and each pair into its batch's normal equations.
+    fn add_block(&mut self) {
+        let (p, lanes) = (&self.problem, self.batch_of.len());
+        if lanes == 0 {
+            return;
+        }
+        let (n, d, width) = (p.n, p.dim(), self.parts.parts.len());
+        let values = &mut self.values[..width * lanes];
+        // Variable-major with `lanes` per variable (the block may be partial).
+        let pack = |from: &[f64], to: &mut [f64]| {
+            for j in 0..d {
+                to[j * lanes..(j + 1) * lanes].copy_from_slice(&from[j * BLOCK..j * BLOCK + lanes]);
+            }
+        };
+        let parts: &[f64] = if self.forces.is_none() {
+            pack(&self.start, &mut self.at);
+            self.parts.parts.eval_block(&self.at[..d * lanes], lanes, values);
+            values
+        } else {
+            // Gauss–Legendre nodes on [0, 1] and weights.
+            const R: f64 = 0.387_298_334_620_741_7; // √15 / 10
+            const NODES: [(f64, f64); 3] = [(0.5 - R, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + R, 5.0 / 18.0)];
+            let h = self.pairs.h;
+            let sum = &mut self.sum[..width * lanes];
+            sum.fill(0.0);
+            for (tau, w) in NODES {
+                let (t2, t3) = (tau * tau, tau * tau * tau);
+                let (h00, h10, h01, h11) = (
+                    2.0 * t3 - 3.0 * t2 + 1.0,
+                    t3 - 2.0 * t2 + tau,
+                    3.0 * t2 - 2.0 * t3,
+                    t3 - t2,
+                );
+                for j in 0..d {
+                    let (y0, y1) = (&self.start[j * BLOCK..], &self.end[j * BLOCK..]);
+                    let at = &mut self.at[j * lanes..(j + 1) * lanes];
+                    match self.velocity_of[j] {
+                        Some(v) => {
+                            let (v0, v1) = (&self.start[v * BLOCK..], &self.end[v * BLOCK..]);
+                            for (l, a) in at.iter_mut().enumerate() {
+                                *a = h00 * y0[l] + h10 * h * v0[l] + h01 * y1[l] + h11 * h * v1[l];
+                            }
+                        }
+                        None => {
+                            for (l, a) in at.iter_mut().enumerate() {
+                                *a = (1.0 - tau) * y0[l] + tau * y1[l];
+                            }
+                        }
+                    }
+                }
+                self.parts.parts.eval_block(&self.at[..d * lanes], lanes, values);
+                for (a, b) in sum.iter_mut().zip(values.iter()) {
+                    *a += w * b;
+                }
+            }
+            sum
+        };
+        let last = self.batches.len() - 1;
+        for (l, &batch) in self.batch_of.iter().enumerate() {
+            for (k, v) in self.known.iter_mut().chain(self.unit.iter_mut()).enumerate() {
+                *v = parts[k * lanes + l];
+            }
+            let target = &self.target[l * n..(l + 1) * n];
+            self.batches[batch.min(last)].add(1.0, target, &self.known, &self.unit);
+        }
+        self.used += lanes as u64;
+        self.batch_of.clear();
+        self.target.clear();
+    }
+
+    /// The estimate, after [`Increments::finish`].
     pub fn estimate(&self, typical: &[f64]) -> Result<Estimate, IdentError> {
+        assert!(self.batch_of.is_empty(), "Increments::finish before estimate");
         let regression = match self.forces {
             None => "Δv/h on the drift at the interval's start (Euler–Maruyama pseudo-likelihood)",
             Some(_) => "Δv/h − F̄/m on the drift's mean over the interval (3-point Gauss–Legendre, displacements by cubic Hermite), the forces measured (an oracle)",
@@ -414,16 +519,14 @@ fn solve_batches(
             .map(|b| {
                 let mut r = total.clone();
                 r.merge(b, -1.0);
-                r.symmetrize(problem);
-                r.pieces
+                r.pieces()
             })
             .collect()
     } else {
         Vec::new()
     };
-    total.symmetrize(problem);
     let replicates = solve_replicates(problem, method, replicates, typical, None)?;
-    estimate(problem, method, &total.pieces, &replicates, typical, facts, None)
+    estimate(problem, method, &total.pieces(), &replicates, typical, facts, None)
 }
 
 /// The binned conditional-mean increments (first Kramers–Moyal coefficient), streamed.
@@ -438,11 +541,13 @@ pub struct KramersMoyal {
     /// `Δv_i/h` per mass and the sum of the starting states `y` (kept together, so a
     /// sample touches one cache line: the pass is bound by memory, not arithmetic).
     arena: Vec<f64>,
-    /// The last pair binned: where it goes in `arena` and its `Δv/h` then `y`. It is
-    /// added on the next pair (or by [`KramersMoyal::finish`]), once the prefetch of its
-    /// slot has had the other estimators' work to arrive: a slot is a cache miss.
-    pending: Option<usize>,
+    /// The last pairs binned, oldest first: where each goes in `arena` and where its
+    /// `Δv/h` then `y` wait in `pending_values`. Each is added [`IN_FLIGHT`] pairs later (or
+    /// by [`KramersMoyal::finish`]), once the prefetch of its slot has had time to arrive:
+    /// a slot is a cache miss. First in, first added: a slot's sums see the same order.
+    pending: std::collections::VecDeque<(usize, usize)>,
     pending_values: Vec<f64>,
+    next_value: usize,
     nb: usize,
     y: Vec<f64>,
     y0: Vec<f64>,
@@ -450,6 +555,9 @@ pub struct KramersMoyal {
     used: u64,
     outside: u64,
 }
+
+/// Pairs whose slots are asked for before they are added (see [`KramersMoyal::pending`]).
+const IN_FLIGHT: usize = 16;
 
 /// Smallest count of a cell whose mean increment enters the fit.
 pub const KM_MIN_COUNT: f64 = 10.0;
@@ -507,18 +615,6 @@ impl CellIndex {
     }
 }
 
-/// Ask for the cache line holding `x` (no effect where there is no prefetch instruction).
-#[inline(always)]
-fn prefetch(x: &f64) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is a hint that never faults; SSE is part of x86_64.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((x as *const f64).cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
-}
-
 /// A regular grid of `bins` per variable over mean ± `span` std.
 struct Grid {
     lo: Vec<f64>,
@@ -563,9 +659,21 @@ impl KramersMoyal {
                 span,
             },
             cells: CellIndex::new((bins as u64).saturating_pow(problem.dim() as u32)),
-            arena: Vec::new(),
-            pending: None,
-            pending_values: vec![0.0; problem.n + problem.dim()],
+            arena: {
+                // Room for every cell of a small grid (address space only until a cell
+                // is first hit), so the arena never moves, on huge pages.
+                let cells = (bins as u64).saturating_pow(problem.dim() as u32);
+                let slot = batches.max(1) * (1 + problem.n + problem.dim());
+                let mut arena = Vec::new();
+                if cells.saturating_mul(8 * slot as u64) <= 1 << 30 {
+                    arena.reserve_exact(cells as usize * slot);
+                    super::huge_pages(arena.spare_capacity_mut());
+                }
+                arena
+            },
+            pending: Default::default(),
+            pending_values: vec![0.0; IN_FLIGHT * (problem.n + problem.dim())],
+            next_value: 0,
             nb: batches.max(1),
             y: vec![0.0; problem.dim()],
             y0: vec![0.0; problem.dim()],
@@ -604,30 +712,42 @@ impl KramersMoyal {
                     arena.resize(arena.len() + slot, 0.0);
                     arena.len() - slot
                 }) + batch.min(nb - 1) * stride;
+                let width = n + p.dim();
                 prefetch(&self.arena[at]);
-                self.finish();
-                self.pending = Some(at);
-                self.pending_values[..n].copy_from_slice(&self.incr);
-                self.pending_values[n..].copy_from_slice(&self.y0);
+                if self.pending.len() == IN_FLIGHT {
+                    self.add_oldest();
+                }
+                let from = self.next_value * width;
+                self.pending.push_back((at, from));
+                self.next_value = (self.next_value + 1) % IN_FLIGHT;
+                self.pending_values[from..from + n].copy_from_slice(&self.incr);
+                self.pending_values[from + n..from + width].copy_from_slice(&self.y0);
                 self.used += 1;
             }
         }
     }
 
-    /// Add the pair still pending (call after the last sample).
-    pub fn finish(&mut self) {
-        if let Some(at) = self.pending.take() {
-            let acc = &mut self.arena[at..at + 1 + self.pending_values.len()];
+    fn add_oldest(&mut self) {
+        if let Some((at, from)) = self.pending.pop_front() {
+            let width = self.problem.n + self.problem.dim();
+            let acc = &mut self.arena[at..at + 1 + width];
             acc[0] += 1.0;
-            for (a, v) in acc[1..].iter_mut().zip(&self.pending_values) {
+            for (a, v) in acc[1..].iter_mut().zip(&self.pending_values[from..from + width]) {
                 *a += v;
             }
         }
     }
 
+    /// Add the pairs still pending (call after the last sample).
+    pub fn finish(&mut self) {
+        while !self.pending.is_empty() {
+            self.add_oldest();
+        }
+    }
+
     /// The estimate, after [`KramersMoyal::finish`].
     pub fn estimate(&self, typical: &[f64]) -> Result<Estimate, IdentError> {
-        assert!(self.pending.is_none(), "KramersMoyal::finish before estimate");
+        assert!(self.pending.is_empty(), "KramersMoyal::finish before estimate");
         let p = &self.problem;
         let (n, r) = (p.n, p.unknowns.len());
         let (dim, stride) = (p.dim(), 1 + n + p.dim());
@@ -664,7 +784,7 @@ impl KramersMoyal {
                 for (m, sum) in mean.iter_mut().zip(&b[1..]) {
                     *m = sum / cb;
                 }
-                normal.add(p, cb, &mean, &known, &unit);
+                normal.add(cb, &mean, &known, &unit);
             }
         }
         let facts = vec![

@@ -95,7 +95,7 @@ pub fn solve_replicates(
         .into_par_iter()
         .map(|b| {
             b.check_finite(method)?;
-            Ok(problem.solve(&b, typical, weight).0)
+            Ok(problem.solve_values(&b, typical, weight))
         })
         .collect()
 }
@@ -262,7 +262,7 @@ pub fn identify_strong(
             .map(|g| {
                 let pieces = g.pieces_with(problem, marginals, Some(&stencils)).0;
                 pieces.check_finite(method)?;
-                Ok(problem.solve(&pieces, typical, None).0)
+                Ok(problem.solve_values(&pieces, typical, None))
             })
             .collect::<Result<_, IdentError>>()?
     };

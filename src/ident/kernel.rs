@@ -187,7 +187,7 @@ pub struct FluxLattice {
     pending_y: Vec<f64>,
     /// The fluxes but the density (channels `1..`), compiled.
     compiled: Compiled,
-    // Scratch of one sample.
+    // Scratch of [`FluxLattice::spread`]: a run's states and fluxes.
     y: Vec<f64>,
     values: Vec<f64>,
     /// Per dimension: the sample's cell (flat offset) and position in it.
@@ -197,6 +197,9 @@ pub struct FluxLattice {
 /// Samples gathered before they are spread over the lattice in the order of their cells
 /// (see [`FluxLattice::push_in`]): 11 MB for a 4-D state.
 const PENDING: usize = 1 << 18;
+
+/// Samples whose fluxes [`FluxLattice::spread`] evaluates together.
+const SPREAD_RUN: usize = 64;
 
 /// One sample's fluxes `values` over the `2^d` nodes of its cell (`corner`: per dimension
 /// the cell's flat offset and the position in it) with linear weights, into the record's
@@ -283,9 +286,18 @@ impl FluxLattice {
         let count = (GROUP_BUDGET / per_group.max(1)).min(batches).min(MAX_GROUPS);
         let groups = (count >= MIN_GROUPS).then(|| Groups {
             of_batch: (0..batches).map(|b| b * count / batches).collect(),
-            fluxes: vec![vec![0.0; cells * width]; count],
+            // Each allocated untouched (`vec![v; count]` would copy), then on huge pages.
+            fluxes: (0..count)
+                .map(|_| {
+                    let g = vec![0.0; cells * width];
+                    super::huge_pages(&g);
+                    g
+                })
+                .collect(),
             total: vec![0; count],
         });
+        let fluxes = vec![0.0; cells * width];
+        super::huge_pages(&fluxes);
         Ok(FluxLattice {
             dim: d,
             options,
@@ -297,7 +309,7 @@ impl FluxLattice {
             row_half,
             columns: problem.columns.clone(),
             stride,
-            fluxes: vec![0.0; cells * width],
+            fluxes,
             inside: 0,
             total: 0,
             groups,
@@ -395,21 +407,41 @@ impl FluxLattice {
     fn spread(&mut self) {
         let mut keys = std::mem::take(&mut self.pending_keys);
         keys.sort_unstable();
-        let d = self.dim;
-        for &key in &keys {
-            let entry = (key & 0xffff_ffff) as usize;
-            let group = self.pending_group[entry] as usize;
-            self.y.copy_from_slice(&self.pending_y[entry * d..(entry + 1) * d]);
-            for j in 0..d {
-                let u = (self.y[j] - self.lo[j]) / self.h[j];
-                let i = u as usize;
-                self.corner[j] = (i * self.stride[j], u - i as f64);
+        let (d, width) = (self.dim, self.channels.len());
+        // The fluxes of a run of samples evaluated together (variable-major states, then
+        // channel-major values: `Compiled::eval_block`), then each spread in turn.
+        let mut ys = std::mem::take(&mut self.y);
+        let mut block = std::mem::take(&mut self.values);
+        ys.resize(d * SPREAD_RUN, 0.0);
+        block.resize(width * SPREAD_RUN, 0.0);
+        let mut values = vec![1.0; width];
+        for run in keys.chunks(SPREAD_RUN) {
+            let lanes = run.len();
+            for (l, &key) in run.iter().enumerate() {
+                let entry = (key & 0xffff_ffff) as usize;
+                for j in 0..d {
+                    ys[j * lanes + l] = self.pending_y[entry * d + j];
+                }
             }
-            self.compiled.eval(&self.y, &mut self.values[1..]);
-            self.values[0] = 1.0;
-            let group_fluxes = self.groups.as_mut().map(|g| &mut g.fluxes[group][..]);
-            spread_sample(&self.corner, &self.stride, &self.values, &mut self.fluxes, group_fluxes);
+            self.compiled
+                .eval_block(&ys[..d * lanes], lanes, &mut block[lanes..width * lanes]);
+            for (l, &key) in run.iter().enumerate() {
+                let entry = (key & 0xffff_ffff) as usize;
+                let group = self.pending_group[entry] as usize;
+                for j in 0..d {
+                    let u = (ys[j * lanes + l] - self.lo[j]) / self.h[j];
+                    let i = u as usize;
+                    self.corner[j] = (i * self.stride[j], u - i as f64);
+                }
+                for (c, v) in values.iter_mut().enumerate().skip(1) {
+                    *v = block[c * lanes + l];
+                }
+                let group_fluxes = self.groups.as_mut().map(|g| &mut g.fluxes[group][..]);
+                spread_sample(&self.corner, &self.stride, &values, &mut self.fluxes, group_fluxes);
+            }
         }
+        self.y = ys;
+        self.values = block;
         keys.clear();
         self.pending_keys = keys;
         self.pending_group.clear();

@@ -97,3 +97,42 @@ pub enum IdentError {
     #[error("not applicable: {0}")]
     NotApplicable(String),
 }
+
+/// Ask for the cache line holding `x` (no effect where there is no prefetch instruction):
+/// streaming estimators whose tables exceed the caches ask a few samples ahead.
+#[inline(always)]
+pub(crate) fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that never faults; SSE is part of x86_64.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((x as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
+/// Ask the kernel to back `v` with huge pages (Linux, transparent huge pages in `madvise`
+/// mode): the streaming estimators' tables (the kernel lattice and its groups, the
+/// Kramers–Moyal cells, the histogram's batches) are hit at random, and with 4 KiB pages
+/// nearly every hit also misses the TLB. Call before the memory is first written (a fresh
+/// zeroed allocation is not yet touched); no effect elsewhere or for small tables.
+pub(crate) fn huge_pages<T>(v: &[T]) {
+    #[cfg(target_os = "linux")]
+    {
+        const PAGE: usize = 2 << 20;
+        let start = v.as_ptr() as usize;
+        let (from, to) = (
+            start.next_multiple_of(PAGE),
+            (start + std::mem::size_of_val(v)) / PAGE * PAGE,
+        );
+        if to > from {
+            // SAFETY: advice on whole pages inside `v`'s own allocation; it changes how the
+            // pages are backed, never their contents.
+            unsafe {
+                libc::madvise(from as *mut libc::c_void, to - from, libc::MADV_HUGEPAGE);
+            }
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = v;
+}

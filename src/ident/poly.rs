@@ -136,6 +136,8 @@ pub struct Compiled {
     poly_ends: Vec<usize>,
     power_values: Vec<f64>,
     monomial_values: Vec<f64>,
+    /// Scratch of [`Compiled::eval_block`]: per power, then per monomial, a value per lane.
+    block_values: Vec<f64>,
 }
 
 impl Compiled {
@@ -167,6 +169,7 @@ impl Compiled {
         Compiled {
             power_values: vec![0.0; powers.len()],
             monomial_values: vec![0.0; keys.len()],
+            block_values: Vec::new(),
             powers,
             factors,
             monomial_ends,
@@ -199,6 +202,48 @@ impl Compiled {
         let mut from = 0;
         for (o, &end) in out.iter_mut().zip(&self.poly_ends) {
             *o = self.terms[from..end].iter().map(|&(c, k)| c * values[k]).sum::<f64>();
+            from = end;
+        }
+    }
+}
+
+impl Compiled {
+    /// Every polynomial at `lanes` states at once, the same numbers as [`Compiled::eval`]
+    /// bit for bit: `ys[j * lanes + l]` is variable `j` of state `l`, and polynomial `i` at
+    /// state `l` goes to `out[i * lanes + l]`. Each step runs along the lanes, which the
+    /// compiler vectorises (per sample, [`Compiled::eval`] is bound by its indexing).
+    pub fn eval_block(&mut self, ys: &[f64], lanes: usize, out: &mut [f64]) {
+        let np = self.powers.len();
+        let need = (np + self.monomial_ends.len()) * lanes;
+        if self.block_values.len() < need {
+            self.block_values.resize(need, 0.0);
+        }
+        let (pv, mv) = self.block_values[..need].split_at_mut(np * lanes);
+        for (v, &(j, p)) in pv.chunks_exact_mut(lanes).zip(&self.powers) {
+            for (v, &x) in v.iter_mut().zip(&ys[j * lanes..(j + 1) * lanes]) {
+                *v = powi(x, p);
+            }
+        }
+        let mut from = 0;
+        for (v, &end) in mv.chunks_exact_mut(lanes).zip(&self.monomial_ends) {
+            // `Iterator::product` of the factors: 1 times each in turn.
+            v.fill(1.0);
+            for &f in &self.factors[from..end] {
+                for (v, &x) in v.iter_mut().zip(&pv[f * lanes..(f + 1) * lanes]) {
+                    *v *= x;
+                }
+            }
+            from = end;
+        }
+        let mut from = 0;
+        for (o, &end) in out.chunks_exact_mut(lanes).zip(&self.poly_ends) {
+            // `Iterator::sum` of the terms: from −0, each in turn.
+            o.fill(-0.0);
+            for &(c, k) in &self.terms[from..end] {
+                for (o, &m) in o.iter_mut().zip(&mv[k * lanes..(k + 1) * lanes]) {
+                    *o += c * m;
+                }
+            }
             from = end;
         }
     }
@@ -256,10 +301,25 @@ mod tests {
         let polys = [a, b, c, Poly::zero(), Poly::constant(3.0)];
         let mut compiled = Compiled::new(&polys);
         let mut out = [0.0; 5];
-        for y in [[0.3, -1.2, 2.5], [-0.7, 0.0, 1e3]] {
+        let states = [[0.3, -1.2, 2.5], [-0.7, 0.0, 1e3], [-0.0, 2.0, -0.0], [0.0, -0.0, 0.0]];
+        for y in states {
             compiled.eval(&y, &mut out);
             for (o, p) in out.iter().zip(&polys) {
                 assert_eq!(o.to_bits(), p.eval(&y).to_bits());
+            }
+        }
+        // A block of the states, variable-major; the same bits per lane.
+        let lanes = states.len();
+        let ys: Vec<f64> = (0..3).flat_map(|j| states.iter().map(move |y| y[j])).collect();
+        let mut block = vec![f64::NAN; polys.len() * lanes];
+        compiled.eval_block(&ys, lanes, &mut block);
+        for (l, y) in states.iter().enumerate() {
+            for (i, p) in polys.iter().enumerate() {
+                assert_eq!(
+                    block[i * lanes + l].to_bits(),
+                    p.eval(y).to_bits(),
+                    "lane {l}, polynomial {i}"
+                );
             }
         }
     }

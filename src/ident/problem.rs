@@ -379,6 +379,23 @@ impl Problem {
     /// [`super::weak::weighting`]); the diagnostics are always those of the unweighted equations,
     /// so the identifiability thresholds mean the same whatever the weighting.
     pub fn solve(&self, pc: &Pieces, typical: &[f64], weight: Option<&DMatrix<f64>>) -> (Vec<f64>, lsq::Diagnostics) {
+        let (p, diag) = self.solve_with(pc, typical, weight, true);
+        (p, diag.expect("asked for"))
+    }
+
+    /// The values of [`Problem::solve`] without its diagnostics (the same numbers, one SVD
+    /// fewer): what a jackknife replicate needs.
+    pub fn solve_values(&self, pc: &Pieces, typical: &[f64], weight: Option<&DMatrix<f64>>) -> Vec<f64> {
+        self.solve_with(pc, typical, weight, false).0
+    }
+
+    fn solve_with(
+        &self,
+        pc: &Pieces,
+        typical: &[f64],
+        weight: Option<&DMatrix<f64>>,
+        diagnostics: bool,
+    ) -> (Vec<f64>, Option<lsq::Diagnostics>) {
         let weighted = |(r, j): (DVector<f64>, DMatrix<f64>)| match weight {
             Some(t) => (t * r, t * j),
             None => (r, j),
@@ -393,13 +410,15 @@ impl Problem {
             p[k] += dx[k];
         }
         // 2. Diagnostics of the full Jacobian there, directions relative to the values.
-        let (_, j) = self.residual(pc, &p);
-        let scale: Vec<f64> = p
-            .iter()
-            .zip(typical)
-            .map(|(&v, &t)| if v.abs() > 1e-6 * t.abs() { v } else { t })
-            .collect();
-        let (_, diag) = lsq::solve(&j, &DVector::zeros(pc.rows), &scale);
+        let diag = diagnostics.then(|| {
+            let (_, j) = self.residual(pc, &p);
+            let scale: Vec<f64> = p
+                .iter()
+                .zip(typical)
+                .map(|(&v, &t)| if v.abs() > 1e-6 * t.abs() { v } else { t })
+                .collect();
+            lsq::solve(&j, &DVector::zeros(pc.rows), &scale).1
+        });
         // 3. Gauss–Newton for all unknowns (nothing to do when only coefficients are unknown).
         if rc < self.unknowns.len() {
             for _ in 0..100 {

@@ -12,7 +12,7 @@
 //! The histogram is filled in one streaming pass; memory is the grid, not the samples.
 
 use super::moments::RawMoments;
-use super::{poly::Poly, Pieces, Problem};
+use super::{poly::Poly, prefetch, Pieces, Problem};
 
 /// Grid settings; [`GridOptions::auto`] gives the defaults.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
@@ -114,7 +114,13 @@ pub struct DensityGrid {
     columns: Vec<usize>,
     stride: Vec<usize>,
     batches: Option<BatchCounts>,
+    /// Cells of the samples binned by [`DensityGrid::push_in`] but not yet counted, with
+    /// their batches, oldest first (see there).
+    pending: std::collections::VecDeque<(usize, usize)>,
 }
+
+/// Samples a grid holds back before counting them (see [`DensityGrid::push_in`]).
+const IN_FLIGHT: usize = 16;
 
 impl DensityGrid {
     /// A grid over mean ± span·std of each state variable (from `mom`).
@@ -150,6 +156,7 @@ impl DensityGrid {
             columns: problem.columns.clone(),
             stride,
             batches: None,
+            pending: Default::default(),
         })
     }
 
@@ -158,7 +165,13 @@ impl DensityGrid {
     pub fn with_batches(mut self, batches: usize) -> DensityGrid {
         if batches >= 2 && self.counts.len().saturating_mul(batches) <= MAX_BATCH_ENTRIES {
             self.batches = Some(BatchCounts {
-                counts: vec![vec![0; self.counts.len()]; batches],
+                counts: (0..batches)
+                    .map(|_| {
+                        let c = vec![0; self.counts.len()];
+                        super::huge_pages(&c);
+                        c
+                    })
+                    .collect(),
                 marginals: vec![self.marginals.clone(); batches],
                 inside: vec![0; batches],
                 total: vec![0; batches],
@@ -172,15 +185,47 @@ impl DensityGrid {
         self.batches.is_some()
     }
 
-    /// Add one sample of batch `batch` (also to that batch's counts, if kept).
+    /// Add one sample of batch `batch` (also to that batch's counts, if kept);
+    /// [`DensityGrid::finish`] after the last.
+    ///
+    /// A grid and its batches' counts are far larger than the caches, and consecutive
+    /// samples land far apart: counting each at once waits on memory twice per sample.
+    /// Its cells are asked for instead, and counted 16 samples later (counts
+    /// are integers: the order does not change them).
     #[inline]
     pub fn push_in(&mut self, batch: usize, row: &[f64]) {
-        self.add(Some(batch), row);
+        if let Some(cell) = self.add(Some(batch), row, false) {
+            prefetch(&self.counts[cell]);
+            if let Some(bc) = &self.batches {
+                prefetch(&bc.counts[batch][cell]);
+            }
+            if self.pending.len() == IN_FLIGHT {
+                self.count_oldest();
+            }
+            self.pending.push_back((cell, batch));
+        }
+    }
+
+    /// Count the samples still held back; call after the last [`DensityGrid::push_in`].
+    pub fn finish(&mut self) {
+        while !self.pending.is_empty() {
+            self.count_oldest();
+        }
+    }
+
+    fn count_oldest(&mut self) {
+        if let Some((cell, batch)) = self.pending.pop_front() {
+            self.counts[cell] += 1.0;
+            if let Some(bc) = self.batches.as_mut() {
+                bc.counts[batch][cell] += 1;
+            }
+        }
     }
 
     /// The jackknife's replicates: per non-empty batch, the grid of all samples but that
     /// batch's (none without per-batch counts).
     pub fn leave_one_out(&self) -> impl Iterator<Item = DensityGrid> + '_ {
+        assert!(self.pending.is_empty(), "DensityGrid::finish after the last push_in");
         let bc = self.batches.as_ref();
         let n = bc.map_or(0, |b| b.total.len());
         (0..n)
@@ -220,18 +265,21 @@ impl DensityGrid {
             columns: self.columns.clone(),
             stride: self.stride.clone(),
             batches: None,
+            pending: Default::default(),
         }
     }
 
     /// Add one sample (`row`: the log's columns).
     #[inline]
     pub fn push(&mut self, row: &[f64]) {
-        self.add(None, row);
+        self.add(None, row, true);
     }
 
-    /// Bin one sample into the grid, its marginals and, with `batch`, that batch's counts.
+    /// Bin one sample into the grid, its marginals and, with `batch`, that batch's counts;
+    /// the sample's cell if it is inside the grid. The cell is counted only if `count`
+    /// (else the caller counts it; the totals and marginals are counted here either way).
     #[inline]
-    fn add(&mut self, batch: Option<usize>, row: &[f64]) {
+    fn add(&mut self, batch: Option<usize>, row: &[f64], count: bool) -> Option<usize> {
         let mut bc = batch.and_then(|b| self.batches.as_mut().map(|bc| (b, bc)));
         self.total += 1;
         if let Some((b, bc)) = bc.as_mut() {
@@ -251,14 +299,20 @@ impl DensityGrid {
                 None => inside = false,
             }
         }
-        if inside {
-            self.counts[idx] += 1.0;
-            self.inside += 1;
-            if let Some((b, bc)) = bc {
-                bc.counts[b][idx] += 1;
-                bc.inside[b] += 1;
-            }
+        if !inside {
+            return None;
         }
+        self.inside += 1;
+        if count {
+            self.counts[idx] += 1.0;
+        }
+        if let Some((b, bc)) = bc {
+            if count {
+                bc.counts[b][idx] += 1;
+            }
+            bc.inside[b] += 1;
+        }
+        Some(idx)
     }
 
     /// A grid holding an exact density `f` at the cell centres over `lo + [0, bins·h]`
@@ -293,6 +347,7 @@ impl DensityGrid {
             columns: problem.columns.clone(),
             stride,
             batches: None,
+            pending: Default::default(),
         };
         let mut idx = vec![0; d];
         for flat in 0..cells {
@@ -332,6 +387,7 @@ impl DensityGrid {
         marginals: bool,
         known: Option<&Stencils>,
     ) -> (Pieces, usize, Stencils) {
+        assert!(self.pending.is_empty(), "DensityGrid::finish after the last push_in");
         let d = self.dim;
         let n = problem.n;
         let rc = problem.coefficient_count();

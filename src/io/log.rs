@@ -807,6 +807,7 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
                 .pop()
                 .unwrap_or_default();
             kept.reserve_exact(bytes as usize / 8);
+            crate::ident::huge_pages(kept.spare_capacity_mut());
         }
         let model = crate::model::Model::new(&info.scenario);
         let mut n = 0u64;

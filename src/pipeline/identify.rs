@@ -231,7 +231,13 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         forces.push(traj, row);
     })?;
 
+    if let Some(Ok(g)) = grid.as_mut() {
+        g.finish();
+    }
     if let Some(b) = kramers_moyal.as_mut() {
+        b.finish();
+    }
+    for b in [increments.as_mut(), force_regression.as_mut()].into_iter().flatten() {
         b.finish();
     }
     // Filters: fitted to the spectra, or known.
