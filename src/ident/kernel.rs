@@ -36,7 +36,7 @@
 //! samples there (the report counts the samples outside the lattice).
 
 use super::poly::{Compiled, Poly};
-use super::{IdentError, Pieces, Problem};
+use super::{IdentError, Pieces, Problem, Spare};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -149,12 +149,24 @@ impl Channels {
     }
 }
 
+/// Lattices of past lattices, for the next ones (see [`Spare`]).
+static SPARE_F64: Spare<f64> = Spare::new();
+static SPARE_F32: Spare<f32> = Spare::new();
+
 /// Per jackknife group, its share of the fluxes.
 #[derive(Debug, Clone)]
 struct Groups {
     of_batch: Vec<usize>,
     fluxes: Vec<Vec<f32>>,
     total: Vec<u64>,
+}
+
+impl Drop for Groups {
+    fn drop(&mut self) {
+        for g in self.fluxes.drain(..) {
+            SPARE_F32.give(g);
+        }
+    }
 }
 
 /// The linearly binned fluxes of a record on a lattice over the state.
@@ -174,14 +186,19 @@ pub struct FluxLattice {
     row_half: usize,
     columns: Vec<usize>,
     stride: Vec<usize>,
+    /// Nodes in all (`nodes^dim`).
+    cells: usize,
     channels: Channels,
-    /// Node-major: `fluxes[node · channels + channel]`.
+    /// Node-major: `fluxes[node · channels + channel]`. With jackknife groups, the sum of
+    /// theirs (formed by [`FluxLattice::finish`]).
     fluxes: Vec<f64>,
     pub inside: u64,
     pub total: u64,
     groups: Option<Groups>,
-    /// Samples inside the lattice not yet spread: `(first node of the cell << 32 | entry)`
-    /// and per entry the jackknife group and the state (`dim` values).
+    /// Every sample pushed is spread (and the groups summed): [`FluxLattice::finish`].
+    finished: bool,
+    /// Samples inside the lattice not yet spread: `(group · cells + first node of the cell)
+    /// << 20 | entry` and per entry the jackknife group and the state (`dim` values).
     pending_keys: Vec<u64>,
     pending_group: Vec<u32>,
     pending_y: Vec<f64>,
@@ -195,28 +212,44 @@ pub struct FluxLattice {
 }
 
 /// Samples gathered before they are spread over the lattice in the order of their cells
-/// (see [`FluxLattice::push_in`]): 11 MB for a 4-D state.
-const PENDING: usize = 1 << 18;
+/// (see [`FluxLattice::push_in`]): 23 MB for a 4-D state. At most `1 << ENTRY_BITS`.
+const PENDING: usize = 1 << 19;
+
+/// Bits of a pending sample's key that number it.
+const ENTRY_BITS: u32 = 20;
+const _: () = assert!(PENDING <= 1 << ENTRY_BITS);
 
 /// Samples whose fluxes [`FluxLattice::spread`] evaluates together.
 const SPREAD_RUN: usize = 64;
 
-/// One sample's fluxes `values` over the `2^d` nodes of its cell (`corner`: per dimension
-/// the cell's flat offset and the position in it) with linear weights, into the record's
-/// lattice and its jackknife group's.
+/// `to += k · from`, element by element (a filter's tap along a line of nodes; never
+/// contracted into fused multiply–adds, so every CPU gives the same sums).
 #[multiversion(targets(
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
     "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
 ))]
-fn spread_sample(
-    corner: &[(usize, f64)],
-    stride: &[usize],
-    values: &[f64],
-    fluxes: &mut [f64],
-    mut group: Option<&mut [f32]>,
-) {
+fn add_scaled(to: &mut [f64], k: f64, from: &[f64]) {
+    for (x, y) in to.iter_mut().zip(from) {
+        *x += k * y;
+    }
+}
+
+/// Where a sample's fluxes go: the record's lattice, or (when groups are kept) its
+/// jackknife group's, whose sum is the record's.
+enum Target<'a> {
+    Record(&'a mut [f64]),
+    Group(&'a mut [f32]),
+}
+
+/// One sample's fluxes `values` over the `2^d` nodes of its cell (`corner`: per dimension
+/// the cell's flat offset and the position in it) with linear weights.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
+fn spread_sample(corner: &[(usize, f64)], stride: &[usize], values: &[f64], into: Target) {
     let width = values.len();
-    for mask in 0..1usize << corner.len() {
+    let weight = |mask: usize| {
         let (mut at, mut w) = (0, 1.0);
         for (j, &(base, t)) in corner.iter().enumerate() {
             if mask >> j & 1 == 1 {
@@ -227,16 +260,55 @@ fn spread_sample(
                 w *= 1.0 - t;
             }
         }
-        let cell = &mut fluxes[at * width..(at + 1) * width];
-        for (c, v) in cell.iter_mut().zip(values) {
-            *c += w * v;
-        }
-        if let Some(g) = group.as_mut() {
-            let cell = &mut g[at * width..(at + 1) * width];
-            for (c, v) in cell.iter_mut().zip(values) {
-                *c += (w * v) as f32;
+        (at, w)
+    };
+    match into {
+        Target::Record(fluxes) => {
+            for mask in 0..1usize << corner.len() {
+                let (at, w) = weight(mask);
+                for (c, v) in fluxes[at * width..(at + 1) * width].iter_mut().zip(values) {
+                    *c += w * v;
+                }
             }
         }
+        Target::Group(g) => {
+            for mask in 0..1usize << corner.len() {
+                let (at, w) = weight(mask);
+                for (c, v) in g[at * width..(at + 1) * width].iter_mut().zip(values) {
+                    *c += (w * v) as f32;
+                }
+            }
+        }
+    }
+}
+
+/// The two lattices a separable filter passes between ([`FluxLattice::filter`]), kept
+/// from one filter to the next.
+struct Scratch {
+    cur: Vec<f64>,
+    next: Vec<f64>,
+}
+
+impl Scratch {
+    /// For filters of `len` values at most.
+    fn new(len: usize) -> Scratch {
+        Scratch {
+            cur: SPARE_F64.zeroed(len),
+            next: SPARE_F64.zeroed(len),
+        }
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        SPARE_F64.give(std::mem::take(&mut self.cur));
+        SPARE_F64.give(std::mem::take(&mut self.next));
+    }
+}
+
+impl Drop for FluxLattice {
+    fn drop(&mut self) {
+        SPARE_F64.give(std::mem::take(&mut self.fluxes));
     }
 }
 
@@ -286,18 +358,10 @@ impl FluxLattice {
         let count = (GROUP_BUDGET / per_group.max(1)).min(batches).min(MAX_GROUPS);
         let groups = (count >= MIN_GROUPS).then(|| Groups {
             of_batch: (0..batches).map(|b| b * count / batches).collect(),
-            // Each allocated untouched (`vec![v; count]` would copy), then on huge pages.
-            fluxes: (0..count)
-                .map(|_| {
-                    let g = vec![0.0; cells * width];
-                    super::huge_pages(&g);
-                    g
-                })
-                .collect(),
+            fluxes: (0..count).map(|_| SPARE_F32.zeroed(cells * width)).collect(),
             total: vec![0; count],
         });
-        let fluxes = vec![0.0; cells * width];
-        super::huge_pages(&fluxes);
+        let fluxes = SPARE_F64.zeroed(cells * width);
         Ok(FluxLattice {
             dim: d,
             options,
@@ -309,10 +373,12 @@ impl FluxLattice {
             row_half,
             columns: problem.columns.clone(),
             stride,
+            cells,
             fluxes,
             inside: 0,
             total: 0,
             groups,
+            finished: true,
             pending_keys: Vec::with_capacity(PENDING),
             pending_group: Vec::with_capacity(PENDING),
             pending_y: Vec::with_capacity(PENDING * d),
@@ -373,6 +439,7 @@ impl FluxLattice {
     /// lattice is then swept once per batch of samples, neighbours share cache lines.
     pub fn push_in(&mut self, batch: usize, row: &[f64]) {
         self.total += 1;
+        self.finished = false;
         let group = self.groups.as_mut().map_or(0, |g| {
             let k = g.of_batch[batch];
             g.total[k] += 1;
@@ -389,7 +456,8 @@ impl FluxLattice {
         }
         self.inside += 1;
         let entry = self.pending_group.len();
-        self.pending_keys.push((first as u64) << 32 | entry as u64);
+        let slot = (group * self.cells + first) as u64;
+        self.pending_keys.push(slot << ENTRY_BITS | entry as u64);
         self.pending_group.push(group as u32);
         self.pending_y.extend(self.columns.iter().map(|&c| row[c]));
         if entry + 1 == PENDING {
@@ -397,13 +465,23 @@ impl FluxLattice {
         }
     }
 
-    /// Spread the samples still gathered; call after the last [`FluxLattice::push_in`].
+    /// Spread the samples still gathered and, with jackknife groups, sum theirs into the
+    /// record's; call after the last [`FluxLattice::push_in`].
     pub fn finish(&mut self) {
+        self.finished = true;
         self.spread();
+        if let Some(g) = &self.groups {
+            self.fluxes.par_iter_mut().enumerate().for_each(|(i, f)| {
+                *f = g.fluxes.iter().map(|k| k[i] as f64).sum();
+            });
+        }
     }
 
-    /// Spread the gathered samples in the order of their cells (ties in the order they
-    /// came, so the sums do not depend on anything but the samples' order).
+    /// Spread the gathered samples group by group in the order of their cells (ties in the
+    /// order they came, so the sums do not depend on anything but the samples' order).
+    /// With jackknife groups a sample goes into its group's lattice only (the record's is
+    /// their sum): one group's lattice at a time is swept, small enough for the cache, and
+    /// each sample is written once.
     fn spread(&mut self) {
         let mut keys = std::mem::take(&mut self.pending_keys);
         keys.sort_unstable();
@@ -418,7 +496,7 @@ impl FluxLattice {
         for run in keys.chunks(SPREAD_RUN) {
             let lanes = run.len();
             for (l, &key) in run.iter().enumerate() {
-                let entry = (key & 0xffff_ffff) as usize;
+                let entry = (key & ((1 << ENTRY_BITS) - 1)) as usize;
                 for j in 0..d {
                     ys[j * lanes + l] = self.pending_y[entry * d + j];
                 }
@@ -426,7 +504,7 @@ impl FluxLattice {
             self.compiled
                 .eval_block(&ys[..d * lanes], lanes, &mut block[lanes..width * lanes]);
             for (l, &key) in run.iter().enumerate() {
-                let entry = (key & 0xffff_ffff) as usize;
+                let entry = (key & ((1 << ENTRY_BITS) - 1)) as usize;
                 let group = self.pending_group[entry] as usize;
                 for j in 0..d {
                     let u = (ys[j * lanes + l] - self.lo[j]) / self.h[j];
@@ -436,8 +514,11 @@ impl FluxLattice {
                 for (c, v) in values.iter_mut().enumerate().skip(1) {
                     *v = block[c * lanes + l];
                 }
-                let group_fluxes = self.groups.as_mut().map(|g| &mut g.fluxes[group][..]);
-                spread_sample(&self.corner, &self.stride, &values, &mut self.fluxes, group_fluxes);
+                let into = match self.groups.as_mut() {
+                    Some(g) => Target::Group(&mut g.fluxes[group]),
+                    None => Target::Record(&mut self.fluxes),
+                };
+                spread_sample(&self.corner, &self.stride, &values, into);
             }
         }
         self.y = ys;
@@ -468,15 +549,28 @@ impl FluxLattice {
     /// values per node of `at` (in that order), or per node of the lattice without `at`
     /// (then valid inside the box of residual nodes only). The pass along dimension `j`
     /// works only where later passes read: nodes inside the box in dimensions `0..=j`.
-    fn filter(&self, fluxes: &[f64], which: &[usize], order: &[usize], at: Option<&[usize]>) -> Vec<f64> {
+    ///
+    /// `scratch` holds the passes' two lattices between calls: a filter per direction and
+    /// replicate would otherwise take (and the kernel zero) fresh pages for each. Its old
+    /// contents are never read: every pass writes the nodes the next one reads.
+    fn filter(
+        &self,
+        fluxes: &[f64],
+        which: &[usize],
+        order: &[usize],
+        at: Option<&[usize]>,
+        scratch: &mut Scratch,
+    ) -> Vec<f64> {
         let width = self.channels.len();
         let w = which.len();
         let cells = fluxes.len() / width;
-        let mut cur: Vec<f64> = Vec::with_capacity(cells * w);
+        let Scratch { cur, next } = scratch;
+        cur.clear();
         for node in 0..cells {
             cur.extend(which.iter().map(|&c| fluxes[node * width + c]));
         }
-        let mut next = vec![0.0; cells * w];
+        next.resize(cells * w, 0.0);
+        next.truncate(cells * w);
         let taps = self.taps as isize;
         let nb = self.nodes as isize;
         let centre = self.nodes / 2;
@@ -501,7 +595,7 @@ impl FluxLattice {
                 let mut out = vec![0.0; at.len() * w];
                 out.par_chunks_mut(CHUNK * w).enumerate().for_each(|(chunk, out)| {
                     for (local, o) in out.chunks_exact_mut(w).enumerate() {
-                        one(j, kernel, &cur, at[chunk * CHUNK + local], o);
+                        one(j, kernel, cur, at[chunk * CHUNK + local], o);
                     }
                 });
                 return out;
@@ -535,25 +629,23 @@ impl FluxLattice {
                     let from = (first as isize + a - m * st) as usize * w;
                     let len = (b - a + 1) as usize * w;
                     let to = (a as usize - lo) * w;
-                    for (x, y) in run[to..to + len].iter_mut().zip(&cur[from..from + len]) {
-                        *x += k * y;
-                    }
+                    add_scaled(&mut run[to..to + len], k, &cur[from..from + len]);
                 }
             });
-            std::mem::swap(&mut cur, &mut next);
+            std::mem::swap(cur, next);
         }
-        cur
+        std::mem::take(cur)
     }
 
     /// The residual rows: nodes within `span_std` of the mean whose kernel holds at least
     /// `min_count` effective samples.
-    fn rows(&self) -> Vec<usize> {
-        let density = self.filter(&self.fluxes, &[0], &vec![0; self.dim], None);
+    fn rows(&self, scratch: &mut Scratch) -> Vec<usize> {
+        let density = self.filter(&self.fluxes, &[0], &vec![0; self.dim], None, scratch);
         let volume: f64 = self.s.iter().map(|s| 2.0 * std::f64::consts::PI.sqrt() * s).product();
         let scale = volume; // N f̂ (2√π s)^d with f̂ = density / N
         let centre = self.nodes / 2;
         let (lo, hi) = (centre.saturating_sub(self.row_half), centre + self.row_half);
-        (0..density.len())
+        let rows = (0..density.len())
             .filter(|&node| {
                 let mut rest = node;
                 for _ in 0..self.dim {
@@ -565,12 +657,21 @@ impl FluxLattice {
                 }
                 density[node] * scale >= self.options.min_count
             })
-            .collect()
+            .collect();
+        scratch.cur = density;
+        rows
     }
 
     /// The residual's pieces at `rows` from `fluxes` (the whole record's, or a jackknife
     /// replicate's) holding `total` samples.
-    fn pieces_of(&self, problem: &Problem, fluxes: &[f64], total: f64, rows: &[usize]) -> Pieces {
+    fn pieces_of(
+        &self,
+        problem: &Problem,
+        fluxes: &[f64],
+        total: f64,
+        rows: &[usize],
+        scratch: &mut Scratch,
+    ) -> Pieces {
         let (n, rc, d) = (problem.n, problem.coefficient_count(), self.dim);
         let ch = &self.channels;
         let mut pc = Pieces::new(rows.len(), n, rc);
@@ -593,7 +694,7 @@ impl FluxLattice {
         let scale = 1.0 / total;
         for (j, cs) in &dirs {
             let order: Vec<usize> = (0..d).map(|k| usize::from(k == *j)).collect();
-            let out = self.filter(fluxes, cs, &order, Some(rows));
+            let out = self.filter(fluxes, cs, &order, Some(rows), scratch);
             let at = |row: usize, c: usize| {
                 let q = cs.iter().position(|&x| x == c).expect("requested");
                 -out[row * cs.len() + q] * scale
@@ -627,7 +728,7 @@ impl FluxLattice {
                 let mut order = vec![0; d];
                 order[ji] += 1;
                 order[jm] += 1;
-                let out = self.filter(fluxes, &[0], &order, Some(rows));
+                let out = self.filter(fluxes, &[0], &order, Some(rows), scratch);
                 for row in 0..rows.len() {
                     let v = out[row] * scale;
                     pc.c[(row * n + i) * n + m] = v;
@@ -641,25 +742,25 @@ impl FluxLattice {
     /// The pieces of the whole record and of each jackknife replicate (all but one group),
     /// and the number of residual rows.
     pub fn pieces(&self, problem: &Problem) -> (Pieces, Vec<Pieces>, usize) {
-        assert!(self.pending_keys.is_empty(), "FluxLattice::finish was not called");
-        let rows = self.rows();
-        let total = self.pieces_of(problem, &self.fluxes, self.inside.max(1) as f64, &rows);
+        assert!(self.finished, "FluxLattice::finish was not called");
+        let mut scratch = Scratch::new(self.fluxes.len());
+        let rows = self.rows(&mut scratch);
+        let total = self.pieces_of(problem, &self.fluxes, self.inside.max(1) as f64, &rows, &mut scratch);
+        // One replicate's fluxes at a time, in one buffer.
+        let mut fluxes = SPARE_F64.zeroed(self.fluxes.len());
         let replicates = match &self.groups {
             None => Vec::new(),
             Some(g) => (0..g.total.len())
                 .filter(|&k| g.total[k] > 0)
                 .map(|k| {
-                    let fluxes: Vec<f64> = self
-                        .fluxes
-                        .iter()
-                        .zip(&g.fluxes[k])
-                        .map(|(a, b)| a - *b as f64)
-                        .collect();
+                    fluxes.clear();
+                    fluxes.extend(self.fluxes.iter().zip(&g.fluxes[k]).map(|(a, b)| a - *b as f64));
                     let inside = self.inside as f64 * (1.0 - g.total[k] as f64 / self.total.max(1) as f64);
-                    self.pieces_of(problem, &fluxes, inside.max(1.0), &rows)
+                    self.pieces_of(problem, &fluxes, inside.max(1.0), &rows, &mut scratch)
                 })
                 .collect(),
         };
+        SPARE_F64.give(fluxes);
         let count = rows.len();
         (total, replicates, count)
     }

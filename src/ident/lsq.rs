@@ -63,7 +63,19 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
         col /= n;
         colscale[j] = sc / n;
     }
-    let svd = s.clone().svd(true, true);
+    // A tall system (far more equations than unknowns: grid cells, lattice nodes) is
+    // reduced first by Householder QR, `A = Q R`: `R` (cols × cols) has the singular
+    // values and right singular vectors of `A`, and `min ‖R x − Qᵀb‖` has the same
+    // solution, so the SVD works on `R` and never forms `A`'s left singular vectors.
+    let (s, b) = if rows > cols {
+        let qr = s.qr();
+        let mut qtb = b.clone();
+        qr.q_tr_mul(&mut qtb);
+        (qr.r(), qtb.rows(0, cols).into_owned())
+    } else {
+        (s, b.clone())
+    };
+    let svd = s.svd(true, true);
     let sv: Vec<f64> = svd.singular_values.iter().copied().collect();
     let mut order: Vec<usize> = (0..sv.len()).collect();
     order.sort_by(|&i, &j| sv[j].partial_cmp(&sv[i]).unwrap_or(std::cmp::Ordering::Equal));
@@ -74,7 +86,7 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
         0.0
     };
     let rank = sv.iter().filter(|&&x| x > RANK_TOL * smax).count();
-    let x_scaled = svd.solve(b, RANK_TOL * smax).unwrap_or_else(|_| DVector::zeros(cols));
+    let x_scaled = svd.solve(&b, RANK_TOL * smax).unwrap_or_else(|_| DVector::zeros(cols));
     let x = DVector::from_iterator(cols, (0..cols).map(|j| x_scaled[j] * colscale[j]));
     let v_t = svd.v_t.as_ref().expect("computed");
     let weakest = *order.last().unwrap_or(&0);

@@ -136,3 +136,56 @@ pub(crate) fn huge_pages<T>(v: &[T]) {
     #[cfg(not(target_os = "linux"))]
     let _ = v;
 }
+
+/// Large tables kept between uses. A study's items allocate the same tables again and
+/// again, and on a virtual machine that hands freed memory back to its host (a balloon's
+/// free-page reporting) every fresh page costs a fault and a zeroing: a tenth of an item's
+/// time on the development machine (docs/performance.md). Tables given back here are
+/// handed out again, zeroed in place; at most [`Spare::BYTES`] are kept per kind.
+pub(crate) struct Spare<T> {
+    pool: std::sync::Mutex<Vec<Vec<T>>>,
+}
+
+impl<T: Copy + Default> Spare<T> {
+    /// Bytes kept at most per kind of table.
+    pub const BYTES: usize = 640 << 20;
+
+    pub const fn new() -> Spare<T> {
+        Spare {
+            pool: std::sync::Mutex::new(Vec::new()),
+        }
+    }
+
+    /// `len` zeros: a kept table large enough if there is one (the smallest), else a new one
+    /// on huge pages.
+    pub fn zeroed(&self, len: usize) -> Vec<T> {
+        let found = {
+            let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+            let best = (0..pool.len())
+                .filter(|&i| pool[i].capacity() >= len)
+                .min_by_key(|&i| pool[i].capacity());
+            best.map(|i| pool.swap_remove(i))
+        };
+        match found {
+            Some(mut v) => {
+                v.clear();
+                v.resize(len, T::default());
+                v
+            }
+            None => {
+                let v = vec![T::default(); len];
+                huge_pages(&v);
+                v
+            }
+        }
+    }
+
+    /// Keep `v` for a later [`Spare::zeroed`] (dropped if the kind's budget is full).
+    pub fn give(&self, v: Vec<T>) {
+        let bytes = |v: &Vec<T>| v.capacity() * std::mem::size_of::<T>();
+        let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        if pool.iter().map(bytes).sum::<usize>() + bytes(&v) <= Self::BYTES {
+            pool.push(v);
+        }
+    }
+}
