@@ -553,3 +553,58 @@ fn kernel_strong_form_on_the_exact_density_has_no_smoothing_bias() {
     eprintln!("kernel strong form, exact density, widths 0.1–2 std: relative errors {all:?}");
     assert!(all.iter().flatten().all(|&e| e < 1e-4), "{all:?}");
 }
+
+#[test]
+fn kernel_strong_form_with_jackknife_groups_equals_the_form_without() {
+    // With groups, every sample goes into its group's `f32` lattice and the record's is
+    // their sum; without, into the record's `f64` lattice directly. Both must give the same
+    // estimates up to `f32` rounding: far below the standard errors (a group lost or counted
+    // twice would move them by about a quarter of one).
+    use fpkbench::ident::kernel::{FluxLattice, KernelOptions};
+    let s = sdof_duffing("");
+    let p = Problem::new(&s).unwrap();
+    let mom = sdof_exact(6);
+    let std = [mom.std(0), mom.std(1)];
+    let options = KernelOptions::auto(2, 200_000);
+    let mut grouped = FluxLattice::new(&p, &[0.0, 0.0], &std, options, 32).unwrap();
+    let mut single = FluxLattice::new(&p, &[0.0, 0.0], &std, options, 0).unwrap();
+    assert!(grouped.group_count() >= 8, "{}", grouped.group_count());
+    assert_eq!(single.group_count(), 0);
+    // Correlated Gaussian samples (Box–Muller on a xorshift stream), in the log's columns.
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut uniform = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    let width = p.columns.iter().max().unwrap() + 1;
+    let mut row = vec![0.0; width];
+    for i in 0..200_000 {
+        let (r, a) = ((-2.0 * uniform().ln()).sqrt(), 2.0 * std::f64::consts::PI * uniform());
+        let (z0, z1) = (r * a.cos(), r * a.sin());
+        row[p.columns[0]] = std[0] * z0;
+        row[p.columns[1]] = std[1] * (0.3 * z0 + 0.95 * z1);
+        grouped.push_in(i % 32, &row);
+        single.push_in(i % 32, &row);
+    }
+    grouped.finish();
+    single.finish();
+    let typical = p.typical(&mom);
+    let g = fpkbench::ident::identify_kernel(&p, &grouped, &typical).unwrap();
+    let o = fpkbench::ident::identify_kernel(&p, &single, &typical).unwrap();
+    let ratio = (0..g.values.len())
+        .map(|k| (g.values[k] - o.values[k]).abs() / g.std_error[k])
+        .fold(0.0, f64::max);
+    eprintln!("grouped against single lattice: largest difference {ratio:.1e} standard errors");
+    for k in 0..g.values.len() {
+        let (diff, se) = ((g.values[k] - o.values[k]).abs(), g.std_error[k]);
+        assert!(
+            se > 0.0 && diff <= 1e-4 * se,
+            "{}: {} against {} (std. error {se})",
+            g.names[k],
+            g.values[k],
+            o.values[k]
+        );
+    }
+}

@@ -189,3 +189,36 @@ impl<T: Copy + Default> Spare<T> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Spare;
+
+    #[test]
+    fn spare_tables_come_back_zeroed_and_the_budget_holds() {
+        let spare: Spare<f64> = Spare::new();
+        let mut a = spare.zeroed(1000);
+        a.iter_mut().for_each(|x| *x = 1.5);
+        let at = a.as_ptr();
+        spare.give(a);
+        // A smaller table reuses the kept one, zeroed; a larger one is new.
+        let b = spare.zeroed(600);
+        assert_eq!((b.as_ptr(), b.len()), (at, 600));
+        assert!(b.iter().all(|&x| x.to_bits() == 0));
+        let c = spare.zeroed(2000);
+        assert_ne!(c.as_ptr(), at);
+        spare.give(b);
+        spare.give(c);
+        // The smallest that fits is handed out first.
+        let d = spare.zeroed(900);
+        assert_eq!(d.as_ptr(), at);
+        // Beyond the budget nothing is kept.
+        spare.give(Vec::with_capacity(Spare::<f64>::BYTES / 8 + 1));
+        assert!(spare
+            .pool
+            .lock()
+            .unwrap()
+            .iter()
+            .all(|v| v.capacity() < Spare::<f64>::BYTES / 8));
+    }
+}
