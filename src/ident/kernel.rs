@@ -570,7 +570,6 @@ impl FluxLattice {
             cur.extend(which.iter().map(|&c| fluxes[node * width + c]));
         }
         next.resize(cells * w, 0.0);
-        next.truncate(cells * w);
         let taps = self.taps as isize;
         let nb = self.nodes as isize;
         let centre = self.nodes / 2;
