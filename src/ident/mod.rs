@@ -156,28 +156,34 @@ impl<T: Copy + Default> Spare<T> {
         }
     }
 
-    /// `len` zeros: a kept table large enough if there is one (the smallest), else a new one
-    /// on huge pages.
-    pub fn zeroed(&self, len: usize) -> Vec<T> {
+    /// An empty table with room for `capacity` values: a kept one if one is large enough
+    /// (the smallest), else a new one on huge pages.
+    pub fn empty(&self, capacity: usize) -> Vec<T> {
         let found = {
             let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
             let best = (0..pool.len())
-                .filter(|&i| pool[i].capacity() >= len)
+                .filter(|&i| pool[i].capacity() >= capacity)
                 .min_by_key(|&i| pool[i].capacity());
             best.map(|i| pool.swap_remove(i))
         };
         match found {
             Some(mut v) => {
                 v.clear();
-                v.resize(len, T::default());
                 v
             }
             None => {
-                let v = vec![T::default(); len];
-                huge_pages(&v);
+                let mut v = Vec::with_capacity(capacity);
+                huge_pages(v.spare_capacity_mut());
                 v
             }
         }
+    }
+
+    /// `len` zeros, in a table from [`Spare::empty`].
+    pub fn zeroed(&self, len: usize) -> Vec<T> {
+        let mut v = self.empty(len);
+        v.resize(len, T::default());
+        v
     }
 
     /// Keep `v` for a later [`Spare::zeroed`] (dropped if the kind's budget is full).

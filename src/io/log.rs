@@ -455,17 +455,13 @@ impl Replay {
 }
 
 /// Buffers of replays that ended, for the next ones: a study runs many items of the same
-/// size, and touching fresh pages cost a tenth of an item's time. At most one per thread.
-static SPARE: std::sync::Mutex<Vec<Vec<f64>>> = std::sync::Mutex::new(Vec::new());
+/// size, and touching fresh pages cost a tenth of an item's time.
+static SPARE: crate::ident::Spare<f64> = crate::ident::Spare::new();
 
 impl Drop for Replay {
     fn drop(&mut self) {
-        if let Some(mut v) = self.kept.take() {
-            v.clear();
-            let mut spare = SPARE.lock().unwrap_or_else(|e| e.into_inner());
-            if spare.len() < rayon::current_num_threads() {
-                spare.push(v);
-            }
+        if let Some(v) = self.kept.take() {
+            SPARE.give(v);
         }
     }
 }
@@ -799,16 +795,11 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
         }
         let bytes = info.expected_samples().saturating_mul(8 * width as u64);
         let keep = bytes <= Replay::BUDGET;
-        let mut kept = Vec::new();
-        if keep {
-            kept = SPARE
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .pop()
-                .unwrap_or_default();
-            kept.reserve_exact(bytes as usize / 8);
-            crate::ident::huge_pages(kept.spare_capacity_mut());
-        }
+        let mut kept = if keep {
+            SPARE.empty(bytes as usize / 8)
+        } else {
+            Vec::new()
+        };
         let model = crate::model::Model::new(&info.scenario);
         let mut n = 0u64;
         let mut sink = crate::sim::ForEach(|j: u32, t: f64, row: &[f64]| {
