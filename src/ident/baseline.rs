@@ -22,6 +22,7 @@
 use super::estimate::{estimate, solve_replicates};
 use super::poly::Compiled;
 use super::{prefetch, Estimate, IdentError, Pieces, Problem, Unknown};
+use multiversion::multiversion;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
@@ -136,6 +137,16 @@ impl Normal {
         }
     }
 
+    /// A block of pairs of one batch, each with weight 1: `parts[k * lanes + l]` is part
+    /// `k` of pair `l` (the known force per mass, then the unit force per unknown and
+    /// mass, [`DriftParts`]' order) and `target[i * stride + l]` pair `l`'s target on mass
+    /// `i`. Each entry gains `μ_i Σ_l (…)`, the sum over the block along the lanes
+    /// ([`dot`]); the same equations as [`Normal::add`] pair by pair, up to the order of
+    /// the additions.
+    fn add_block(&mut self, lanes: usize, parts: &[f64], target: &[f64], stride: usize) {
+        add_block(self, lanes, parts, target, stride);
+    }
+
     /// The equations as [`Pieces`] (both triangles).
     fn pieces(&self) -> Pieces {
         let (n, r) = (self.n, self.r);
@@ -168,6 +179,49 @@ impl Normal {
             }
         }
     }
+}
+
+/// [`Normal::add_block`], compiled for the vector units at hand.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
+fn add_block(normal: &mut Normal, lanes: usize, parts: &[f64], target: &[f64], stride: usize) {
+    let n = normal.n;
+    let lane = |k: usize| &parts[k * lanes..(k + 1) * lanes];
+    for (i, acting) in normal.acting.iter().enumerate() {
+        let (a, b, mu) = (&mut normal.a[i], &mut normal.b[i], normal.mu[i]);
+        let (known, tgt) = (lane(i), &target[i * stride..i * stride + lanes]);
+        let mut at = 0;
+        for (k, &row) in acting.iter().enumerate() {
+            let u = lane(n + row * n + i);
+            normal.t0[row] -= mu * dot(u, tgt);
+            a[k] += mu * dot(u, known);
+            for &col in &acting[k..] {
+                b[at] += mu * dot(u, lane(n + col * n + i));
+                at += 1;
+            }
+        }
+    }
+}
+
+/// `Σ_l a_l b_l` over eight running sums (vectorised; the same value on every CPU, as
+/// nothing is contracted into a fused multiply–add), then the sums added in a fixed order.
+#[inline(always)]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    const K: usize = 8;
+    let mut acc = [0.0; K];
+    let (ca, cb) = (a.chunks_exact(K), b.chunks_exact(K));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for j in 0..K {
+            acc[j] += x[j] * y[j];
+        }
+    }
+    for (j, (x, y)) in ra.iter().zip(rb).enumerate() {
+        acc[j] += x * y;
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
 }
 
 /// The drift's parts (known force per mass, unit force per unknown and mass:
@@ -234,15 +288,27 @@ impl Pairs {
     }
 }
 
-/// Sample pairs an [`Increments`] gathers before it evaluates their drifts together.
+/// Sample pairs of one batch an [`Increments`] gathers before it evaluates their drifts
+/// together.
 const BLOCK: usize = 64;
+
+/// Pairs of one batch waiting for [`Increments::add_block`]: each pair's states at its
+/// start and end (variable-major, `[j * BLOCK + pair]`) and its targets `Δv_i/h` (− the
+/// forces; mass-major, `[i * BLOCK + pair]`).
+#[derive(Clone)]
+struct PairBlock {
+    start: Vec<f64>,
+    end: Vec<f64>,
+    target: Vec<f64>,
+    len: usize,
+}
 
 /// The increment regression (Euler–Maruyama pseudo-likelihood), streamed; with measured
 /// forces, the force regression (the equation error of the equations of motion).
 ///
-/// Pairs are gathered 64 at a time and their drifts' parts evaluated along the
-/// block ([`Compiled::eval_block`]); each pair then enters its batch's normal equations
-/// in the order it came, so the sums are those of a pair-by-pair pass, bit for bit.
+/// Pairs are gathered per batch, 64 at a time; their drifts' parts are evaluated along the
+/// block ([`Compiled::eval_block`]) and the block enters its batch's normal equations as
+/// sums along the block ([`Normal::add_block`]).
 pub struct Increments {
     problem: Problem,
     parts: DriftParts,
@@ -257,20 +323,13 @@ pub struct Increments {
     /// The sample in problem order (then, for the force regression, the instant-valued
     /// force on each mass).
     y: Vec<f64>,
-    /// The block: each pair's states at its start and end (variable-major,
-    /// `[j * BLOCK + pair]`), targets `Δv_i/h` (− the forces) pair-major, and batch.
-    start: Vec<f64>,
-    end: Vec<f64>,
-    target: Vec<f64>,
-    batch_of: Vec<usize>,
+    /// Per batch, the pairs gathered.
+    blocks: Vec<PairBlock>,
     /// Scratch: states where the parts are evaluated, the parts there (part-major), and
     /// their Gauss–Legendre sum (force regression).
     at: Vec<f64>,
     values: Vec<f64>,
     sum: Vec<f64>,
-    /// One pair's known and unit forces.
-    known: Vec<f64>,
-    unit: Vec<f64>,
     used: u64,
 }
 
@@ -278,7 +337,7 @@ impl Increments {
     /// For `problem` (see [`applicable`]), samples every `h` seconds, `batches` jackknife
     /// batches (the weak form's: [`super::data::StationaryData::batch_of`]).
     pub fn new(problem: &Problem, h: f64, batches: usize) -> Increments {
-        let (n, r, d) = (problem.n, problem.unknowns.len(), problem.dim());
+        let (n, d) = (problem.n, problem.dim());
         let parts = DriftParts::of(problem);
         let width = parts.parts.len();
         Increments {
@@ -297,15 +356,18 @@ impl Increments {
                 })
                 .collect(),
             y: vec![0.0; d],
-            start: vec![0.0; d * BLOCK],
-            end: vec![0.0; d * BLOCK],
-            target: Vec::with_capacity(n * BLOCK),
-            batch_of: Vec::with_capacity(BLOCK),
+            blocks: vec![
+                PairBlock {
+                    start: vec![0.0; d * BLOCK],
+                    end: vec![0.0; d * BLOCK],
+                    target: vec![0.0; n * BLOCK],
+                    len: 0,
+                };
+                batches.max(1)
+            ],
             at: vec![0.0; d * BLOCK],
             values: vec![0.0; width * BLOCK],
             sum: vec![0.0; width * BLOCK],
-            known: vec![0.0; n],
-            unit: vec![0.0; r * n],
             used: 0,
         }
     }
@@ -348,14 +410,15 @@ impl Increments {
             }
         }
         let (y, h, forces) = (&self.y, self.pairs.h, &self.forces);
-        let (start, end, target) = (&mut self.start, &mut self.end, &mut self.target);
-        let l = self.batch_of.len();
+        let b = batch.min(self.blocks.len() - 1);
+        let block = &mut self.blocks[b];
+        let l = block.len;
         let mut paired = false;
         self.pairs.step(trajectory, t, y, |y0| {
             paired = true;
             for j in 0..d {
-                start[j * BLOCK + l] = y0[j];
-                end[j * BLOCK + l] = y[j];
+                block.start[j * BLOCK + l] = y0[j];
+                block.end[j * BLOCK + l] = y[j];
             }
             for i in 0..p.n {
                 let v = p.noise_var[i];
@@ -366,29 +429,33 @@ impl Increments {
                     let mean: f64 = forces[i].iter().filter(|(_, mean)| *mean).map(|&(c, _)| row[c]).sum();
                     g -= (mean + 0.5 * (y0[d + i] + y[d + i])) / p.model.mass[i];
                 }
-                target.push(g);
+                block.target[i * BLOCK + l] = g;
             }
         });
         if paired {
-            self.batch_of.push(batch);
-            if self.batch_of.len() == BLOCK {
-                self.add_block();
+            block.len += 1;
+            if block.len == BLOCK {
+                self.add_block(b);
             }
         }
     }
 
     /// Add the pairs still gathered; call after the last [`Increments::push`].
     pub fn finish(&mut self) {
-        self.add_block();
+        for b in 0..self.blocks.len() {
+            self.add_block(b);
+        }
     }
 
-    /// The gathered pairs' drift parts, and each pair into its batch's normal equations.
-    fn add_block(&mut self) {
-        let (p, lanes) = (&self.problem, self.batch_of.len());
+    /// Batch `b`'s gathered pairs: their drifts' parts, then the block into the batch's
+    /// normal equations.
+    fn add_block(&mut self, b: usize) {
+        let (p, block) = (&self.problem, &self.blocks[b]);
+        let lanes = block.len;
         if lanes == 0 {
             return;
         }
-        let (n, d, width) = (p.n, p.dim(), self.parts.parts.len());
+        let (d, width) = (p.dim(), self.parts.parts.len());
         let values = &mut self.values[..width * lanes];
         // Variable-major with `lanes` per variable (the block may be partial).
         let pack = |from: &[f64], to: &mut [f64]| {
@@ -397,7 +464,7 @@ impl Increments {
             }
         };
         let parts: &[f64] = if self.forces.is_none() {
-            pack(&self.start, &mut self.at);
+            pack(&block.start, &mut self.at);
             self.parts.parts.eval_block(&self.at[..d * lanes], lanes, values);
             values
         } else {
@@ -416,11 +483,11 @@ impl Increments {
                     t3 - t2,
                 );
                 for j in 0..d {
-                    let (y0, y1) = (&self.start[j * BLOCK..], &self.end[j * BLOCK..]);
+                    let (y0, y1) = (&block.start[j * BLOCK..], &block.end[j * BLOCK..]);
                     let at = &mut self.at[j * lanes..(j + 1) * lanes];
                     match self.velocity_of[j] {
                         Some(v) => {
-                            let (v0, v1) = (&self.start[v * BLOCK..], &self.end[v * BLOCK..]);
+                            let (v0, v1) = (&block.start[v * BLOCK..], &block.end[v * BLOCK..]);
                             for (l, a) in at.iter_mut().enumerate() {
                                 *a = h00 * y0[l] + h10 * h * v0[l] + h01 * y1[l] + h11 * h * v1[l];
                             }
@@ -439,22 +506,17 @@ impl Increments {
             }
             sum
         };
-        let last = self.batches.len() - 1;
-        for (l, &batch) in self.batch_of.iter().enumerate() {
-            for (k, v) in self.known.iter_mut().chain(self.unit.iter_mut()).enumerate() {
-                *v = parts[k * lanes + l];
-            }
-            let target = &self.target[l * n..(l + 1) * n];
-            self.batches[batch.min(last)].add(1.0, target, &self.known, &self.unit);
-        }
+        self.batches[b].add_block(lanes, parts, &block.target, BLOCK);
         self.used += lanes as u64;
-        self.batch_of.clear();
-        self.target.clear();
+        self.blocks[b].len = 0;
     }
 
     /// The estimate, after [`Increments::finish`].
     pub fn estimate(&self, typical: &[f64]) -> Result<Estimate, IdentError> {
-        assert!(self.batch_of.is_empty(), "Increments::finish before estimate");
+        assert!(
+            self.blocks.iter().all(|b| b.len == 0),
+            "Increments::finish before estimate"
+        );
         let regression = match self.forces {
             None => "Δv/h on the drift at the interval's start (Euler–Maruyama pseudo-likelihood)",
             Some(_) => "Δv/h − F̄/m on the drift's mean over the interval (3-point Gauss–Legendre, displacements by cubic Hermite), the forces measured (an oracle)",
@@ -554,6 +616,15 @@ pub struct KramersMoyal {
     incr: Vec<f64>,
     used: u64,
     outside: u64,
+}
+
+/// Kramers–Moyal arenas given back by records done with them.
+static SPARE_ARENAS: super::Spare<f64> = super::Spare::new();
+
+impl Drop for KramersMoyal {
+    fn drop(&mut self) {
+        SPARE_ARENAS.give(std::mem::take(&mut self.arena));
+    }
 }
 
 /// Pairs whose slots are asked for before they are added (see [`KramersMoyal::pending`]).
@@ -661,15 +732,16 @@ impl KramersMoyal {
             cells: CellIndex::new((bins as u64).saturating_pow(problem.dim() as u32)),
             arena: {
                 // Room for every cell of a small grid (address space only until a cell
-                // is first hit), so the arena never moves, on huge pages.
+                // is first hit), so the arena never moves, on huge pages; kept from one
+                // record to the next (a study's items), as its pages are costly to take
+                // fresh (`super::Spare`).
                 let cells = (bins as u64).saturating_pow(problem.dim() as u32);
                 let slot = batches.max(1) * (1 + problem.n + problem.dim());
-                let mut arena = Vec::new();
                 if cells.saturating_mul(8 * slot as u64) <= 1 << 30 {
-                    arena.reserve_exact(cells as usize * slot);
-                    super::huge_pages(arena.spare_capacity_mut());
+                    SPARE_ARENAS.empty(cells as usize * slot)
+                } else {
+                    Vec::new()
                 }
-                arena
             },
             pending: Default::default(),
             pending_values: vec![0.0; IN_FLIGHT * (problem.n + problem.dim())],

@@ -186,8 +186,12 @@ impl<T: Copy + Default> Spare<T> {
         v
     }
 
-    /// Keep `v` for a later [`Spare::zeroed`] (dropped if the kind's budget is full).
+    /// Keep `v` for a later [`Spare::zeroed`] (dropped if the kind's budget is full or it
+    /// holds nothing).
     pub fn give(&self, v: Vec<T>) {
+        if v.capacity() == 0 {
+            return;
+        }
         let bytes = |v: &Vec<T>| v.capacity() * std::mem::size_of::<T>();
         let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
         if pool.iter().map(bytes).sum::<usize>() + bytes(&v) <= Self::BYTES {

@@ -403,14 +403,15 @@ impl DensityGrid {
                 .iter()
                 .map(|m| m.iter().map(|&c| c as f64 / total).collect())
                 .collect();
+            // Cell by cell in flat order, the bin per dimension kept as an odometer.
+            let mut bin = vec![0; d];
             product = (0..self.counts.len())
-                .map(|flat| {
+                .map(|_| {
                     let mut c = total;
-                    let mut rest = flat;
-                    for m in &scaled {
-                        c *= m[rest % nb];
-                        rest /= nb;
+                    for (m, &i) in scaled.iter().zip(&bin) {
+                        c *= m[i];
                     }
+                    next_cell(&mut bin, nb);
                     c
                 })
                 .collect::<Vec<f64>>();
@@ -422,17 +423,13 @@ impl DensityGrid {
         let cross = problem.white.iter().any(|(t, _, _)| t.len() > 1);
         let min = self.options.min_count as f64;
         let mut rows: Vec<usize> = Vec::new();
+        let mut bin = vec![0; d];
         'cells: for flat in 0..self.counts.len() {
-            if count(flat) < min {
+            // The bins of `flat` per dimension, the odometer moved on to the next cell's.
+            let edge = bin.iter().any(|&i| i == 0 || i == nb - 1);
+            next_cell(&mut bin, nb);
+            if count(flat) < min || edge {
                 continue;
-            }
-            let mut rest = flat;
-            for _ in 0..d {
-                let i = rest % nb;
-                rest /= nb;
-                if i == 0 || i == nb - 1 {
-                    continue 'cells;
-                }
             }
             for j in 0..d {
                 if count(flat + self.stride[j]) < min || count(flat - self.stride[j]) < min {
@@ -538,6 +535,18 @@ impl DensityGrid {
             }
         }
         (pc, rows.len(), evaluated)
+    }
+}
+
+/// The next cell's bins in flat order (dimension 0 fastest), `nb` bins per dimension.
+#[inline]
+fn next_cell(bin: &mut [usize], nb: usize) {
+    for i in bin {
+        *i += 1;
+        if *i < nb {
+            return;
+        }
+        *i = 0;
     }
 }
 

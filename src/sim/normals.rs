@@ -11,7 +11,9 @@
 //! whose draw falls outside the fast path is drawn again by `rand_distr` itself from the
 //! state before that draw (one step undone), so its rejection steps consume the generator exactly as
 //! `rand_distr` does. Each lane's sequence of numbers is therefore unchanged; a test
-//! checks it against `rand_distr` and `rand`'s `Xoshiro256PlusPlus`.
+//! checks it against `rand_distr` and `rand`'s `Xoshiro256PlusPlus`. Where the CPU has
+//! AVX2, the same steps are written out in its vector instructions, eight lanes at a time
+//! (the compiler's own vectorisation of the portable loop left half the work scalar).
 
 use super::LANES;
 use multiversion::multiversion;
@@ -153,6 +155,12 @@ impl LaneNormals {
 /// Draws `rows` normals per lane into `out[r · LANES + j]` (row `r`, lane `j`), lane `j`
 /// from `rng[j]` in row order: the numbers `StandardNormal.sample(&mut rng[j])` would give.
 pub(crate) fn fill(rng: &mut [Xoshiro; LANES], rows: usize, out: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        unsafe { avx2::fill_lanes(rng, rows, out, &LAYERS) };
+        return;
+    }
     fill_lanes(rng, rows, out, &LAYERS);
 }
 
@@ -213,6 +221,137 @@ fn fill_lanes(rng: &mut [Xoshiro; LANES], rows: usize, out: &mut [f64], layers: 
     }
 }
 
+/// [`fill_lanes`] in AVX2 by hand: the same numbers, about twice the rate. Eight lanes at
+/// a time go through all the rows, their generators' four state words in eight vector
+/// registers (the compiler, given all 32 lanes or eight, keeps the states in memory and
+/// draws part of the lanes one by one); a ziggurat layer's two edges are one 16-byte load
+/// per lane.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{slow_path, Xoshiro, CHUNK, LANES};
+    use std::arch::x86_64::*;
+
+    /// Four lanes' generator states, one vector per state word.
+    type State = [__m256i; 4];
+
+    #[inline(always)]
+    unsafe fn rotl<const L: i32, const R: i32>(x: __m256i) -> __m256i {
+        _mm256_or_si256(_mm256_slli_epi64::<L>(x), _mm256_srli_epi64::<R>(x))
+    }
+
+    /// One xoshiro256++ step of four lanes: their outputs.
+    #[inline(always)]
+    unsafe fn step(s: &mut State) -> __m256i {
+        let [s0, s1, s2, s3] = *s;
+        let out = _mm256_add_epi64(rotl::<23, 41>(_mm256_add_epi64(s0, s3)), s0);
+        let t = _mm256_slli_epi64::<17>(s1);
+        let s2 = _mm256_xor_si256(s2, s0);
+        let s3 = _mm256_xor_si256(s3, s1);
+        let s1 = _mm256_xor_si256(s1, s2);
+        let s0 = _mm256_xor_si256(s0, s3);
+        *s = [s0, s1, _mm256_xor_si256(s2, t), rotl::<45, 19>(s3)];
+        out
+    }
+
+    /// Four lanes' fast-path draws from their outputs `bits`, and the mask of those outside
+    /// the fast path (bit `j` for lane `j`).
+    #[inline(always)]
+    unsafe fn draw(bits: __m256i, layers: &[[f64; 2]; 256]) -> (__m256d, i32) {
+        let mut idx = [0u64; 4];
+        _mm256_storeu_si256(
+            idx.as_mut_ptr().cast(),
+            _mm256_and_si256(bits, _mm256_set1_epi64x(0xff)),
+        );
+        let pair = |j: usize| _mm_loadu_pd(layers[idx[j] as usize].as_ptr());
+        let (a, b) = (_mm256_set_m128d(pair(2), pair(0)), _mm256_set_m128d(pair(3), pair(1)));
+        let (xi, next) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+        let one = _mm256_or_si256(_mm256_srli_epi64::<12>(bits), _mm256_set1_epi64x(1024 << 52));
+        let u = _mm256_sub_pd(_mm256_castsi256_pd(one), _mm256_set1_pd(3.0));
+        let x = _mm256_mul_pd(u, xi);
+        let abs = _mm256_andnot_pd(_mm256_set1_pd(-0.0), x);
+        (x, _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GE_OQ>(abs, next)))
+    }
+
+    /// See [`super::fill_lanes`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn fill_lanes(
+        rng: &mut [Xoshiro; LANES],
+        rows: usize,
+        out: &mut [f64],
+        layers: &[[f64; 2]; 256],
+    ) {
+        let out = &mut out[..rows * LANES];
+        for h0 in (0..LANES).step_by(CHUNK) {
+            let load = |w: usize, from: usize| {
+                _mm256_set_epi64x(
+                    rng[from + 3].s[w] as i64,
+                    rng[from + 2].s[w] as i64,
+                    rng[from + 1].s[w] as i64,
+                    rng[from].s[w] as i64,
+                )
+            };
+            let mut lo: State = std::array::from_fn(|w| load(w, h0));
+            let mut hi: State = std::array::from_fn(|w| load(w, h0 + 4));
+            for row in out.chunks_exact_mut(LANES) {
+                let row: &mut [f64; CHUNK] = (&mut row[h0..h0 + CHUNK]).try_into().expect("a chunk");
+                let (x0, m0) = draw(step(&mut lo), layers);
+                let (x1, m1) = draw(step(&mut hi), layers);
+                _mm256_storeu_pd(row.as_mut_ptr(), x0);
+                _mm256_storeu_pd(row.as_mut_ptr().add(4), x1);
+                let slow = (m0 | m1 << 4) as u32;
+                if slow != 0 {
+                    let mut s = [[0u64; CHUNK]; 4];
+                    for w in 0..4 {
+                        _mm256_storeu_si256(s[w].as_mut_ptr().cast(), lo[w]);
+                        _mm256_storeu_si256(s[w][4..].as_mut_ptr().cast(), hi[w]);
+                    }
+                    slow_path(&mut s, slow, row);
+                    for w in 0..4 {
+                        lo[w] = _mm256_loadu_si256(s[w].as_ptr().cast());
+                        hi[w] = _mm256_loadu_si256(s[w][4..].as_ptr().cast());
+                    }
+                }
+            }
+            let mut s = [[0u64; CHUNK]; 4];
+            for w in 0..4 {
+                _mm256_storeu_si256(s[w].as_mut_ptr().cast(), lo[w]);
+                _mm256_storeu_si256(s[w][4..].as_mut_ptr().cast(), hi[w]);
+            }
+            for (j, r) in rng[h0..h0 + CHUNK].iter_mut().enumerate() {
+                for w in 0..4 {
+                    r.s[w] = s[w][j];
+                }
+            }
+        }
+    }
+}
+
+/// Lanes the AVX2 generator steps together through all the rows.
+const CHUNK: usize = 8;
+const _: () = assert!(LANES.is_multiple_of(CHUNK));
+
+/// The draws of the lanes in `slow` (bit `j` for lane `j` of `row`) that fell outside the
+/// ziggurat's fast path, drawn again by `rand_distr` from the state before that draw; `s`
+/// holds the lanes' states (one array per state word) and gets the states after.
+#[cold]
+#[inline(never)]
+fn slow_path(s: &mut [[u64; CHUNK]; 4], mut slow: u32, row: &mut [f64; CHUNK]) {
+    while slow != 0 {
+        let j = slow.trailing_zeros() as usize;
+        slow &= slow - 1;
+        let mut r = Xoshiro {
+            s: Xoshiro::unstep([s[0][j], s[1][j], s[2][j], s[3][j]]),
+        };
+        row[j] = StandardNormal.sample(&mut r);
+        for w in 0..4 {
+            s[w][j] = r.s[w];
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -239,8 +378,25 @@ mod tests {
         }
     }
 
+    /// A generator of the lanes' normals: `fill`'s signature.
+    type Fill = fn(&mut [Xoshiro; LANES], usize, &mut [f64]);
+
+    /// The generator this CPU uses ([`fill`]) and the portable one.
+    fn generators() -> Vec<(&'static str, Fill)> {
+        vec![
+            ("fill", fill),
+            ("portable", |rng, rows, out| fill_lanes(rng, rows, out, &LAYERS)),
+        ]
+    }
+
     #[test]
     fn lanes_draw_rand_distrs_normals_bit_for_bit() {
+        for (name, fill) in generators() {
+            lanes_draw_rand_distrs_normals(name, fill);
+        }
+    }
+
+    fn lanes_draw_rand_distrs_normals(name: &str, fill: Fill) {
         // Enough rows that every slow path (the wedges and the tail beyond x_1) is taken.
         let rows = 20_000;
         let seeds = |l: usize| 0x5eed ^ (l as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
@@ -254,12 +410,12 @@ mod tests {
             let mut reference = Xoshiro256PlusPlus::seed_from_u64(seeds(j));
             for r in 0..rows {
                 let z: f64 = StandardNormal.sample(&mut reference);
-                assert_eq!(out[r * LANES + j].to_bits(), z.to_bits(), "lane {j}, row {r}");
+                assert_eq!(out[r * LANES + j].to_bits(), z.to_bits(), "{name}: lane {j}, row {r}");
                 tails += usize::from(z.abs() > LAYERS[1][0]);
             }
             // The state after the run is the reference's.
             assert_eq!(rng[j].next_u64(), reference.next_u64());
         }
-        assert!(tails > 10, "the tail beyond x_1 was drawn {tails} times");
+        assert!(tails > 10, "{name}: the tail beyond x_1 was drawn {tails} times");
     }
 }
