@@ -209,6 +209,8 @@ pub struct FluxLattice {
     values: Vec<f64>,
     /// Per dimension: the sample's cell (flat offset) and position in it.
     corner: Vec<(usize, f64)>,
+    /// The `2^d` nodes of the sample's cell: offset and weight ([`spread_sample`]).
+    cell_nodes: Vec<(usize, f64)>,
 }
 
 /// Samples gathered before they are spread over the lattice in the order of their cells
@@ -242,38 +244,35 @@ enum Target<'a> {
 }
 
 /// One sample's fluxes `values` over the `2^d` nodes of its cell (`corner`: per dimension
-/// the cell's flat offset and the position in it) with linear weights.
+/// the cell's flat offset and the position in it) with linear weights. `nodes` (`2^d`
+/// long) is scratch for the nodes' offsets and weights, formed dimension by dimension: node
+/// `mask` (bit `j` set: the upper node along `j`) gets the weight `Π_j (t_j or 1 − t_j)`,
+/// multiplied in the order of the dimensions.
 #[multiversion(targets(
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
     "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
 ))]
-fn spread_sample(corner: &[(usize, f64)], stride: &[usize], values: &[f64], into: Target) {
+fn spread_sample(corner: &[(usize, f64)], stride: &[usize], values: &[f64], nodes: &mut [(usize, f64)], into: Target) {
     let width = values.len();
-    let weight = |mask: usize| {
-        let (mut at, mut w) = (0, 1.0);
-        for (j, &(base, t)) in corner.iter().enumerate() {
-            if mask >> j & 1 == 1 {
-                at += base + stride[j];
-                w *= t;
-            } else {
-                at += base;
-                w *= 1.0 - t;
-            }
+    nodes[0] = (0, 1.0);
+    for (j, &(base, t)) in corner.iter().enumerate() {
+        let (lower, upper) = nodes[..2 << j].split_at_mut(1 << j);
+        for (lo, up) in lower.iter_mut().zip(upper) {
+            let (at, w) = *lo;
+            *lo = (at + base, w * (1.0 - t));
+            *up = (at + base + stride[j], w * t);
         }
-        (at, w)
-    };
+    }
     match into {
         Target::Record(fluxes) => {
-            for mask in 0..1usize << corner.len() {
-                let (at, w) = weight(mask);
+            for &(at, w) in &nodes[..1 << corner.len()] {
                 for (c, v) in fluxes[at * width..(at + 1) * width].iter_mut().zip(values) {
                     *c += w * v;
                 }
             }
         }
         Target::Group(g) => {
-            for mask in 0..1usize << corner.len() {
-                let (at, w) = weight(mask);
+            for &(at, w) in &nodes[..1 << corner.len()] {
                 for (c, v) in g[at * width..(at + 1) * width].iter_mut().zip(values) {
                     *c += (w * v) as f32;
                 }
@@ -386,6 +385,7 @@ impl FluxLattice {
             y: vec![0.0; d],
             values: vec![0.0; width],
             corner: vec![(0, 0.0); d],
+            cell_nodes: vec![(0, 0.0); 1 << d],
             channels,
         })
     }
@@ -518,7 +518,7 @@ impl FluxLattice {
                     Some(g) => Target::Group(&mut g.fluxes[group]),
                     None => Target::Record(&mut self.fluxes),
                 };
-                spread_sample(&self.corner, &self.stride, &values, into);
+                spread_sample(&self.corner, &self.stride, &values, &mut self.cell_nodes, into);
             }
         }
         self.y = ys;
