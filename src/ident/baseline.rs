@@ -308,7 +308,7 @@ struct PairBlock {
 ///
 /// Pairs are gathered per batch, 64 at a time; their drifts' parts are evaluated along the
 /// block ([`Compiled::eval_block`]) and the block enters its batch's normal equations as
-/// sums along the block ([`Normal::add_block`]).
+/// sums along the block (one dot product per entry of the equations).
 pub struct Increments {
     problem: Problem,
     parts: DriftParts,
