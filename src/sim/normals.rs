@@ -202,16 +202,8 @@ fn fill_lanes(rng: &mut [Xoshiro; LANES], rows: usize, out: &mut [f64], layers: 
             // The fast path accepts |x| < x_(i+1) (every draw here is finite).
             slow |= u32::from(row[j].abs() >= edge[j]) << j;
         }
-        while slow != 0 {
-            let j = slow.trailing_zeros() as usize;
-            slow &= slow - 1;
-            let mut r = Xoshiro {
-                s: Xoshiro::unstep([s[0][j], s[1][j], s[2][j], s[3][j]]),
-            };
-            row[j] = StandardNormal.sample(&mut r);
-            for w in 0..4 {
-                s[w][j] = r.s[w];
-            }
+        if slow != 0 {
+            slow_path(&mut s, slow, row);
         }
     }
     for (j, r) in rng.iter_mut().enumerate() {
@@ -335,10 +327,10 @@ const _: () = assert!(LANES.is_multiple_of(CHUNK));
 
 /// The draws of the lanes in `slow` (bit `j` for lane `j` of `row`) that fell outside the
 /// ziggurat's fast path, drawn again by `rand_distr` from the state before that draw; `s`
-/// holds the lanes' states (one array per state word) and gets the states after.
+/// holds the `N` lanes' states (one array per state word) and gets the states after.
 #[cold]
 #[inline(never)]
-fn slow_path(s: &mut [[u64; CHUNK]; 4], mut slow: u32, row: &mut [f64; CHUNK]) {
+fn slow_path<const N: usize>(s: &mut [[u64; N]; 4], mut slow: u32, row: &mut [f64]) {
     while slow != 0 {
         let j = slow.trailing_zeros() as usize;
         slow &= slow - 1;
