@@ -571,13 +571,7 @@ fn kernel_strong_form_with_jackknife_groups_equals_the_form_without() {
     assert!(grouped.group_count() >= 8, "{}", grouped.group_count());
     assert_eq!(single.group_count(), 0);
     // Correlated Gaussian samples (Box–Muller on a xorshift stream), in the log's columns.
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut uniform = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
+    let mut uniform = xorshift_uniform(0x9e37_79b9_7f4a_7c15);
     let width = p.columns.iter().max().unwrap() + 1;
     let mut row = vec![0.0; width];
     for i in 0..200_000 {
@@ -606,5 +600,55 @@ fn kernel_strong_form_with_jackknife_groups_equals_the_form_without() {
             g.values[k],
             o.values[k]
         );
+    }
+}
+
+#[test]
+fn marginals_only_grid_gives_the_joint_grids_product_of_marginals_bit_for_bit() {
+    // `strong-marginals` needs the marginals only: a grid that skips the joint histogram
+    // (and its batches' copies) must give the same estimate and standard errors exactly.
+    use fpkbench::ident::strong::{DensityGrid, GridOptions};
+    let s = sdof_duffing("");
+    let p = Problem::new(&s).unwrap();
+    let mom = sdof_exact(6);
+    let options = GridOptions::auto(2, 200_000);
+    let mut joint = DensityGrid::new(&p, &mom, options).unwrap().with_batches(16);
+    let mut only = DensityGrid::new(&p, &mom, options)
+        .unwrap()
+        .marginals_only()
+        .with_batches(16);
+    assert!(joint.has_batches() && only.has_batches());
+    let mut uniform = xorshift_uniform(0x2545_f491_4f6c_dd1d);
+    let (sx, sv) = (mom.std(0), mom.std(1));
+    let width = p.columns.iter().max().unwrap() + 1;
+    let mut row = vec![0.0; width];
+    for i in 0..200_000 {
+        let (r, a) = ((-2.0 * uniform().ln()).sqrt(), 2.0 * std::f64::consts::PI * uniform());
+        row[p.columns[0]] = sx * r * a.cos();
+        row[p.columns[1]] = sv * r * a.sin();
+        joint.push_in(i % 16, &row);
+        only.push_in(i % 16, &row);
+    }
+    joint.finish();
+    only.finish();
+    let typical = p.typical(&mom);
+    let a = fpkbench::ident::identify_strong(&p, &joint, true, &typical).unwrap();
+    let b = fpkbench::ident::identify_strong(&p, &only, true, &typical).unwrap();
+    assert_eq!(a.values, b.values);
+    assert_eq!(a.std_error, b.std_error);
+    assert!(
+        a.std_error.iter().all(|se| se.is_finite() && *se > 0.0),
+        "{:?}",
+        a.std_error
+    );
+}
+
+/// Uniform numbers in (0, 1) from a xorshift stream seeded with `state` (test samples).
+fn xorshift_uniform(mut state: u64) -> impl FnMut() -> f64 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
     }
 }

@@ -36,7 +36,7 @@
 //! samples there (the report counts the samples outside the lattice).
 
 use super::poly::{Compiled, Poly};
-use super::{IdentError, Pieces, Problem, Spare};
+use super::{prefetch, IdentError, Pieces, Problem, Spare};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -198,9 +198,9 @@ pub struct FluxLattice {
     /// Every sample pushed is spread (and the groups summed): [`FluxLattice::finish`].
     finished: bool,
     /// Samples inside the lattice not yet spread: `(group · cells + first node of the cell)
-    /// << 20 | entry` and per entry the jackknife group and the state (`dim` values).
+    /// << 20 | entry` (the jackknife group is in the key) and per entry the state (`dim`
+    /// values).
     pending_keys: Vec<u64>,
-    pending_group: Vec<u32>,
     pending_y: Vec<f64>,
     /// The fluxes but the density (channels `1..`), compiled.
     compiled: Compiled,
@@ -379,7 +379,6 @@ impl FluxLattice {
             groups,
             finished: true,
             pending_keys: Vec::with_capacity(PENDING),
-            pending_group: Vec::with_capacity(PENDING),
             pending_y: Vec::with_capacity(PENDING * d),
             compiled: Compiled::new(&channels.polys[1..]),
             y: vec![0.0; d],
@@ -455,10 +454,9 @@ impl FluxLattice {
             first += u as usize * self.stride[j];
         }
         self.inside += 1;
-        let entry = self.pending_group.len();
+        let entry = self.pending_keys.len();
         let slot = (group * self.cells + first) as u64;
         self.pending_keys.push(slot << ENTRY_BITS | entry as u64);
-        self.pending_group.push(group as u32);
         self.pending_y.extend(self.columns.iter().map(|&c| row[c]));
         if entry + 1 == PENDING {
             self.spread();
@@ -493,10 +491,19 @@ impl FluxLattice {
         ys.resize(d * SPREAD_RUN, 0.0);
         block.resize(width * SPREAD_RUN, 0.0);
         let mut values = vec![1.0; width];
-        for run in keys.chunks(SPREAD_RUN) {
+        // The states are gathered in the order of the cells, far from the order they came
+        // in: the next run's are asked for while this one is spread.
+        let entry_of = |key: u64| (key & ((1 << ENTRY_BITS) - 1)) as usize;
+        for &key in keys.iter().take(SPREAD_RUN) {
+            prefetch(&self.pending_y[entry_of(key) * d]);
+        }
+        for (r, run) in keys.chunks(SPREAD_RUN).enumerate() {
             let lanes = run.len();
+            for &key in keys.iter().skip((r + 1) * SPREAD_RUN).take(SPREAD_RUN) {
+                prefetch(&self.pending_y[entry_of(key) * d]);
+            }
             for (l, &key) in run.iter().enumerate() {
-                let entry = (key & ((1 << ENTRY_BITS) - 1)) as usize;
+                let entry = entry_of(key);
                 for j in 0..d {
                     ys[j * lanes + l] = self.pending_y[entry * d + j];
                 }
@@ -504,8 +511,7 @@ impl FluxLattice {
             self.compiled
                 .eval_block(&ys[..d * lanes], lanes, &mut block[lanes..width * lanes]);
             for (l, &key) in run.iter().enumerate() {
-                let entry = (key & ((1 << ENTRY_BITS) - 1)) as usize;
-                let group = self.pending_group[entry] as usize;
+                let group = (key >> ENTRY_BITS) as usize / self.cells;
                 for j in 0..d {
                     let u = (ys[j * lanes + l] - self.lo[j]) / self.h[j];
                     let i = u as usize;
@@ -525,7 +531,6 @@ impl FluxLattice {
         self.values = block;
         keys.clear();
         self.pending_keys = keys;
-        self.pending_group.clear();
         self.pending_y.clear();
     }
 
@@ -574,34 +579,13 @@ impl FluxLattice {
         let nb = self.nodes as isize;
         let centre = self.nodes / 2;
         let (lo, hi) = (centre.saturating_sub(self.row_half), centre + self.row_half);
-        // One output node of the pass along `j` from `cur`.
-        let one = |j: usize, kernel: &[f64], cur: &[f64], node: usize, o: &mut [f64]| {
-            let st = self.stride[j] as isize;
-            let i = (node / self.stride[j] % self.nodes) as isize;
-            o.fill(0.0);
-            for m in (i - (nb - 1)).max(-taps)..=i.min(taps) {
-                let k = kernel[(m + taps) as usize];
-                let from = (node as isize - m * st) as usize * w;
-                for (x, y) in o.iter_mut().zip(&cur[from..from + w]) {
-                    *x += k * y;
-                }
-            }
-        };
-        let last = self.dim - 1;
         for j in 0..self.dim {
             let kernel = &self.kernels(j)[order[j]];
-            if let (true, Some(at)) = (j == last, at) {
-                let mut out = vec![0.0; at.len() * w];
-                out.par_chunks_mut(CHUNK * w).enumerate().for_each(|(chunk, out)| {
-                    for (local, o) in out.chunks_exact_mut(w).enumerate() {
-                        one(j, kernel, cur, at[chunk * CHUNK + local], o);
-                    }
-                });
-                return out;
-            }
             // Whole lines along dimension 0 at a time: for each tap, one scaled vector
-            // added over the line's nodes inside the box (per node the same sums in the
-            // same order as `one`).
+            // added over the line's nodes inside the box (per node the taps in ascending
+            // order, each source node on the lattice; the last pass too, then read at the
+            // residual nodes, which lie in the box: reading them one by one, `taps` nodes a
+            // stride apart each, waited on memory).
             let line = self.nodes * w;
             let st = self.stride[j] as isize;
             next.par_chunks_mut(line).enumerate().for_each(|(l, out)| {
@@ -633,7 +617,19 @@ impl FluxLattice {
             });
             std::mem::swap(cur, next);
         }
-        std::mem::take(cur)
+        match at {
+            Some(at) => {
+                let mut out = vec![0.0; at.len() * w];
+                out.par_chunks_mut(CHUNK * w).enumerate().for_each(|(chunk, out)| {
+                    for (local, o) in out.chunks_exact_mut(w).enumerate() {
+                        let node = at[chunk * CHUNK + local];
+                        o.copy_from_slice(&cur[node * w..(node + 1) * w]);
+                    }
+                });
+                out
+            }
+            None => std::mem::take(cur),
+        }
     }
 
     /// The residual rows: nodes within `span_std` of the mean whose kernel holds at least

@@ -322,6 +322,13 @@ impl Problem {
         let (mu, q) = self.mu_q(p);
         let mut r = DVector::zeros(pc.rows);
         let mut jac = DMatrix::zeros(pc.rows, nu);
+        // The unknown masses: (unknown, mass), in the unknowns' order.
+        let masses: Vec<(usize, usize)> = (self.unknowns.iter().enumerate())
+            .filter_map(|(u_, unk)| match *unk {
+                Unknown::Mass(m) => Some((u_, m)),
+                _ => None,
+            })
+            .collect();
         for k in 0..pc.rows {
             let mut rk = pc.t0[k];
             // Force part per mass: F_ik = a_ki + Σ θ b_kir.
@@ -333,11 +340,9 @@ impl Problem {
                     jac[(k, r_)] += mu[i] * b;
                 }
                 rk += mu[i] * f;
-                for (u_, unk) in self.unknowns.iter().enumerate() {
-                    if *unk == Unknown::Mass(i) {
-                        // d(μ_i F)/dm_i = −μ_i² F
-                        jac[(k, u_)] += -mu[i] * mu[i] * f;
-                    }
+                for &(u_, _) in masses.iter().filter(|&&(_, m)| m == i) {
+                    // d(μ_i F)/dm_i = −μ_i² F
+                    jac[(k, u_)] += -mu[i] * mu[i] * f;
                 }
             }
             for i in 0..n {
@@ -354,13 +359,11 @@ impl Problem {
                         if let Some(kk) = idx {
                             jac[(k, *kk)] += c * 2.0 * s * mu[i] * mu[j];
                         }
-                        for (u_, unk) in self.unknowns.iter().enumerate() {
-                            if let Unknown::Mass(m) = *unk {
-                                // d(s² μ_i μ_j)/dm = −s² μ_i μ_j (1/m)([i=m] + [j=m])
-                                let cnt = (i == m) as u8 as f64 + (j == m) as u8 as f64;
-                                if cnt > 0.0 {
-                                    jac[(k, u_)] += -c * s * s * mu[i] * mu[j] * cnt * mu[m];
-                                }
+                        for &(u_, m) in &masses {
+                            // d(s² μ_i μ_j)/dm = −s² μ_i μ_j (1/m)([i=m] + [j=m])
+                            let cnt = (i == m) as u8 as f64 + (j == m) as u8 as f64;
+                            if cnt > 0.0 {
+                                jac[(k, u_)] += -c * s * s * mu[i] * mu[j] * cnt * mu[m];
                             }
                         }
                     }
@@ -405,7 +408,11 @@ impl Problem {
         let rc = self.coefficient_count();
         let mut p = self.start.clone();
         let (r, j) = weighted(self.residual(pc, &p));
-        let (dx, _) = lsq::solve(&j.columns(0, rc).into_owned(), &(-r), &typical[..rc]);
+        let (dx, _) = if rc == j.ncols() {
+            lsq::solve(&j, &(-r), typical)
+        } else {
+            lsq::solve(&j.columns(0, rc).into_owned(), &(-r), &typical[..rc])
+        };
         for k in 0..rc {
             p[k] += dx[k];
         }

@@ -113,6 +113,8 @@ pub struct DensityGrid {
     pub total: u64,
     columns: Vec<usize>,
     stride: Vec<usize>,
+    /// Whether the joint histogram is counted ([`DensityGrid::marginals_only`]: not).
+    joint: bool,
     batches: Option<BatchCounts>,
     /// Cells of the samples binned by [`DensityGrid::push_in`] but not yet counted, with
     /// their batches, oldest first (see there).
@@ -155,17 +157,29 @@ impl DensityGrid {
             total: 0,
             columns: problem.columns.clone(),
             stride,
+            joint: true,
             batches: None,
             pending: Default::default(),
         })
     }
 
+    /// Count the marginals only, not the joint histogram (all that the product of the
+    /// marginals, (3.21), needs: a sample then touches `d` small tables instead of a cell
+    /// of a table far larger than the caches). Before [`DensityGrid::with_batches`]; its
+    /// [`DensityGrid::pieces_with`] takes `marginals` only.
+    pub fn marginals_only(mut self) -> DensityGrid {
+        self.joint = false;
+        self
+    }
+
     /// Keep each of `batches` batches' counts too (for standard errors), when that fits in
-    /// [`MAX_BATCH_ENTRIES`]; then fill with [`DensityGrid::push_in`].
+    /// [`MAX_BATCH_ENTRIES`] (a marginals-only grid's always do); then fill with
+    /// [`DensityGrid::push_in`].
     pub fn with_batches(mut self, batches: usize) -> DensityGrid {
-        if batches >= 2 && self.counts.len().saturating_mul(batches) <= MAX_BATCH_ENTRIES {
+        if batches >= 2 && (!self.joint || self.counts.len().saturating_mul(batches) <= MAX_BATCH_ENTRIES) {
             self.batches = Some(BatchCounts {
                 counts: (0..batches)
+                    .filter(|_| self.joint)
                     .map(|_| {
                         let c = vec![0; self.counts.len()];
                         super::huge_pages(&c);
@@ -194,6 +208,10 @@ impl DensityGrid {
     /// are integers: the order does not change them).
     #[inline]
     pub fn push_in(&mut self, batch: usize, row: &[f64]) {
+        if !self.joint {
+            self.add(Some(batch), row, false);
+            return;
+        }
         if let Some(cell) = self.add(Some(batch), row, false) {
             prefetch(&self.counts[cell]);
             if let Some(bc) = &self.batches {
@@ -233,12 +251,15 @@ impl DensityGrid {
             .map(move |b| {
                 let bc = bc.expect("filtered");
                 let mut g = self.clone_without_batches();
-                g.counts = self
-                    .counts
-                    .iter()
-                    .zip(&bc.counts[b])
-                    .map(|(c, k)| c - *k as f64)
-                    .collect();
+                g.counts = if self.joint {
+                    self.counts
+                        .iter()
+                        .zip(&bc.counts[b])
+                        .map(|(c, k)| c - *k as f64)
+                        .collect()
+                } else {
+                    vec![0.0; self.counts.len()]
+                };
                 g.marginals = self
                     .marginals
                     .iter()
@@ -264,6 +285,7 @@ impl DensityGrid {
             total: self.total,
             columns: self.columns.clone(),
             stride: self.stride.clone(),
+            joint: self.joint,
             batches: None,
             pending: Default::default(),
         }
@@ -272,7 +294,7 @@ impl DensityGrid {
     /// Add one sample (`row`: the log's columns).
     #[inline]
     pub fn push(&mut self, row: &[f64]) {
-        self.add(None, row, true);
+        self.add(None, row, self.joint);
     }
 
     /// Bin one sample into the grid, its marginals and, with `batch`, that batch's counts;
@@ -346,6 +368,7 @@ impl DensityGrid {
             total: 1,
             columns: problem.columns.clone(),
             stride,
+            joint: true,
             batches: None,
             pending: Default::default(),
         };
@@ -388,6 +411,7 @@ impl DensityGrid {
         known: Option<&Stencils>,
     ) -> (Pieces, usize, Stencils) {
         assert!(self.pending.is_empty(), "DensityGrid::finish after the last push_in");
+        assert!(marginals || self.joint, "the joint histogram of a marginals-only grid");
         let d = self.dim;
         let n = problem.n;
         let rc = problem.coefficient_count();
@@ -464,8 +488,10 @@ impl DensityGrid {
         };
         let mut buf = vec![0.0; width];
         let (mut y, mut yu, mut yd) = (vec![0.0; d], vec![0.0; d], vec![0.0; d]);
+        // The known stencils' rows and `rows` both ascend: one cursor walks the former.
+        let mut cursor = 0;
         for (k, &flat) in rows.iter().enumerate() {
-            let vals: &[f64] = match known.and_then(|c| c.of(flat)) {
+            let vals: &[f64] = match known.and_then(|c| c.from(&mut cursor, flat)) {
                 Some(v) => v,
                 None => {
                     let mut rest = flat;
@@ -561,8 +587,13 @@ pub struct Stencils {
 }
 
 impl Stencils {
-    fn of(&self, flat: usize) -> Option<&[f64]> {
-        let k = self.rows.binary_search(&flat).ok()?;
-        Some(&self.values[k * self.width..(k + 1) * self.width])
+    /// The values of cell `flat`, looked for from row `cursor` on, which is moved past the
+    /// cells before `flat` (cells asked for in ascending order).
+    fn from(&self, cursor: &mut usize, flat: usize) -> Option<&[f64]> {
+        while self.rows.get(*cursor).is_some_and(|&r| r < flat) {
+            *cursor += 1;
+        }
+        let k = *cursor;
+        (self.rows.get(k) == Some(&flat)).then(|| &self.values[k * self.width..(k + 1) * self.width])
     }
 }

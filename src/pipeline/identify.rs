@@ -159,7 +159,10 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
                 GridOptions::auto(structure.dim(), total.count)
             }
         };
-        DensityGrid::new(&structure, &total, grid_options).map(|g| g.with_batches(data.batch_count()))
+        // Only the product of the marginals wanted: the joint histogram is not counted.
+        let joint = methods.contains(&Method::Strong) && !kernel_density;
+        DensityGrid::new(&structure, &total, grid_options)
+            .map(|g| if joint { g } else { g.marginals_only() }.with_batches(data.batch_count()))
     });
     let mut dist = Distributions::new(s, &structure, &data);
     // The baselines on the same samples (white-noise problems only).
@@ -209,12 +212,26 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
             g.span_std,
         )
     });
+    // The kernel lattice over a problem's state (the strong form's fluxes).
+    let new_lattice = |p: &Problem| {
+        let o = options
+            .kernel
+            .unwrap_or_else(|| KernelOptions::auto(p.dim(), total.count));
+        let mean: Vec<f64> = (0..p.dim()).map(|j| total.mean(j)).collect();
+        let std: Vec<f64> = (0..p.dim()).map(|j| total.std(j)).collect();
+        FluxLattice::new(p, &mean, &std, o, data.batch_count())
+    };
+    // Without filtered excitations the problem is known now: the lattice fills in this pass.
+    let mut lattice = (want_lattice && filtered.is_empty()).then(|| new_lattice(&structure));
     forces.start_welch(sim);
     let keep_dist = options.validate || options.plots;
     read_samples(info, |traj, t, row| {
         let batch = data.batch_of(traj, t);
         if let Some(Ok(g)) = grid.as_mut() {
             g.push_in(batch, row);
+        }
+        if let Some(Ok(l)) = lattice.as_mut() {
+            l.push_in(batch, row);
         }
         if let Some(b) = increments.as_mut() {
             b.push(traj as usize, t, batch, row);
@@ -234,6 +251,9 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     if let Some(Ok(g)) = grid.as_mut() {
         g.finish();
     }
+    if let Some(Ok(l)) = lattice.as_mut() {
+        l.finish();
+    }
     if let Some(b) = kramers_moyal.as_mut() {
         b.finish();
     }
@@ -245,24 +265,17 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     let problem = Problem::from_spec(&spec, &filters)?;
     let typical = problem.typical(&total);
     // Pass 3 (strong form from kernel estimates): the fluxes are the drift's parts, known
-    // only now that the filters are.
-    let lattice = want_lattice.then(|| -> Result<FluxLattice, PipelineError> {
-        let o = options
-            .kernel
-            .unwrap_or_else(|| KernelOptions::auto(problem.dim(), total.count));
-        let mean: Vec<f64> = (0..problem.dim()).map(|j| total.mean(j)).collect();
-        let std: Vec<f64> = (0..problem.dim()).map(|j| total.std(j)).collect();
-        let mut lattice = FluxLattice::new(&problem, &mean, &std, o, data.batch_count())?;
-        read_samples(info, |traj, t, row| lattice.push_in(data.batch_of(traj, t), row))?;
-        lattice.finish();
-        Ok(lattice)
-    });
-    let lattice = match lattice {
-        Some(Err(PipelineError::Ident(e))) => Some(Err(e)),
-        Some(Err(e)) => return Err(e),
-        Some(Ok(l)) => Some(Ok(l)),
-        None => None,
-    };
+    // only now that the filters are (without filtered excitations, in pass 2 already).
+    if want_lattice && lattice.is_none() {
+        lattice = Some(match new_lattice(&problem) {
+            Ok(mut l) => {
+                read_samples(info, |traj, t, row| l.push_in(data.batch_of(traj, t), row))?;
+                l.finish();
+                Ok(l)
+            }
+            Err(e) => Err(e),
+        });
+    }
     // Identifiability is a property of the unknowns and the data: measured once, with the
     // weak form's batches, whatever methods were asked for (no estimates on failure).
     let bilinear = problem.unknowns.iter().any(|u| matches!(u, Unknown::Corner(_)));
