@@ -551,8 +551,8 @@ impl FluxLattice {
 
     /// Apply a separable filter (`order[j]`: 0 smooth, 1 first, 2 second derivative along
     /// dimension `j`) to the channels `which` of `fluxes`; the result holds `which.len()`
-    /// values per node of `at` (in that order), or per node of the lattice without `at`
-    /// (then valid inside the box of residual nodes only). The pass along dimension `j`
+    /// values per node of `at` (in that order; nodes inside the box of residual nodes), or
+    /// per node of the lattice without `at` (then valid inside that box only). The pass along dimension `j`
     /// works only where later passes read: nodes inside the box in dimensions `0..=j`.
     ///
     /// `scratch` holds the passes' two lattices between calls: a filter per direction and
