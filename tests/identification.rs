@@ -636,6 +636,11 @@ fn marginals_only_grid_gives_the_joint_grids_product_of_marginals_bit_for_bit() 
     let b = fpkbench::ident::identify_strong(&p, &only, true, &typical).unwrap();
     assert_eq!(a.values, b.values);
     assert_eq!(a.std_error, b.std_error);
+    // The facts too: the occupied cells are the product's, counted from the marginals.
+    assert_eq!(a.facts, b.facts);
+    let occupied = only.occupied(true);
+    assert!(occupied > 0 && occupied <= joint.counts.len(), "{occupied}");
+    assert!(joint.occupied(false) <= occupied);
     assert!(
         a.std_error.iter().all(|se| se.is_finite() && *se > 0.0),
         "{:?}",

@@ -304,8 +304,8 @@ pub fn identify_strong(
             "occupied cells".into(),
             format!(
                 "{} ({:.1} %)",
-                grid.occupied(),
-                100.0 * grid.occupied() as f64 / cells as f64
+                grid.occupied(marginals),
+                100.0 * grid.occupied(marginals) as f64 / cells as f64
             ),
         ),
         (

@@ -390,9 +390,19 @@ impl DensityGrid {
             .collect()
     }
 
-    /// Occupied cells.
-    pub fn occupied(&self) -> usize {
-        self.counts.iter().filter(|&&c| c > 0.0).count()
+    /// Occupied cells of the density the strong form uses: the joint histogram's, or (with
+    /// `marginals`) those of the product of the marginals, the cells each of whose bins holds
+    /// samples (a grid made by [`DensityGrid::marginals_only`] has no joint counts).
+    pub fn occupied(&self, marginals: bool) -> usize {
+        if marginals {
+            self.marginals
+                .iter()
+                .map(|m| m.iter().filter(|&&c| c > 0).count())
+                .product()
+        } else {
+            assert!(self.joint, "a marginals-only grid has no joint histogram");
+            self.counts.iter().filter(|&&c| c > 0.0).count()
+        }
     }
 
     /// The residual's pieces over the usable cells, from the joint histogram or (with
