@@ -603,14 +603,10 @@ pub struct KramersMoyal {
     /// `Δv_i/h` per mass and the sum of the starting states `y` (kept together, so a
     /// sample touches one cache line: the pass is bound by memory, not arithmetic).
     arena: Vec<f64>,
-    /// The last pairs binned, oldest first: cell, batch and where its `Δv/h` then `y` wait
-    /// in `pending_values`. Each cell's entry in `cells` is asked for at once and read
-    /// [`LOOKUP_AHEAD`] pairs later (the index, too, is larger than the nearest caches).
-    binned: std::collections::VecDeque<(u64, usize, usize)>,
-    /// The pairs located: where each goes in `arena` and where its values wait. Each is
-    /// added [`IN_FLIGHT`] pairs later (or by [`KramersMoyal::finish`]), once the prefetch of
-    /// its slot has had time to arrive: a slot is a cache miss. First in, first added: a
-    /// slot's sums see the same order.
+    /// The last pairs binned, oldest first: where each goes in `arena` and where its
+    /// `Δv/h` then `y` wait in `pending_values`. Each is added [`IN_FLIGHT`] pairs later (or
+    /// by [`KramersMoyal::finish`]), once the prefetch of its slot has had time to arrive:
+    /// a slot is a cache miss. First in, first added: a slot's sums see the same order.
     pending: std::collections::VecDeque<(usize, usize)>,
     pending_values: Vec<f64>,
     next_value: usize,
@@ -633,12 +629,6 @@ impl Drop for KramersMoyal {
 
 /// Pairs whose slots are asked for before they are added (see [`KramersMoyal::pending`]).
 const IN_FLIGHT: usize = 16;
-
-/// Pairs whose cells' index entries are asked for before they are read.
-const LOOKUP_AHEAD: usize = 8;
-
-/// Pairs whose values wait in `pending_values` at most (binned or located, and the newest).
-const VALUE_RING: usize = LOOKUP_AHEAD + IN_FLIGHT + 1;
 
 /// Smallest count of a cell whose mean increment enters the fit.
 pub const KM_MIN_COUNT: f64 = 10.0;
@@ -675,16 +665,6 @@ impl CellIndex {
                 *e as usize
             }
             CellIndex::Sparse(m) => *m.entry(c).or_insert_with(make),
-        }
-    }
-
-    /// Ask for cell `c`'s entry (a dense table's; a hash map's is not worth guessing).
-    #[inline]
-    fn prefetch(&self, c: u64) {
-        if let CellIndex::Dense(v) = self {
-            if let Some(e) = v.get(c as usize) {
-                prefetch(e);
-            }
         }
     }
 
@@ -763,9 +743,8 @@ impl KramersMoyal {
                     Vec::new()
                 }
             },
-            binned: Default::default(),
             pending: Default::default(),
-            pending_values: vec![0.0; VALUE_RING * (problem.n + problem.dim())],
+            pending_values: vec![0.0; IN_FLIGHT * (problem.n + problem.dim())],
             next_value: 0,
             nb: batches.max(1),
             y: vec![0.0; problem.dim()],
@@ -798,37 +777,25 @@ impl KramersMoyal {
             None => {}
             Some(None) => self.outside += 1,
             Some(Some(c)) => {
-                let (n, width) = (p.n, p.n + p.dim());
-                self.cells.prefetch(c);
+                let (n, stride, nb) = (p.n, 1 + p.n + p.dim(), self.nb);
+                let slot = nb * stride;
+                let arena = &mut self.arena;
+                let at = self.cells.slot(c, || {
+                    arena.resize(arena.len() + slot, 0.0);
+                    arena.len() - slot
+                }) + batch.min(nb - 1) * stride;
+                let width = n + p.dim();
+                prefetch(&self.arena[at]);
+                if self.pending.len() == IN_FLIGHT {
+                    self.add_oldest();
+                }
                 let from = self.next_value * width;
-                self.next_value = (self.next_value + 1) % VALUE_RING;
+                self.pending.push_back((at, from));
+                self.next_value = (self.next_value + 1) % IN_FLIGHT;
                 self.pending_values[from..from + n].copy_from_slice(&self.incr);
                 self.pending_values[from + n..from + width].copy_from_slice(&self.y0);
-                self.binned.push_back((c, batch.min(self.nb - 1), from));
                 self.used += 1;
-                if self.binned.len() > LOOKUP_AHEAD {
-                    self.locate_oldest();
-                }
             }
-        }
-    }
-
-    /// The oldest binned pair's slot (its cell's entry in the index asked for
-    /// [`LOOKUP_AHEAD`] pairs ago), asked for in turn; to be added [`IN_FLIGHT`] pairs later.
-    fn locate_oldest(&mut self) {
-        if let Some((c, batch, from)) = self.binned.pop_front() {
-            let stride = 1 + self.problem.n + self.problem.dim();
-            let slot = self.nb * stride;
-            let arena = &mut self.arena;
-            let at = self.cells.slot(c, || {
-                arena.resize(arena.len() + slot, 0.0);
-                arena.len() - slot
-            }) + batch * stride;
-            prefetch(&self.arena[at]);
-            if self.pending.len() == IN_FLIGHT {
-                self.add_oldest();
-            }
-            self.pending.push_back((at, from));
         }
     }
 
@@ -845,9 +812,6 @@ impl KramersMoyal {
 
     /// Add the pairs still pending (call after the last sample).
     pub fn finish(&mut self) {
-        while !self.binned.is_empty() {
-            self.locate_oldest();
-        }
         while !self.pending.is_empty() {
             self.add_oldest();
         }
@@ -855,10 +819,7 @@ impl KramersMoyal {
 
     /// The estimate, after [`KramersMoyal::finish`].
     pub fn estimate(&self, typical: &[f64]) -> Result<Estimate, IdentError> {
-        assert!(
-            self.pending.is_empty() && self.binned.is_empty(),
-            "KramersMoyal::finish before estimate"
-        );
+        assert!(self.pending.is_empty(), "KramersMoyal::finish before estimate");
         let p = &self.problem;
         let (n, r) = (p.n, p.unknowns.len());
         let (dim, stride) = (p.dim(), 1 + n + p.dim());
