@@ -105,16 +105,21 @@ impl KernelOptions {
     }
 }
 
-/// Where each of the residual's pieces comes from: a flux channel (0 is the density).
+/// Where each of the residual's pieces comes from: a flux channel (0 is the density) and
+/// the sign it enters with. Parts equal up to sign share one channel: a link between two
+/// masses gives them opposite unit forces, and a mass's free drift `v` is minus the unit
+/// force of a linear damper to the ground on it (duffing2dof: 14 channels become 10). The
+/// values are exact negations of each other, so sharing changes no result by a bit, and
+/// saves the spreading and the lattices' memory of the duplicates.
 #[derive(Debug, Clone)]
 struct Channels {
     polys: Vec<Poly>,
-    /// `(direction, channel)` of each free-drift part.
-    free: Vec<(usize, usize)>,
-    /// Per mass: the known force's channel (`None`: zero).
-    known: Vec<Option<usize>>,
-    /// Per mass and coefficient: the unit force's channel (`None`: zero).
-    unit: Vec<Vec<Option<usize>>>,
+    /// `(direction, channel, sign)` of each free-drift part.
+    free: Vec<(usize, usize, f64)>,
+    /// Per mass: the known force's channel and sign (`None`: zero).
+    known: Vec<Option<(usize, f64)>>,
+    /// Per mass and coefficient: the unit force's channel and sign (`None`: zero).
+    unit: Vec<Vec<Option<(usize, f64)>>>,
 }
 
 impl Channels {
@@ -122,16 +127,27 @@ impl Channels {
         let mut polys = vec![Poly::constant(1.0)];
         let mut add = |p: &Poly| {
             if p.terms.is_empty() {
-                None
-            } else {
-                polys.push(p.clone());
-                Some(polys.len() - 1)
+                return None;
             }
+            let negated = |q: &Poly| {
+                q.terms.len() == p.terms.len()
+                    && q.terms.iter().zip(&p.terms).all(|((a, x), (b, y))| a == b && *x == -*y)
+            };
+            for (c, q) in polys.iter().enumerate() {
+                if q == p {
+                    return Some((c, 1.0));
+                }
+                if negated(q) {
+                    return Some((c, -1.0));
+                }
+            }
+            polys.push(p.clone());
+            Some((polys.len() - 1, 1.0))
         };
         let free = problem
             .free_drift
             .iter()
-            .filter_map(|(j, g)| add(g).map(|c| (*j, c)))
+            .filter_map(|(j, g)| add(g).map(|(c, sign)| (*j, c, sign)))
             .collect();
         let known = problem.known_force.iter().map(&mut add).collect();
         let unit = (0..problem.n)
@@ -677,12 +693,12 @@ impl FluxLattice {
             Some(_) => {}
             None => dirs.push((j, vec![c])),
         };
-        for &(j, c) in &ch.free {
+        for &(j, c, _) in &ch.free {
             need(j, c);
         }
         for i in 0..n {
             let j = problem.noise_var[i];
-            for c in ch.known[i].iter().chain(ch.unit[i].iter().flatten()) {
+            for (c, _) in ch.known[i].iter().chain(ch.unit[i].iter().flatten()) {
                 need(j, *c);
             }
         }
@@ -690,14 +706,14 @@ impl FluxLattice {
         for (j, cs) in &dirs {
             let order: Vec<usize> = (0..d).map(|k| usize::from(k == *j)).collect();
             let out = self.filter(fluxes, cs, &order, Some(rows), scratch);
-            let at = |row: usize, c: usize| {
+            let at = |row: usize, (c, sign): (usize, f64)| {
                 let q = cs.iter().position(|&x| x == c).expect("requested");
-                -out[row * cs.len() + q] * scale
+                -(sign * out[row * cs.len() + q]) * scale
             };
             for row in 0..rows.len() {
-                for &(jj, c) in &ch.free {
+                for &(jj, c, sign) in &ch.free {
                     if jj == *j {
-                        pc.t0[row] += at(row, c);
+                        pc.t0[row] += at(row, (c, sign));
                     }
                 }
                 for i in (0..n).filter(|&i| problem.noise_var[i] == *j) {
@@ -758,5 +774,43 @@ impl FluxLattice {
         SPARE_F64.give(fluxes);
         let count = rows.len();
         (total, replicates, count)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parts_equal_up_to_sign_share_a_channel_and_give_back_each_part_exactly() {
+        let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
+        let scenario = crate::Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+        let problem = Problem::new(&scenario).unwrap();
+        let ch = Channels::new(&problem);
+        // The density, v1, v2, and the unit forces but the two of the link between the
+        // masses on m2 (minus theirs on m1) and the linear dampers to the ground (−v).
+        assert_eq!(ch.len(), 10);
+        let signed = |(c, sign): (usize, f64)| {
+            let mut p = Poly::zero();
+            p.add(&ch.polys[c], sign);
+            p
+        };
+        for (k, (j, g)) in problem.free_drift.iter().enumerate() {
+            let (jj, c, sign) = ch.free[k];
+            assert_eq!((jj, &signed((c, sign))), (*j, g));
+        }
+        let mut shared = 0;
+        for i in 0..problem.n {
+            for (r, unit) in problem.unit_force.iter().enumerate() {
+                match ch.unit[i][r] {
+                    None => assert!(unit[i].terms.is_empty()),
+                    Some(at) => {
+                        assert_eq!(signed(at), unit[i], "mass {i}, unknown {r}");
+                        shared += usize::from(at.1 < 0.0);
+                    }
+                }
+            }
+        }
+        assert_eq!(shared, 4, "two by the coupling link, two by the linear dampers");
     }
 }
