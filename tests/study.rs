@@ -44,6 +44,11 @@ fn shards_give_the_rows_of_one_run_and_merge_refuses_conflicts() {
     let o = fpk(&["study", &file, "--out", one.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(one.join("summary.json").exists() && one.join("study.svg").exists());
+    let svg = std::fs::read_to_string(one.join("study.svg")).unwrap();
+    assert!(
+        svg.contains("worst error against sample interval"),
+        "two intervals: an axis to vary"
+    );
     // Three shards into three folders, then merged: rows equal bit for bit.
     let (a, b, c) = (tmp.path().join("a"), tmp.path().join("b"), tmp.path().join("c"));
     for (shard, dir) in [("0/3", &a), ("1/3", &b), ("2/3", &c)] {
@@ -268,4 +273,36 @@ fn flags_make_the_same_study_as_the_file_they_print() {
     let bad = fpk(&["study", "--scenario", scenario, "--method", "wek"]);
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("force-regression"));
+}
+
+#[test]
+fn a_study_of_one_configuration_plots_every_seed_per_method() {
+    // Nothing varies but the seed: the figure shows the methods side by side, each seed's
+    // worst error a point, instead of one lonely point per method on an interval axis.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("one");
+    let o = fpk(&[
+        "study",
+        "--scenario",
+        "scenarios/sdof_duffing.toml",
+        "--seeds",
+        "3",
+        "--record-length",
+        "312.5",
+        "--method",
+        "weak",
+        "--method",
+        "increments",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(out.join("study.svg")).unwrap();
+    assert!(svg.contains("worst error over the seeds, T = 312.5 s"), "{svg}");
+    assert!(!svg.contains("against sample interval"));
+    for method in ["weak", "increments"] {
+        assert!(svg.contains(&format!(">{method}</text>")), "{method} names its column");
+    }
+    // Three seeds per method: six points and two coverage markers.
+    assert_eq!(svg.matches("<circle").count(), 3 * 2 + 2, "{svg}");
 }

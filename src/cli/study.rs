@@ -163,7 +163,7 @@ fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) 
         serde_json::to_string_pretty(&serde_json::json!({ "summary": summary, "paired": paired }))?.as_bytes(),
     )?;
     let markdown = study_markdown(name, rows.len(), &summary, &paired);
-    plot_study(&summary, &dir.join("study.svg")).map_err(|e| anyhow::anyhow!("study.svg: {e}"))?;
+    plot_study(&summary, rows, &dir.join("study.svg")).map_err(|e| anyhow::anyhow!("study.svg: {e}"))?;
     write_atomic(&dir.join("summary.md"), markdown.as_bytes())?;
     let html = fpkbench::report::html::page(&format!("fpkbench study: {name}"), &markdown, dir)?;
     write_atomic(&dir.join("study.html"), html.as_bytes())?;

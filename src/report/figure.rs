@@ -138,6 +138,8 @@ pub struct Axis {
     pub label: String,
     /// Whether tick labels are written (a strip below a panel shares its x labels).
     pub tick_labels: bool,
+    /// Named positions `1, 2, …` instead of numbers ([`Axis::categories`]).
+    pub categories: Vec<String>,
 }
 
 impl Axis {
@@ -148,6 +150,7 @@ impl Axis {
             log: false,
             label: label.into(),
             tick_labels: true,
+            categories: Vec::new(),
         }
     }
     pub fn log(lo: f64, hi: f64, label: impl Into<String>) -> Axis {
@@ -157,7 +160,15 @@ impl Axis {
             log: true,
             label: label.into(),
             tick_labels: true,
+            categories: Vec::new(),
         }
+    }
+    /// A linear axis of named positions: category `k` (from 0) is drawn at `k + 1`, the
+    /// axis runs from 0.5 to `n + 0.5`, and the ticks carry the names.
+    pub fn categories(names: Vec<String>, label: impl Into<String>) -> Axis {
+        let mut a = Axis::linear(0.5, names.len() as f64 + 0.5, label);
+        a.categories = names;
+        a
     }
     /// The same axis without tick labels.
     pub fn unlabelled(mut self) -> Axis {
@@ -189,7 +200,10 @@ impl Axis {
 
     /// Major ticks `(value, label)` and unlabelled minor ticks.
     pub fn ticks(&self) -> (Vec<(f64, String)>, Vec<f64>) {
-        if self.log {
+        if !self.categories.is_empty() {
+            let named = self.categories.iter().enumerate();
+            (named.map(|(k, n)| ((k + 1) as f64, n.clone())).collect(), Vec::new())
+        } else if self.log {
             log_ticks(self.lo, self.hi)
         } else {
             (linear_ticks(self.lo, self.hi, 6), Vec::new())
@@ -979,6 +993,15 @@ mod tests {
         assert!(linear_ticks(-1e-17, 1.0, 5)
             .iter()
             .all(|x| !x.1.contains("-0") && !x.1.contains("−0.0")));
+    }
+
+    #[test]
+    fn a_category_axis_names_its_positions() {
+        let a = Axis::categories(vec!["weak".into(), "increments".into()], "");
+        assert_eq!((a.lo, a.hi, a.log), (0.5, 2.5, false));
+        let (major, minor) = a.ticks();
+        assert_eq!(major, [(1.0, "weak".to_string()), (2.0, "increments".to_string())]);
+        assert!(minor.is_empty());
     }
 
     #[test]

@@ -1,10 +1,11 @@
 //! A study's summary: `summary.json`, `summary.md`, `study.html` and `study.svg` (worst
 //! error against record length with a `1/√T` guide, against the sample interval, and the
-//! coverage of the 95 % intervals; PNG and PDF beside it).
+//! coverage of the 95 % intervals; for a study of one configuration, every seed's worst
+//! error and the coverage per method; PNG and PDF beside it).
 
-use super::figure::{color, log_range, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, GREY};
+use super::figure::{color, log_range, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
 use super::plot::write_figure;
-use crate::pipeline::study::{Paired, Summary};
+use crate::pipeline::study::{Paired, Row, Summary};
 use std::path::{Path, PathBuf};
 
 fn pct(x: f64) -> String {
@@ -83,7 +84,16 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
 /// `study.svg` (with PNG and PDF): median worst error (quartiles as bars) against record
 /// length per method and interval, with a `1/√T` guide; against the sample interval at the
 /// longest record; and the coverage of the 95 % intervals against the first varied axis.
-pub fn plot_study(summary: &[Summary], path: &Path) -> std::io::Result<Vec<PathBuf>> {
+/// A study of one configuration (one record length, one interval) has no axis to vary:
+/// its figure is [`plot_methods`]'.
+pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let configurations = summary
+        .iter()
+        .map(|x| (x.record_length.to_bits(), x.sample_interval.to_bits()))
+        .collect::<std::collections::BTreeSet<_>>();
+    if configurations.len() == 1 {
+        return plot_methods(summary, rows, path);
+    }
     let mut methods: Vec<&str> = Vec::new();
     for x in summary {
         if !methods.contains(&x.method.as_str()) {
@@ -260,5 +270,95 @@ pub fn plot_study(summary: &[Summary], path: &Path) -> std::io::Result<Vec<PathB
     }
     let mut fig = Figure::new(540.0 * panels.len() as f64);
     fig.row(460.0, panels.into_iter().map(Some).collect());
+    write_figure(path, &fig)
+}
+
+/// The figure of a study of one configuration: per method, every seed's worst error (a
+/// point each, spread sideways so that equal errors stay visible) with the median (a bar
+/// across) and the quartiles (a bar beside), on a log scale; below, the coverage of each
+/// method's 95 % intervals against the nominal 0.95 (dashed).
+pub fn plot_methods(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let methods: Vec<&Summary> = summary.iter().collect();
+    let names: Vec<String> = methods.iter().map(|x| x.method.clone()).collect();
+    let worst = |m: &str| -> Vec<f64> {
+        rows.iter()
+            .filter(|r| r.method == m)
+            .filter_map(|r| r.worst_rel_error)
+            .filter(|e| e.is_finite() && *e > 0.0)
+            .collect()
+    };
+    let (ylo, yhi) = log_range(names.iter().flat_map(|m| worst(m)), 1.6);
+    let (ylo, yhi) = if ylo.is_finite() && yhi > ylo {
+        (ylo, yhi)
+    } else {
+        (1e-3, 1.0)
+    };
+    let config = methods.first().map_or(String::new(), |x| {
+        format!(", T = {} s, h = {} s", x.record_length, x.sample_interval)
+    });
+    let mut p = Panel::new(
+        format!("worst error over the seeds{config}"),
+        Axis::categories(names.clone(), ""),
+        Axis::log(
+            100.0 * ylo,
+            100.0 * yhi * 1.5,
+            "worst relative error (%): seeds, median, quartiles",
+        ),
+    );
+    for (k, m) in names.iter().enumerate() {
+        let x = (k + 1) as f64;
+        let errors = worst(m);
+        let n = errors.len().max(2) as f64;
+        let points = errors
+            .iter()
+            .enumerate()
+            .map(|(i, e)| (x - 0.3 + 0.6 * i as f64 / (n - 1.0), 100.0 * e))
+            .collect();
+        p.mark(Mark::Points {
+            points,
+            color: color(k),
+            radius: 2.0,
+        });
+        let s = methods[k];
+        if s.worst_median.is_finite() && s.worst_median > 0.0 {
+            let black = Stroke::solid(BLACK, 2.0);
+            p.mark(Mark::Bars {
+                bars: vec![(x + 0.36, 100.0 * s.worst_q1, 100.0 * s.worst_q3)],
+                stroke: black,
+            });
+            p.mark(Mark::Line {
+                points: vec![(x - 0.36, 100.0 * s.worst_median), (x + 0.36, 100.0 * s.worst_median)],
+                stroke: black,
+            });
+        }
+    }
+    let mut fig = Figure::new(1080.0);
+    fig.row(420.0, vec![Some(p)]);
+    if methods.iter().any(|x| x.coverage.is_some()) {
+        let mut c = Panel::new(
+            "coverage of the 95 % intervals (dashed: the nominal 95 %)",
+            Axis::categories(names.clone(), ""),
+            Axis::linear(0.0, 102.0, "intervals holding the truth (%)"),
+        );
+        c.mark(Mark::HLine {
+            y: 95.0,
+            stroke: Stroke::dashed(GREY, 1.2, 6.0, 4.0),
+        });
+        for (k, s) in methods.iter().enumerate() {
+            if let Some(v) = s.coverage {
+                let at = ((k + 1) as f64, 100.0 * v);
+                c.mark(Mark::Line {
+                    points: vec![((k + 1) as f64, 0.0), at],
+                    stroke: Stroke::solid(color(k), 3.0),
+                });
+                c.mark(Mark::Points {
+                    points: vec![at],
+                    color: color(k),
+                    radius: 4.0,
+                });
+            }
+        }
+        fig.row(280.0, vec![Some(c)]);
+    }
     write_figure(path, &fig)
 }
