@@ -34,6 +34,7 @@
 // Numeric kernels index several same-length arrays by one index on purpose.
 #![allow(clippy::needless_range_loop)]
 
+pub mod estimators;
 pub mod ident;
 pub mod io;
 pub mod model;

@@ -2,8 +2,8 @@
 //! exported to CSV and to npy gives the log's own estimates; bad data are refused naming
 //! the file, the row and the column, with exit 2 and no output.
 
-use fpkbench::io::log::LogInfo;
 use fpkbench::io::table::{measured, read_table};
+use fpkbench::pipeline::Input;
 use fpkbench::pipeline::{identify, identify_log, Options};
 use fpkbench::Scenario;
 use std::path::Path;
@@ -78,7 +78,7 @@ fn a_log_exported_to_csv_and_npy_gives_the_logs_estimates() {
         let file = dir.path().join(format!("run.{format}"));
         export(&log, format, &file);
         let table = read_table(&file, &[]).unwrap();
-        let info = LogInfo::of_measured(model.clone(), measured(&model, &[table]).unwrap());
+        let info = Input::tables(model.clone(), measured(&model, &[table]).unwrap());
         let r = identify(&info, &options()).unwrap();
         // No truth for the stiffness: nothing graded, and the run counts as done.
         assert!(r.methods[0].threshold.is_none() && r.methods[0].worst_rel_error.is_nan());
@@ -253,7 +253,7 @@ fn velocities_can_be_derived_from_displacements_and_coarse_sampling_is_flagged()
         if !coarse {
             // Finely sampled, the derived velocities give the log's estimates to within a
             // fraction of their standard errors.
-            let r = identify(&LogInfo::of_measured(model.clone(), data), &options()).unwrap();
+            let r = identify(&Input::tables(model.clone(), data), &options()).unwrap();
             let from_log = estimates(&identify_log(&log, &options()).unwrap());
             for ((n, e, _), (_, le, lse)) in estimates(&r).iter().zip(&from_log) {
                 assert!(
@@ -296,7 +296,7 @@ fn the_papers_bushing_from_rig_like_csv_matches_the_log_path() {
     std::fs::write(&rig_csv, rig).unwrap();
     let model = Scenario::from_file(Path::new("models/bushing.toml")).unwrap();
     let data = measured(&model, &[read_table(&rig_csv, &[]).unwrap()]).unwrap();
-    let r = identify(&LogInfo::of_measured(model, data), &options()).unwrap();
+    let r = identify(&Input::tables(model, data), &options()).unwrap();
     let from_log = estimates(&identify_log(&log, &options()).unwrap());
     let from_rig = estimates(&r);
     assert_eq!(from_rig.len(), 2);
@@ -391,7 +391,7 @@ fn json_messages_of_an_mcap_file_from_another_tool_are_read_by_topic() {
     let table = fpkbench::io::table::read_for(&json, model.data.as_ref().unwrap()).unwrap();
     let from_mcap = estimates(
         &identify(
-            &LogInfo::of_measured(model.clone(), measured(&model, &[table]).unwrap()),
+            &Input::tables(model.clone(), measured(&model, &[table]).unwrap()),
             &options(),
         )
         .unwrap(),
@@ -399,7 +399,7 @@ fn json_messages_of_an_mcap_file_from_another_tool_are_read_by_topic() {
     let csv_model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
     let from_csv = estimates(
         &identify(
-            &LogInfo::of_measured(
+            &Input::tables(
                 csv_model.clone(),
                 measured(&csv_model, &[read_table(&csv, &[]).unwrap()]).unwrap(),
             ),
@@ -457,7 +457,7 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
         .replace("p_moment = \"moment\"", "p_moment = \"p_moment\"");
     let no_a = Scenario::parse(&text, "bushing.toml", "b").unwrap();
     let data = measured(&no_a, &[read_table(&csv, &[]).unwrap()]).unwrap();
-    let e = fpkbench::pipeline::check_measured(&LogInfo::of_measured(no_a, data)).unwrap_err();
+    let e = fpkbench::pipeline::check_measured(&Input::tables(no_a, data)).unwrap_err();
     assert!(e.contains("no a_j") && e.contains("derive = true"), "{e}");
     let derived = Scenario::parse(
         &text.replace("[data.columns]", "derive = true\n[data.columns]"),
@@ -476,7 +476,7 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
         "{:?}",
         data.notes
     );
-    let info = LogInfo::of_measured(derived, data);
+    let info = Input::tables(derived, data);
     fpkbench::pipeline::check_measured(&info).unwrap();
     assert!(identify(&info, &options()).is_ok());
 }
@@ -498,7 +498,7 @@ fn validation_spectra_tell_a_wrong_model_from_the_right_one() {
     };
     let spectrum_of_x = |model_text: &str| {
         let model = Scenario::parse(model_text, "model.toml", "m").unwrap();
-        let info = LogInfo::of_measured(model.clone(), measured(&model, std::slice::from_ref(&table)).unwrap());
+        let info = Input::tables(model.clone(), measured(&model, std::slice::from_ref(&table)).unwrap());
         let r = identify(&info, &with_validation).unwrap();
         let v = r.validation.expect("validated");
         let row = v.rows.iter().find(|row| row.variable == "x_m1").unwrap();

@@ -484,7 +484,10 @@ fn a_strong_form_from_too_few_cells_is_flagged_and_the_grid_follows_the_sample_c
         simulate_log(&s, &log, Default::default(), &|_| {}).unwrap();
         let options = Options {
             validate: false,
-            density: StrongDensity::Histogram,
+            estimators: fpkbench::pipeline::Settings {
+                density: StrongDensity::Histogram,
+                ..Default::default()
+            },
             ..Options::default()
         };
         identify_log(&log, &options).unwrap().methods.remove(0)
@@ -566,8 +569,8 @@ fn kernel_strong_form_with_jackknife_groups_equals_the_form_without() {
     let mom = sdof_exact(6);
     let std = [mom.std(0), mom.std(1)];
     let options = KernelOptions::auto(2, 200_000);
-    let mut grouped = FluxLattice::new(&p, &[0.0, 0.0], &std, options, 32).unwrap();
-    let mut single = FluxLattice::new(&p, &[0.0, 0.0], &std, options, 0).unwrap();
+    let mut grouped = FluxLattice::new(&p, &[0.0, 0.0], &std, options, 32, &Default::default()).unwrap();
+    let mut single = FluxLattice::new(&p, &[0.0, 0.0], &std, options, 0, &Default::default()).unwrap();
     assert!(grouped.group_count() >= 8, "{}", grouped.group_count());
     assert_eq!(single.group_count(), 0);
     // Correlated Gaussian samples (Box–Muller on a xorshift stream), in the log's columns.

@@ -2,7 +2,7 @@
 //! the GIL released while they work. The Python side (`fpkbench/__init__.py`) turns their
 //! plain results into numpy arrays and a `Result`.
 
-use fpkbench::io::log::LogInfo;
+use fpkbench::pipeline::Input;
 use fpkbench::io::table::{measured, Table};
 use fpkbench::pipeline::{self, Options};
 use fpkbench::scenario::Method;
@@ -35,17 +35,7 @@ fn parse(text: &str, label: &str, json: bool) -> PyResult<Scenario> {
 fn options(methods: Vec<String>, validate: bool) -> PyResult<Options> {
     let methods = methods
         .iter()
-        .map(|m| match m.as_str() {
-            "weak" => Ok(Method::Weak),
-            "strong" => Ok(Method::Strong),
-            "strong-marginals" => Ok(Method::StrongMarginals),
-            "increments" => Ok(Method::Increments),
-            "kramers-moyal" => Ok(Method::KramersMoyal),
-            "force-regression" => Ok(Method::ForceRegression),
-            other => Err(err(format!(
-                "unknown method {other:?}: weak, strong, strong-marginals, increments, kramers-moyal or force-regression"
-            ))),
-        })
+        .map(|m| m.parse::<Method>().map_err(err))
         .collect::<PyResult<Vec<_>>>()?;
     Ok(Options {
         methods,
@@ -121,10 +111,10 @@ fn identify_table(
             columns,
         };
         let data = measured(&model, &[table]).map_err(err)?;
-        let info = LogInfo::of_measured(model, data);
-        pipeline::preflight(&info.scenario).map_err(|e| err(format!("{label}: {e}")))?;
-        pipeline::check_measured(&info).map_err(|e| err(format!("<data>: {e}")))?;
-        let report = pipeline::identify(&info, &options).map_err(err)?;
+        let input = Input::tables(model, data);
+        pipeline::preflight(&input.info.scenario).map_err(|e| err(format!("{label}: {e}")))?;
+        pipeline::check_measured(&input).map_err(|e| err(format!("<data>: {e}")))?;
+        let report = pipeline::identify(&input, &options).map_err(err)?;
         serde_json::to_string(&report).map_err(err)
     })
 }

@@ -1,44 +1,20 @@
 //! `fpkbench identify`: identify the unknowns of a run log and report the accuracy.
 
-use fpkbench::ident::kernel::KernelOptions;
-use fpkbench::ident::strong::GridOptions;
+use clap::builder::TypedValueParser;
 use fpkbench::io::output::{refuse_same_file, FolderLock};
-use fpkbench::pipeline::{identify, Options, StrongDensity};
+use fpkbench::pipeline::{identify, GridSettings, Input, Options, Settings, StrongDensity};
 use fpkbench::report;
 use fpkbench::report::Report;
 use fpkbench::scenario::Method;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-/// Identification method.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-pub enum MethodArg {
-    /// Weak form: stationarity of test-function expectations from raw moments (default).
-    Weak,
-    /// Strong form: the paper's FPK residual (3.8) point by point, from kernel estimates of the
-    /// density and its fluxes (`--density histogram`: the paper's histogram as written).
-    Strong,
-    /// Strong form with the product of marginal densities (the paper's experiment, 3.21).
-    StrongMarginals,
-    /// Baseline (not FPK, ungated): regression of velocity increments on the drift.
-    Increments,
-    /// Baseline (not FPK, ungated): binned conditional mean increments, then the drift.
-    KramersMoyal,
-    /// Oracle bound (not FPK, ungated): equation error with the measured forces.
-    ForceRegression,
-}
-
-impl From<MethodArg> for Method {
-    fn from(m: MethodArg) -> Method {
-        match m {
-            MethodArg::Weak => Method::Weak,
-            MethodArg::Strong => Method::Strong,
-            MethodArg::StrongMarginals => Method::StrongMarginals,
-            MethodArg::Increments => Method::Increments,
-            MethodArg::KramersMoyal => Method::KramersMoyal,
-            MethodArg::ForceRegression => Method::ForceRegression,
-        }
-    }
+/// `--method`: the registry's names, each with its one-line help.
+pub fn method_parser() -> impl TypedValueParser<Value = Method> {
+    let values = Method::REGISTERED
+        .iter()
+        .map(|m| clap::builder::PossibleValue::new(m.name()).help(m.help()));
+    clap::builder::PossibleValuesParser::new(values).map(|name| name.parse::<Method>().expect("a registered name"))
 }
 
 /// The strong form's density estimate.
@@ -54,8 +30,8 @@ pub enum DensityArg {
 #[derive(clap::Args, Debug, Clone)]
 pub struct IdentifyArgs {
     /// Methods to run (repeatable) [default: the scenario's `[identify] methods`].
-    #[arg(long = "method", value_enum)]
-    pub methods: Vec<MethodArg>,
+    #[arg(long = "method", value_parser = method_parser())]
+    pub methods: Vec<Method>,
     /// Print the report as JSON on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -94,33 +70,28 @@ pub struct IdentifyArgs {
 }
 
 impl IdentifyArgs {
-    pub fn options(&self, dim_hint: usize) -> Options {
-        let grid = if self.bins.is_some() || self.span.is_some() || self.min_count.is_some() {
-            let auto = GridOptions::auto(dim_hint, u64::MAX);
-            Some(GridOptions {
-                bins: self.bins.unwrap_or(auto.bins),
-                span_std: self.span.unwrap_or(auto.span_std),
-                min_count: self.min_count.unwrap_or(auto.min_count),
-            })
-        } else {
-            None
+    /// The pipeline's options. What is not given stays unset: the pipeline resolves it
+    /// from the problem's own state (its dimension includes any filter states).
+    pub fn options(&self) -> Options {
+        let grid = GridSettings {
+            bins: self.bins,
+            span_std: self.span,
+            min_count: self.min_count,
         };
-        let kernel = self.smoothing.map(|smoothing| KernelOptions {
-            smoothing,
-            ..KernelOptions::auto(dim_hint, u64::MAX)
-        });
         // Histogram settings given without --density: the histogram is meant.
         let histogram = self.density == Some(DensityArg::Histogram)
-            || (self.density.is_none() && grid.is_some() && kernel.is_none());
+            || (self.density.is_none() && grid.is_set() && self.smoothing.is_none());
         Options {
-            methods: self.methods.iter().map(|&m| m.into()).collect(),
-            density: if histogram {
-                StrongDensity::Histogram
-            } else {
-                StrongDensity::Kernel
+            methods: self.methods.clone(),
+            estimators: Settings {
+                density: if histogram {
+                    StrongDensity::Histogram
+                } else {
+                    StrongDensity::Kernel
+                },
+                smoothing: self.smoothing,
+                grid,
             },
-            kernel,
-            grid,
             validate: !self.no_validate,
             max_steps: self.max_steps.map(|m| m as usize),
             tolerance: self.tolerance,
@@ -199,27 +170,27 @@ pub fn report_dir(args: &IdentifyArgs, scenario: &str) -> PathBuf {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let (info, inputs) = match (&args.log, &args.model) {
+    let (input, files) = match (&args.log, &args.model) {
         (Some(log), _) => {
             let mut info = fpkbench::io::log::read_info(log)?;
             info.accept_truncated = args.allow_truncated;
-            (info, vec![log.clone()])
+            (Input::log(info), vec![log.clone()])
         }
-        (None, Some(model)) => (measured_info(model, &args.data)?, args.data.clone()),
+        (None, Some(model)) => (measured_input(model, &args.data)?, args.data.clone()),
         (None, None) => unreachable!("clap requires one"),
     };
-    let dir = report_dir(&args.identify, &info.scenario.name);
-    for input in inputs.iter().chain(&args.model) {
+    let dir = report_dir(&args.identify, &input.info.scenario.name);
+    for file in files.iter().chain(&args.model) {
         for f in report::files() {
-            refuse_same_file(input, &dir.join(f))?;
+            refuse_same_file(file, &dir.join(f))?;
         }
     }
-    let report = identify(&info, &args.identify.options(info.scenario.masses.len() * 2))?;
+    let report = identify(&input, &args.identify.options())?;
     finish(&report, &args.identify)
 }
 
 /// The model file and its measured data, checked before any identification.
-fn measured_info(model: &Path, data: &[PathBuf]) -> anyhow::Result<fpkbench::io::log::LogInfo> {
+fn measured_input(model: &Path, data: &[PathBuf]) -> anyhow::Result<Input> {
     let scenario = fpkbench::Scenario::from_file(model)?;
     let Some(mapping) = &scenario.data else {
         anyhow::bail!(
@@ -232,8 +203,8 @@ fn measured_info(model: &Path, data: &[PathBuf]) -> anyhow::Result<fpkbench::io:
         .map(|p| fpkbench::io::table::read_for(p, mapping))
         .collect::<Result<Vec<_>, _>>()?;
     let measured = fpkbench::io::table::measured(&scenario, &tables)?;
-    let info = fpkbench::io::log::LogInfo::of_measured(scenario, measured);
-    fpkbench::pipeline::preflight(&info.scenario).map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
-    fpkbench::pipeline::check_measured(&info).map_err(|e| anyhow::anyhow!("{}: {e}", data[0].display()))?;
-    Ok(info)
+    let input = Input::tables(scenario, measured);
+    fpkbench::pipeline::preflight(&input.info.scenario).map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
+    fpkbench::pipeline::check_measured(&input).map_err(|e| anyhow::anyhow!("{}: {e}", data[0].display()))?;
+    Ok(input)
 }

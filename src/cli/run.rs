@@ -52,7 +52,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             sim.bytes as f64 / 1e6
         );
     }
-    let mut report = identify_log(&log, &args.identify.options(scenario.masses.len() * 2))?;
+    let mut report = identify_log(&log, &args.identify.options())?;
     report.timings_s.simulate = sim.seconds;
     report.timings_s.total = start.elapsed().as_secs_f64();
     let mut a = args.identify.clone();

@@ -56,8 +56,8 @@ pub struct Args {
     #[arg(long = "sample-interval", requires = "scenario")]
     pub sample_intervals: Vec<f64>,
     /// A method (repeatable; with --scenario) [default: the scenario's].
-    #[arg(long = "method", value_enum, requires = "scenario")]
-    pub methods: Vec<crate::cli::identify::MethodArg>,
+    #[arg(long = "method", value_parser = crate::cli::identify::method_parser(), requires = "scenario")]
+    pub methods: Vec<fpkbench::scenario::Method>,
     /// An override KEY=VALUE applied first, as for `run` (repeatable; with --scenario).
     #[arg(long = "set", requires = "scenario")]
     pub set: Vec<String>,
@@ -84,11 +84,7 @@ fn study_text(args: &Args, scenario: &Path) -> String {
         t.insert("sample_intervals".into(), floats(&args.sample_intervals));
     }
     if !args.methods.is_empty() {
-        let names: Vec<String> = args
-            .methods
-            .iter()
-            .map(|&m| fpkbench::scenario::Method::from(m).name().to_string())
-            .collect();
+        let names: Vec<String> = args.methods.iter().map(|m| m.name().to_string()).collect();
         t.insert("methods".into(), strings(&names));
     }
     if !args.set.is_empty() {

@@ -616,14 +616,13 @@ pub struct KramersMoyal {
     incr: Vec<f64>,
     used: u64,
     outside: u64,
+    /// Where the cell arena comes from and goes back to.
+    arenas: std::sync::Arc<super::Arenas>,
 }
-
-/// Kramers–Moyal arenas given back by records done with them.
-static SPARE_ARENAS: super::Spare<f64> = super::Spare::new();
 
 impl Drop for KramersMoyal {
     fn drop(&mut self) {
-        SPARE_ARENAS.give(std::mem::take(&mut self.arena));
+        self.arenas.cells.give(std::mem::take(&mut self.arena));
     }
 }
 
@@ -718,8 +717,10 @@ impl KramersMoyal {
         (mean, std): (&[f64], &[f64]),
         bins: usize,
         span: f64,
+        arenas: &std::sync::Arc<super::Arenas>,
     ) -> KramersMoyal {
         KramersMoyal {
+            arenas: arenas.clone(),
             problem: problem.clone(),
             parts: DriftParts::of(problem),
             pairs: Pairs::new(h),
@@ -738,7 +739,7 @@ impl KramersMoyal {
                 let cells = (bins as u64).saturating_pow(problem.dim() as u32);
                 let slot = batches.max(1) * (1 + problem.n + problem.dim());
                 if cells.saturating_mul(8 * slot as u64) <= 1 << 30 {
-                    SPARE_ARENAS.empty(cells as usize * slot)
+                    arenas.cells.empty(cells as usize * slot)
                 } else {
                     Vec::new()
                 }

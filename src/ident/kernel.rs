@@ -36,9 +36,10 @@
 //! samples there (the report counts the samples outside the lattice).
 
 use super::poly::{Compiled, Poly};
-use super::{prefetch, IdentError, Pieces, Problem, Spare};
+use super::{prefetch, Arenas, IdentError, Pieces, Problem};
 use multiversion::multiversion;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Settings of the kernel estimate; [`KernelOptions::auto`] gives the defaults.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
@@ -165,22 +166,19 @@ impl Channels {
     }
 }
 
-/// Lattices of past lattices, for the next ones (see [`Spare`]).
-static SPARE_F64: Spare<f64> = Spare::new();
-static SPARE_F32: Spare<f32> = Spare::new();
-
 /// Per jackknife group, its share of the fluxes.
 #[derive(Debug, Clone)]
 struct Groups {
     of_batch: Vec<usize>,
     fluxes: Vec<Vec<f32>>,
     total: Vec<u64>,
+    arenas: Arc<Arenas>,
 }
 
 impl Drop for Groups {
     fn drop(&mut self) {
         for g in self.fluxes.drain(..) {
-            SPARE_F32.give(g);
+            self.arenas.groups.give(g);
         }
     }
 }
@@ -227,6 +225,8 @@ pub struct FluxLattice {
     corner: Vec<(usize, f64)>,
     /// The `2^d` nodes of the sample's cell: offset and weight ([`spread_sample`]).
     cell_nodes: Vec<(usize, f64)>,
+    /// Where the lattices come from and go back to.
+    arenas: Arc<Arenas>,
 }
 
 /// Samples gathered before they are spread over the lattice in the order of their cells
@@ -299,31 +299,33 @@ fn spread_sample(corner: &[(usize, f64)], stride: &[usize], values: &[f64], node
 
 /// The two lattices a separable filter passes between ([`FluxLattice::filter`]), kept
 /// from one filter to the next.
-struct Scratch {
+struct Scratch<'a> {
     cur: Vec<f64>,
     next: Vec<f64>,
+    arenas: &'a Arenas,
 }
 
-impl Scratch {
+impl Scratch<'_> {
     /// For filters of `len` values at most.
-    fn new(len: usize) -> Scratch {
+    fn new(len: usize, arenas: &Arenas) -> Scratch<'_> {
         Scratch {
-            cur: SPARE_F64.zeroed(len),
-            next: SPARE_F64.zeroed(len),
+            cur: arenas.lattices.zeroed(len),
+            next: arenas.lattices.zeroed(len),
+            arenas,
         }
     }
 }
 
-impl Drop for Scratch {
+impl Drop for Scratch<'_> {
     fn drop(&mut self) {
-        SPARE_F64.give(std::mem::take(&mut self.cur));
-        SPARE_F64.give(std::mem::take(&mut self.next));
+        self.arenas.lattices.give(std::mem::take(&mut self.cur));
+        self.arenas.lattices.give(std::mem::take(&mut self.next));
     }
 }
 
 impl Drop for FluxLattice {
     fn drop(&mut self) {
-        SPARE_F64.give(std::mem::take(&mut self.fluxes));
+        self.arenas.lattices.give(std::mem::take(&mut self.fluxes));
     }
 }
 
@@ -337,6 +339,7 @@ impl FluxLattice {
         std: &[f64],
         options: KernelOptions,
         batches: usize,
+        arenas: &Arc<Arenas>,
     ) -> Result<FluxLattice, IdentError> {
         let d = problem.dim();
         let h_std = (options.smoothing * SPACING).min(MAX_SPACING);
@@ -373,10 +376,11 @@ impl FluxLattice {
         let count = (GROUP_BUDGET / per_group.max(1)).min(batches).min(MAX_GROUPS);
         let groups = (count >= MIN_GROUPS).then(|| Groups {
             of_batch: (0..batches).map(|b| b * count / batches).collect(),
-            fluxes: (0..count).map(|_| SPARE_F32.zeroed(cells * width)).collect(),
+            fluxes: (0..count).map(|_| arenas.groups.zeroed(cells * width)).collect(),
             total: vec![0; count],
+            arenas: arenas.clone(),
         });
-        let fluxes = SPARE_F64.zeroed(cells * width);
+        let fluxes = arenas.lattices.zeroed(cells * width);
         Ok(FluxLattice {
             dim: d,
             options,
@@ -401,6 +405,7 @@ impl FluxLattice {
             values: vec![0.0; width],
             corner: vec![(0, 0.0); d],
             cell_nodes: vec![(0, 0.0); 1 << d],
+            arenas: arenas.clone(),
             channels,
         })
     }
@@ -415,7 +420,7 @@ impl FluxLattice {
         options: KernelOptions,
         f: impl Fn(&[f64]) -> f64,
     ) -> Result<FluxLattice, IdentError> {
-        let mut l = FluxLattice::new(problem, mean, std, options, 0)?;
+        let mut l = FluxLattice::new(problem, mean, std, options, 0, &Arc::default())?;
         let width = l.channels.len();
         let volume: f64 = l.h.iter().product();
         let mut y = vec![0.0; l.dim];
@@ -585,7 +590,7 @@ impl FluxLattice {
         let width = self.channels.len();
         let w = which.len();
         let cells = fluxes.len() / width;
-        let Scratch { cur, next } = scratch;
+        let Scratch { cur, next, .. } = scratch;
         cur.clear();
         for node in 0..cells {
             cur.extend(which.iter().map(|&c| fluxes[node * width + c]));
@@ -754,11 +759,11 @@ impl FluxLattice {
     /// and the number of residual rows.
     pub fn pieces(&self, problem: &Problem) -> (Pieces, Vec<Pieces>, usize) {
         assert!(self.finished, "FluxLattice::finish was not called");
-        let mut scratch = Scratch::new(self.fluxes.len());
+        let mut scratch = Scratch::new(self.fluxes.len(), &self.arenas);
         let rows = self.rows(&mut scratch);
         let total = self.pieces_of(problem, &self.fluxes, self.inside.max(1) as f64, &rows, &mut scratch);
         // One replicate's fluxes at a time, in one buffer.
-        let mut fluxes = SPARE_F64.zeroed(self.fluxes.len());
+        let mut fluxes = self.arenas.lattices.zeroed(self.fluxes.len());
         let replicates = match &self.groups {
             None => Vec::new(),
             Some(g) => (0..g.total.len())
@@ -771,7 +776,7 @@ impl FluxLattice {
                 })
                 .collect(),
         };
-        SPARE_F64.give(fluxes);
+        self.arenas.lattices.give(fluxes);
         let count = rows.len();
         (total, replicates, count)
     }

@@ -142,8 +142,31 @@ pub(crate) fn huge_pages<T>(v: &[T]) {
 /// free-page reporting) every fresh page costs a fault and a zeroing: a tenth of an item's
 /// time on the development machine (docs/performance.md). Tables given back here are
 /// handed out again, zeroed in place; at most [`Spare::BYTES`] are kept per kind.
-pub(crate) struct Spare<T> {
+#[derive(Default)]
+pub struct Spare<T> {
     pool: std::sync::Mutex<Vec<Vec<T>>>,
+}
+
+/// The large tables identifications keep for the next ones ([`Spare`]), one pool per kind:
+/// owned by whoever runs many identifications (a study hands every item the same) and
+/// passed to the accumulators that take tables from them; a single run has its own.
+#[derive(Debug, Default)]
+pub struct Arenas {
+    /// The kernel strong form's lattices of fluxes and its filters' scratch.
+    pub lattices: Spare<f64>,
+    /// The kernel strong form's jackknife groups' lattices.
+    pub groups: Spare<f32>,
+    /// The Kramers–Moyal baseline's cell arenas.
+    pub cells: Spare<f64>,
+    /// The samples a simulation in memory keeps for its later passes.
+    pub samples: Spare<f64>,
+}
+
+impl<T> std::fmt::Debug for Spare<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        write!(f, "Spare({} tables kept)", pool.len())
+    }
 }
 
 impl<T: Copy + Default> Spare<T> {

@@ -432,62 +432,17 @@ pub struct LogInfo {
     /// Use the readable samples of a truncated log instead of refusing it
     /// (`--allow-truncated`); see [`read_samples`].
     pub accept_truncated: bool,
-    /// Measured data standing in for the log's samples (`identify --model --data`).
-    pub measured: Option<std::sync::Arc<super::table::Measured>>,
-    /// No file: the scenario's simulation stands in for the samples
-    /// ([`LogInfo::of_simulation`]; studies without logs).
-    pub simulated: Option<std::sync::Arc<Replay>>,
-}
-
-/// The samples of a run simulated without a log: the first pass keeps them in memory when
-/// they fit in [`Replay::BUDGET`] and later passes replay them; otherwise every pass runs
-/// the simulation again (deterministic by its seed, whatever the thread count), so memory
-/// stays bounded either way.
-#[derive(Default)]
-pub struct Replay {
-    kept: std::sync::OnceLock<Vec<f64>>,
-}
-
-impl Replay {
-    /// Bytes of samples kept for replay, at most (`(2 + columns) × 8` bytes per sample: a
-    /// 3.2e6-sample run of duffing2dof takes 282 MB). Above it, passes re-simulate.
-    pub const BUDGET: u64 = 512 << 20;
-}
-
-/// Buffers of replays that ended, for the next ones: a study runs many items of the same
-/// size, and touching fresh pages cost a tenth of an item's time.
-static SPARE: crate::ident::Spare<f64> = crate::ident::Spare::new();
-
-impl Drop for Replay {
-    fn drop(&mut self) {
-        if let Some(v) = self.kept.take() {
-            SPARE.give(v);
-        }
-    }
-}
-
-impl std::fmt::Debug for Replay {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.kept.get() {
-            Some(v) => write!(f, "Replay({} values kept)", v.len()),
-            None => write!(f, "Replay(nothing kept)"),
-        }
-    }
 }
 
 impl LogInfo {
     /// Samples the run was to write (trajectories × samples per trajectory).
     pub fn expected_samples(&self) -> u64 {
-        if let Some(m) = &self.measured {
-            return m.samples();
-        }
         let s = &self.scenario.simulation;
         (s.trajectories as u64).saturating_mul(s.samples_per_trajectory() as u64)
     }
 
-    /// A run that is not written anywhere: its samples come from the simulation, kept in
-    /// memory for later passes when small enough, else simulated again on every pass
-    /// ([`Replay`]), so an identification needs no log on disk.
+    /// The description of a run that is not written anywhere (its samples come from the
+    /// simulation: `pipeline::Input::simulation`).
     pub fn of_simulation(scenario: Scenario) -> LogInfo {
         let m = crate::model::Model::new(&scenario);
         LogInfo {
@@ -499,8 +454,6 @@ impl LogInfo {
             library: String::new(),
             accept_truncated: false,
             scenario,
-            measured: None,
-            simulated: Some(Default::default()),
         }
     }
 
@@ -508,7 +461,7 @@ impl LogInfo {
     /// from the data (records as trajectories, their sample interval and longest length;
     /// steps of a tenth of the interval for the validation's re-simulation) and its truth
     /// only where the model gives values.
-    pub fn of_measured(mut model: Scenario, data: super::table::Measured) -> LogInfo {
+    pub fn of_measured(mut model: Scenario, data: &super::table::Measured) -> LogInfo {
         let sim = &mut model.simulation;
         sim.sample_interval = data.sample_interval;
         sim.dt = data.sample_interval / 10.0;
@@ -537,8 +490,6 @@ impl LogInfo {
             library: String::new(),
             accept_truncated: false,
             scenario: model,
-            measured: Some(std::sync::Arc::new(data)),
-            simulated: None,
         }
     }
 }
@@ -689,8 +640,6 @@ pub fn read_info(path: &Path) -> Result<LogInfo, LogError> {
         channel_metadata,
         library: found.library,
         accept_truncated: false,
-        measured: None,
-        simulated: None,
     })
 }
 
@@ -777,49 +726,6 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
 /// delivering every sample that could be read — or, when the caller asked for it with
 /// [`LogInfo::accept_truncated`], the count of those samples.
 pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Result<u64, LogError> {
-    if let Some(m) = &info.measured {
-        for (r, (times, rows)) in m.records.iter().enumerate() {
-            for (s, t) in times.iter().enumerate() {
-                f(r as u32, *t, &rows[s * m.width..(s + 1) * m.width]);
-            }
-        }
-        return Ok(m.samples());
-    }
-    if let Some(replay) = &info.simulated {
-        let width = 2 + info.columns.len();
-        if let Some(kept) = replay.kept.get() {
-            for s in kept.chunks_exact(width) {
-                f(s[0] as u32, s[1], &s[2..]);
-            }
-            return Ok((kept.len() / width) as u64);
-        }
-        let bytes = info.expected_samples().saturating_mul(8 * width as u64);
-        let keep = bytes <= Replay::BUDGET;
-        let mut kept = if keep {
-            SPARE.empty(bytes as usize / 8)
-        } else {
-            Vec::new()
-        };
-        let model = crate::model::Model::new(&info.scenario);
-        let mut n = 0u64;
-        let mut sink = crate::sim::ForEach(|j: u32, t: f64, row: &[f64]| {
-            n += 1;
-            if keep {
-                kept.push(j as f64);
-                kept.push(t);
-                kept.extend_from_slice(row);
-            }
-            f(j, t, row)
-        });
-        crate::sim::simulate(&model, &info.scenario.simulation, &mut sink, &|_| {}).map_err(|e| LogError::Io {
-            path: info.path.display().to_string(),
-            source: std::io::Error::other(e.to_string()),
-        })?;
-        if keep {
-            let _ = replay.kept.set(kept);
-        }
-        return Ok(n);
-    }
     let label = info.path.display().to_string();
     let cols = info.columns.len();
     let trajectories = info.scenario.simulation.trajectories;

@@ -3,6 +3,7 @@
 //! with their accuracy at every step. See `docs/theory.md` §4.
 
 use super::grading::{assemble, method_report, Grader};
+use super::source::Input;
 use super::spectra::ForceSpectra;
 use super::validation::Distributions;
 use super::{Options, PipelineError};
@@ -10,7 +11,6 @@ use crate::ident::data::StationaryData;
 use crate::ident::disturbance::SingleMass;
 use crate::ident::poly::Poly;
 use crate::ident::{self, disturbance, spectrum, spectrum::Welch, weak, Filter, IdentError, Problem};
-use crate::io::log::{read_samples, LogInfo};
 use crate::model::Columns;
 use crate::report::{IterationReport, MethodReport, Report};
 use crate::scenario::{Method, Process, ReportMethod};
@@ -20,13 +20,13 @@ use std::time::Instant;
 /// iterative procedure ([`disturbance`]): step 0, every step, the final estimate (gated)
 /// and the bound with the disturbance given as measured.
 pub(crate) fn identify_disturbed(
-    info: &LogInfo,
+    input: &Input,
     settings: &crate::scenario::Disturbance,
     options: &Options,
     start: Instant,
 ) -> Result<Report, PipelineError> {
-    let s = &info.scenario;
-    let grader = Grader::of_log(info)?;
+    let s = &input.info.scenario;
+    let grader = Grader::of_log(&input.info)?;
     if options.methods.iter().any(|m| *m != Method::Weak) {
         return Err(IdentError::Unsupported(
             "the iterative procedure ([identify.disturbance]) uses the weak form in every step; other methods do not apply".into(),
@@ -71,7 +71,7 @@ pub(crate) fn identify_disturbed(
     let mut bound_data = data_for(&force_bound);
     let mut force = data_for(&force_structure);
     let mut forces = ForceSpectra::new(s, &fitted);
-    read_samples(info, |traj, t, row| {
+    input.for_each_sample(|traj, t, row| {
         white.push(traj, t, row);
         driven.push(traj, t, &row[log.kinematics(st.driven)]);
         force.push(traj, t, &disturbance::force_row(s, &st, row));
@@ -110,7 +110,7 @@ pub(crate) fn identify_disturbed(
     );
     let m1 = s.masses[st.free].value;
     let mut dist = Distributions::new(s, &white_structure, &white);
-    read_samples(info, |traj, _, row| {
+    input.for_each_sample(|traj, _, row| {
         forces.push(traj, row);
         p3.push(
             traj as usize,
@@ -276,7 +276,7 @@ pub(crate) fn identify_disturbed(
         .validate
         .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ReportMethod::IteratedForce));
     Ok(assemble(
-        info,
+        input,
         &grader,
         white.samples(),
         start,

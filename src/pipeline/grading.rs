@@ -2,6 +2,7 @@
 //! observed ranges (`docs/methods.md`, accuracy), dissipativity (3.4), and the report's
 //! assembly.
 
+use super::source::Input;
 use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
 use crate::model::{Characteristic, Coefficient, Truth};
@@ -31,11 +32,11 @@ impl<'a> Grader<'a> {
     }
 }
 
-/// The report of an identification of `info`'s log; passed when there is a gated method
-/// and every gated method passed.
+/// The report of an identification of `input`; passed when there is a gated method and
+/// every gated method passed.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn assemble(
-    info: &LogInfo,
+    input: &Input,
     grader: &Grader,
     samples: u64,
     start: Instant,
@@ -45,13 +46,14 @@ pub(crate) fn assemble(
     iterations: Vec<IterationReport>,
     plot: PlotData,
 ) -> Report {
+    let info = &input.info;
     let s = &info.scenario;
     let sim = &s.simulation;
     let applicable = || methods.iter().filter(|r| r.gated && r.not_applicable.is_none());
     let passed = match applicable().next() {
         Some(_) => applicable().all(|r| r.passed == Some(true)),
         // Nothing graded (measured data without a truth): every method gave an estimate.
-        None => info.measured.is_some() && methods.iter().all(|r| r.error.is_none()),
+        None => input.measured().is_some() && methods.iter().all(|r| r.error.is_none()),
     };
     let identify_s = start.elapsed().as_secs_f64();
     Report {
@@ -61,7 +63,7 @@ pub(crate) fn assemble(
         record_length_s: sim.record_length,
         total_record_s: sim.record_length * sim.trajectories as f64,
         samples,
-        expected_samples: info.expected_samples(),
+        expected_samples: input.expected_samples(),
         sample_interval_s: sim.sample_interval,
         trajectories: sim.trajectories,
         seed: sim.seed,
@@ -72,7 +74,7 @@ pub(crate) fn assemble(
             identify: identify_s,
             total: identify_s,
         },
-        data_notes: info.measured.as_ref().map(|m| m.notes.clone()).unwrap_or_default(),
+        data_notes: input.measured().map(|m| m.notes.clone()).unwrap_or_default(),
         filters,
         methods,
         validation,

@@ -1,20 +1,19 @@
-//! The ordinary path: every requested method on one log, the naive white-noise baseline
-//! for filtered forces, the `[identify.compare]` alternatives, and the validation.
+//! The ordinary path: every requested method's estimator on one sample source, the naive
+//! white-noise baseline for filtered forces, the `[identify.compare]` alternatives, and
+//! the validation.
 
 use super::disturbed::identify_disturbed;
 use super::grading::{assemble, method_report, Grader};
+use super::source::Input;
 use super::spectra::ForceSpectra;
 use super::validation::Distributions;
 use super::{Options, PipelineError};
-use crate::ident::baseline::{self, Increments, KramersMoyal};
+use crate::estimators::{Context, Estimator, Method, Setup};
 use crate::ident::data::StationaryData;
-use crate::ident::kernel::{FluxLattice, KernelOptions};
-use crate::ident::strong::{self, DensityGrid, GridOptions};
 use crate::ident::Specification;
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
-use crate::io::log::{read_samples, LogInfo};
 use crate::report::{MethodReport, Report};
-use crate::scenario::{Method, Process, ReportMethod, Scenario};
+use crate::scenario::{Process, ReportMethod, Scenario};
 use std::time::Instant;
 
 /// The measured filtered excitations at placeholder `A`, `B`: the problem's structure
@@ -43,10 +42,11 @@ pub fn preflight(s: &Scenario) -> Result<(), IdentError> {
 
 /// Measured data: every quantity the identification reads is in the data (mapped, or
 /// derived), named by its log column and what needs it.
-pub fn check_measured(info: &LogInfo) -> Result<(), String> {
-    let Some(m) = &info.measured else {
+pub fn check_measured(input: &Input) -> Result<(), String> {
+    let Some(m) = input.measured() else {
         return Ok(());
     };
+    let info = &input.info;
     let s = &info.scenario;
     let structure =
         Problem::from_spec(&Specification::from_scenario(s), &placeholder_filters(s)).map_err(|e| e.to_string())?;
@@ -87,16 +87,16 @@ pub fn check_measured(info: &LogInfo) -> Result<(), String> {
     Ok(())
 }
 
-pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -> Result<Report, PipelineError> {
-    let s = &info.scenario;
+pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) -> Result<Report, PipelineError> {
+    let s = &input.info.scenario;
     s.check_separable().map_err(IdentError::Inseparable)?;
     if let Some(d) = &s.identify.disturbance {
         let mut d = d.clone();
         d.max_steps = options.max_steps.unwrap_or(d.max_steps);
         d.tolerance = options.tolerance.unwrap_or(d.tolerance);
-        return identify_disturbed(info, &d, options, start);
+        return identify_disturbed(input, &d, options, start);
     }
-    let grader = Grader::of_log(info)?;
+    let grader = Grader::of_log(&input.info)?;
     let sim = &s.simulation;
     let methods = if options.methods.is_empty() {
         s.identify.methods.clone()
@@ -130,7 +130,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         )
     });
     let mut forces = ForceSpectra::new(s, &filtered);
-    read_samples(info, |traj, t, row| {
+    input.for_each_sample(|traj, t, row| {
         data.push(traj, t, row);
         if let Some(d) = naive_data.as_mut() {
             d.push(traj, t, row);
@@ -143,138 +143,53 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     }
     let total = data.total();
 
-    // Pass 2: grid, histograms, force spectra.
-    let kernel_density = options.density == super::StrongDensity::Kernel;
-    let want_grid = methods
-        .iter()
-        .any(|m| *m == Method::StrongMarginals || (*m == Method::Strong && !kernel_density));
-    let want_lattice = kernel_density && methods.contains(&Method::Strong);
-    // The strong forms' grid: automatic from the sample count unless given, and not
-    // applicable when even the coarsest automatic grid would be too sparse.
-    let mut grid = want_grid.then(|| {
-        let grid_options = match options.grid {
-            Some(g) => g,
-            None => {
-                strong::applicable(structure.dim(), total.count).map_err(IdentError::NotApplicable)?;
-                GridOptions::auto(structure.dim(), total.count)
-            }
-        };
-        // Only the product of the marginals wanted: the joint histogram is not counted.
-        let joint = methods.contains(&Method::Strong) && !kernel_density;
-        DensityGrid::new(&structure, &total, grid_options)
-            .map(|g| if joint { g } else { g.marginals_only() }.with_batches(data.batch_count()))
-    });
+    // Pass 2: every requested estimator's accumulators, the force spectra, the histograms.
+    let setup = Setup {
+        scenario: s,
+        structure: &structure,
+        whitened: naive_structure.as_ref(),
+        data: &data,
+        total: &total,
+        settings: &options.estimators,
+        arenas: &options.arenas,
+        measured: input.measured().is_some(),
+    };
+    let mut estimators: Vec<(Method, Box<dyn Estimator>)> = methods.iter().map(|&m| (m, m.estimator(&setup))).collect();
     let mut dist = Distributions::new(s, &structure, &data);
-    // The baselines on the same samples (white-noise problems only).
-    let baseline_ok = baseline::applicable(&structure);
-    let wants = |m: Method| methods.contains(&m) && baseline_ok.is_ok();
-    let mut increments =
-        wants(Method::Increments).then(|| Increments::new(&structure, sim.sample_interval, data.batch_count()));
-    // The force regression: on the mechanical problem (filtered forces are measured like
-    // white ones, so their filters' states are not needed), when every force is measured.
-    let force_problem = match &naive_structure {
-        Some(p) if p.unknowns != structure.unknowns => Err(IdentError::NotApplicable(
-            "the force regression estimates the mechanical coefficients only, and this problem has filter unknowns"
-                .into(),
-        )),
-        Some(p) => Ok(p),
-        None => Ok(&structure),
-    };
-    // fpkbench logs a white force as its mean over the sample interval; measured data and
-    // filtered forces hold values at the sample instants.
-    let interval_means: Vec<bool> = s
-        .excitations
-        .iter()
-        .map(|e| info.measured.is_none() && matches!(e.process, crate::scenario::Process::White { .. }))
-        .collect();
-    let force_ok = force_problem
-        .and_then(|p| baseline::applicable(p).map(|()| p))
-        .and_then(|p| baseline::force_columns(p, &interval_means).map(|c| (p, c)));
-    let mut force_regression = match (&force_ok, methods.contains(&Method::ForceRegression)) {
-        (Ok((p, cols)), true) => Some(Increments::with_forces(
-            p,
-            sim.sample_interval,
-            data.batch_count(),
-            cols.clone(),
-        )),
-        _ => None,
-    };
-    let mut kramers_moyal = wants(Method::KramersMoyal).then(|| {
-        let g = GridOptions::auto(structure.dim(), total.count);
-        let mean: Vec<f64> = (0..structure.dim()).map(|j| total.mean(j)).collect();
-        let std: Vec<f64> = (0..structure.dim()).map(|j| total.std(j)).collect();
-        KramersMoyal::new(
-            &structure,
-            sim.sample_interval,
-            data.batch_count(),
-            (&mean, &std),
-            g.bins,
-            g.span_std,
-        )
-    });
-    // The kernel lattice over a problem's state (the strong form's fluxes).
-    let new_lattice = |p: &Problem| {
-        let o = options
-            .kernel
-            .unwrap_or_else(|| KernelOptions::auto(p.dim(), total.count));
-        let mean: Vec<f64> = (0..p.dim()).map(|j| total.mean(j)).collect();
-        let std: Vec<f64> = (0..p.dim()).map(|j| total.std(j)).collect();
-        FluxLattice::new(p, &mean, &std, o, data.batch_count())
-    };
-    // Without filtered excitations the problem is known now: the lattice fills in this pass.
-    let mut lattice = (want_lattice && filtered.is_empty()).then(|| new_lattice(&structure));
     forces.start_welch(sim);
     let keep_dist = options.validate || options.plots;
-    read_samples(info, |traj, t, row| {
+    input.for_each_sample(|traj, t, row| {
         let batch = data.batch_of(traj, t);
-        if let Some(Ok(g)) = grid.as_mut() {
-            g.push_in(batch, row);
-        }
-        if let Some(Ok(l)) = lattice.as_mut() {
-            l.push_in(batch, row);
-        }
-        if let Some(b) = increments.as_mut() {
-            b.push(traj as usize, t, batch, row);
-        }
-        if let Some(b) = kramers_moyal.as_mut() {
-            b.push(traj as usize, t, batch, row);
-        }
-        if let Some(b) = force_regression.as_mut() {
-            b.push(traj as usize, t, batch, row);
+        for (_, e) in estimators.iter_mut() {
+            e.push(traj, t, batch, row);
         }
         if keep_dist {
             dist.push(traj as usize, row);
         }
         forces.push(traj, row);
     })?;
-
-    if let Some(Ok(g)) = grid.as_mut() {
-        g.finish();
-    }
-    if let Some(Ok(l)) = lattice.as_mut() {
-        l.finish();
-    }
-    if let Some(b) = kramers_moyal.as_mut() {
-        b.finish();
-    }
-    for b in [increments.as_mut(), force_regression.as_mut()].into_iter().flatten() {
-        b.finish();
+    for (_, e) in estimators.iter_mut() {
+        e.finish();
     }
     // Filters: fitted to the spectra, or known.
     let (filters, filter_reports, spectra) = forces.filters(s);
     let problem = Problem::from_spec(&spec, &filters)?;
     let typical = problem.typical(&total);
-    // Pass 3 (strong form from kernel estimates): the fluxes are the drift's parts, known
-    // only now that the filters are (without filtered excitations, in pass 2 already).
-    if want_lattice && lattice.is_none() {
-        lattice = Some(match new_lattice(&problem) {
-            Ok(mut l) => {
-                read_samples(info, |traj, t, row| l.push_in(data.batch_of(traj, t), row))?;
-                l.finish();
-                Ok(l)
+    // Pass 3, for accumulators that depend on the filters (the kernel strong form's fluxes
+    // are the drift's parts, known only now that the filters are).
+    let third: Vec<usize> = (0..estimators.len())
+        .filter(|&i| estimators[i].1.needs_pass(&problem, &setup))
+        .collect();
+    if !third.is_empty() {
+        input.for_each_sample(|traj, t, row| {
+            let batch = data.batch_of(traj, t);
+            for &i in &third {
+                estimators[i].1.push(traj, t, batch, row);
             }
-            Err(e) => Err(e),
-        });
+        })?;
+        for &i in &third {
+            estimators[i].1.finish();
+        }
     }
     // Identifiability is a property of the unknowns and the data: measured once, with the
     // weak form's batches, whatever methods were asked for (no estimates on failure).
@@ -290,32 +205,13 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         return Err(e.into());
     }
 
-    let (mut reports, first) = estimator_reports(
-        &methods,
-        &Estimators {
-            problem: &problem,
-            reported: &reported,
-            weak: &weak_estimate,
-            grid: grid.as_ref(),
-            lattice: lattice.as_ref(),
-            typical: &typical,
-            baseline: |m: Method| match (m, &baseline_ok) {
-                (Method::ForceRegression, _) => match (&force_ok, &force_regression) {
-                    (Err(e), _) => Err(e.clone()),
-                    (Ok(_), b) => b.as_ref().map_or_else(|| unreachable!(), |b| b.estimate(&typical)),
-                },
-                (_, Err(e)) => Err(e.clone()),
-                (Method::Increments, _) => increments
-                    .as_ref()
-                    .map_or_else(|| unreachable!(), |b| b.estimate(&typical)),
-                (_, _) => kramers_moyal
-                    .as_ref()
-                    .map_or_else(|| unreachable!(), |b| b.estimate(&typical)),
-            },
-        },
-        &grader,
-        &data.link_ranges,
-    )?;
+    let context = Context {
+        problem: &problem,
+        weak: &weak_estimate,
+        typical: &typical,
+        bilinear,
+    };
+    let (mut reports, first) = estimator_reports(&estimators, &context, &reported, &grader, &data.link_ranges)?;
     let naive = naive_data.as_ref().filter(|_| !filtered.is_empty());
     reports.extend(comparison_reports(&spec, &filters, naive, &data, &grader)?);
 
@@ -325,7 +221,7 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
         _ => None,
     };
     Ok(assemble(
-        info,
+        input,
         &grader,
         data.samples(),
         start,
@@ -337,55 +233,23 @@ pub(crate) fn identify_info(info: &LogInfo, options: &Options, start: Instant) -
     ))
 }
 
-/// What the gated estimators work from: the problem, the problem the reports are about
-/// (the physical one of a bilinear problem), the weak form's estimate (computed first, as
-/// it measures identifiability), the density grid if one was asked for.
-struct Estimators<'a, B: Fn(Method) -> Result<ident::Estimate, IdentError>> {
-    problem: &'a Problem,
-    reported: &'a Problem,
-    weak: &'a Result<ident::Estimate, IdentError>,
-    grid: Option<&'a Result<DensityGrid, IdentError>>,
-    /// The strong form's kernel lattice, if the kernel density was asked for.
-    lattice: Option<&'a Result<FluxLattice, IdentError>>,
-    typical: &'a [f64],
-    /// A baseline's estimate (computed on demand).
-    baseline: B,
-}
-
-/// The gated rows: one per requested method, and the first estimate that succeeded (what
-/// the validation re-simulates). Unknowns that cannot be separated end the identification.
+/// One row per requested method, and the first estimate of an FPK estimator that succeeded
+/// (what the validation re-simulates); rows are about `reported` (the physical problem of
+/// a bilinear one). Unknowns that cannot be separated end the identification.
 #[allow(clippy::type_complexity)]
-fn estimator_reports<B: Fn(Method) -> Result<ident::Estimate, IdentError>>(
-    methods: &[Method],
-    e: &Estimators<B>,
+fn estimator_reports(
+    estimators: &[(Method, Box<dyn Estimator>)],
+    cx: &Context,
+    reported: &Problem,
     grader: &Grader,
     ranges: &[[f64; 4]],
 ) -> Result<(Vec<MethodReport>, Option<(Vec<f64>, ReportMethod)>), PipelineError> {
     let s = grader.scenario;
-    let bilinear = e.problem.unknowns.iter().any(|u| matches!(u, Unknown::Corner(_)));
     let mut reports = Vec::new();
     let mut first = None;
-    for m in methods {
+    for (m, estimator) in estimators {
         let t = Instant::now();
-        let est = match (m, e.grid) {
-            (Method::Increments | Method::KramersMoyal | Method::ForceRegression, _) => (e.baseline)(*m),
-            (Method::Weak, _) => e.weak.clone(),
-            (Method::Strong, _) if bilinear && e.lattice.is_some() => Err(IdentError::Unsupported(
-                "an unknown corner B makes the drift bilinear; the strong form here solves linear problems only".into(),
-            )),
-            (Method::Strong, _) if e.lattice.is_some() => match e.lattice {
-                Some(Ok(l)) => ident::identify_kernel(e.problem, l, e.typical),
-                Some(Err(err)) => Err(err.clone()),
-                None => unreachable!("lattice requested"),
-            },
-            (Method::Strong | Method::StrongMarginals, Some(Err(err))) => Err(err.clone()),
-            (Method::Strong | Method::StrongMarginals, _) if bilinear => Err(IdentError::Unsupported(
-                "an unknown corner B makes the drift bilinear; the strong form here solves linear problems only".into(),
-            )),
-            (Method::Strong, Some(Ok(g))) => ident::identify_strong(e.problem, g, false, e.typical),
-            (Method::StrongMarginals, Some(Ok(g))) => ident::identify_strong(e.problem, g, true, e.typical),
-            (_, None) => unreachable!("grid requested"),
-        };
+        let est = estimator.estimate(cx);
         if let (Err(err @ IdentError::NotIdentifiable { .. }), false) = (&est, m.is_baseline()) {
             return Err(err.clone().into());
         }
@@ -395,7 +259,7 @@ fn estimator_reports<B: Fn(Method) -> Result<ident::Estimate, IdentError>>(
         }
         // Baselines are compared, never gated.
         let threshold = (!m.is_baseline()).then(|| s.accept.threshold(&method));
-        reports.push(method_report(method, threshold, est, grader, e.reported, ranges, t));
+        reports.push(method_report(method, threshold, est, grader, reported, ranges, t));
     }
     Ok((reports, first))
 }

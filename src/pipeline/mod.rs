@@ -2,31 +2,37 @@
 //! log identified with the requested methods and graded against the truth it carries
 //! ([`identify_log`]). See `docs/methods.md` for what a run reports.
 //!
-//! Two streaming passes over the log, constant memory: pass 1 accumulates raw moments per
-//! time batch and the links' observed ranges (weak form); pass 2 fills the density grid
-//! (strong forms) and the histograms behind the plots. The numerics live in `ident` and
-//! `sim`; this module only wires them to the log and to the report types.
+//! Streaming passes over the samples, constant memory: pass 1 accumulates raw moments per
+//! time batch and the links' observed ranges (the weak form's data, and what every other
+//! estimator is built from); pass 2 hands every sample to each requested estimator's
+//! accumulators (`estimators`), to the force spectra and to the histograms behind the
+//! plots; a third pass runs only for estimators whose accumulators depend on fitted
+//! filters. The numerics live in `ident` and `sim`; this module only wires them to the
+//! samples and to the report types.
 
 mod disturbed;
 mod grading;
 mod identify;
+mod source;
 mod spectra;
 pub mod study;
 mod validation;
 
 pub use identify::{check_measured, preflight};
+pub use source::{Input, LogFile, SampleSource, Simulation, Tables};
 pub use validation::identified_model;
 
 use self::identify::identify_info;
-use crate::ident::kernel::KernelOptions;
-use crate::ident::strong::GridOptions;
-use crate::ident::IdentError;
-use crate::io::log::{read_info, Compression, LogError, LogInfo, LogWriter};
+use crate::estimators::Method;
+pub use crate::estimators::{GridSettings, Settings, StrongDensity};
+use crate::ident::{Arenas, IdentError};
+use crate::io::log::{read_info, Compression, LogError, LogWriter};
 use crate::model::Model;
 use crate::report::Report;
-use crate::scenario::{Method, Scenario};
+use crate::scenario::Scenario;
 use crate::sim::{simulate, SimError};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Errors of the bench pipeline.
@@ -46,31 +52,15 @@ pub enum PipelineError {
     Study(String),
 }
 
-/// The strong form's density estimate.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum StrongDensity {
-    /// Gaussian kernel estimates of the density and of every probability flux
-    /// (`ident::kernel`, docs/methods.md).
-    #[default]
-    Kernel,
-    /// The paper's procedure as written: a histogram and central differences
-    /// (`ident::strong`).
-    Histogram,
-}
-
 /// Settings of an identification.
 #[derive(Debug, Clone)]
 pub struct Options {
     /// Methods to run; empty: the scenario's `[identify] methods`.
     pub methods: Vec<Method>,
-    /// How `strong` estimates the density: kernel estimates of the density and its
-    /// fluxes (default) or the paper's histogram (`--density histogram`).
-    pub density: StrongDensity,
-    /// Strong form's kernel; `None`: automatic.
-    pub kernel: Option<KernelOptions>,
-    /// Strong-form histogram grid (`--density histogram`, `strong-marginals`); `None`:
-    /// automatic.
-    pub grid: Option<GridOptions>,
+    /// The estimators' settings: how `strong` estimates the density (kernel estimates of
+    /// the density and its fluxes by default, or the paper's histogram), the kernel's width,
+    /// the histogram grid; what is not set follows from the problem's own state.
+    pub estimators: Settings,
     /// Batches (groups of the fine trajectory-group × time batches) for the jackknife's
     /// standard errors and the identifiability spread.
     pub batches: usize,
@@ -83,20 +73,22 @@ pub struct Options {
     pub max_steps: Option<usize>,
     /// Override `[identify.disturbance] tolerance` of the iterative procedure.
     pub tolerance: Option<f64>,
+    /// Large tables kept from one identification for the next (a study passes every item
+    /// the same).
+    pub arenas: Arc<Arenas>,
 }
 
 impl Default for Options {
     fn default() -> Self {
         Options {
             methods: Vec::new(),
-            density: StrongDensity::Kernel,
-            kernel: None,
-            grid: None,
+            estimators: Settings::default(),
             batches: 32,
             validate: true,
             plots: true,
             max_steps: None,
             tolerance: None,
+            arenas: Arc::default(),
         }
     }
 }
@@ -141,11 +133,12 @@ pub fn simulate_log(
 
 /// Identify the log at `path`.
 pub fn identify_log(path: &Path, options: &Options) -> Result<Report, PipelineError> {
-    identify(&read_info(path)?, options)
+    identify(&Input::log(read_info(path)?), options)
 }
 
-/// Identify the log `info` describes (read with [`read_info`]; set
-/// [`LogInfo::accept_truncated`] to use what a truncated log still holds).
-pub fn identify(info: &LogInfo, options: &Options) -> Result<Report, PipelineError> {
-    identify_info(info, options, Instant::now())
+/// Identify the samples of `input`: a log (described by [`read_info`]; set
+/// [`LogInfo::accept_truncated`] to use what a truncated log still holds), measured
+/// tables, or a simulation in memory.
+pub fn identify(input: &Input, options: &Options) -> Result<Report, PipelineError> {
+    identify_info(input, options, Instant::now())
 }

@@ -79,48 +79,8 @@ impl Scheme {
     }
 }
 
-/// Identification method named in `[identify] methods`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Deserialize, Hash)]
-#[serde(rename_all = "kebab-case")]
-pub enum Method {
-    /// Weak form: stationarity of test-function expectations (docs/theory.md §5).
-    Weak,
-    /// Strong form: the paper's FPK residual (3.8) point by point on a lattice, least squares
-    /// (3.13)–(3.15); the density from kernel estimates of it and its fluxes, or the paper's
-    /// histogram (`pipeline::StrongDensity`).
-    Strong,
-    /// Strong form with the joint density replaced by the product of marginals (3.21).
-    StrongMarginals,
-    /// Baseline, not FPK: regression of the velocity increments between consecutive
-    /// samples on the drift (the Euler–Maruyama pseudo-likelihood). Ungated.
-    Increments,
-    /// Baseline, not FPK: conditional mean increments on a grid (the first Kramers–Moyal
-    /// coefficient), then least squares of the drift. Ungated.
-    KramersMoyal,
-    /// Oracle bound, not FPK: the equation error of the equations of motion with the
-    /// measured excitation forces, information the FPK methods never use. Ungated.
-    ForceRegression,
-}
-
-impl Method {
-    /// The FPK estimators: the methods a regression gate may hold.
-    pub const ALL: [Method; 3] = [Method::Weak, Method::Strong, Method::StrongMarginals];
-    /// The baselines on the same samples (docs/methods.md, "Baselines").
-    pub const BASELINES: [Method; 3] = [Method::Increments, Method::KramersMoyal, Method::ForceRegression];
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Weak => "weak",
-            Method::Strong => "strong",
-            Method::StrongMarginals => "strong-marginals",
-            Method::Increments => "increments",
-            Method::KramersMoyal => "kramers-moyal",
-            Method::ForceRegression => "force-regression",
-        }
-    }
-    pub fn is_baseline(self) -> bool {
-        Method::BASELINES.contains(&self)
-    }
-}
+/// Identification methods are named by the estimators' registry (`estimators/mod.rs`).
+pub use crate::estimators::Method;
 
 // ---------------------------------------------------------------------------------------
 // Raw TOML, spans kept.
@@ -407,7 +367,7 @@ impl ReportMethod {
     /// The methods an `[accept] methods` key may name (the section-4 ones only with
     /// `[identify.disturbance]`).
     pub fn gated(disturbance: bool) -> Vec<ReportMethod> {
-        let mut out: Vec<ReportMethod> = Method::ALL.iter().map(|&m| ReportMethod::Estimator(m)).collect();
+        let mut out: Vec<ReportMethod> = Method::fpk().map(ReportMethod::Estimator).collect();
         if disturbance {
             out.extend([ReportMethod::IteratedForce, ReportMethod::DirectForce]);
         }

@@ -1,0 +1,31 @@
+//! Baseline, not FPK: regression of the velocity increments between consecutive samples
+//! on the drift (the Euler–Maruyama pseudo-likelihood, `ident::baseline`).
+
+use super::{refused, Context, Estimator, Setup};
+use crate::ident::baseline::{self, Increments};
+use crate::ident::{Estimate, IdentError};
+
+pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
+    match baseline::applicable(setup.structure) {
+        Ok(()) => Box::new(Increments::new(
+            setup.structure,
+            setup.sample_interval(),
+            setup.data.batch_count(),
+        )),
+        Err(e) => refused(e),
+    }
+}
+
+impl Estimator for Increments {
+    fn push(&mut self, trajectory: u32, t: f64, batch: usize, row: &[f64]) {
+        Increments::push(self, trajectory as usize, t, batch, row);
+    }
+
+    fn finish(&mut self) {
+        Increments::finish(self);
+    }
+
+    fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
+        Increments::estimate(self, cx.typical)
+    }
+}

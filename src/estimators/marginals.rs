@@ -1,0 +1,15 @@
+//! The strong form with the joint density replaced by the product of its marginals, as
+//! the paper's experiment had to (3.21): only the marginal histograms are counted.
+
+use super::strong::{grid, Histogram};
+use super::{refused, Estimator, Setup};
+
+pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
+    match grid(setup, false) {
+        Ok(g) => Box::new(Histogram {
+            grid: g,
+            marginals: true,
+        }),
+        Err(e) => refused(e),
+    }
+}

@@ -1,0 +1,306 @@
+//! Estimators as types. Each identification method is one type implementing [`Estimator`]:
+//! what it accumulates from the samples (in the pipeline's second pass, or a third one
+//! once the filters are fitted) and how it turns that into an [`Estimate`]. The registry
+//! at the bottom of this file is the one place a method is named: it defines [`Method`],
+//! its name (`FromStr`/`Display`, used by scenarios, the CLI, the Python binding, studies
+//! and reports), its kind and the constructor of its estimator.
+//!
+//! Adding a method is one file here and one line of the registry (docs/architecture.md).
+//! The numerics stay in `ident`; an estimator only holds accumulators and calls them.
+
+mod force_regression;
+mod increments;
+mod kramers_moyal;
+mod marginals;
+mod strong;
+mod weak;
+
+use crate::ident::data::StationaryData;
+use crate::ident::kernel::KernelOptions;
+use crate::ident::moments::RawMoments;
+use crate::ident::strong::GridOptions;
+use crate::ident::{Arenas, Estimate, IdentError, Problem};
+use crate::scenario::Scenario;
+use std::str::FromStr;
+use std::sync::Arc;
+
+/// How `strong` estimates the density.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StrongDensity {
+    /// Gaussian kernel estimates of the density and of every probability flux
+    /// (`ident::kernel`, docs/methods.md).
+    #[default]
+    Kernel,
+    /// The paper's procedure as written: a histogram and central differences
+    /// (`ident::strong`).
+    Histogram,
+}
+
+/// A strong form's histogram grid as the user set it: what is not given is chosen from
+/// the problem's own state dimension and sample count ([`GridOptions::auto`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct GridSettings {
+    /// Bins per dimension.
+    pub bins: Option<usize>,
+    /// Half-width of the grid box in standard deviations.
+    pub span_std: Option<f64>,
+    /// Smallest count of every cell in a difference stencil.
+    pub min_count: Option<u32>,
+}
+
+impl GridSettings {
+    /// Whether anything is set.
+    pub fn is_set(&self) -> bool {
+        self.bins.is_some() || self.span_std.is_some() || self.min_count.is_some()
+    }
+
+    /// The grid for a `dim`-dimensional state of `samples` samples.
+    pub fn resolve(&self, dim: usize, samples: u64) -> GridOptions {
+        let auto = GridOptions::auto(dim, samples);
+        GridOptions {
+            bins: self.bins.unwrap_or(auto.bins),
+            span_std: self.span_std.unwrap_or(auto.span_std),
+            min_count: self.min_count.unwrap_or(auto.min_count),
+        }
+    }
+}
+
+/// The estimators' settings (the CLI's and the Python binding's overrides; `None` and
+/// unset fields: automatic, from the problem's own dimension).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Settings {
+    /// How `strong` estimates the density.
+    pub density: StrongDensity,
+    /// The kernel's width in standard deviations of each state variable (`strong`, kernel).
+    pub smoothing: Option<f64>,
+    /// The histogram grid (`strong` with the histogram, `strong-marginals`).
+    pub grid: GridSettings,
+}
+
+impl Settings {
+    /// The kernel options for a `dim`-dimensional state of `samples` samples.
+    pub fn kernel(&self, dim: usize, samples: u64) -> KernelOptions {
+        let auto = KernelOptions::auto(dim, samples);
+        KernelOptions {
+            smoothing: self.smoothing.unwrap_or(auto.smoothing),
+            ..auto
+        }
+    }
+}
+
+/// What an estimator is built from, after the first pass over the samples.
+pub struct Setup<'a> {
+    pub scenario: &'a Scenario,
+    /// The problem's structure (state, columns, unknowns); a measured filtered force's
+    /// `A`, `B` are placeholders until the spectral fit.
+    pub structure: &'a Problem,
+    /// With filtered forces: the mechanical problem with each taken as white (the state
+    /// without the filters'); `None` without.
+    pub whitened: Option<&'a Problem>,
+    /// The first pass: moments per batch and the links' observed ranges.
+    pub data: &'a StationaryData,
+    /// The first pass's moments over all samples.
+    pub total: &'a RawMoments,
+    pub settings: &'a Settings,
+    /// The tables kept between identifications, for the accumulators that take them.
+    pub arenas: &'a Arc<Arenas>,
+    /// Whether the samples are measured data (an fpkbench log holds a white force as its
+    /// mean over the sample interval; measured data hold values at the sample instants).
+    pub measured: bool,
+}
+
+impl Setup<'_> {
+    /// The sample interval (s).
+    pub fn sample_interval(&self) -> f64 {
+        self.scenario.simulation.sample_interval
+    }
+
+    /// The mean and standard deviation of each of `dim` state variables over all samples.
+    pub fn mean_std(&self, dim: usize) -> (Vec<f64>, Vec<f64>) {
+        (
+            (0..dim).map(|j| self.total.mean(j)).collect(),
+            (0..dim).map(|j| self.total.std(j)).collect(),
+        )
+    }
+}
+
+/// What every estimator is handed to estimate, after its accumulation.
+pub struct Context<'a> {
+    /// The problem with the fitted (or known) filters.
+    pub problem: &'a Problem,
+    /// The weak form's estimate: computed first by the pipeline, whatever was asked for,
+    /// as it measures identifiability.
+    pub weak: &'a Result<Estimate, IdentError>,
+    /// Typical magnitudes of the unknowns (the least squares' column scaling).
+    pub typical: &'a [f64],
+    /// Whether an unknown filter corner makes the drift bilinear.
+    pub bilinear: bool,
+}
+
+/// One identification method: accumulators filled from the samples, then an estimate.
+pub trait Estimator {
+    /// One sample of the second pass (jackknife batch `batch`).
+    fn push(&mut self, trajectory: u32, t: f64, batch: usize, row: &[f64]);
+    /// The second pass is over.
+    fn finish(&mut self) {}
+    /// The filters are fitted and `problem` is complete; `true` asks for the samples once
+    /// more (`push`, then `finish`), as an accumulator that depends on the filters needs.
+    fn needs_pass(&mut self, _problem: &Problem, _setup: &Setup) -> bool {
+        false
+    }
+    /// The estimate from what was accumulated.
+    fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError>;
+}
+
+/// What a method is: an FPK estimator (the only kind a regression gate may hold), a
+/// baseline on the same samples, or an oracle bound that uses information the FPK
+/// methods never have.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    Fpk,
+    Baseline,
+    Oracle,
+}
+
+/// An estimator that cannot be built: its method's row reports why.
+pub(crate) fn refused(e: IdentError) -> Box<dyn Estimator> {
+    struct Refused(IdentError);
+    impl Estimator for Refused {
+        fn push(&mut self, _: u32, _: f64, _: usize, _: &[f64]) {}
+        fn estimate(&self, _: &Context) -> Result<Estimate, IdentError> {
+            Err(self.0.clone())
+        }
+    }
+    Box::new(Refused(e))
+}
+
+macro_rules! registry {
+    ($( $(#[doc = $doc:literal])+ $variant:ident = $name:literal, $kind:ident, $build:path; )+) => {
+        /// An identification method (`[identify] methods`, `--method`): one line of the
+        /// registry in `estimators/mod.rs`.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        pub enum Method {
+            $( $(#[doc = $doc])+ $variant, )+
+        }
+
+        impl Method {
+            /// Every method, in the registry's order.
+            pub const REGISTERED: &'static [Method] = &[$(Method::$variant),+];
+
+            /// The name scenarios, the CLI, Python and reports use.
+            pub fn name(self) -> &'static str {
+                match self { $(Method::$variant => $name,)+ }
+            }
+
+            /// An FPK estimator, a baseline or an oracle.
+            pub fn kind(self) -> Kind {
+                match self { $(Method::$variant => Kind::$kind,)+ }
+            }
+
+            /// One line on what it is (the first line of its registry entry's doc).
+            pub fn help(self) -> &'static str {
+                match self { $(Method::$variant => [$($doc),+][0].trim(),)+ }
+            }
+
+            /// Its estimator, ready for the second pass.
+            pub fn estimator(self, setup: &Setup) -> Box<dyn Estimator> {
+                match self { $(Method::$variant => $build(setup),)+ }
+            }
+        }
+    };
+}
+
+registry! {
+    /// Weak form: stationarity of test-function expectations from raw moments (docs/theory.md §5).
+    Weak = "weak", Fpk, weak::build;
+    /// Strong form: the paper's FPK residual (3.8) point by point, from kernel estimates of the
+    /// density and its fluxes (or the paper's histogram, `StrongDensity::Histogram`).
+    Strong = "strong", Fpk, strong::build;
+    /// Strong form with the joint density replaced by the product of its marginals (3.21).
+    StrongMarginals = "strong-marginals", Fpk, marginals::build;
+    /// Baseline (not FPK): regression of velocity increments on the drift (Euler pseudo-likelihood).
+    Increments = "increments", Baseline, increments::build;
+    /// Baseline (not FPK): binned conditional mean increments (Kramers–Moyal), then the drift.
+    KramersMoyal = "kramers-moyal", Baseline, kramers_moyal::build;
+    /// Oracle bound (not FPK): the equation error with the measured excitation forces.
+    ForceRegression = "force-regression", Oracle, force_regression::build;
+}
+
+impl Method {
+    /// The FPK estimators: the methods a regression gate may hold.
+    pub fn fpk() -> impl Iterator<Item = Method> {
+        Method::REGISTERED.iter().copied().filter(|m| m.kind() == Kind::Fpk)
+    }
+
+    /// Whether it is compared, never gated (a baseline or an oracle).
+    pub fn is_baseline(self) -> bool {
+        self.kind() != Kind::Fpk
+    }
+
+    /// Every name, for messages: `weak, strong, …`.
+    pub fn names() -> String {
+        Method::REGISTERED
+            .iter()
+            .map(|m| m.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+impl FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Method, String> {
+        Method::REGISTERED
+            .iter()
+            .copied()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| format!("unknown method {s:?}: the methods are {}", Method::names()))
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Method {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Method, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(|_| {
+            let names: Vec<String> = Method::REGISTERED.iter().map(|m| format!("`{}`", m.name())).collect();
+            serde::de::Error::custom(format!("unknown method `{s}`, expected one of {}", names.join(", ")))
+        })
+    }
+}
+
+impl serde::Serialize for Method {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_method_round_trips_through_its_name() {
+        for &m in Method::REGISTERED {
+            assert_eq!(m.name().parse::<Method>(), Ok(m));
+            assert_eq!(m.to_string(), m.name());
+            assert!(!m.help().is_empty() && !m.help().contains('\n'), "{m}: {:?}", m.help());
+        }
+        let err = "Weak".parse::<Method>().unwrap_err();
+        assert!(err.contains("weak, strong, strong-marginals"), "{err}");
+        let names: std::collections::BTreeSet<_> = Method::REGISTERED.iter().map(|m| m.name()).collect();
+        assert_eq!(names.len(), Method::REGISTERED.len(), "a name is registered twice");
+    }
+
+    #[test]
+    fn only_fpk_estimators_are_gated() {
+        let fpk: Vec<_> = Method::fpk().collect();
+        assert_eq!(fpk, [Method::Weak, Method::Strong, Method::StrongMarginals]);
+        assert!(Method::ForceRegression.is_baseline() && Method::Increments.is_baseline());
+    }
+}

@@ -1,0 +1,185 @@
+//! Where an identification's samples come from: a log file, measured tables, or a
+//! simulation run in memory. Each is a [`SampleSource`]; an [`Input`] pairs one with the
+//! description of what it holds (scenario, columns, truth). Every pass of the
+//! identification reads the source again, and a source hands over the same samples in
+//! the same order each time. `io` only reads files; the in-memory simulation lives here.
+
+use super::PipelineError;
+use crate::ident::Arenas;
+use crate::io::log::{read_samples, LogInfo};
+use crate::io::table::Measured;
+use crate::scenario::Scenario;
+use std::sync::{Arc, OnceLock};
+
+/// A stream of stationary samples, read as often as the identification needs.
+pub trait SampleSource: Send + Sync {
+    /// Call `f(trajectory, t, row)` for every sample, in the source's order; the number of
+    /// samples. `row` holds the description's columns.
+    fn for_each_sample(&self, info: &LogInfo, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError>;
+
+    /// The measured tables behind the samples, if they are measured data.
+    fn measured(&self) -> Option<&Measured> {
+        None
+    }
+
+    /// How many samples the source holds, or was to hold (a log: what its run promised).
+    fn expected_samples(&self, info: &LogInfo) -> u64 {
+        let s = &info.scenario.simulation;
+        (s.trajectories as u64).saturating_mul(s.samples_per_trajectory() as u64)
+    }
+}
+
+/// A log file's samples (`io::log::read_samples`: damage found, a truncated log refused
+/// unless [`LogInfo::accept_truncated`]).
+pub struct LogFile;
+
+impl SampleSource for LogFile {
+    fn for_each_sample(&self, info: &LogInfo, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError> {
+        Ok(read_samples(info, f)?)
+    }
+}
+
+/// Measured tables, each record an independent trajectory.
+pub struct Tables(pub Arc<Measured>);
+
+impl SampleSource for Tables {
+    fn for_each_sample(&self, _: &LogInfo, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError> {
+        let m = &self.0;
+        for (r, (times, rows)) in m.records.iter().enumerate() {
+            for (s, t) in times.iter().enumerate() {
+                f(r as u32, *t, &rows[s * m.width..(s + 1) * m.width]);
+            }
+        }
+        Ok(m.samples())
+    }
+
+    fn measured(&self) -> Option<&Measured> {
+        Some(&self.0)
+    }
+
+    fn expected_samples(&self, _: &LogInfo) -> u64 {
+        self.0.samples()
+    }
+}
+
+/// The run of a scenario that is not written anywhere: the first pass keeps the samples
+/// in memory when they fit in [`Simulation::BUDGET`] and later passes replay them;
+/// otherwise every pass runs the simulation again (deterministic by its seed, whatever
+/// the thread count), so memory stays bounded either way.
+pub struct Simulation {
+    kept: OnceLock<Vec<f64>>,
+    /// Where the kept samples' buffer comes from and goes back to.
+    arenas: Arc<Arenas>,
+}
+
+impl Simulation {
+    /// Bytes of samples kept for replay, at most (`(2 + columns) × 8` bytes per sample: a
+    /// 3.2e6-sample run of duffing2dof takes 282 MB). Above it, passes re-simulate.
+    pub const BUDGET: u64 = 512 << 20;
+
+    /// A simulation whose kept samples' buffer is taken from, and given back to,
+    /// `arenas` (a study hands every item the same: touching fresh pages cost a tenth of
+    /// an item's time).
+    pub fn new(arenas: Arc<Arenas>) -> Simulation {
+        Simulation {
+            kept: OnceLock::new(),
+            arenas,
+        }
+    }
+}
+
+impl Drop for Simulation {
+    fn drop(&mut self) {
+        if let Some(v) = self.kept.take() {
+            self.arenas.samples.give(v);
+        }
+    }
+}
+
+impl SampleSource for Simulation {
+    fn for_each_sample(&self, info: &LogInfo, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError> {
+        let width = 2 + info.columns.len();
+        if let Some(kept) = self.kept.get() {
+            for s in kept.chunks_exact(width) {
+                f(s[0] as u32, s[1], &s[2..]);
+            }
+            return Ok((kept.len() / width) as u64);
+        }
+        let bytes = self.expected_samples(info).saturating_mul(8 * width as u64);
+        let keep = bytes <= Simulation::BUDGET;
+        let mut kept = if keep {
+            self.arenas.samples.empty(bytes as usize / 8)
+        } else {
+            Vec::new()
+        };
+        let model = crate::model::Model::new(&info.scenario);
+        let mut n = 0u64;
+        let mut sink = crate::sim::ForEach(|j: u32, t: f64, row: &[f64]| {
+            n += 1;
+            if keep {
+                kept.push(j as f64);
+                kept.push(t);
+                kept.extend_from_slice(row);
+            }
+            f(j, t, row)
+        });
+        crate::sim::simulate(&model, &info.scenario.simulation, &mut sink, &|_| {})?;
+        if keep {
+            let _ = self.kept.set(kept);
+        }
+        Ok(n)
+    }
+}
+
+/// What an identification reads: the description of the samples and their source.
+pub struct Input {
+    pub info: LogInfo,
+    pub source: Box<dyn SampleSource>,
+}
+
+impl Input {
+    /// A log file described by `info` (`io::log::read_info`).
+    pub fn log(info: LogInfo) -> Input {
+        Input {
+            info,
+            source: Box::new(LogFile),
+        }
+    }
+
+    /// Measured data on a model file (`LogInfo::of_measured`).
+    pub fn tables(model: Scenario, data: Measured) -> Input {
+        let data = Arc::new(data);
+        Input {
+            info: LogInfo::of_measured(model, &data),
+            source: Box::new(Tables(data)),
+        }
+    }
+
+    /// `scenario` simulated in memory, no log written.
+    pub fn simulation(scenario: Scenario) -> Input {
+        Input::simulation_in(scenario, Arc::default())
+    }
+
+    /// `scenario` simulated in memory, its kept samples' buffer from `arenas`.
+    pub fn simulation_in(scenario: Scenario, arenas: Arc<Arenas>) -> Input {
+        Input {
+            info: LogInfo::of_simulation(scenario),
+            source: Box::new(Simulation::new(arenas)),
+        }
+    }
+
+    /// Every sample, in the source's order; the number of samples.
+    pub fn for_each_sample(&self, mut f: impl FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError> {
+        self.source.for_each_sample(&self.info, &mut f)
+    }
+
+    /// The measured tables, if the samples are measured data.
+    pub fn measured(&self) -> Option<&Measured> {
+        self.source.measured()
+    }
+
+    /// How many samples the source holds, or was to hold.
+    pub fn expected_samples(&self) -> u64 {
+        self.source.expected_samples(&self.info)
+    }
+}
