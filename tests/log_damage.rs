@@ -291,13 +291,19 @@ fn a_damaged_metadata_record_is_called_damaged_not_truncated() {
 }
 
 #[test]
-fn a_filtered_force_with_an_extreme_corner_ends_in_a_report() {
-    // B = 1e200 1/s: the filtered force is numerically white noise of vanishing variance;
-    // simulation, identification and plots must end (they once hung).
-    let src = std::fs::read_to_string("scenarios/filtered2dof.toml")
-        .unwrap()
-        .replacen("B = 5.0", "B = 1e200", 1);
-    let mut s = fpkbench::Scenario::parse(&src, "b.toml", "b").unwrap();
+fn a_filtered_force_faster_than_the_step_is_refused_and_one_at_the_limit_ends_in_a_report() {
+    // B = 1e300 1/s: white noise to the masses, which the step cannot follow; refused from
+    // the scenario, naming the key and the white-noise equivalent, before any simulation.
+    let src = std::fs::read_to_string("scenarios/filtered2dof.toml").unwrap();
+    let e = fpkbench::Scenario::parse(&src.replacen("B = 5.0", "B = 1e300", 1), "b.toml", "b").unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("excitation[0].B") && text.contains("kind = \"white\"") && text.contains("b.toml:"),
+        "{text}"
+    );
+    // B·dt = 1 (dt = 2.5e-4): the fastest filter allowed; simulation, identification and
+    // plots end (an extreme corner once hung them).
+    let mut s = fpkbench::Scenario::parse(&src.replacen("B = 5.0", "B = 4000.0", 1), "b.toml", "b").unwrap();
     s.simulation.record_length = 100.0;
     s.simulation.trajectories = 4;
     let dir = tempfile::tempdir().unwrap();
@@ -309,6 +315,30 @@ fn a_filtered_force_with_an_extreme_corner_ends_in_a_report() {
     };
     if let Ok(r) = identify_log(&log, &options) {
         fpkbench::report::write_all(&r, &dir.path().join("report")).unwrap();
+    }
+}
+
+/// A chunk whose record length claims 7e16 bytes is damage, not a cut-short file: it is
+/// never offered `--allow-truncated`.
+#[test]
+fn an_impossible_chunk_length_is_damage_not_truncation() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bytes) = fresh(dir.path());
+    let chunk = chunk_offsets(&bytes)[1];
+    let mut b = bytes.clone();
+    b[chunk + 1..chunk + 9].copy_from_slice(&70_000_000_000_000_000u64.to_le_bytes());
+    let path = dir.path().join("long.mcap");
+    std::fs::write(&path, &b).unwrap();
+    let (got, outcome) = read_all(&path);
+    match outcome {
+        Err(LogError::Corrupt { reason, readable, .. }) => {
+            assert!(
+                reason.contains("70000000000000000") && reason.contains("damaged"),
+                "{reason}"
+            );
+            assert_eq!(readable as usize, got.len());
+        }
+        other => panic!("expected damage, got {other:?}"),
     }
 }
 

@@ -1,7 +1,7 @@
 //! Studies: rows independent of the sharding, resumable, merged from any shards, conflicts
 //! refused; the shard taken from Slurm and Kubernetes environments.
 
-use fpkbench::pipeline::study::{gather, shard_from, Study};
+use fpkbench::pipeline::study::{gather, item_text, shard_from, Study};
 use std::path::Path;
 use std::process::Command;
 
@@ -95,7 +95,9 @@ fn shards_give_the_rows_of_one_run_and_merge_refuses_conflicts() {
     row["parameters"][0]["estimate"] = serde_json::json!(123.0);
     let c = tmp.path().join("c/items");
     std::fs::create_dir_all(&c).unwrap();
-    std::fs::write(c.join(f.file_name().unwrap()), format!("{row}\n")).unwrap();
+    // (Written whole, with its completeness mark: the conflict is what is refused.)
+    let whole = |v: &serde_json::Value| item_text(&[serde_json::from_value(v.clone()).unwrap()]).unwrap();
+    std::fs::write(c.join(f.file_name().unwrap()), whole(&row)).unwrap();
     let o = fpk(&[
         "study",
         "merge",
@@ -111,7 +113,7 @@ fn shards_give_the_rows_of_one_run_and_merge_refuses_conflicts() {
     // Rows of another study are refused.
     row["study"] = serde_json::json!("0000000000000000");
     row["parameters"][0]["estimate"] = serde_json::json!(1.0);
-    std::fs::write(c.join("other.jsonl"), format!("{row}\n")).unwrap();
+    std::fs::write(c.join("other.jsonl"), whole(&row)).unwrap();
     std::fs::remove_file(c.join(f.file_name().unwrap())).unwrap();
     let o = fpk(&[
         "study",
@@ -147,12 +149,47 @@ fn the_shard_comes_from_the_flag_slurm_or_kubernetes() {
     };
     assert_eq!(shard_from(Some((2, 5)), None, env(&[])), Ok((2, 5)));
     assert_eq!(shard_from(None, None, env(&[])), Ok((0, 1)));
-    let slurm = env(&[
-        ("SLURM_ARRAY_TASK_ID", "7"),
-        ("SLURM_ARRAY_TASK_MIN", "5"),
+    // `--array=0-3`: task 2 is shard 2 of 4.
+    let array = env(&[
+        ("SLURM_ARRAY_TASK_ID", "2"),
+        ("SLURM_ARRAY_TASK_MIN", "0"),
+        ("SLURM_ARRAY_TASK_MAX", "3"),
         ("SLURM_ARRAY_TASK_COUNT", "4"),
     ]);
-    assert_eq!(shard_from(None, None, slurm), Ok((2, 4)));
+    assert_eq!(shard_from(None, None, array), Ok((2, 4)));
+    // Resubmitting task 1 alone (`sbatch --array=1`): never the whole study as 0/1; with
+    // the script's --shard-count it is shard 1 of 4 again.
+    let resubmitted = env(&[
+        ("SLURM_ARRAY_TASK_ID", "1"),
+        ("SLURM_ARRAY_TASK_MIN", "1"),
+        ("SLURM_ARRAY_TASK_MAX", "1"),
+        ("SLURM_ARRAY_TASK_COUNT", "1"),
+    ]);
+    assert!(shard_from(None, None, resubmitted)
+        .unwrap_err()
+        .contains("--shard-count"));
+    assert_eq!(shard_from(None, Some(4), resubmitted), Ok((1, 4)));
+    // Arrays with gaps (`0-4:2`, `0,1,5`): refused up front by every task, or placed by
+    // --shard-count.
+    let stepped = env(&[
+        ("SLURM_ARRAY_TASK_ID", "4"),
+        ("SLURM_ARRAY_TASK_MIN", "0"),
+        ("SLURM_ARRAY_TASK_MAX", "4"),
+        ("SLURM_ARRAY_TASK_COUNT", "3"),
+        ("SLURM_ARRAY_TASK_STEP", "2"),
+    ]);
+    assert!(shard_from(None, None, stepped).unwrap_err().contains("--shard-count"));
+    assert_eq!(shard_from(None, Some(5), stepped), Ok((4, 5)));
+    assert!(shard_from(None, Some(3), stepped).is_err());
+    let listed = env(&[
+        ("SLURM_ARRAY_TASK_ID", "0"),
+        ("SLURM_ARRAY_TASK_MIN", "0"),
+        ("SLURM_ARRAY_TASK_MAX", "5"),
+        ("SLURM_ARRAY_TASK_COUNT", "3"),
+    ]);
+    assert!(shard_from(None, None, listed).is_err());
+    // A count without an index is ambiguous.
+    assert!(shard_from(None, Some(4), env(&[])).unwrap_err().contains("--shard I/4"));
     let k8s = env(&[("JOB_COMPLETION_INDEX", "3")]);
     assert_eq!(shard_from(None, Some(8), k8s), Ok((3, 8)));
     assert!(shard_from(None, None, env(&[("JOB_COMPLETION_INDEX", "3")]))
@@ -305,4 +342,17 @@ fn a_study_of_one_configuration_plots_every_seed_per_method() {
     }
     // Three seeds per method: six points and two coverage markers.
     assert_eq!(svg.matches("<circle").count(), 3 * 2 + 2, "{svg}");
+}
+
+#[test]
+fn the_documented_sbatch_script_is_the_one_ci_submits() {
+    // CI submits docs/slurm/study.sbatch to a real Slurm (tests/slurm/run.sh); the page
+    // shows the same text.
+    let script = std::fs::read_to_string("docs/slurm/study.sbatch").unwrap();
+    let page = std::fs::read_to_string("docs/studies.md").unwrap();
+    assert!(
+        page.contains(script.trim_end()),
+        "docs/studies.md does not show docs/slurm/study.sbatch as it is"
+    );
+    assert!(script.contains("--shard-count 4") && script.contains("#SBATCH --array=0-3"));
 }

@@ -53,6 +53,14 @@ class Result:
     @classmethod
     def _of(cls, report_json: str) -> "Result":
         report = json.loads(report_json)
+        # As the command exits 2: a gated method refused (the data cannot separate its
+        # unknowns) or failed raises, naming it and why; the report, with every other
+        # method's estimates, is on the exception.
+        undecided = [m for m in report["methods"] if m.get("gated") and m.get("outcome") in ("refused", "failed")]
+        if undecided:
+            e = ValueError("; ".join(f"{m['method']} {m['outcome']}: {m.get('error')}" for m in undecided))
+            e.report = report
+            raise e
         methods = [m for m in report["methods"] if m.get("parameters")]
         r = cls(report=report)
         if methods:

@@ -159,3 +159,19 @@ def _sigma_unknown():
     s = tomllib.loads(SDOF.read_text())
     s["identify"]["unknown_intensities"] = ["m1"]
     return s
+
+
+def test_a_refused_method_raises_and_carries_the_other_methods_estimates():
+    """duffing2dof with the intensity on m2 unknown: the weak form cannot separate it from
+    the damping (as the command, which exits 2), the product of marginals gives numbers."""
+    import tomllib
+
+    s = tomllib.loads((ROOT / "scenarios" / "duffing2dof.toml").read_text())
+    s["identify"]["unknown_intensities"] = ["m2"]
+    s["identify"]["methods"] = ["weak", "strong-marginals"]
+    s["simulation"]["record_length"] = 200.0
+    with pytest.raises(ValueError, match="weak refused: the unknowns cannot be separated") as e:
+        fpkbench.run(s, validate=False)
+    rows = {m["method"]: m for m in e.value.report["methods"]}
+    assert rows["weak"]["outcome"] == "refused" and not rows["weak"]["parameters"]
+    assert rows["strong-marginals"]["outcome"] == "estimated" and rows["strong-marginals"]["parameters"]

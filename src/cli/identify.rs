@@ -1,10 +1,10 @@
 //! `fpkbench identify`: identify the unknowns of a run log and report the accuracy.
 
 use clap::builder::TypedValueParser;
-use fpkbench::io::output::{refuse_same_file, FolderLock};
+use fpkbench::io::output::{refuse_same_file, FolderLock, Staging};
 use fpkbench::pipeline::{identify, GridSettings, Input, Options, Settings, StrongDensity};
 use fpkbench::report;
-use fpkbench::report::Report;
+use fpkbench::report::{MethodReport, Outcome, Report};
 use fpkbench::scenario::Method;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -139,25 +139,59 @@ pub struct Args {
     pub identify: IdentifyArgs,
 }
 
-/// Write the report files, print the summary or JSON; exit 0 if every gate passed, else 1.
-pub fn finish(report: &Report, args: &IdentifyArgs) -> anyhow::Result<ExitCode> {
-    let dir = report_dir(args, &report.scenario);
-    let _lock = FolderLock::acquire(&dir)?;
-    let files = report::write_all(report, &dir)?;
+/// Write the report files into `staged` (or, without it, a staging folder of the report
+/// folder, locked) and move them into place together; print the summary or JSON. Exit 0
+/// if every gated method gave estimates within its gate, 1 if one exceeded it, 2 if one
+/// was refused or failed (docs/methods.md, "Outcomes and exit codes").
+pub fn finish(report: &Report, args: &IdentifyArgs, staged: Option<(FolderLock, Staging)>) -> anyhow::Result<ExitCode> {
+    let (_lock, staging) = match staged {
+        Some(s) => s,
+        None => {
+            let dir = report_dir(args, &report.scenario);
+            let lock = FolderLock::acquire(&dir)?;
+            let staging = Staging::new(&dir)?;
+            (lock, staging)
+        }
+    };
+    report::write_all(report, staging.path())?;
+    // A run's staged log moves in with the report; `identify` never removes a log.
+    let files = staging.commit(&report::files())?;
     if args.json {
         super::emit(&(serde_json::to_string(report)? + "\n"))?;
     } else {
         let mut text = report::summary(report);
-        text += "\nwrote ";
-        text += &files
-            .iter()
-            .map(|f| f.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ");
-        text += "\n";
+        text += &format!(
+            "\nwrote {} files to {}: {}\n",
+            files.len(),
+            files
+                .first()
+                .and_then(|f| f.parent())
+                .unwrap_or(Path::new("."))
+                .display(),
+            files
+                .iter()
+                .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
         super::emit(&text)?;
     }
-    Ok(if report.passed {
+    let undecided: Vec<&MethodReport> = report
+        .methods
+        .iter()
+        .filter(|m| m.gated && matches!(m.outcome, Outcome::Refused | Outcome::Failed))
+        .collect();
+    for m in &undecided {
+        eprintln!(
+            "{} {}: {}",
+            m.method,
+            m.outcome.name(),
+            m.error.as_deref().unwrap_or("no reason given")
+        );
+    }
+    Ok(if !undecided.is_empty() {
+        ExitCode::from(2)
+    } else if report.passed {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
@@ -186,7 +220,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     let report = identify(&input, &args.identify.options())?;
-    finish(&report, &args.identify)
+    finish(&report, &args.identify, None)
 }
 
 /// The model file and its measured data, checked before any identification.

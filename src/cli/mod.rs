@@ -1,6 +1,7 @@
 //! Command-line interface: clap subcommands, one module each. Errors print their whole
-//! chain to stderr; exit codes: 0 ok, 1 a run finished but an accuracy gate failed,
-//! 2 usage, input or I/O error. A closed stdout (broken pipe) exits 0.
+//! chain to stderr (and, with `--json`, a JSON error object on stdout); exit codes: 0 ok,
+//! 1 a run finished but an accuracy gate was exceeded, 2 a method was refused or failed,
+//! or a usage, input or I/O error. A closed stdout (broken pipe) exits 0.
 
 mod export;
 mod identify;
@@ -51,6 +52,14 @@ pub fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
+    // With --json a failure is a JSON object on stdout too, so a script reading stdout
+    // always gets JSON.
+    let json = match &cli.command {
+        Command::Run(a) => a.identify.json,
+        Command::Identify(a) => a.identify.json,
+        Command::Sweep(a) => a.json,
+        _ => false,
+    };
     let result = match cli.command {
         Command::Run(a) => run::run(a),
         Command::Identify(a) => identify::run(a),
@@ -70,12 +79,18 @@ pub fn main() -> ExitCode {
             // A cause an error already quotes in its own message (`path: cause`) is not
             // repeated.
             let mut said = e.to_string();
+            let mut causes = Vec::new();
             for cause in e.chain().skip(1) {
                 let text = cause.to_string();
                 if !said.ends_with(&text) {
                     eprintln!("  caused by: {text}");
+                    causes.push(text.clone());
                 }
                 said = text;
+            }
+            if json {
+                let object = serde_json::json!({ "error": e.to_string(), "causes": causes, "exit_code": 2 });
+                let _ = emit(&format!("{object}\n"));
             }
             ExitCode::from(2)
         }

@@ -1,7 +1,7 @@
 //! `fpkbench run`: simulate, log, identify, report — the bench's main job.
 
 use super::identify::{finish, IdentifyArgs};
-use fpkbench::io::output::{refuse_same_file, FolderLock};
+use fpkbench::io::output::{refuse_same_file, FolderLock, Staging};
 use fpkbench::pipeline::identify_log;
 use fpkbench::Scenario;
 use std::path::PathBuf;
@@ -36,13 +36,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .out
         .clone()
         .unwrap_or_else(|| super::default_output(&scenario.variant_name(), ""));
-    let log = dir.join("run.mcap");
     for f in std::iter::once("run.mcap".to_string()).chain(fpkbench::report::files()) {
         refuse_same_file(&args.scenario, &dir.join(f))?;
     }
-    // One run per folder at a time: a second one is refused, not interleaved.
-    let _lock = FolderLock::acquire(&dir)?;
-    let sim = super::simulate::simulate_to(&scenario, &log, fpkbench::io::log::Compression::None)?;
+    // One run per folder at a time: a second one is refused, not interleaved. The log,
+    // report and figures are staged and moved into place together.
+    let lock = FolderLock::acquire(&dir)?;
+    let staging = Staging::new(&dir)?;
+    let staged_log = staging.path().join("run.mcap");
+    let sim = super::simulate::simulate_to(&scenario, &staged_log, fpkbench::io::log::Compression::None)?;
+    let log = dir.join("run.mcap");
     if !args.identify.json {
         eprintln!(
             "simulated {} samples in {:.2} s -> {} ({:.1} MB)",
@@ -52,11 +55,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             sim.bytes as f64 / 1e6
         );
     }
-    let mut report = identify_log(&log, &args.identify.options())?;
+    let mut report = identify_log(&staged_log, &args.identify.options())?;
+    report.log = log.display().to_string();
     report.timings_s.simulate = sim.seconds;
     report.timings_s.total = start.elapsed().as_secs_f64();
     let mut a = args.identify.clone();
     a.out = Some(dir);
-    drop(_lock);
-    finish(&report, &a)
+    finish(&report, &a, Some((lock, staging)))
 }

@@ -2,8 +2,8 @@
 //! sharded for a cluster (`--shard i/n`, or Slurm / Kubernetes indices from the
 //! environment), resumable, and `study merge` to summarize any set of shards' rows.
 
-use fpkbench::io::output::write_atomic;
-use fpkbench::pipeline::study::{self, gather, summarize, Row, Study};
+use fpkbench::io::output::{at, write_atomic};
+use fpkbench::pipeline::study::{self, gather, summarize, Item, Row, Study};
 use fpkbench::report::study::{plot_study, study_markdown};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -20,14 +20,15 @@ pub struct Args {
     /// (docs/studies.md).
     pub study: Option<PathBuf>,
     /// This shard, INDEX/COUNT (0-based), e.g. 3/16: items whose number ≡ INDEX mod
-    /// COUNT [default: from SLURM_ARRAY_TASK_ID/_MIN/_COUNT or JOB_COMPLETION_INDEX, else
-    /// 0/1].
-    #[arg(long, value_parser = parse_shard)]
+    /// COUNT (to run or resubmit one piece by hand) [default: from the scheduler's index,
+    /// SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX, else 0/1].
+    #[arg(long, value_parser = parse_shard, conflicts_with = "shard_count")]
     pub shard: Option<(usize, usize)>,
-    /// The shard count where the environment gives only the index (a Kubernetes Indexed
-    /// Job's completions).
-    #[arg(long)]
-    pub shard_count: Option<usize>,
+    /// The whole study's shard count, with a scheduler's index: keeps a resubmitted task
+    /// (`sbatch --array=5`) shard 5 of N, and places tasks of an array with gaps; needed
+    /// for a Kubernetes Indexed Job [default for a Slurm array 0-(N-1): N].
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    pub shard_count: Option<u64>,
     /// Output folder [default: out/study-<study name>/].
     #[arg(short, long)]
     pub out: Option<PathBuf>,
@@ -119,8 +120,14 @@ pub enum Merge {
 
 fn parse_shard(s: &str) -> Result<(usize, usize), String> {
     let (i, n) = s.split_once('/').ok_or("INDEX/COUNT expected, e.g. 0/4")?;
-    let i: usize = i.trim().parse().map_err(|_| format!("{i:?} is not an index"))?;
-    let n: usize = n.trim().parse().map_err(|_| format!("{n:?} is not a count"))?;
+    let digits = |x: &str| !x.is_empty() && x.bytes().all(|b| b.is_ascii_digit());
+    if !digits(i) || !digits(n) {
+        return Err(format!(
+            "{s:?}: INDEX/COUNT as whole numbers without spaces expected, e.g. 0/4"
+        ));
+    }
+    let i: usize = i.parse().map_err(|_| format!("{i:?} is not an index"))?;
+    let n: usize = n.parse().map_err(|_| format!("{n:?} is not a count"))?;
     if n == 0 || i >= n {
         return Err(format!("shard {i}/{n}: the index must be below the count"));
     }
@@ -197,7 +204,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         let rows = gather(&files).map_err(|e| anyhow::anyhow!(e))?;
         let dir = out.unwrap_or_else(|| dirs[0].clone());
-        std::fs::create_dir_all(&dir)?;
+        std::fs::create_dir_all(&dir).map_err(|e| at(&dir, "creating the summary folder", e))?;
         let name = dir.file_name().and_then(|n| n.to_str()).unwrap_or("study").to_string();
         write_summary(&name, &rows, &dir, reference.as_deref())?;
         return Ok(ExitCode::SUCCESS);
@@ -241,20 +248,33 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             "a study is needed: fpkbench study STUDY.toml, fpkbench study --scenario SCENARIO [--seeds N …], or fpkbench study merge DIR…"
         ),
     };
-    let (index, count) = study::shard_from(args.shard, args.shard_count, |k| std::env::var(k).ok())
-        .map_err(|e| anyhow::anyhow!("shard: {e}"))?;
+    let (index, count) = study::shard_from(args.shard, args.shard_count.map(|n| n as usize), |k| {
+        std::env::var(k).ok()
+    })
+    .map_err(|e| anyhow::anyhow!("shard: {e}"))?;
     let dir = args
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(format!("study-{}", study.name)));
     let items_dir = dir.join("items");
-    std::fs::create_dir_all(&items_dir)?;
     let all = study.items();
     let mine: Vec<_> = all.iter().filter(|i| i.index % count == index).collect();
-    let todo: Vec<_> = mine
-        .iter()
-        .filter(|i| !items_dir.join(format!("{}.jsonl", i.key())).exists())
-        .collect();
+    // Done: a complete item file of this study with a row for every method, none failed.
+    // Anything else (missing, empty, cut short, a method's row missing, failed before) is
+    // run again, and said so.
+    let item_file = |i: &Item| items_dir.join(format!("{}.jsonl", i.key()));
+    let mut todo = Vec::new();
+    for i in &mine {
+        match study::item_done(&study, &item_file(i)) {
+            Ok(()) => {}
+            Err(why) => {
+                if item_file(i).exists() {
+                    eprintln!("item {}: {why}; running it again", i.key());
+                }
+                todo.push(*i);
+            }
+        }
+    }
     eprintln!(
         "study {}: {} items in all; shard {index}/{count} has {}, {} already done",
         study.name,
@@ -268,27 +288,28 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         return Ok(ExitCode::SUCCESS);
     }
+    std::fs::create_dir_all(&items_dir).map_err(|e| at(&items_dir, "creating the study folder", e))?;
     let logs = args.keep_logs.then(|| dir.join("logs"));
     if let Some(l) = &logs {
-        std::fs::create_dir_all(l)?;
+        std::fs::create_dir_all(l).map_err(|e| at(l, "creating the logs folder", e))?;
     }
     let bar = ProgressBar::new(todo.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} items, eta {eta}").expect("template"),
     );
     // Items in parallel (each simulation is deterministic by its own seed, so the rows do
-    // not depend on the order or the thread count); each item's rows land atomically.
+    // not depend on the order or the thread count); each item's rows land atomically. An
+    // item that cannot be run (a diverging simulation) is a row per method, `failed` with
+    // the reason; the study goes on and says so at the end.
     use rayon::prelude::*;
+    let failed = std::sync::atomic::AtomicUsize::new(0);
     todo.par_iter().try_for_each(|item| -> anyhow::Result<()> {
-        let rows = study
-            .run_item(item, logs.as_deref())
-            .map_err(|e| anyhow::anyhow!("item {} (seed {}): {e}", item.key(), item.seed))?;
-        let mut text = String::new();
-        for r in &rows {
-            text += &serde_json::to_string(r)?;
-            text.push('\n');
-        }
-        write_atomic(&items_dir.join(format!("{}.jsonl", item.key())), text.as_bytes())?;
+        let rows = study.run_item(item, logs.as_deref()).unwrap_or_else(|e| {
+            failed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            bar.suspend(|| eprintln!("item {} (seed {}) failed: {e}", item.key(), item.seed));
+            study.failed_rows(item, &e.to_string())
+        });
+        write_atomic(&item_file(item), study::item_text(&rows)?.as_bytes())?;
         bar.inc(1);
         Ok(())
     })?;
@@ -305,6 +326,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             all.len(),
             dir.display()
         );
+    }
+    let failed = failed.into_inner();
+    if failed > 0 {
+        eprintln!(
+            "{failed} of {} items of this shard could not be run (their rows say why); a re-run tries them again",
+            todo.len()
+        );
+        return Ok(ExitCode::from(2));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -76,7 +76,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             },
         )?;
         if !args.keep_logs {
-            std::fs::remove_file(&log)?;
+            std::fs::remove_file(&log).map_err(|e| fpkbench::io::output::at(&log, "removing the log", e))?;
         }
         let p = SweepPoint::from_report(level, &r).expect("the scenario has [identify.disturbance]");
         if let Some(it) = r.iterations.first() {

@@ -128,9 +128,8 @@ impl Setup<'_> {
 pub struct Context<'a> {
     /// The problem with the fitted (or known) filters.
     pub problem: &'a Problem,
-    /// The weak form's estimate: computed first by the pipeline, whatever was asked for,
-    /// as it measures identifiability.
-    pub weak: &'a Result<Estimate, IdentError>,
+    /// The first pass: moments per batch (the weak form's data).
+    pub data: &'a StationaryData,
     /// Typical magnitudes of the unknowns (the least squares' column scaling).
     pub typical: &'a [f64],
     /// Whether an unknown filter corner makes the drift bilinear.

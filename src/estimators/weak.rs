@@ -1,9 +1,9 @@
 //! The weak form (docs/theory.md §5). It needs no accumulator of its own: its equations
-//! come from the first pass's raw moments, and the pipeline solves them first, whatever
-//! was asked for, because they measure identifiability.
+//! come from the first pass's raw moments per batch. With an unknown filter corner the
+//! drift is bilinear: monomials first, then the corner and the coefficients.
 
 use super::{Context, Estimator, Setup};
-use crate::ident::{Estimate, IdentError};
+use crate::ident::{self, Estimate, IdentError};
 
 struct WeakForm;
 
@@ -15,6 +15,10 @@ impl Estimator for WeakForm {
     fn push(&mut self, _: u32, _: f64, _: usize, _: &[f64]) {}
 
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
-        cx.weak.clone()
+        if cx.bilinear {
+            ident::identify_weak_bilinear(cx.problem, cx.data)
+        } else {
+            ident::identify_weak(cx.problem, cx.data)
+        }
     }
 }

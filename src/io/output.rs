@@ -8,7 +8,10 @@
 //!   its interrupt handler — on Ctrl-C or `kill`.
 //! - [`FolderLock`]: an advisory lock on an output folder, released by the operating system
 //!   when the process ends, however it ends.
-//! - [`refuse_same_file`] and [`check_free_space`].
+//! - [`Staging`]: the files of one run written together into a hidden folder and moved
+//!   into place only when all are complete, so a failed run leaves the previous one whole.
+//! - [`refuse_same_file`] and [`check_free_space`]; [`at`] names the path and operation
+//!   of every OS error.
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -23,11 +26,105 @@ fn registry() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     PENDING.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Remove every temporary file this process has not completed (for an interrupt handler;
-/// the process is about to exit).
+/// Remove every temporary file and staging folder this process has not completed (for an
+/// interrupt handler; the process is about to exit).
 pub fn remove_all_pending() {
     for p in registry().drain(..) {
-        let _ = std::fs::remove_file(p);
+        if p.is_dir() {
+            let _ = std::fs::remove_dir_all(p);
+        } else {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
+
+/// `e` with the path and the operation that met it: `creating folder out/x: File exists`.
+pub fn at(path: &Path, operation: &str, e: std::io::Error) -> std::io::Error {
+    std::io::Error::new(e.kind(), format!("{operation} {}: {e}", path.display()))
+}
+
+/// Prefix of the staging folders inside an output folder.
+const STAGING: &str = ".fpkbench-staging-";
+
+/// A set of files written together into one output folder (a run's log, report and
+/// figures): each is written into a hidden staging folder inside it, and only when every
+/// one is complete are they moved into place, and the previous run's files of the set
+/// that this run did not write are removed. After any failure before that (a full disk,
+/// an error, Ctrl-C, a kill) the folder holds the previous run's files untouched, never a
+/// mix. Hold the folder's [`FolderLock`] while staging: a staging folder found at the
+/// start is a dead process's and is removed.
+#[derive(Debug)]
+pub struct Staging {
+    dir: PathBuf,
+    staging: PathBuf,
+}
+
+impl Staging {
+    /// Start staging into `dir` (created if missing).
+    pub fn new(dir: &Path) -> std::io::Result<Staging> {
+        std::fs::create_dir_all(dir).map_err(|e| at(dir, "creating the output folder", e))?;
+        if let Ok(entries) = std::fs::read_dir(dir) {
+            for e in entries.flatten() {
+                if e.file_name().to_string_lossy().starts_with(STAGING) {
+                    let _ = std::fs::remove_dir_all(e.path());
+                }
+            }
+        }
+        let staging = dir.join(format!(
+            "{STAGING}{}-{}",
+            std::process::id(),
+            SERIAL.fetch_add(1, Ordering::Relaxed)
+        ));
+        std::fs::create_dir(&staging).map_err(|e| at(&staging, "creating the staging folder", e))?;
+        registry().push(staging.clone());
+        Ok(Staging {
+            dir: dir.to_path_buf(),
+            staging,
+        })
+    }
+
+    /// Where to write the files (by their final names).
+    pub fn path(&self) -> &Path {
+        &self.staging
+    }
+
+    /// The folder the files end up in.
+    pub fn dest(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Move every staged file into the folder, and remove the files named in `set` that
+    /// this run did not write (a previous run's figure that no longer applies); the final
+    /// paths, in name order.
+    pub fn commit(self, set: &[String]) -> std::io::Result<Vec<PathBuf>> {
+        let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(&self.staging)
+            .map_err(|e| at(&self.staging, "reading the staging folder", e))?
+            .map(|e| e.map(|e| e.file_name()))
+            .collect::<Result<_, _>>()
+            .map_err(|e| at(&self.staging, "reading the staging folder", e))?;
+        names.sort();
+        let mut out = Vec::new();
+        for n in &names {
+            let dest = self.dir.join(n);
+            std::fs::rename(self.staging.join(n), &dest).map_err(|e| at(&dest, "moving into place", e))?;
+            out.push(dest);
+        }
+        for stale in set.iter().filter(|s| !names.iter().any(|n| n == s.as_str())) {
+            let p = self.dir.join(stale);
+            match std::fs::remove_file(&p) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(at(&p, "removing the stale", e)),
+                _ => {}
+            }
+        }
+        Ok(out)
+        // Drop removes the (now empty) staging folder.
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.staging);
+        registry().retain(|p| p != &self.staging);
     }
 }
 
@@ -48,7 +145,7 @@ impl Pending {
             ));
         }
         if let Some(dir) = dest.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)?;
+            std::fs::create_dir_all(dir).map_err(|e| at(dir, "creating the folder", e))?;
         }
         let mut name = dest.as_os_str().to_owned();
         name.push(format!(
@@ -106,13 +203,14 @@ impl FolderLock {
     /// Lock `dir` (created if missing) through its `.fpkbench.lock` file; refuses at once
     /// if another process holds it.
     pub fn acquire(dir: &Path) -> std::io::Result<FolderLock> {
-        std::fs::create_dir_all(dir)?;
+        std::fs::create_dir_all(dir).map_err(|e| at(dir, "creating the output folder", e))?;
         let path = dir.join(".fpkbench.lock");
         let file = std::fs::OpenOptions::new()
             .create(true)
             .truncate(false)
             .write(true)
-            .open(&path)?;
+            .open(&path)
+            .map_err(|e| at(&path, "opening the folder lock", e))?;
         match file.try_lock() {
             Ok(()) => Ok(FolderLock { _file: file }),
             Err(std::fs::TryLockError::WouldBlock) => Err(std::io::Error::new(
@@ -124,7 +222,7 @@ impl FolderLock {
                     path.display()
                 ),
             )),
-            Err(std::fs::TryLockError::Error(e)) => Err(e),
+            Err(std::fs::TryLockError::Error(e)) => Err(at(&path, "locking", e)),
         }
     }
 }

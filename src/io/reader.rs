@@ -455,6 +455,10 @@ fn record_head(buf: &[u8], offset: u64, within: &str) -> Result<(u8, usize), Rea
     Ok((buf[0], n as usize))
 }
 
+/// The longest record a length may claim before it counts as damaged rather than cut
+/// short (1 TiB: far beyond any chunk or message a writer makes).
+pub const MAX_RECORD: u64 = 1 << 40;
+
 /// Reads every record of a file from the start, in file order, including the records
 /// inside chunks (a chunk is checked whole before its first record is handed out).
 pub struct Scan {
@@ -478,6 +482,17 @@ impl Scan {
 
     fn read(&mut self, n: u64, offset: u64, what: &str) -> Result<(), ReadError> {
         let left = self.file.len - offset;
+        if n > left && n > MAX_RECORD {
+            // No writer makes a record this long: the length itself is damaged, whatever
+            // follows it (docs/reliability.md: an impossible length is damage).
+            return Err(ReadError::Corrupt {
+                offset,
+                what: format!(
+                    "{what} at byte {offset} claims {n} bytes, more than any record can hold ({MAX_RECORD}): \
+                     its length is damaged"
+                ),
+            });
+        }
         if n > left {
             return Err(ReadError::Truncated {
                 offset: self.file.len,

@@ -7,7 +7,8 @@ use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
 use crate::model::{Characteristic, Coefficient, Truth};
 use crate::report::{
-    Curve, FilterReport, IterationReport, MethodReport, Parameter, PlotData, Provenance, Report, Timings, Validation,
+    Curve, FilterReport, IterationReport, MethodReport, Outcome, Parameter, PlotData, Provenance, Report, Timings,
+    Validation,
 };
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
@@ -231,6 +232,7 @@ pub(crate) fn method_report(
 ) -> MethodReport {
     let mut rep = MethodReport {
         method,
+        outcome: Outcome::Estimated,
         gated: threshold.is_some(),
         parameters: Vec::new(),
         curves: Vec::new(),
@@ -248,10 +250,14 @@ pub(crate) fn method_report(
     };
     match est {
         Err(IdentError::NotApplicable(why)) => {
+            rep.outcome = Outcome::NotApplicable;
             rep.not_applicable = Some(why);
             rep.passed = None;
         }
-        Err(e) => rep.error = Some(e.to_string()),
+        Err(e) => {
+            rep.outcome = Outcome::of_error(&e);
+            rep.error = Some(e.to_string());
+        }
         Ok(e) => {
             fill_accuracy(
                 &mut rep,

@@ -191,23 +191,13 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
             estimators[i].1.finish();
         }
     }
-    // Identifiability is a property of the unknowns and the data: measured once, with the
-    // weak form's batches, whatever methods were asked for (no estimates on failure).
+    // With an unknown corner the drift is bilinear, and the reports are about the physical
+    // coefficients and corners.
     let bilinear = problem.unknowns.iter().any(|u| matches!(u, Unknown::Corner(_)));
-    let weak_estimate = if bilinear {
-        ident::identify_weak_bilinear(&problem, &data)
-    } else {
-        ident::identify_weak(&problem, &data)
-    };
-    // What the reports are about: with an unknown corner, the physical coefficients and corners.
     let reported = if bilinear { problem.physical() } else { problem.clone() };
-    if let Err(e @ IdentError::NotIdentifiable { .. }) = weak_estimate {
-        return Err(e.into());
-    }
-
     let context = Context {
         problem: &problem,
-        weak: &weak_estimate,
+        data: &data,
         typical: &typical,
         bilinear,
     };
@@ -233,9 +223,9 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     ))
 }
 
-/// One row per requested method, and the first estimate of an FPK estimator that succeeded
-/// (what the validation re-simulates); rows are about `reported` (the physical problem of
-/// a bilinear one). Unknowns that cannot be separated end the identification.
+/// One row per requested method, each with its own outcome (a refusal is that method's
+/// row), and the first estimate of an FPK estimator that succeeded (what the validation
+/// re-simulates); rows are about `reported` (the physical problem of a bilinear one).
 #[allow(clippy::type_complexity)]
 fn estimator_reports(
     estimators: &[(Method, Box<dyn Estimator>)],
@@ -250,9 +240,6 @@ fn estimator_reports(
     for (m, estimator) in estimators {
         let t = Instant::now();
         let est = estimator.estimate(cx);
-        if let (Err(err @ IdentError::NotIdentifiable { .. }), false) = (&est, m.is_baseline()) {
-            return Err(err.clone().into());
-        }
         let method = ReportMethod::Estimator(*m);
         if let (Ok(est), None, false) = (&est, &first, m.is_baseline()) {
             first = Some((est.values.clone(), method.clone()));

@@ -8,7 +8,7 @@
 use super::source::Input;
 use super::{identify, Options, PipelineError};
 use crate::ident::Arenas;
-use crate::report::Report;
+use crate::report::{Outcome, Report};
 use crate::scenario::{Method, Scenario, ScenarioError};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -55,7 +55,8 @@ pub struct Study {
     pub name: String,
     pub file: StudyFile,
     pub scenario: Scenario,
-    /// SHA-256 of the study file and scenario texts: rows of another study are refused.
+    /// SHA-256 of the study's keys (but the scenario's path) and the scenario's text: rows
+    /// of another study are refused, whatever path spelling or comments either used.
     pub fingerprint: String,
     /// The large tables of an identification (lattices, cell arenas, the samples an item
     /// simulated in memory keeps for its later passes), handed from item to item: items of
@@ -86,6 +87,8 @@ pub struct Row {
     pub study: String,
     pub item: Item,
     pub method: String,
+    /// Estimated, refused, not applicable, or failed (the item could not be run).
+    pub outcome: Outcome,
     pub samples: u64,
     /// Why the method gave no estimate (then the numbers are empty).
     pub error: Option<String>,
@@ -182,9 +185,15 @@ impl Study {
         for item in study.items().iter().filter(|i| i.seed_index == 0) {
             study.scenario_of(item)?;
         }
+        // From the content, not the spelling: the study's keys but the scenario's path
+        // (sorted, comments and layout dropped) and the scenario's text.
+        let mut keys: toml::Table = toml::from_str(text).map_err(|e| fail(e.message().to_string()))?;
+        keys.remove("scenario");
+        let canonical = toml::to_string(&keys).map_err(|e| fail(e.to_string()))?;
         use sha2::Digest;
         let mut h = sha2::Sha256::new();
-        h.update(text.as_bytes());
+        h.update(canonical.as_bytes());
+        h.update([0]);
         h.update(study.scenario.source.as_bytes());
         study.fingerprint = h.finalize().iter().take(8).map(|b| format!("{b:02x}")).collect();
         Ok(study)
@@ -273,13 +282,13 @@ impl Study {
 fn rows_of(study: &str, item: &Item, r: &Report, simulate_s: f64, item_s: f64) -> Vec<Row> {
     r.methods
         .iter()
-        .filter(|m| m.not_applicable.is_none())
         .map(|m| Row {
             study: study.to_string(),
             item: *item,
             method: m.method.name(),
+            outcome: m.outcome,
             samples: r.samples,
-            error: m.error.clone(),
+            error: m.error.clone().or_else(|| m.not_applicable.clone()),
             worst_rel_error: m.error.is_none().then_some(m.worst_rel_error),
             parameters: m
                 .parameters
@@ -300,9 +309,140 @@ fn rows_of(study: &str, item: &Item, r: &Report, simulate_s: f64, item_s: f64) -
         .collect()
 }
 
-/// The shard `(index, count)` from the flags or the scheduler's environment: Slurm job
-/// arrays (`SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN` of `SLURM_ARRAY_TASK_COUNT`), a
-/// Kubernetes Indexed Job (`JOB_COMPLETION_INDEX`, with the count given), else `(0, 1)`.
+impl Study {
+    /// The rows of an item that could not be run (e.g. a diverging simulation): one per
+    /// method, each `failed` with the reason.
+    pub fn failed_rows(&self, item: &Item, why: &str) -> Vec<Row> {
+        self.file
+            .methods
+            .iter()
+            .map(|m| Row {
+                study: self.fingerprint.clone(),
+                item: *item,
+                method: m.name().to_string(),
+                outcome: Outcome::Failed,
+                samples: 0,
+                error: Some(why.to_string()),
+                worst_rel_error: None,
+                parameters: Vec::new(),
+                simulate_s: 0.0,
+                identify_s: 0.0,
+                item_s: 0.0,
+            })
+            .collect()
+    }
+}
+
+/// The last line of a complete item file: how many rows precede it and their SHA-256.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Complete {
+    complete: CompleteMark,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CompleteMark {
+    rows: usize,
+    sha256: String,
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// An item file's text: one JSON row per line, then the completeness mark (the rows'
+/// count and checksum), so a file cut short or edited is never taken as done.
+pub fn item_text(rows: &[Row]) -> Result<String, serde_json::Error> {
+    let mut text = String::new();
+    for r in rows {
+        text += &serde_json::to_string(r)?;
+        text.push('\n');
+    }
+    let mark = Complete {
+        complete: CompleteMark {
+            rows: rows.len(),
+            sha256: sha256_hex(text.as_bytes()),
+        },
+    };
+    text += &serde_json::to_string(&mark)?;
+    text.push('\n');
+    Ok(text)
+}
+
+/// The rows of an item file, if it is complete: it ends with its completeness mark, whose
+/// count and checksum match the rows before it. The error says what is wrong with it.
+pub fn read_item(path: &Path) -> Result<Vec<Row>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("reading {}: {e}", path.display()))?;
+    let body_end = text.trim_end_matches('\n').rfind('\n').map_or(0, |i| i + 1);
+    let (body, last) = text.split_at(body_end);
+    let mark: Complete = serde_json::from_str(last.trim()).map_err(|_| {
+        format!(
+            "{}: incomplete item file (no completeness mark at its end{})",
+            path.display(),
+            if text.is_empty() { "; it is empty" } else { "" }
+        )
+    })?;
+    if sha256_hex(body.as_bytes()) != mark.complete.sha256 {
+        return Err(format!(
+            "{}: damaged item file (its rows do not match their checksum)",
+            path.display()
+        ));
+    }
+    let mut rows = Vec::new();
+    for (n, line) in body.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        rows.push(
+            serde_json::from_str::<Row>(line)
+                .map_err(|e| format!("{}: line {}: not a study row: {e}", path.display(), n + 1))?,
+        );
+    }
+    if rows.len() != mark.complete.rows {
+        return Err(format!(
+            "{}: damaged item file ({} rows where its mark says {})",
+            path.display(),
+            rows.len(),
+            mark.complete.rows
+        ));
+    }
+    Ok(rows)
+}
+
+/// Whether the item file at `path` holds this study's item done: complete, of this study,
+/// a row for every method, none failed. Otherwise why not (the item is run again).
+pub fn item_done(study: &Study, path: &Path) -> Result<(), String> {
+    if !path.exists() {
+        return Err("not run yet".into());
+    }
+    let rows = read_item(path)?;
+    if let Some(r) = rows.iter().find(|r| r.study != study.fingerprint) {
+        return Err(format!("{}: rows of another study ({})", path.display(), r.study));
+    }
+    for m in &study.file.methods {
+        match rows.iter().find(|r| r.method == m.name()) {
+            None => return Err(format!("{}: no row for method {m}", path.display())),
+            Some(r) if r.outcome == Outcome::Failed => {
+                return Err(format!(
+                    "{}: failed before ({})",
+                    path.display(),
+                    r.error.as_deref().unwrap_or("no reason")
+                ))
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
+}
+
+/// The shard `(index, count)` from the flags or the scheduler's environment, refused
+/// before any work when it cannot be known for sure:
+/// - `--shard I/N` (resubmitting one piece by hand);
+/// - a Slurm job array: the task's `SLURM_ARRAY_TASK_ID` is the index; the count is
+///   `--shard-count N` if given (which keeps a resubmitted task, `sbatch --array=5`, shard
+///   5 of N), else the array's size when it is `0-(N−1)` with step 1 (other shapes, such
+///   as `0-4:2` or `0,1,5`, need `--shard-count`);
+/// - a Kubernetes Indexed Job (`JOB_COMPLETION_INDEX`, with `--shard-count`);
+/// - else `(0, 1)`, or `(0, N)` with `--shard-count N` alone refused as ambiguous.
 pub fn shard_from(
     flag: Option<(usize, usize)>,
     count: Option<usize>,
@@ -311,8 +451,7 @@ pub fn shard_from(
     let num = |k: &str| -> Result<Option<usize>, String> {
         env(k)
             .map(|v| {
-                v.trim()
-                    .parse::<usize>()
+                v.parse::<usize>()
                     .map_err(|_| format!("{k}={v:?} is not a whole number"))
             })
             .transpose()
@@ -320,22 +459,36 @@ pub fn shard_from(
     let (i, n) = if let Some(f) = flag {
         f
     } else if let Some(id) = num("SLURM_ARRAY_TASK_ID")? {
-        let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
         let n = match count {
             Some(n) => n,
-            None => num("SLURM_ARRAY_TASK_COUNT")?
-                .ok_or("SLURM_ARRAY_TASK_ID without SLURM_ARRAY_TASK_COUNT: give --shard-count")?,
+            None => {
+                let min = num("SLURM_ARRAY_TASK_MIN")?;
+                let max = num("SLURM_ARRAY_TASK_MAX")?;
+                let tasks = num("SLURM_ARRAY_TASK_COUNT")?;
+                let step = num("SLURM_ARRAY_TASK_STEP")?.unwrap_or(1);
+                match (min, max, tasks) {
+                    (Some(0), Some(max), Some(tasks)) if step == 1 && tasks == max + 1 => tasks,
+                    _ => {
+                        return Err(format!(
+                            "the job array (tasks {}-{}, {} of them, step {step}) is not 0-(N-1) with step 1, so                              the study's shard count cannot be known from it (a resubmitted task, or an array with                              gaps): give --shard-count N, the count of the whole study's array",
+                            min.map_or("?".into(), |v| v.to_string()),
+                            max.map_or("?".into(), |v| v.to_string()),
+                            tasks.map_or("?".into(), |v| v.to_string()),
+                        ))
+                    }
+                }
+            }
         };
-        (
-            id.checked_sub(min)
-                .ok_or(format!("SLURM_ARRAY_TASK_ID {id} below SLURM_ARRAY_TASK_MIN {min}"))?,
-            n,
-        )
+        (id, n)
     } else if let Some(id) = num("JOB_COMPLETION_INDEX")? {
         let n = count.ok_or("JOB_COMPLETION_INDEX is set: give the job's completions with --shard-count")?;
         (id, n)
+    } else if let Some(n) = count {
+        return Err(format!(
+            "--shard-count {n} without a scheduler's index (SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX):              give --shard I/{n} to run one shard by hand"
+        ));
     } else {
-        (0, count.unwrap_or(1))
+        (0, 1)
     };
     if n == 0 || i >= n {
         return Err(format!("shard {i} of {n}: the index must be below the count"));
@@ -349,8 +502,12 @@ pub struct Summary {
     pub record_length: f64,
     pub sample_interval: f64,
     pub method: String,
-    /// Items with an estimate, and without.
+    /// Items with an estimate.
     pub items: usize,
+    /// Items the method refused (the data could not decide), did not apply to, or where
+    /// the item could not be run.
+    pub refused: usize,
+    pub not_applicable: usize,
     pub failed: usize,
     pub worst_median: f64,
     pub worst_q1: f64,
@@ -365,6 +522,15 @@ pub struct Summary {
     pub parameters: Vec<ParameterSummary>,
     /// Median seconds per item (all its methods together).
     pub item_s_median: f64,
+}
+
+impl Summary {
+    /// Refused / (estimated + refused): how often the data could not decide; `None` when
+    /// the method never applied.
+    pub fn refusal_rate(&self) -> Option<f64> {
+        let n = self.items + self.refused;
+        (n > 0).then(|| self.refused as f64 / n as f64)
+    }
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -404,7 +570,12 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 .iter()
                 .filter(|r| r.item.record_length == t && r.item.sample_interval == h && r.method == method)
                 .collect();
-            let ok: Vec<&Row> = group.iter().copied().filter(|r| r.error.is_none()).collect();
+            let ok: Vec<&Row> = group
+                .iter()
+                .copied()
+                .filter(|r| r.outcome == Outcome::Estimated)
+                .collect();
+            let count = |o: Outcome| group.iter().filter(|r| r.outcome == o).count();
             let mut worst: Vec<f64> = ok.iter().filter_map(|r| r.worst_rel_error).collect();
             worst.sort_by(f64::total_cmp);
             let mut secs: Vec<f64> = group.iter().map(|r| r.item_s).collect();
@@ -453,7 +624,9 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 sample_interval: h,
                 method,
                 items: ok.len(),
-                failed: group.len() - ok.len(),
+                refused: count(Outcome::Refused),
+                not_applicable: count(Outcome::NotApplicable),
+                failed: count(Outcome::Failed),
                 worst_mean,
                 worst_sd,
                 coverage: (!covered.is_empty())
@@ -491,7 +664,9 @@ pub fn paired(rows: &[Row], reference: &str) -> Vec<Paired> {
     let mut out = Vec::new();
     for x in summarize(rows).iter().filter(|x| x.method != reference) {
         let same = |r: &&Row| {
-            r.item.record_length == x.record_length && r.item.sample_interval == x.sample_interval && r.error.is_none()
+            r.item.record_length == x.record_length
+                && r.item.sample_interval == x.sample_interval
+                && r.outcome == Outcome::Estimated
         };
         let refs: Vec<&Row> = rows.iter().filter(same).filter(|r| r.method == reference).collect();
         let mine: Vec<&Row> = rows.iter().filter(same).filter(|r| r.method == x.method).collect();
@@ -527,6 +702,9 @@ pub fn paired(rows: &[Row], reference: &str) -> Vec<Paired> {
 }
 
 fn mean_sd(v: &[f64]) -> (f64, f64) {
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
     let n = v.len() as f64;
     let mean = v.iter().sum::<f64>() / n;
     (
@@ -540,11 +718,12 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
 pub fn gather(files: &[PathBuf]) -> Result<Vec<Row>, String> {
     let mut rows: Vec<Row> = Vec::new();
     let mut study: Option<String> = None;
+    let mut files_of: Vec<(String, &PathBuf)> = Vec::new();
     for f in files {
-        let text = std::fs::read_to_string(f).map_err(|e| format!("{}: {e}", f.display()))?;
-        for (n, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-            let row: Row = serde_json::from_str(line)
-                .map_err(|e| format!("{}: line {}: not a study row: {e}", f.display(), n + 1))?;
+        for (n, row) in read_item(f)?.into_iter().enumerate() {
+            if !files_of.iter().any(|(k, _)| *k == row.item.key()) {
+                files_of.push((row.item.key(), f));
+            }
             match &study {
                 Some(s) if *s != row.study => {
                     return Err(format!(
@@ -561,7 +740,12 @@ pub fn gather(files: &[PathBuf]) -> Result<Vec<Row>, String> {
                 .iter()
                 .find(|r| r.item.key() == row.item.key() && r.method == row.method)
             {
-                Some(prev) if prev.item != row.item || prev.parameters != row.parameters || prev.error != row.error => {
+                Some(prev)
+                    if prev.item != row.item
+                        || prev.parameters != row.parameters
+                        || prev.outcome != row.outcome
+                        || prev.error != row.error =>
+                {
                     return Err(format!(
                         "{}: line {}: item {} method {} conflicts with another file's row for it",
                         f.display(),
@@ -572,6 +756,21 @@ pub fn gather(files: &[PathBuf]) -> Result<Vec<Row>, String> {
                 }
                 Some(_) => {}
                 None => rows.push(row),
+            }
+        }
+    }
+    // Every item has a row for every method any item has: a file without one is damaged
+    // (a study's summary would silently count fewer items for that method).
+    let mut methods: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
+    methods.sort_unstable();
+    methods.dedup();
+    for (key, file) in &files_of {
+        for m in &methods {
+            if !rows.iter().any(|r| &r.item.key() == key && r.method == *m) {
+                return Err(format!(
+                    "{}: item {key} has no row for method {m}, which other items have: run the study again to redo it",
+                    file.display()
+                ));
             }
         }
     }
@@ -594,6 +793,7 @@ mod tests {
                 seed: index as u64,
             },
             method: method.into(),
+            outcome: Outcome::Estimated,
             samples: 100,
             error: None,
             worst_rel_error: Some((estimate - 2.0).abs() / 2.0),
@@ -632,5 +832,49 @@ mod tests {
         assert!((p.reference_sd - 0.1).abs() < 1e-12);
         // Differences 0.5, 1.0, 1.5 reference sds: mean 1, sd 0.5, largest 1.5.
         assert!((p.mean - 1.0).abs() < 1e-9 && (p.sd - 0.5).abs() < 1e-9 && (p.max_abs - 1.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn refusals_are_counted_beside_the_estimates() {
+        let mut rows: Vec<Row> = (0..4).map(|i| row(i, "strong", 2.1, true)).collect();
+        for (r, o) in rows
+            .iter_mut()
+            .zip([Outcome::Refused, Outcome::Refused, Outcome::NotApplicable])
+        {
+            r.outcome = o;
+            r.error = Some("why".into());
+            r.parameters.clear();
+            r.worst_rel_error = None;
+        }
+        let s = summarize(&rows);
+        assert_eq!(s.len(), 1);
+        assert_eq!(
+            (s[0].items, s[0].refused, s[0].not_applicable, s[0].failed),
+            (1, 2, 1, 0)
+        );
+        assert!((s[0].worst_median - 0.05).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_item_file_is_done_only_when_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("item.jsonl");
+        let rows = vec![row(0, "weak", 2.1, true), row(0, "strong", 1.9, true)];
+        let text = item_text(&rows).unwrap();
+        std::fs::write(&path, &text).unwrap();
+        assert_eq!(read_item(&path).unwrap(), rows);
+        // Empty, cut before its mark, a row removed, a value edited: each named, none read.
+        let lines: Vec<&str> = text.lines().collect();
+        let cases = [
+            (String::new(), "it is empty"),
+            (format!("{}\n{}\n", lines[0], lines[1]), "no completeness mark"),
+            (format!("{}\n{}\n", lines[0], lines[2]), "checksum"),
+            (text.replace("2.1", "2.2"), "checksum"),
+        ];
+        for (damaged, says) in cases {
+            std::fs::write(&path, &damaged).unwrap();
+            let e = read_item(&path).unwrap_err();
+            assert!(e.contains("item.jsonl") && e.contains(says), "{e}");
+        }
     }
 }

@@ -21,7 +21,7 @@ fn verdict(m: &MethodReport) -> String {
         return format!("**{}**: not applicable — {why}", m.method);
     }
     if let Some(e) = &m.error {
-        return format!("**{}**: no estimate — {e}", m.method);
+        return format!("**{}**: {}, no estimate — {e}", m.method, m.outcome.name());
     }
     let gate = match (m.threshold, m.passed) {
         (Some(t), Some(true)) => format!("within its regression gate of {}", fmt_err(t)),
@@ -115,7 +115,7 @@ pub fn markdown(r: &Report) -> String {
             continue;
         }
         if let Some(e) = &m.error {
-            s += &format!("No estimate: {e}\n\n");
+            s += &format!("No estimate ({}): {e}\n\n", m.outcome.name());
             continue;
         }
         s += &parameter_table(m);

@@ -1,7 +1,8 @@
 //! A study's summary: `summary.json`, `summary.md`, `study.html` and `study.svg` (worst
 //! error against record length with a `1/√T` guide, against the sample interval, and the
-//! coverage of the 95 % intervals; for a study of one configuration, every seed's worst
-//! error and the coverage per method; PNG and PDF beside it).
+//! coverage of the 95 % intervals, and the share of items each method refused; for a study
+//! of one configuration, every seed's worst error, the coverage and the refusals per
+//! method; PNG and PDF beside it).
 
 use super::figure::{color, log_range, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
 use super::plot::write_figure;
@@ -27,15 +28,22 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
          mean + 4 sd) and the coverage of all 95 % intervals.\n\n![Worst error against record length and \
          sample interval, coverage](study.svg)\n\n"
     );
-    s += "| record length (s) | interval (s) | method | items | failed | median | q1 | q3 | max | mean | sd | coverage | s per item |\n\
-          |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    s += "Every item × method has a row: *estimated*, *refused* (the data could not separate the \
+          unknowns, or too few samples: no estimates), *not applicable* (the method does not apply to this \
+          problem) or *failed* (the item could not be run). The error statistics are over the estimated \
+          items; the refusal rate is refused / (estimated + refused).\n\n";
+    s += "| record length (s) | interval (s) | method | estimated | refused | refusal rate | n/a | failed | median | q1 | q3 | max | mean | sd | coverage | s per item |\n\
+          |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for x in summary {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
             x.record_length,
             x.sample_interval,
             x.method,
             x.items,
+            x.refused,
+            x.refusal_rate().map_or("–".into(), |r| format!("{:.0} %", 100.0 * r)),
+            x.not_applicable,
             x.failed,
             pct(x.worst_median),
             pct(x.worst_q1),
@@ -268,6 +276,50 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
         p.legend_at = Corner::LowerLeft;
         panels.push(p);
     }
+    if summary.iter().any(|x| x.refused + x.failed > 0) {
+        // How often each method could not decide (or the item could not be run), against
+        // the first varied axis: a refusal is a result of the study.
+        let by_length = axes[0];
+        let mut p = Panel::new(
+            "refused or failed items",
+            x_axis(by_length, if by_length { &lengths } else { &intervals }),
+            Axis::linear(0.0, 102.0, "items refused or failed (%)"),
+        );
+        for (k, m) in methods.iter().enumerate() {
+            for (g, &other) in groups(by_length).iter().enumerate() {
+                let pts: Vec<(f64, f64)> = summary
+                    .iter()
+                    .filter(|x| {
+                        x.method == *m
+                            && if by_length {
+                                x.sample_interval == other
+                            } else {
+                                x.record_length == other
+                            }
+                    })
+                    .filter_map(|x| {
+                        let n = x.items + x.refused + x.failed;
+                        (n > 0).then(|| (at(x, by_length), 100.0 * (x.refused + x.failed) as f64 / n as f64))
+                    })
+                    .collect();
+                if pts.is_empty() {
+                    continue;
+                }
+                let col = color(k + g * methods.len());
+                p.mark(Mark::Line {
+                    points: pts.clone(),
+                    stroke: Stroke::solid(col, 2.0),
+                });
+                p.mark(Mark::Points {
+                    points: pts,
+                    color: col,
+                    radius: 3.0,
+                });
+            }
+        }
+        p.legend_at = Corner::UpperLeft;
+        panels.push(p);
+    }
     let mut fig = Figure::new(540.0 * panels.len() as f64);
     fig.row(460.0, panels.into_iter().map(Some).collect());
     write_figure(path, &fig)
@@ -359,6 +411,36 @@ pub fn plot_methods(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::
             }
         }
         fig.row(280.0, vec![Some(c)]);
+    }
+    if methods.iter().any(|x| x.refused + x.failed + x.not_applicable > 0) {
+        // Every item × method has an outcome: the share of items each method refused
+        // (dark), could not run (failed) or did not apply to, stacked.
+        let mut c = Panel::new(
+            "items without estimates: refused (the data could not decide), failed, not applicable",
+            Axis::categories(names.clone(), ""),
+            Axis::linear(0.0, 102.0, "items (%)"),
+        );
+        for (k, s) in methods.iter().enumerate() {
+            let n = (s.items + s.refused + s.failed + s.not_applicable).max(1) as f64;
+            let x = (k + 1) as f64;
+            let mut base = 0.0;
+            for (count, width, shade) in [
+                (s.refused, 6.0, color(k)),
+                (s.failed, 3.0, BLACK),
+                (s.not_applicable, 1.5, GREY),
+            ] {
+                if count == 0 {
+                    continue;
+                }
+                let top = base + 100.0 * count as f64 / n;
+                c.mark(Mark::Line {
+                    points: vec![(x, base), (x, top)],
+                    stroke: Stroke::solid(shade, width),
+                });
+                base = top;
+            }
+        }
+        fig.row(240.0, vec![Some(c)]);
     }
     write_figure(path, &fig)
 }

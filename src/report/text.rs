@@ -169,7 +169,7 @@ pub fn summary(r: &Report) -> String {
             continue;
         }
         if let Some(e) = &m.error {
-            s += &format!("FAILED: {e}\n");
+            s += &format!("{}: {e}\n", m.outcome.name().to_uppercase());
             continue;
         }
         match (m.threshold, m.passed) {

@@ -5,7 +5,7 @@ use crate::model::Truth;
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
 use crate::stats::Histogram;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 #[derive(Debug, Clone, Serialize)]
@@ -73,9 +73,52 @@ pub struct FilterReport {
     pub segment_len: usize,
 }
 
+/// What a method made of the data: each method's outcome is its own (docs/methods.md,
+/// "Outcomes and exit codes").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Outcome {
+    /// Estimates with standard errors (or the reason they have none).
+    Estimated,
+    /// The data cannot decide: the unknowns cannot be separated (rank, singular values) or
+    /// there are too few samples. No estimates are given.
+    Refused,
+    /// The method does not apply to this problem (e.g. a density lattice in too many
+    /// dimensions): not a failure.
+    NotApplicable,
+    /// The method failed on these data (e.g. a non-finite result).
+    Failed,
+}
+
+impl Outcome {
+    /// The outcome of an identification that ended with `e`.
+    pub fn of_error(e: &crate::ident::IdentError) -> Outcome {
+        use crate::ident::IdentError as E;
+        match e {
+            E::NotApplicable(_) => Outcome::NotApplicable,
+            E::NotIdentifiable { .. } | E::Symmetric { .. } | E::Inseparable(_) | E::TooLittleData(_) => {
+                Outcome::Refused
+            }
+            _ => Outcome::Failed,
+        }
+    }
+
+    /// The name reports and study rows use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Outcome::Estimated => "estimated",
+            Outcome::Refused => "refused",
+            Outcome::NotApplicable => "not-applicable",
+            Outcome::Failed => "failed",
+        }
+    }
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodReport {
     pub method: ReportMethod,
+    /// Estimated, refused, not applicable or failed.
+    pub outcome: Outcome,
     /// Whether this method has an acceptance gate (baselines and comparisons do not).
     pub gated: bool,
     pub parameters: Vec<Parameter>,
@@ -95,7 +138,8 @@ pub struct MethodReport {
     pub weakly_determined: bool,
     pub facts: BTreeMap<String, String>,
     pub dissipativity: Vec<stats::Dissipativity>,
-    /// Why the method gave no estimate (then `passed` is false).
+    /// Why the method gave no estimate when it was refused or failed (then `passed` is
+    /// false).
     pub error: Option<String>,
     pub seconds: f64,
 }

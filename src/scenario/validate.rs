@@ -214,6 +214,9 @@ impl Scenario {
             (None, Some(_)) => Simulation::placeholder(),
             _ => check_simulation(&loc, &raw, &masses, &links)?,
         };
+        if raw.simulation.is_some() {
+            check_filters_resolved(&loc, &raw, &excitations, simulation.dt)?;
+        }
         let identify = check_identify(&loc, &raw, &masses, &links, &excitations)?;
         let accept = check_accept(&loc, &raw, &identify)?;
 
@@ -232,6 +235,36 @@ impl Scenario {
             disturbance_level: None,
         })
     }
+}
+
+/// A filtered excitation's corner `B` resolved by the step: `B·dt ≤ 1`. A faster filter
+/// is white noise to the masses, and the step cannot follow it.
+fn check_filters_resolved(
+    loc: &Locator,
+    raw: &RawScenario,
+    excitations: &[Excitation],
+    dt: f64,
+) -> Result<(), ScenarioError> {
+    for (k, e) in excitations.iter().enumerate() {
+        if let Process::Filtered { a, b } = e.process {
+            if b * dt > 1.0 {
+                let span = raw.excitation[k].b.as_ref().map_or(0..0, |s| s.span());
+                return Err(loc.at(
+                    span,
+                    format!("excitation[{k}].B"),
+                    format!(
+                        "B = {b:e} 1/s: the filter's time constant 1/B = {:.3e} s is shorter than the step dt = {dt} s \
+                         (B·dt = {:.3e}; at most 1): the step cannot follow it, and a filter this fast is white noise to \
+                         the masses. Use kind = \"white\" with sigma = A/B = {:.6e}, or a step dt <= 1/B",
+                        1.0 / b,
+                        b * dt,
+                        a / b
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `[data]`: every mapped column a quantity of the model, every factor finite and non-zero.
