@@ -5,6 +5,7 @@
 //! "features" `g_ir(y)` of docs/theory.md §2). Coefficients live in one contiguous array, dense
 //! by power, so evaluation needs no allocation. Depends only on `scenario`.
 
+pub mod admissible;
 mod columns;
 mod names;
 

@@ -4,9 +4,13 @@
 use super::paper::paper_structure;
 use super::raw::*;
 use super::*;
+use crate::model::admissible::{self, NotStationary};
 use std::collections::BTreeMap;
 use std::ops::Range;
 use toml::Spanned;
+
+mod identify;
+pub(crate) use identify::{check_accept, check_identify, inseparable};
 
 /// Byte-offset → line/column and key lookup for error messages.
 pub(crate) struct Locator<'a> {
@@ -476,181 +480,36 @@ pub(crate) fn check_links(loc: &Locator, raw: &RawScenario, masses: &[Mass]) -> 
 ///   the damping (`C(w)·w` negative at large speeds, energy pumped in) — refused when the
 ///   springs form no loop, so that each pair's relative displacement is a free coordinate;
 ///   with loops other links may bound it, and nothing is decided here.
+///
+/// The physics is [`admissible::stationary`]'s; this places its reason in the file.
 pub(crate) fn check_stationary(
     loc: &Locator,
     raw: &RawScenario,
     masses: &[Mass],
     links: &[Link],
 ) -> Result<(), ScenarioError> {
-    let node = |e: End| match e {
-        End::Ground => 0,
-        End::Mass(i) => i + 1,
-    };
-    // Spring paths to ground, by union-find over the nodes.
-    let mut parent: Vec<usize> = (0..=masses.len()).collect();
-    fn root(p: &mut [usize], mut i: usize) -> usize {
-        while p[i] != i {
-            p[i] = p[p[i]];
-            i = p[i];
-        }
-        i
-    }
-    let mut pairs: Vec<((usize, usize), Vec<usize>)> = Vec::new();
-    for (l, link) in links.iter().enumerate() {
-        let (a, b) = (node(link.ends[0]), node(link.ends[1]));
-        let key = (a.min(b), a.max(b));
-        match pairs.iter_mut().find(|p| p.0 == key) {
-            Some(p) => p.1.push(l),
-            None => pairs.push((key, vec![l])),
-        }
-    }
     // In a model file an unknown characteristic is there, with signs the data will tell.
     let unknown = |l: usize| unknown_in_model_file(raw, &links[l].name);
-    for (key, ls) in &pairs {
-        if ls.iter().all(|&l| links[l].stiffness.is_empty() && !unknown(l).0) {
-            continue;
-        }
-        let (ra, rb) = (root(&mut parent, key.0), root(&mut parent, key.1));
-        parent[ra] = rb;
-    }
-    for (i, m) in masses.iter().enumerate() {
-        if root(&mut parent, i + 1) != root(&mut parent, 0) {
-            return Err(loc.at(
-                raw.mass[i].name.span(),
-                format!("mass[{i}]"),
-                format!(
-                    "mass {:?} has no spring path to ground: its displacement wanders without bound \
-                     and has no stationary density, which the method assumes. Add a stiffness to \
-                     a link that connects it",
-                    m.name
-                ),
-            ));
-        }
-    }
-    if (0..links.len()).all(|l| links[l].damping.is_empty() && !unknown(l).1) {
-        return Err(loc.at(
-            raw.link.first().map_or(0..0, |l| l.ends.span()),
-            "link",
-            "no link has a damping: the excitation's energy is never dissipated, the response \
-             grows without bound and has no stationary density. Add a damping to some link",
-        ));
-    }
-    // Per pair of ends: its geometry `g` (x_a − x_b over the masses) and, per kind, the
-    // highest power of its combined characteristic.
-    let n = masses.len();
-    let geometry = |key: (usize, usize)| -> Vec<f64> {
-        let mut g = vec![0.0; n];
-        for (node, sign) in [(key.0, -1.0), (key.1, 1.0)] {
-            if node > 0 {
-                g[node - 1] += sign;
-            }
-        }
-        g
+    let Err(why) = admissible::stationary(masses, links, unknown) else {
+        return Ok(());
     };
-    for (pi, (key, ls)) in pairs.iter().enumerate() {
-        for stiffness in [true, false] {
-            let poly_of = |l: usize| {
-                if stiffness {
-                    &links[l].stiffness
-                } else {
-                    &links[l].damping
-                }
+    let (span, key) = match &why {
+        NotStationary::NoSpringPath { mass } => (raw.mass[*mass].name.span(), format!("mass[{mass}]")),
+        NotStationary::NoDamping => (raw.link.first().map_or(0..0, |l| l.ends.span()), "link".to_string()),
+        NotStationary::Unbounded { link, kind, .. } => {
+            let raw_poly = match kind {
+                admissible::Kind::Stiffness => &raw.link[*link].stiffness,
+                admissible::Kind::Damping => &raw.link[*link].damping,
             };
-            // The pair's combined characteristic in the orientation of its first link: a
-            // link turned round contributes −F(−u) (even powers negated).
-            let first = links[ls[0]].ends;
-            let mut sum: BTreeMap<u32, f64> = BTreeMap::new();
-            for &l in ls {
-                let same = links[l].ends == first;
-                for &(p, c) in &poly_of(l).terms {
-                    let sign = if same || p % 2 == 1 { 1.0 } else { -1.0 };
-                    *sum.entry(p).or_insert(0.0) += sign * c;
-                }
-            }
-            let Some((&p, &c)) = sum.iter().rev().find(|t| *t.1 != 0.0) else {
-                continue;
-            };
-            if ls.iter().any(|&l| if stiffness { unknown(l).0 } else { unknown(l).1 }) {
-                continue;
-            }
-            if p % 2 == 1 && c > 0.0 {
-                continue;
-            }
-            // The bad term decides when some motion stretches this pair and no other pair
-            // whose characteristic is of the same or a higher degree (sufficient; in a tree
-            // of springs always so). Otherwise those may bound it, and the scenario stands.
-            let others: Vec<Vec<f64>> = pairs
-                .iter()
-                .enumerate()
-                .filter(|&(pj, (_, lm))| pj != pi && lm.iter().map(|&l| poly_of(l).max_power()).max().unwrap_or(0) >= p)
-                .map(|(_, (k, _))| geometry(*k))
-                .collect();
-            if in_span(&geometry(*key), &others) {
-                continue;
-            }
-            let l = *ls
-                .iter()
-                .rev()
-                .find(|&&l| poly_of(l).max_power() == p)
-                .unwrap_or(&ls[0]);
-            let raw_poly = if stiffness {
-                &raw.link[l].stiffness
-            } else {
-                &raw.link[l].damping
-            };
-            let span = raw_poly.as_ref().map_or_else(|| raw.link[l].ends.span(), |s| s.span());
-            let (what, why) = if stiffness {
-                (
-                    "stiffness",
-                    "the potential is unbounded below, so the response escapes and has no \
-                     stationary density",
-                )
-            } else {
-                (
-                    "damping",
-                    "C(w)·w is negative at large speeds, so energy is pumped in and the response \
-                     has no stationary density",
-                )
-            };
-            let how = if p % 2 == 0 {
-                format!("its highest power {p} is even")
-            } else {
-                format!("its highest power {p} has a negative coefficient {c}")
-            };
-            return Err(loc.at(
-                span,
-                format!("link[{l}].{what}"),
-                format!(
-                    "the {what} between the ends of link {:?}: {how}: {why}, which the method \
-                     assumes. The highest power must be odd with a positive coefficient",
-                    links[l].name
-                ),
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// Whether `v` is a linear combination of `rows` (Gram–Schmidt; small integer vectors).
-fn in_span(v: &[f64], rows: &[Vec<f64>]) -> bool {
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    let reduce = |x: &mut Vec<f64>, basis: &[Vec<f64>]| {
-        for b in basis {
-            let d: f64 = x.iter().zip(b).map(|(a, b)| a * b).sum();
-            x.iter_mut().zip(b).for_each(|(a, b)| *a -= d * b);
+            (
+                raw_poly
+                    .as_ref()
+                    .map_or_else(|| raw.link[*link].ends.span(), |s| s.span()),
+                format!("link[{link}].{}", kind.name()),
+            )
         }
     };
-    for r in rows {
-        let mut x = r.clone();
-        reduce(&mut x, &basis);
-        let norm = x.iter().map(|a| a * a).sum::<f64>().sqrt();
-        if norm > 1e-9 {
-            basis.push(x.iter().map(|a| a / norm).collect());
-        }
-    }
-    let mut x = v.to_vec();
-    reduce(&mut x, &basis);
-    x.iter().map(|a| a * a).sum::<f64>().sqrt() < 1e-9
+    Err(loc.at(span, key, why.describe(masses, links)))
 }
 
 /// `[[excitation]]`: white or filtered processes on named masses.
@@ -798,7 +657,7 @@ pub(crate) fn check_simulation(
             }
             v
         }
-        None => default_burn_in(masses, links),
+        None => admissible::default_burn_in(masses, links),
     };
     let count = |v: &Option<Spanned<i64>>, key: &str, default: usize, max: i64| -> Result<usize, ScenarioError> {
         match v {
@@ -851,305 +710,4 @@ pub(crate) fn check_simulation(
         return Err(loc.at(span, key, format!("{e}{why}")));
     }
     Ok(simulation)
-}
-
-/// Why two links' unknowns can never be told apart, if they cannot: links between the same
-/// two ends (parallel springs or dampers) whose unknown coefficients share a power only
-/// ever act as their sum.
-pub(crate) fn inseparable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Option<String> {
-    let (la, lb) = (&links[a.link], &links[b.link]);
-    let parallel = la.ends == lb.ends || la.ends == [lb.ends[1], lb.ends[0]];
-    if !parallel || a.link == b.link {
-        return None;
-    }
-    let common = |x: &Option<Vec<u32>>, y: &Option<Vec<u32>>| {
-        x.iter()
-            .flatten()
-            .find(|p| y.iter().flatten().any(|q| q == *p))
-            .copied()
-    };
-    let (kind, p) = match (common(&a.stiffness, &b.stiffness), common(&a.damping, &b.damping)) {
-        (Some(p), _) => ("stiffness", p),
-        (None, Some(p)) => ("damping", p),
-        (None, None) => return None,
-    };
-    Some(format!(
-        "links {:?} and {:?} join the same two ends and both have an unknown {kind} coefficient of \
-         power {p}: only their sum acts, so no data can separate them. Identify one of them (declare \
-         the other known in [identify.links]) or merge them into one link",
-        la.name, lb.name
-    ))
-}
-
-/// `[identify]`: methods, the unknowns, comparison models and the section-4 procedure.
-pub(crate) fn check_identify(
-    loc: &Locator,
-    raw: &RawScenario,
-    masses: &[Mass],
-    links: &[Link],
-    excitations: &[Excitation],
-) -> Result<Identify, ScenarioError> {
-    let ident = raw.identify.as_ref();
-    let methods = match ident.and_then(|i| i.methods.as_ref()) {
-        None => vec![Method::Weak],
-        Some(m) if m.get_ref().is_empty() => {
-            return Err(loc.at(
-                m.span(),
-                "identify.methods",
-                "empty: name at least one method (weak, strong, strong-marginals), or leave the key \
-                 out for weak",
-            ))
-        }
-        Some(m) => {
-            let mut seen = Vec::new();
-            for &x in m.get_ref() {
-                if seen.contains(&x) {
-                    return Err(loc.at(m.span(), "identify.methods", format!("{:?} is listed twice", x.name())));
-                }
-                seen.push(x);
-            }
-            seen
-        }
-    };
-    let parse_links =
-        |map: &BTreeMap<String, Spanned<RawIdentifyLink>>, prefix: &str| -> Result<Vec<IdentifyLink>, ScenarioError> {
-            let mut out = Vec::new();
-            for (lname, spec) in map {
-                let key = format!("{prefix}.{lname}");
-                let link = links.iter().position(|l| &l.name == lname).ok_or_else(|| {
-                    let names: Vec<_> = links.iter().map(|l| l.name.as_str()).collect();
-                    loc.at(
-                        spec.span(),
-                        &key,
-                        format!("unknown link {lname:?}: links are {}", names.join(", ")),
-                    )
-                })?;
-                let sp = spec.get_ref();
-                let id = IdentifyLink {
-                    link,
-                    stiffness: powers(loc, &sp.stiffness, &format!("{key}.stiffness"))?,
-                    damping: powers(loc, &sp.damping, &format!("{key}.damping"))?,
-                };
-                if let Some(why) = out.iter().find_map(|o| inseparable(links, o, &id)) {
-                    return Err(loc.at(spec.span(), &key, why));
-                }
-                out.push(id);
-            }
-            out.sort_by_key(|l| l.link);
-            Ok(out)
-        };
-    let id_links = match ident.and_then(|i| i.links.as_ref()) {
-        Some(map) => parse_links(map, "identify.links")?,
-        None => links
-            .iter()
-            .enumerate()
-            .map(|(i, l)| {
-                let ps = |p: &Polynomial| (!p.is_empty()).then(|| p.terms.iter().map(|t| t.0).collect());
-                IdentifyLink {
-                    link: i,
-                    stiffness: ps(&l.stiffness),
-                    damping: ps(&l.damping),
-                }
-            })
-            .collect::<Vec<_>>(),
-    };
-    let mut compare = Vec::new();
-    for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
-        compare.push((
-            name.clone(),
-            parse_links(&c.get_ref().links, &format!("identify.compare.{name}.links"))?,
-        ));
-    }
-    // Names of filtered excitations in an `[identify]` list.
-    let filtered_list = |list: Option<&Vec<Spanned<String>>>, key: &str| -> Result<Vec<usize>, ScenarioError> {
-        let mut out = Vec::new();
-        for e in list.into_iter().flatten() {
-            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
-                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
-                loc.at(
-                    e.span(),
-                    key,
-                    format!(
-                        "unknown excitation {:?}: excitations are {}",
-                        e.get_ref(),
-                        names.join(", ")
-                    ),
-                )
-            })?;
-            if !matches!(excitations[k].process, Process::Filtered { .. }) {
-                return Err(loc.at(
-                    e.span(),
-                    key,
-                    format!(
-                        "excitation {:?} is white: only filtered excitations have A and B",
-                        e.get_ref()
-                    ),
-                ));
-            }
-            out.push(k);
-        }
-        Ok(out)
-    };
-    let known_filters = filtered_list(ident.and_then(|i| i.known_filters.as_ref()), "identify.known_filters")?;
-    let unknown_corners = filtered_list(
-        ident.and_then(|i| i.unknown_corners.as_ref()),
-        "identify.unknown_corners",
-    )?;
-    let mut unknown_masses = Vec::new();
-    for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {
-        let End::Mass(k) = mass_index(loc, masses, m, "identify.unknown_masses", false)? else {
-            unreachable!()
-        };
-        unknown_masses.push(k);
-    }
-    let mut unknown_intensities = Vec::new();
-    for e in ident.and_then(|i| i.unknown_intensities.as_ref()).into_iter().flatten() {
-        let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
-            let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
-            loc.at(
-                e.span(),
-                "identify.unknown_intensities",
-                format!(
-                    "unknown excitation {:?}: excitations are {}",
-                    e.get_ref(),
-                    names.join(", ")
-                ),
-            )
-        })?;
-        unknown_intensities.push(k);
-    }
-    let disturbance = match ident.and_then(|i| i.disturbance.as_ref()) {
-        None => None,
-        Some(d) => Some(check_disturbance(loc, d, || {
-            paper_structure(
-                masses,
-                links,
-                excitations,
-                &id_links,
-                &unknown_masses,
-                &unknown_intensities,
-                &unknown_corners,
-            )
-        })?),
-    };
-    let identify = Identify {
-        methods,
-        links: id_links,
-        unknown_masses,
-        unknown_intensities,
-        known_filters,
-        unknown_corners,
-        compare,
-        disturbance,
-    };
-    Ok(identify)
-}
-
-/// `[identify.disturbance]`: the section-4 procedure's stopping rules and sweep levels,
-/// and the paper's structure (4.3) found by `structure`.
-pub(crate) fn check_disturbance(
-    loc: &Locator,
-    d: &Spanned<RawDisturbance>,
-    structure: impl FnOnce() -> Result<PaperStructure, String>,
-) -> Result<Disturbance, ScenarioError> {
-    let raw_d = d.get_ref();
-    let max_steps = match &raw_d.max_steps {
-        None => 10,
-        Some(v) if (1..=1000).contains(v.get_ref()) => *v.get_ref() as usize,
-        Some(v) => {
-            return Err(loc.at(
-                v.span(),
-                "identify.disturbance.max_steps",
-                format!("must be a whole number 1..=1000, got {}", v.get_ref()),
-            ))
-        }
-    };
-    let tolerance = match &raw_d.tolerance {
-        None => 1e-3,
-        Some(v) => finite_positive(
-            loc,
-            v,
-            "identify.disturbance.tolerance",
-            "largest relative change of any coefficient in the last step, e.g. 1e-3",
-        )?,
-    };
-    let sweep = match &raw_d.sweep {
-        None => vec![0.0, 0.25, 0.5, 1.0, 2.0],
-        Some(list) => {
-            let mut out = Vec::new();
-            for v in list.get_ref() {
-                let x = *v.get_ref();
-                if !(x.is_finite() && x >= 0.0) {
-                    return Err(loc.at(
-                        v.span(),
-                        "identify.disturbance.sweep",
-                        format!("levels are finite numbers >= 0 (std of the disturbance over std of the measured force), got {x}"),
-                    ));
-                }
-                out.push(x);
-            }
-            if out.is_empty() {
-                return Err(loc.at(
-                    list.span(),
-                    "identify.disturbance.sweep",
-                    "empty: give the levels, e.g. [0, 0.25, 0.5, 1, 2]",
-                ));
-            }
-            out
-        }
-    };
-    let structure = structure().map_err(|m| loc.at(d.span(), "identify.disturbance", m))?;
-    Ok(Disturbance {
-        max_steps,
-        tolerance,
-        sweep,
-        structure,
-    })
-}
-
-/// `[accept]`: the worst relative error allowed, overall and per method.
-pub(crate) fn check_accept(loc: &Locator, raw: &RawScenario, identify: &Identify) -> Result<Accept, ScenarioError> {
-    let mut accept = Accept {
-        worst_rel_error: 0.05,
-        methods: BTreeMap::new(),
-    };
-    if let Some(a) = &raw.accept {
-        if let Some(w) = &a.worst_rel_error {
-            accept.worst_rel_error = finite_positive(loc, w, "accept.worst_rel_error", "relative error, e.g. 0.03")?;
-        }
-        let allowed: Vec<String> = ReportMethod::gated(identify.disturbance.is_some())
-            .iter()
-            .map(ReportMethod::name)
-            .collect();
-        for (m, v) in a.methods.iter().flatten() {
-            let key = format!("accept.methods.{m}");
-            if !allowed.contains(m) {
-                return Err(loc.at(
-                    v.span(),
-                    &key,
-                    format!("unknown method {m:?}: methods are {}", allowed.join(", ")),
-                ));
-            }
-            accept
-                .methods
-                .insert(m.clone(), finite_positive(loc, v, &key, "relative error")?);
-        }
-    }
-    Ok(accept)
-}
-
-/// Ten times the slowest modal decay time estimated per mass from its own links
-/// (`2m / Σc1`), at least 20 s: enough to forget the zero initial state.
-pub(crate) fn default_burn_in(masses: &[Mass], links: &[Link]) -> f64 {
-    let mut worst: f64 = 0.0;
-    for (i, m) in masses.iter().enumerate() {
-        let c: f64 = links
-            .iter()
-            .filter(|l| l.ends.contains(&End::Mass(i)))
-            .map(|l| l.damping.coefficient(1).abs())
-            .sum();
-        let tau = if c > 0.0 { 2.0 * m.value / c } else { 100.0 };
-        worst = worst.max(tau);
-    }
-    (10.0 * worst).max(20.0)
 }

@@ -1,0 +1,268 @@
+//! `[identify]` and `[accept]`: methods, the unknowns, comparison models, the section-4
+//! procedure and the regression gates, every error located by file, line, column and key.
+
+use super::*;
+use crate::model::admissible;
+
+/// Why two links' unknowns can never be told apart, if they cannot
+/// ([`admissible::separable`]).
+pub(crate) fn inseparable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Option<String> {
+    admissible::separable(links, a, b).err().map(|why| why.describe(links))
+}
+
+/// `[identify]`: methods, the unknowns, comparison models and the section-4 procedure.
+pub(crate) fn check_identify(
+    loc: &Locator,
+    raw: &RawScenario,
+    masses: &[Mass],
+    links: &[Link],
+    excitations: &[Excitation],
+) -> Result<Identify, ScenarioError> {
+    let ident = raw.identify.as_ref();
+    let methods = match ident.and_then(|i| i.methods.as_ref()) {
+        None => vec![Method::Weak],
+        Some(m) if m.get_ref().is_empty() => {
+            return Err(loc.at(
+                m.span(),
+                "identify.methods",
+                "empty: name at least one method (weak, strong, strong-marginals), or leave the key \
+                 out for weak",
+            ))
+        }
+        Some(m) => {
+            let mut seen = Vec::new();
+            for &x in m.get_ref() {
+                if seen.contains(&x) {
+                    return Err(loc.at(m.span(), "identify.methods", format!("{:?} is listed twice", x.name())));
+                }
+                seen.push(x);
+            }
+            seen
+        }
+    };
+    let parse_links =
+        |map: &BTreeMap<String, Spanned<RawIdentifyLink>>, prefix: &str| -> Result<Vec<IdentifyLink>, ScenarioError> {
+            let mut out = Vec::new();
+            for (lname, spec) in map {
+                let key = format!("{prefix}.{lname}");
+                let link = links.iter().position(|l| &l.name == lname).ok_or_else(|| {
+                    let names: Vec<_> = links.iter().map(|l| l.name.as_str()).collect();
+                    loc.at(
+                        spec.span(),
+                        &key,
+                        format!("unknown link {lname:?}: links are {}", names.join(", ")),
+                    )
+                })?;
+                let sp = spec.get_ref();
+                let id = IdentifyLink {
+                    link,
+                    stiffness: powers(loc, &sp.stiffness, &format!("{key}.stiffness"))?,
+                    damping: powers(loc, &sp.damping, &format!("{key}.damping"))?,
+                };
+                if let Some(why) = out.iter().find_map(|o| inseparable(links, o, &id)) {
+                    return Err(loc.at(spec.span(), &key, why));
+                }
+                out.push(id);
+            }
+            out.sort_by_key(|l| l.link);
+            Ok(out)
+        };
+    let id_links = match ident.and_then(|i| i.links.as_ref()) {
+        Some(map) => parse_links(map, "identify.links")?,
+        None => links
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let ps = |p: &Polynomial| (!p.is_empty()).then(|| p.terms.iter().map(|t| t.0).collect());
+                IdentifyLink {
+                    link: i,
+                    stiffness: ps(&l.stiffness),
+                    damping: ps(&l.damping),
+                }
+            })
+            .collect::<Vec<_>>(),
+    };
+    let mut compare = Vec::new();
+    for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
+        compare.push((
+            name.clone(),
+            parse_links(&c.get_ref().links, &format!("identify.compare.{name}.links"))?,
+        ));
+    }
+    // Names of filtered excitations in an `[identify]` list.
+    let filtered_list = |list: Option<&Vec<Spanned<String>>>, key: &str| -> Result<Vec<usize>, ScenarioError> {
+        let mut out = Vec::new();
+        for e in list.into_iter().flatten() {
+            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+                loc.at(
+                    e.span(),
+                    key,
+                    format!(
+                        "unknown excitation {:?}: excitations are {}",
+                        e.get_ref(),
+                        names.join(", ")
+                    ),
+                )
+            })?;
+            if !matches!(excitations[k].process, Process::Filtered { .. }) {
+                return Err(loc.at(
+                    e.span(),
+                    key,
+                    format!(
+                        "excitation {:?} is white: only filtered excitations have A and B",
+                        e.get_ref()
+                    ),
+                ));
+            }
+            out.push(k);
+        }
+        Ok(out)
+    };
+    let known_filters = filtered_list(ident.and_then(|i| i.known_filters.as_ref()), "identify.known_filters")?;
+    let unknown_corners = filtered_list(
+        ident.and_then(|i| i.unknown_corners.as_ref()),
+        "identify.unknown_corners",
+    )?;
+    let mut unknown_masses = Vec::new();
+    for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {
+        let End::Mass(k) = mass_index(loc, masses, m, "identify.unknown_masses", false)? else {
+            unreachable!()
+        };
+        unknown_masses.push(k);
+    }
+    let mut unknown_intensities = Vec::new();
+    for e in ident.and_then(|i| i.unknown_intensities.as_ref()).into_iter().flatten() {
+        let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+            let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+            loc.at(
+                e.span(),
+                "identify.unknown_intensities",
+                format!(
+                    "unknown excitation {:?}: excitations are {}",
+                    e.get_ref(),
+                    names.join(", ")
+                ),
+            )
+        })?;
+        unknown_intensities.push(k);
+    }
+    let disturbance = match ident.and_then(|i| i.disturbance.as_ref()) {
+        None => None,
+        Some(d) => Some(check_disturbance(loc, d, || {
+            paper_structure(
+                masses,
+                links,
+                excitations,
+                &id_links,
+                &unknown_masses,
+                &unknown_intensities,
+                &unknown_corners,
+            )
+        })?),
+    };
+    let identify = Identify {
+        methods,
+        links: id_links,
+        unknown_masses,
+        unknown_intensities,
+        known_filters,
+        unknown_corners,
+        compare,
+        disturbance,
+    };
+    Ok(identify)
+}
+
+/// `[identify.disturbance]`: the section-4 procedure's stopping rules and sweep levels,
+/// and the paper's structure (4.3) found by `structure`.
+pub(crate) fn check_disturbance(
+    loc: &Locator,
+    d: &Spanned<RawDisturbance>,
+    structure: impl FnOnce() -> Result<PaperStructure, String>,
+) -> Result<Disturbance, ScenarioError> {
+    let raw_d = d.get_ref();
+    let max_steps = match &raw_d.max_steps {
+        None => 10,
+        Some(v) if (1..=1000).contains(v.get_ref()) => *v.get_ref() as usize,
+        Some(v) => {
+            return Err(loc.at(
+                v.span(),
+                "identify.disturbance.max_steps",
+                format!("must be a whole number 1..=1000, got {}", v.get_ref()),
+            ))
+        }
+    };
+    let tolerance = match &raw_d.tolerance {
+        None => 1e-3,
+        Some(v) => finite_positive(
+            loc,
+            v,
+            "identify.disturbance.tolerance",
+            "largest relative change of any coefficient in the last step, e.g. 1e-3",
+        )?,
+    };
+    let sweep = match &raw_d.sweep {
+        None => vec![0.0, 0.25, 0.5, 1.0, 2.0],
+        Some(list) => {
+            let mut out = Vec::new();
+            for v in list.get_ref() {
+                let x = *v.get_ref();
+                if !(x.is_finite() && x >= 0.0) {
+                    return Err(loc.at(
+                        v.span(),
+                        "identify.disturbance.sweep",
+                        format!("levels are finite numbers >= 0 (std of the disturbance over std of the measured force), got {x}"),
+                    ));
+                }
+                out.push(x);
+            }
+            if out.is_empty() {
+                return Err(loc.at(
+                    list.span(),
+                    "identify.disturbance.sweep",
+                    "empty: give the levels, e.g. [0, 0.25, 0.5, 1, 2]",
+                ));
+            }
+            out
+        }
+    };
+    let structure = structure().map_err(|m| loc.at(d.span(), "identify.disturbance", m))?;
+    Ok(Disturbance {
+        max_steps,
+        tolerance,
+        sweep,
+        structure,
+    })
+}
+
+/// `[accept]`: the worst relative error allowed, overall and per method.
+pub(crate) fn check_accept(loc: &Locator, raw: &RawScenario, identify: &Identify) -> Result<Accept, ScenarioError> {
+    let mut accept = Accept {
+        worst_rel_error: 0.05,
+        methods: BTreeMap::new(),
+    };
+    if let Some(a) = &raw.accept {
+        if let Some(w) = &a.worst_rel_error {
+            accept.worst_rel_error = finite_positive(loc, w, "accept.worst_rel_error", "relative error, e.g. 0.03")?;
+        }
+        let allowed: Vec<String> = ReportMethod::gated(identify.disturbance.is_some())
+            .iter()
+            .map(ReportMethod::name)
+            .collect();
+        for (m, v) in a.methods.iter().flatten() {
+            let key = format!("accept.methods.{m}");
+            if !allowed.contains(m) {
+                return Err(loc.at(
+                    v.span(),
+                    &key,
+                    format!("unknown method {m:?}: methods are {}", allowed.join(", ")),
+                ));
+            }
+            accept
+                .methods
+                .insert(m.clone(), finite_positive(loc, v, &key, "relative error")?);
+        }
+    }
+    Ok(accept)
+}
