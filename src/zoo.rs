@@ -74,12 +74,8 @@ pub fn linear_system(model: &Model) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
     for l in 0..model.links() {
         let k = model.stiffness(l).first().copied().unwrap_or(0.0);
         let c = model.damping(l).first().copied().unwrap_or(0.0);
-        let (first, second) = model.ends(l);
-        let ends = [Some(first), second];
-        for i in ends.into_iter().flatten() {
-            let si = model.sign(l, i);
-            for j in ends.into_iter().flatten() {
-                let sj = model.sign(l, j);
+        for (i, si) in model.geometry(l) {
+            for (j, sj) in model.geometry(l) {
                 // u = Σ_j s_j x_j; force on i is −s_i (k u + c w).
                 a[(n + i, j)] -= si * sj * k / model.mass[i];
                 a[(n + i, n + j)] -= si * sj * c / model.mass[i];

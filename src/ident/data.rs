@@ -5,6 +5,7 @@
 
 use super::moments::RawMoments;
 use super::Problem;
+use crate::model::Model;
 
 /// The weak form's moments when `degree` is what it needs, else every moment to `degree`.
 fn accumulator(problem: &Problem, degree: u32) -> RawMoments {
@@ -79,13 +80,9 @@ pub struct StationaryData {
     sorted_ids: Vec<u32>,
     /// Per link: `[u_min, u_max, w_min, w_max]`.
     pub link_ranges: Vec<[f64; 4]>,
-    /// Per link: the log columns of `x` and `v` of its first end and of its second (none
-    /// for the ground).
-    link_columns: Vec<(XvColumns, Option<XvColumns>)>,
+    /// The model, for its links' relative motion ([`Model::link_motion`]).
+    model: Model,
 }
-
-/// The log columns of `x` and `v` of one mass.
-type XvColumns = (usize, usize);
 
 impl StationaryData {
     /// `degree`: highest moment degree; `record_length`: time span of `t` per trajectory;
@@ -137,13 +134,7 @@ impl StationaryData {
                 [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
                 problem.model.links()
             ],
-            link_columns: (0..problem.model.links())
-                .map(|l| {
-                    let (a, b) = problem.model.ends(l);
-                    let cols = problem.model.columns();
-                    ((cols.x(a), cols.v(a)), b.map(|b| (cols.x(b), cols.v(b))))
-                })
-                .collect(),
+            model: problem.model.clone(),
         }
     }
 
@@ -180,9 +171,8 @@ impl StationaryData {
             self.buffer.push(row[c]);
         }
         self.ids.push(b as u32);
-        for (l, &((xa, va), b)) in self.link_columns.iter().enumerate() {
-            let u = row[xa] - b.map_or(0.0, |(xb, _)| row[xb]);
-            let w = row[va] - b.map_or(0.0, |(_, vb)| row[vb]);
+        for l in 0..self.link_ranges.len() {
+            let (u, w) = self.model.link_motion(l, row);
             let r = &mut self.link_ranges[l];
             r[0] = r[0].min(u);
             r[1] = r[1].max(u);

@@ -489,10 +489,11 @@ impl Problem {
                 Characteristic::Stiffness => self.x(i),
                 Characteristic::Damping => self.v(i),
             };
-            let (a, b) = self.model.ends(c.link);
-            let mut z = Poly::monomial(var(base(a)), 1.0);
-            if let Some(b) = b {
-                z.add_term(var(base(b)), -1.0);
+            let mut ends = self.model.geometry(c.link);
+            let (a, sign) = ends.next().expect("a link has a first end");
+            let mut z = Poly::monomial(var(base(a)), sign);
+            for (b, sign) in ends {
+                z.add_term(var(base(b)), sign);
             }
             let ez2 = z.mul(&z).expectation(|e| mom.moment(e));
             if ez2 > 0.0 {
@@ -695,12 +696,8 @@ struct ForceTerms<'a> {
 impl ForceTerms<'_> {
     /// Relative motion of link `l`'s ends in the state variables `base(i)`.
     fn relative(&self, l: usize, base: &dyn Fn(usize) -> usize) -> Poly {
-        let (a, b) = self.model.ends(l);
-        let mut p = vec![(base(a), 1.0)];
-        if let Some(b) = b {
-            p.push((base(b), -1.0));
-        }
-        Poly::linear(&p)
+        let terms: Vec<(usize, f64)> = self.model.geometry(l).map(|(i, sign)| (base(i), sign)).collect();
+        Poly::linear(&terms)
     }
 
     /// `z` and `ż` of a characteristic of link `l`: `(u, w)` for the stiffness, `(w, ẇ)`

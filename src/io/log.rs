@@ -21,8 +21,8 @@
 
 use super::output::{check_free_space, Pending};
 use super::reader::{McapFile, ReadError, Record, Scan};
-use crate::model::Model;
 use crate::model::Quantity;
+use crate::model::{Characteristic, Model, ParameterName};
 use crate::scenario::{Scenario, ScenarioError};
 use crate::sim::{SampleBatch, SampleSink};
 use mcap::records::{MessageHeader, Metadata};
@@ -473,10 +473,18 @@ impl LogInfo {
         let mut truth: Vec<(String, f64)> = model.truth();
         for il in &model.identify.links {
             let link = &model.links[il.link];
-            for (powers, values, symbol) in [(&il.stiffness, &link.stiffness, 'k'), (&il.damping, &link.damping, 'c')] {
+            for (powers, values, kind) in [
+                (&il.stiffness, &link.stiffness, Characteristic::Stiffness),
+                (&il.damping, &link.damping, Characteristic::Damping),
+            ] {
                 if values.is_empty() {
-                    for p in powers.iter().flatten() {
-                        truth.push((format!("{symbol}{p}[{}]", link.name), f64::NAN));
+                    for &power in powers.iter().flatten() {
+                        let name = ParameterName::Coefficient {
+                            kind,
+                            power,
+                            link: link.name.clone(),
+                        };
+                        truth.push((name.to_string(), f64::NAN));
                     }
                 }
             }

@@ -103,6 +103,17 @@ impl Columns {
     pub fn force(&self, e: usize) -> usize {
         3 * self.masses + e
     }
+    /// What column `c` holds: the quantity and the mass (or, for a force, the excitation)
+    /// it belongs to.
+    pub fn at(&self, c: usize) -> (Quantity, usize) {
+        if c < 3 * self.masses {
+            let q = [Quantity::Displacement, Quantity::Velocity, Quantity::Acceleration][c % 3];
+            (q, c / 3)
+        } else {
+            assert!(c < self.len(), "column {c} of {}", self.len());
+            (Quantity::Force, c - 3 * self.masses)
+        }
+    }
     /// Every column's name, in order, given the masses' and excitations' names.
     pub fn names(&self, masses: &[String], excitations: &[String]) -> Vec<String> {
         debug_assert_eq!((masses.len(), excitations.len()), (self.masses, self.excitations));
@@ -116,5 +127,23 @@ impl Columns {
             c.push(Quantity::Force.column_name(e));
         }
         c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_column_says_what_it_holds() {
+        let c = Columns::new(3, 2);
+        for i in 0..3 {
+            for q in [Quantity::Displacement, Quantity::Velocity, Quantity::Acceleration] {
+                assert_eq!(c.at(c.of_mass(q, i)), (q, i));
+            }
+        }
+        for e in 0..2 {
+            assert_eq!(c.at(c.force(e)), (Quantity::Force, e));
+        }
     }
 }

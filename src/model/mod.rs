@@ -221,21 +221,37 @@ impl Model {
         }
     }
 
+    /// The link geometry, stated once: link `l`'s relative motion is `q_a − q_b` of the
+    /// mass quantity `q(i)` (`x`, `v`, `a`, or the state variable that holds it) at its ends,
+    /// with `q_b = 0` for the ground. Every relative displacement and velocity in the code
+    /// is this (or [`Model::geometry`], its terms).
+    #[inline]
+    pub fn relative_with(&self, l: usize, q: impl Fn(usize) -> f64) -> f64 {
+        let (a, b) = self.ends(l);
+        q(a) - b.map_or(0.0, q)
+    }
+
+    /// The terms `(mass, sign)` of link `l`'s relative motion ([`Model::relative_with`]):
+    /// `(a, +1)`, then `(b, −1)` unless `b` is the ground.
+    pub fn geometry(&self, l: usize) -> impl Iterator<Item = (usize, f64)> {
+        let (a, b) = self.ends(l);
+        std::iter::once((a, 1.0)).chain(b.map(|b| (b, -1.0)))
+    }
+
     /// Relative displacement `u = x_a − x_b` of link `l` (from positions `x`, or velocities).
     #[inline]
     pub fn relative(&self, l: usize, x: &[f64]) -> f64 {
-        let b = self.link_b[l];
-        x[self.link_a[l]] - if b == GROUND { 0.0 } else { x[b] }
+        self.relative_with(l, |i| x[i])
     }
 
     /// Relative displacement and velocity `(u, w)` of link `l` in a logged sample `row`.
     #[inline]
     pub fn link_motion(&self, l: usize, row: &[f64]) -> (f64, f64) {
         let c = self.columns();
-        let (a, b) = self.ends(l);
-        let u = row[c.x(a)] - b.map_or(0.0, |b| row[c.x(b)]);
-        let w = row[c.v(a)] - b.map_or(0.0, |b| row[c.v(b)]);
-        (u, w)
+        (
+            self.relative_with(l, |i| row[c.x(i)]),
+            self.relative_with(l, |i| row[c.v(i)]),
+        )
     }
 
     /// The link force `F = K(u) + C(w)`.

@@ -12,6 +12,7 @@ use crate::estimators::{Context, Estimator, Method, Setup};
 use crate::ident::data::StationaryData;
 use crate::ident::Specification;
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
+use crate::model::Quantity;
 use crate::report::{MethodReport, Report};
 use crate::scenario::{Process, ReportMethod, Scenario};
 use std::time::Instant;
@@ -69,7 +70,7 @@ pub fn check_measured(input: &Input) -> Result<(), String> {
             return Err(format!(
                 "the data have no {} (needed for {why}): map a column to it in the model file's [data.columns]{}",
                 info.columns[c],
-                if info.columns[c].starts_with("v_") || info.columns[c].starts_with("a_") {
+                if matches!(layout.at(c).0, Quantity::Velocity | Quantity::Acceleration) {
                     ", or set derive = true"
                 } else {
                     ""
