@@ -1,11 +1,13 @@
 //! Identification: from stationary samples back to spring and damper characteristics.
 //!
-//! Three swappable parts (docs/theory.md §2, §5):
+//! The numerics of three parts (docs/theory.md §2, §5); `crate::estimators` wires each
+//! method's accumulators and estimate from them:
 //! - the **term library** ([`Problem`]): which coefficients, masses and intensities are
 //!   unknown, the drift split into a known part and unknown features, human-readable names;
-//! - an **estimator** that turns data into the pieces of a residual that is linear in the
-//!   coefficients — the weak form ([`weak`], from raw moments) or the paper's strong form
-//!   ([`strong`], from a density grid);
+//! - the **accumulators and residuals** that turn data into the pieces of a residual that
+//!   is linear in the coefficients — the weak form ([`weak`], from raw moments), the strong
+//!   form ([`kernel`] from kernel estimates of the density and its fluxes, [`strong`] from
+//!   the paper's histogram), the baselines ([`baseline`]);
 //! - **least squares with diagnostics** ([`lsq`]) and Gauss–Newton for unknown masses and
 //!   intensities, with identifiability measured, never assumed.
 //!
@@ -15,7 +17,8 @@
 //! `r_k = t0_k + Σ_i μ_i (a_ki + Σ_r θ_r b_kir) + ½ Σ_ij Q_ij c_kij = 0`,
 //!
 //! with `μ_i = 1/m_i`, `Q_ij = Σ_e σ_e² [i,j ∈ e] μ_i μ_j` (velocity noise covariance) and
-//! `θ` the unknown coefficients. Depends on `model` and `scenario` only.
+//! `θ` the unknown coefficients. Depends on `model`, `scenario` and `stats` (histogram
+//! bins) only: no file formats, no pipeline.
 
 mod bilinear;
 mod estimate;
@@ -138,10 +141,10 @@ pub(crate) fn huge_pages<T>(v: &[T]) {
 }
 
 /// Large tables kept between uses. A study's items allocate the same tables again and
-/// again, and on a virtual machine that hands freed memory back to its host (a balloon's
-/// free-page reporting) every fresh page costs a fault and a zeroing: a tenth of an item's
-/// time on the development machine (docs/performance.md). Tables given back here are
-/// handed out again, zeroed in place; at most [`Spare::BYTES`] are kept per kind.
+/// again, and where the operating system hands freed memory back (as virtual machines
+/// with free-page reporting do) every fresh page costs a fault and a zeroing: a tenth of
+/// an item's time as measured in docs/performance.md. Tables given back here are handed
+/// out again, zeroed in place; at most [`Spare::BYTES`] are kept per kind.
 #[derive(Default)]
 pub struct Spare<T> {
     pool: std::sync::Mutex<Vec<Vec<T>>>,
