@@ -4,7 +4,7 @@
 //! of one configuration, every seed's worst error, the coverage and the refusals per
 //! method; PNG and PDF beside it).
 
-use super::figure::{color, log_range, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
+use super::figure::{color, log_range, Axis, Color, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
 use super::plot::write_figure;
 use crate::pipeline::study::{Paired, Row, Summary};
 use std::path::{Path, PathBuf};
@@ -135,18 +135,17 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
             lengths.last().copied().into_iter().collect()
         }
     };
+    // Whether `x` is on the line of method `m` at `other` on the axis not plotted.
+    let on_line = |x: &Summary, m: &str, by_length: bool, other: f64| {
+        x.method == m
+            && if by_length {
+                x.sample_interval == other
+            } else {
+                x.record_length == other
+            }
+    };
     let line_of = |m: &str, by_length: bool, other: f64| -> Vec<&Summary> {
-        ok.iter()
-            .copied()
-            .filter(|x| {
-                x.method == m
-                    && if by_length {
-                        x.sample_interval == other
-                    } else {
-                        x.record_length == other
-                    }
-            })
-            .collect()
+        ok.iter().copied().filter(|x| on_line(x, m, by_length, other)).collect()
     };
     let at = |x: &Summary, by_length: bool| if by_length { x.record_length } else { x.sample_interval };
     let x_axis = |by_length: bool, values: &[f64]| {
@@ -261,16 +260,7 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
                 if pts.is_empty() {
                     continue;
                 }
-                let col = color(k + g * methods.len());
-                p.mark(Mark::Line {
-                    points: pts.clone(),
-                    stroke: Stroke::solid(col, 2.0),
-                });
-                p.mark(Mark::Points {
-                    points: pts,
-                    color: col,
-                    radius: 3.0,
-                });
+                connected(&mut p, pts, color(k + g * methods.len()));
             }
         }
         p.legend_at = Corner::LowerLeft;
@@ -289,14 +279,7 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
             for (g, &other) in groups(by_length).iter().enumerate() {
                 let pts: Vec<(f64, f64)> = summary
                     .iter()
-                    .filter(|x| {
-                        x.method == *m
-                            && if by_length {
-                                x.sample_interval == other
-                            } else {
-                                x.record_length == other
-                            }
-                    })
+                    .filter(|x| on_line(x, m, by_length, other))
                     .filter_map(|x| {
                         let n = x.items + x.refused + x.failed;
                         (n > 0).then(|| (at(x, by_length), 100.0 * (x.refused + x.failed) as f64 / n as f64))
@@ -305,16 +288,7 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
                 if pts.is_empty() {
                     continue;
                 }
-                let col = color(k + g * methods.len());
-                p.mark(Mark::Line {
-                    points: pts.clone(),
-                    stroke: Stroke::solid(col, 2.0),
-                });
-                p.mark(Mark::Points {
-                    points: pts,
-                    color: col,
-                    radius: 3.0,
-                });
+                connected(&mut p, pts, color(k + g * methods.len()));
             }
         }
         p.legend_at = Corner::UpperLeft;
@@ -323,6 +297,19 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
     let mut fig = Figure::new(540.0 * panels.len() as f64);
     fig.row(460.0, panels.into_iter().map(Some).collect());
     write_figure(path, &fig)
+}
+
+/// A line through `pts` with a point on each.
+fn connected(p: &mut Panel, pts: Vec<(f64, f64)>, col: Color) {
+    p.mark(Mark::Line {
+        points: pts.clone(),
+        stroke: Stroke::solid(col, 2.0),
+    });
+    p.mark(Mark::Points {
+        points: pts,
+        color: col,
+        radius: 3.0,
+    });
 }
 
 /// The figure of a study of one configuration: per method, every seed's worst error (a
