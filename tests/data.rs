@@ -297,6 +297,9 @@ fn the_papers_bushing_from_rig_like_csv_matches_the_log_path() {
     let model = Scenario::from_file(Path::new("models/bushing.toml")).unwrap();
     let data = measured(&model, &[read_table(&rig_csv, &[]).unwrap()]).unwrap();
     let r = identify(&Input::tables(model, data), &options()).unwrap();
+    // Only what the model file asks for: no naive white-noise row on measured data.
+    let rows: Vec<String> = r.methods.iter().map(|m| m.method.name()).collect();
+    assert_eq!(rows, ["weak"]);
     let from_log = estimates(&identify_log(&log, &options()).unwrap());
     let from_rig = estimates(&r);
     assert_eq!(from_rig.len(), 2);
@@ -516,5 +519,19 @@ fn validation_spectra_tell_a_wrong_model_from_the_right_one() {
     assert!(
         wrong.rms_log_difference > 1.8 * wrong.averaging_alone,
         "linear model: {wrong:?}"
+    );
+}
+
+#[test]
+fn a_scale_factor_on_a_column_nothing_reads_is_refused_naming_the_key() {
+    // `Angle_deg` for `angle_deg`: the angle would stay in degrees, and the estimates be
+    // wrong with exit 0.
+    let text = std::fs::read_to_string("models/bushing.toml")
+        .unwrap()
+        .replace("angle_deg = 0.017453292519943295", "Angle_deg = 0.017453292519943295");
+    let e = Scenario::parse(&text, "bushing.toml", "b").unwrap_err().to_string();
+    assert!(
+        e.contains("bushing.toml:45:") && e.contains("data.scale.Angle_deg") && e.contains("\"angle_deg\""),
+        "{e}"
     );
 }

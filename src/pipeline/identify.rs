@@ -121,15 +121,20 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         sim.trajectories,
         options.batches,
     );
-    let mut naive_data = naive_structure.as_ref().map(|p| {
-        StationaryData::new(
-            p,
-            weak::moment_degree(p),
-            sim.record_length,
-            sim.trajectories,
-            options.batches,
-        )
-    });
+    // The naive white-noise row shows what ignoring the filters costs against the truth;
+    // measured data have none to show it against, and nobody asked for it there.
+    let mut naive_data = naive_structure
+        .as_ref()
+        .filter(|_| input.measured().is_none())
+        .map(|p| {
+            StationaryData::new(
+                p,
+                weak::moment_degree(p),
+                sim.record_length,
+                sim.trajectories,
+                options.batches,
+            )
+        });
     let mut forces = ForceSpectra::new(s, &filtered);
     input.for_each_sample(|traj, t, row| {
         data.push(traj, t, row);

@@ -326,6 +326,23 @@ pub(crate) fn check_data(
                 format!("must be a finite, non-zero factor, got {f}"),
             ));
         }
+        // A factor on a column nothing reads would leave the data unscaled without a word
+        // (`Phi` for `phi`: the angle stays in degrees).
+        let time = d.time.as_ref().map(|t| t.get_ref().as_str());
+        if !columns.iter().any(|(_, c)| c == k) && time != Some(k.as_str()) {
+            let mut read: Vec<&str> = columns.iter().map(|(_, c)| c.as_str()).chain(time).collect();
+            read.sort_unstable();
+            read.dedup();
+            return Err(loc.at(
+                v.span(),
+                format!("data.scale.{k}"),
+                format!(
+                    "{k:?} is not a column the model reads: the scaled columns must be among {} (the table's \
+                     names, as [data.columns] maps them)",
+                    read.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(", ")
+                ),
+            ));
+        }
         scale.insert(k.clone(), f);
     }
     Ok(Some(DataMapping {
