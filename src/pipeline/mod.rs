@@ -137,8 +137,8 @@ pub fn identify_log(path: &Path, options: &Options) -> Result<Report, PipelineEr
 }
 
 /// Identify the samples of `input`: a log (described by [`read_info`]; set
-/// [`LogInfo::accept_truncated`] to use what a truncated log still holds), measured
-/// tables, or a simulation in memory.
+/// [`LogInfo::accept_truncated`](crate::io::log::LogInfo::accept_truncated) to use what
+/// a truncated log still holds), measured tables, or a simulation in memory.
 pub fn identify(input: &Input, options: &Options) -> Result<Report, PipelineError> {
     identify_info(input, options, Instant::now())
 }
