@@ -89,6 +89,27 @@ def simulate(scenario: Spec) -> dict:
     return out
 
 
+def _numeric(name: str, values: Any) -> np.ndarray:
+    """A column as float64. Times (numpy or pandas datetime64, with or without a time
+    zone, and timedelta64) become seconds since the column's first value: read as numbers
+    they would be nanoseconds, a sample interval 1e9 times too long."""
+    dtype = getattr(values, "dtype", None)
+    if getattr(dtype, "kind", "") == "M" and hasattr(values, "dt") and values.dt.tz is not None:
+        values = values.dt.tz_convert("UTC").dt.tz_localize(None)
+    raw = np.asarray(values)
+    if raw.dtype.kind in "mM":
+        if raw.size and np.isnat(raw).any():
+            row = int(np.flatnonzero(np.isnat(raw))[0]) + 1
+            raise ValueError(f"row {row}, column {name!r}: not a time (NaT)")
+        if raw.size == 0:
+            return raw.astype(np.float64)
+        return (raw - raw[0]) / np.timedelta64(1, "s")
+    try:
+        return np.asarray(raw, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"column {name!r}: not numbers ({raw.dtype}): {e}") from None
+
+
 def identify(
     data: Any,
     model: Spec,
@@ -106,7 +127,7 @@ def identify(
     for name in (data.columns if hasattr(data, "columns") else data.keys()):
         if name == "truth":
             continue
-        col = np.asarray(data[name], dtype=np.float64)
+        col = _numeric(name, data[name])
         if col.ndim != 1:
             raise ValueError(f"column {name!r}: one value per sample expected, got shape {col.shape}")
         names.append(str(name))

@@ -175,3 +175,20 @@ def test_a_refused_method_raises_and_carries_the_other_methods_estimates():
     rows = {m["method"]: m for m in e.value.report["methods"]}
     assert rows["weak"]["outcome"] == "refused" and not rows["weak"]["parameters"]
     assert rows["strong-marginals"]["outcome"] == "estimated" and rows["strong-marginals"]["parameters"]
+
+
+def test_a_datetime_time_column_is_seconds_since_the_first_sample():
+    """pandas datetime64 times (as a logger's export has them) give the estimates of the
+    same times in seconds: never nanoseconds read as seconds."""
+    import pandas as pd
+
+    data = _sdof_data()
+    seconds = fpkbench.identify(data, MODEL, validate=False)
+    frame = pd.DataFrame(data)
+    frame["t"] = pd.Timestamp("2026-01-01 12:00:00", tz="Europe/Warsaw") + pd.to_timedelta(frame["t"], unit="s")
+    stamped = fpkbench.identify(frame, MODEL, validate=False)
+    for name, value in seconds.estimates.items():
+        assert stamped.estimates[name] == pytest.approx(value, rel=1e-9), name
+    frame["x_m1"] = frame["x_m1"].astype(str).where(frame.index != 5, "n/a")
+    with pytest.raises(ValueError, match="column 'x_m1': not numbers"):
+        fpkbench.identify(frame, MODEL)
