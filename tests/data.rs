@@ -535,3 +535,50 @@ fn a_scale_factor_on_a_column_nothing_reads_is_refused_naming_the_key() {
         "{e}"
     );
 }
+
+#[test]
+fn unequal_records_are_reported_as_they_are_not_as_a_simulation() {
+    // 32 records of 312.5 s with the last half of every other one cut: 24 records' worth.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&common::small_scenario(312.5, 32), &log);
+    let file = dir.path().join("run.csv");
+    export(&log, "csv", &file);
+    let text = std::fs::read_to_string(&file).unwrap();
+    let mut lines = text.lines();
+    let mut cut = String::from(lines.next().unwrap());
+    cut.push('\n');
+    for line in lines {
+        let mut f = line.split(',');
+        let (j, t): (u32, f64) = (f.next().unwrap().parse().unwrap(), f.next().unwrap().parse().unwrap());
+        if j % 2 == 0 || t <= 156.25 {
+            cut += line;
+            cut.push('\n');
+        }
+    }
+    std::fs::write(&file, cut).unwrap();
+    let model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
+    let r = identify(
+        &Input::tables(
+            model.clone(),
+            measured(&model, &[read_table(&file, &[]).unwrap()]).unwrap(),
+        ),
+        &options(),
+    )
+    .unwrap();
+    let d = r.records.as_ref().expect("measured data say their records");
+    assert_eq!(d.count, 32);
+    assert!((d.total_s - 24.0 * 312.5).abs() < 1.0, "{}", d.total_s);
+    assert!(
+        (d.shortest_s - 156.25).abs() < 0.2 && (d.longest_s - 312.5).abs() < 0.2,
+        "{d:?}"
+    );
+    assert_eq!(r.total_record_s, d.total_s);
+    let head = fpkbench::report::summary(&r);
+    let first = head.lines().next().unwrap();
+    assert!(
+        first.contains("in 32 records") && !first.contains("seed") && !first.contains("dt "),
+        "{first}"
+    );
+    assert!(!head.contains("simulate"), "{head}");
+}

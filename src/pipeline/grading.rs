@@ -7,8 +7,8 @@ use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
 use crate::model::{Characteristic, Coefficient, Truth};
 use crate::report::{
-    Curve, FilterReport, IterationReport, MethodReport, Outcome, Parameter, PlotData, Provenance, Report, Timings,
-    Validation,
+    Curve, FilterReport, IterationReport, MethodReport, Outcome, Parameter, PlotData, Provenance, Records, Report,
+    Timings, Validation,
 };
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
@@ -57,12 +57,23 @@ pub(crate) fn assemble(
         None => input.measured().is_some() && methods.iter().all(|r| r.error.is_none()),
     };
     let identify_s = start.elapsed().as_secs_f64();
+    let records = input.measured().map(|m| {
+        let lengths: Vec<f64> = m.records.iter().map(|r| r.0.len() as f64 * m.sample_interval).collect();
+        Records {
+            count: lengths.len(),
+            total_s: lengths.iter().sum(),
+            shortest_s: lengths.iter().copied().fold(f64::INFINITY, f64::min),
+            longest_s: lengths.iter().copied().fold(0.0, f64::max),
+        }
+    });
     Report {
         provenance: Provenance::of_scenario(&s.source),
         scenario: s.name.clone(),
         log: info.path.display().to_string(),
         record_length_s: sim.record_length,
-        total_record_s: sim.record_length * sim.trajectories as f64,
+        total_record_s: records
+            .as_ref()
+            .map_or(sim.record_length * sim.trajectories as f64, |r| r.total_s),
         samples,
         expected_samples: input.expected_samples(),
         sample_interval_s: sim.sample_interval,
@@ -76,6 +87,7 @@ pub(crate) fn assemble(
             total: identify_s,
         },
         data_notes: input.measured().map(|m| m.notes.clone()).unwrap_or_default(),
+        records,
         filters,
         methods,
         validation,

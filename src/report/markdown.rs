@@ -73,10 +73,23 @@ fn parameter_table(m: &MethodReport) -> String {
 /// The whole page.
 pub fn markdown(r: &Report) -> String {
     let mut s = format!("# fpkbench report: {}\n\n", r.scenario);
-    s += &format!(
-        "{} samples every {} s from {} trajectories × {} s ({} s of record), {} scheme with dt {} s, seed {}.\n\n",
-        r.samples, r.sample_interval_s, r.trajectories, r.record_length_s, r.total_record_s, r.scheme, r.dt_s, r.seed
-    );
+    s += &match &r.records {
+        Some(d) => format!(
+            "Measured data: {} samples every {} s in {} records, {} s in all (shortest {} s, longest {} s).\n\n",
+            r.samples, r.sample_interval_s, d.count, d.total_s, d.shortest_s, d.longest_s
+        ),
+        None => format!(
+            "{} samples every {} s from {} trajectories × {} s ({} s of record), {} scheme with dt {} s, seed {}.\n\n",
+            r.samples,
+            r.sample_interval_s,
+            r.trajectories,
+            r.record_length_s,
+            r.total_record_s,
+            r.scheme,
+            r.dt_s,
+            r.seed
+        ),
+    };
     if r.samples < r.expected_samples {
         s += &format!(
             "> **Truncated log**: identified from the {} samples it still holds, of {} the run was to write.\n\n",
@@ -215,16 +228,21 @@ pub fn markdown(r: &Report) -> String {
         }
     }
     let p = &r.provenance;
+    let time = if r.records.is_some() {
+        format!("identify {:.2} s", r.timings_s.identify)
+    } else {
+        format!(
+            "simulate {:.2} s, identify {:.2} s, total {:.2} s",
+            r.timings_s.simulate, r.timings_s.identify, r.timings_s.total
+        )
+    };
     s += &format!(
-        "## Provenance\n\n<!-- fold: tool, scenario hash, log and timings -->\n- {} {}{}\n- scenario SHA-256 `{}`\n- log `{}`\n- time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n",
+        "## Provenance\n\n<!-- fold: tool, scenario hash, log and timings -->\n- {} {}{}\n- scenario SHA-256 `{}`\n- log `{}`\n- time: {time}\n",
         p.tool,
         p.version,
         p.commit.map_or(String::new(), |c| format!(", commit `{c}`")),
         p.scenario_sha256,
         r.log,
-        r.timings_s.simulate,
-        r.timings_s.identify,
-        r.timings_s.total
     );
     if !p.overrides.is_empty() {
         s += &format!("- overrides: `--set {}`\n", p.overrides.join("` `--set "));

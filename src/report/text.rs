@@ -54,18 +54,24 @@ pub(crate) const GATE_MEANING: &str = "a regression gate is the mean + 4 sd of t
 /// The human summary (also the body of `report.md`).
 pub fn summary(r: &Report) -> String {
     let mut s = String::new();
-    s += &format!(
-        "scenario {}: {} samples every {} s, {} trajectories x {} s = {} s of record ({}; dt {} s, seed {})\n",
-        r.scenario,
-        r.samples,
-        r.sample_interval_s,
-        r.trajectories,
-        r.record_length_s,
-        r.total_record_s,
-        r.scheme,
-        r.dt_s,
-        r.seed
-    );
+    s += &match &r.records {
+        Some(d) => format!(
+            "model {}: measured data, {} samples every {} s in {} records, {} s in all (shortest {} s, longest {} s)\n",
+            r.scenario, r.samples, r.sample_interval_s, d.count, d.total_s, d.shortest_s, d.longest_s
+        ),
+        None => format!(
+            "scenario {}: {} samples every {} s, {} trajectories x {} s = {} s of record ({}; dt {} s, seed {})\n",
+            r.scenario,
+            r.samples,
+            r.sample_interval_s,
+            r.trajectories,
+            r.record_length_s,
+            r.total_record_s,
+            r.scheme,
+            r.dt_s,
+            r.seed
+        ),
+    };
     if r.samples < r.expected_samples {
         s += &format!(
             "TRUNCATED LOG: identified from the {} samples it still holds, of {} the run was to write\n",
@@ -78,10 +84,14 @@ pub fn summary(r: &Report) -> String {
     for n in &r.data_notes {
         s += &format!("data: {n}\n");
     }
-    s += &format!(
-        "time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n\n",
-        r.timings_s.simulate, r.timings_s.identify, r.timings_s.total
-    );
+    s += &if r.records.is_some() {
+        format!("time: identify {:.2} s\n\n", r.timings_s.identify)
+    } else {
+        format!(
+            "time: simulate {:.2} s, identify {:.2} s, total {:.2} s\n\n",
+            r.timings_s.simulate, r.timings_s.identify, r.timings_s.total
+        )
+    };
     for f in &r.filters {
         let fit = if f.true_a.is_finite() {
             format!(

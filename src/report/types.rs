@@ -234,6 +234,16 @@ impl Provenance {
     }
 }
 
+/// The records of measured data, as they are.
+#[derive(Debug, Clone, Serialize)]
+pub struct Records {
+    pub count: usize,
+    /// Their lengths (samples × sample interval), in all, shortest and longest (s).
+    pub total_s: f64,
+    pub shortest_s: f64,
+    pub longest_s: f64,
+}
+
 /// The result of identifying one log.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
@@ -256,6 +266,9 @@ pub struct Report {
     /// What reading measured data did that a user should know: derived quantities, and
     /// warnings (lines starting `WARNING`) about coarse sampling or inconsistent units.
     pub data_notes: Vec<String>,
+    /// Measured data: their records as they are (`None` for a simulation, whose records
+    /// all have `record_length_s`).
+    pub records: Option<Records>,
     /// Filtered excitations: fitted and used `A`, `B`.
     pub filters: Vec<FilterReport>,
     pub methods: Vec<MethodReport>,
