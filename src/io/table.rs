@@ -492,10 +492,11 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
             .as_ref()
             .map(|c| t.column(c, "the record column, [data] record"))
             .transpose()?;
-        // Every value finite.
+        // Every value finite (record ids too).
         for (_, c, v) in mapped
             .iter()
             .chain(time.map(|v| (0, d.time.as_deref().unwrap_or(""), v)).iter())
+            .chain(record.map(|v| (0, d.record.as_deref().unwrap_or(""), v)).iter())
         {
             if let Some(r) = v.iter().position(|x| !x.is_finite()) {
                 return Err(err(
@@ -527,6 +528,13 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
             };
             rows_of[k].push(r);
         }
+        // Records in the order of their ids, not of their first rows: the jackknife's groups
+        // follow the records, so a logger's interleaved rows and a sorted table must give
+        // the same estimates.
+        let mut order: Vec<usize> = (0..ids.len()).collect();
+        order.sort_by(|&a, &b| ids[a].total_cmp(&ids[b]));
+        let ids: Vec<f64> = order.iter().map(|&k| ids[k]).collect();
+        let rows_of: Vec<Vec<usize>> = order.iter().map(|&k| std::mem::take(&mut rows_of[k])).collect();
         for (rk, rows) in rows_of.iter().enumerate() {
             if let Some(time) = time {
                 for w in rows.windows(2) {
