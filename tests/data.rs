@@ -315,9 +315,10 @@ fn the_papers_bushing_from_rig_like_csv_matches_the_log_path() {
 }
 
 #[test]
-fn units_that_do_not_fit_together_are_warned_about() {
+fn units_that_do_not_fit_together_are_refused_naming_the_column_and_factor() {
     // The displacement in degrees without its scale factor: the velocity column is then
-    // 1/57.3 of the displacement's rate of change.
+    // 1/57.3 of the displacement's rate of change. Sampled finely here; the bushing's
+    // coarse case is the next test.
     let dir = tempfile::tempdir().unwrap();
     let mut s = common::small_scenario(50.0, 8);
     s.simulation.sample_interval = 0.01;
@@ -330,19 +331,54 @@ fn units_that_do_not_fit_together_are_warned_about() {
     let k = degrees.names.iter().position(|n| n == "x_m1").unwrap();
     degrees.columns[k].iter_mut().for_each(|x| *x = x.to_degrees());
     let model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
-    let fine = measured(&model, &[t]).unwrap();
+    assert!(measured(&model, &[t]).is_ok());
+    let e = measured(&model, &[degrees]).unwrap_err().to_string();
     assert!(
-        !fine.notes.iter().any(|n| n.contains("inconsistent")),
-        "{:?}",
-        fine.notes
+        e.contains("units do not fit") && e.contains("\"x_m1\"") && e.contains("57.3: degrees against radians"),
+        "{e}"
     );
-    let off = measured(&model, &[degrees]).unwrap();
+}
+
+#[test]
+fn the_bushing_with_its_angle_in_degrees_is_refused_at_its_coarse_sampling() {
+    // docs/data.md's rig table sampled every 0.01 s (ω·h ≈ 1.1, where a check on the
+    // differences cannot work) with the angle in degrees and no [data.scale]: once
+    // k1 = −1.92 with exit 0; now refused, naming the column and the factor.
+    let dir = tempfile::tempdir().unwrap();
+    let src = std::fs::read_to_string("scenarios/silentblock.toml").unwrap();
+    let mut s = Scenario::parse(&src, "silentblock.toml", "silentblock").unwrap();
+    s.simulation.record_length /= 8.0;
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&s, &log);
+    let csv = dir.path().join("export.csv");
+    export(&log, "csv", &csv);
+    let t = read_table(&csv, &[]).unwrap();
+    let col = |n: &str| &t.columns[t.names.iter().position(|x| x == n).unwrap()];
+    let mut rig = String::from("run,time,angle_deg,omega,alpha,moment\n");
+    for r in 0..t.rows() {
+        rig += &format!(
+            "{},{},{:?},{:?},{:?},{:?}\n",
+            col("trajectory")[r],
+            col("t")[r],
+            col("x_j")[r].to_degrees(),
+            col("v_j")[r],
+            col("a_j")[r],
+            col("p_moment")[r]
+        );
+    }
+    let rig_csv = dir.path().join("rig.csv");
+    std::fs::write(&rig_csv, rig).unwrap();
+    let with_scale = std::fs::read_to_string("models/bushing.toml").unwrap();
+    let model = Scenario::parse(&with_scale, "bushing.toml", "b").unwrap();
+    assert!(measured(&model, &[read_table(&rig_csv, &[]).unwrap()]).is_ok());
+    let no_scale = with_scale.replace("angle_deg = 0.017453292519943295", "");
+    let model = Scenario::parse(&no_scale, "bushing.toml", "b").unwrap();
+    let e = measured(&model, &[read_table(&rig_csv, &[]).unwrap()])
+        .unwrap_err()
+        .to_string();
     assert!(
-        off.notes
-            .iter()
-            .any(|n| n.contains("units look inconsistent") && n.contains("v_m1")),
-        "{:?}",
-        off.notes
+        e.contains("rig.csv") && e.contains("\"angle_deg\"") && e.contains("57.3: degrees against radians"),
+        "{e}"
     );
 }
 

@@ -174,15 +174,21 @@ impl Welch {
 pub struct CrossWelch {
     q: Welch,
     r: Welch,
-    /// `Σ Re(Q R̄)` per frequency.
+    /// `Σ Re(Q R̄)` and `Σ Im(Q R̄)` per frequency.
     cross: Vec<f64>,
+    cross_im: Vec<f64>,
 }
 
 impl CrossWelch {
     pub fn new(len: usize, dt: f64, trajectories: usize) -> CrossWelch {
         let q = Welch::new(len, dt, trajectories);
         let cross = vec![0.0; q.len / 2 + 1];
-        CrossWelch { r: q.clone(), q, cross }
+        CrossWelch {
+            r: q.clone(),
+            cross_im: cross.clone(),
+            q,
+            cross,
+        }
     }
 
     pub fn push(&mut self, trajectory: usize, q: f64, r: f64) {
@@ -203,8 +209,36 @@ impl CrossWelch {
             // Both transforms are still in the scratch buffers.
             for k in 0..=len / 2 {
                 self.cross[k] += self.q.re[k] * self.r.re[k] + self.q.im[k] * self.r.im[k];
+                self.cross_im[k] += self.q.im[k] * self.r.re[k] - self.q.re[k] * self.r.im[k];
             }
         }
+    }
+
+    /// How `r` scales against the rate of change of `q` where `q` has its power: the
+    /// gain `Σ ω |S_qr| / Σ ω² S_qq` over the frequencies that hold 99 % of `q`'s variance,
+    /// below 0.7 of the Nyquist frequency. For `r = dq/dt`, `|S_qr| = ω S_qq` and the gain
+    /// is 1 at any sampling that resolves `q` (aliasing aside); `r` in other units gives
+    /// their factor. `None` without segments or power.
+    pub fn derivative_gain(&self) -> Option<f64> {
+        let sq = self.q.spectrum();
+        if sq.segments == 0 {
+            return None;
+        }
+        let total: f64 = sq.density.iter().sum();
+        if total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        let nyquist = PI / self.q.dt;
+        let (mut num, mut den, mut seen) = (0.0, 0.0, 0.0);
+        for (k, (&w, &d)) in sq.omega.iter().zip(&sq.density).enumerate() {
+            if seen >= 0.99 * total || w > 0.7 * nyquist {
+                break;
+            }
+            seen += d;
+            num += w * self.cross[k + 1].hypot(self.cross_im[k + 1]);
+            den += w * w * self.q.acc[k + 1];
+        }
+        (den > 0.0).then(|| num / den)
     }
 
     /// Spectrum of `q + c·r`: `S_qq + 2c Re S_qr + c² S_rr`.

@@ -382,52 +382,119 @@ fn read_npy(path: &Path, b: &[u8], npy_columns: &[String]) -> Result<Table, Data
     })
 }
 
-/// Units that make no physical sense: where a mass's displacement and velocity (or velocity
-/// and acceleration) are both mapped and sampled finely (`ω·h < 0.5`), the derivative's
-/// column must have the scale of the other's rate of change, `std(Δ/2h)`, within a factor
-/// of 2 — else a warning (degrees against radians is a factor of 57.3).
-fn unit_checks(
-    samples: &[f64],
+/// How far a derivative's column may scale from the rate of change of its quantity's
+/// column before the units count as wrong (a degree against a radian is 57.3, a
+/// millimetre against a metre 1000, g against m/s² 9.81, Hz against rad/s 6.28).
+pub const UNITS_TOLERANCE: f64 = 1.5;
+
+/// The unit mix-ups a factor suggests.
+fn unit_hint(factor: f64) -> &'static str {
+    let f = if factor < 1.0 { 1.0 / factor } else { factor };
+    let near = |x: f64| (f / x - 1.0).abs() < 0.03;
+    if near(180.0 / std::f64::consts::PI) {
+        " (57.3: degrees against radians)"
+    } else if near(1000.0) {
+        " (1000: millimetres against metres)"
+    } else if near(9.80665) {
+        " (9.81: g against m/s²)"
+    } else if near(2.0 * std::f64::consts::PI) {
+        " (6.28: cycles against radians, Hz against rad/s)"
+    } else if near(100.0) {
+        " (100: centimetres against metres)"
+    } else {
+        ""
+    }
+}
+
+/// Units that make no physical sense, at any sampling that resolves the motion: where a
+/// mass's displacement and velocity (or velocity and acceleration) are both in the table,
+/// the derivative's spectrum must be the rate of change of the other's, `|S_fd(ω)| = ω
+/// S_f(ω)` over the band that holds the motion's power (`CrossWelch::derivative_gain`),
+/// within [`UNITS_TOLERANCE`]. Otherwise the error says which column is off by which
+/// factor: with `x`, `v` and `a` all given, the one that disagrees with both others.
+fn check_units(
+    records: &[(Vec<f64>, Vec<f64>)],
     width: usize,
     h: f64,
     m: &crate::model::Model,
-    mapped: &[usize],
+    mapped: &[(usize, String)],
     names: &[String],
-) -> Vec<String> {
-    let n = samples.len() / width;
-    let col = |k: usize| -> Vec<f64> { (0..n).map(|s| samples[s * width + k]).collect() };
-    let std = |v: &[f64]| {
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
-    };
+) -> Result<(), String> {
     let layout = m.columns();
-    let mut out = Vec::new();
-    if n < 3 {
-        return out;
-    }
-    for i in 0..m.masses() {
-        for (f, d) in [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))] {
-            if !mapped.contains(&f) || !mapped.contains(&d) {
-                continue;
-            }
-            let (fv, dv) = (col(f), col(d));
-            let rate: Vec<f64> = (1..n - 1).map(|s| (fv[s + 1] - fv[s - 1]) / (2.0 * h)).collect();
-            let (sf, sr, sd) = (std(&fv), std(&rate), std(&dv));
-            let wh = sr / sf * h;
-            if sf > 0.0 && sd > 0.0 && wh < 0.5 {
-                let ratio = sd / sr;
-                if !(0.5..=2.0).contains(&ratio) {
-                    out.push(format!(
-                        "WARNING: the units look inconsistent: {} varies {ratio:.3} times as much as the rate of \
-                         change of {} (std {sd:.4e} against {sr:.4e}); check [data.scale] (degrees against \
-                         radians is a factor of 57.3)",
-                        names[d], names[f]
-                    ));
-                }
+    let column = |k: usize| mapped.iter().find(|x| x.0 == k).map(|x| x.1.as_str());
+    let longest = records.iter().map(|r| r.0.len()).max().unwrap_or(0);
+    // Segments of about 32 periods of the motion (its period from the mean crossings of a
+    // displacement or velocity, which needs no units), so that a derivative's spectrum is
+    // resolved, at most half the longest record.
+    let period_samples = |k: usize| -> Option<f64> {
+        let (mut crossings, mut n) = (0usize, 0usize);
+        for (_, samples) in records {
+            let v: Vec<f64> = samples.chunks_exact(width).map(|r| r[k]).collect();
+            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+            crossings += v.windows(2).filter(|w| (w[0] - mean) * (w[1] - mean) < 0.0).count();
+            n += v.len();
+        }
+        (crossings > 0).then(|| 2.0 * n as f64 / crossings as f64)
+    };
+    let gain = |f: usize, d: usize, len: usize| -> Option<f64> {
+        let mut w = crate::ident::spectrum::CrossWelch::new(len, h, records.len());
+        for (j, (_, samples)) in records.iter().enumerate() {
+            for row in samples.chunks_exact(width) {
+                w.push(j, row[f], row[d]);
             }
         }
+        w.derivative_gain()
+    };
+    let off = |g: f64| !(1.0 / UNITS_TOLERANCE..=UNITS_TOLERANCE).contains(&g);
+    for i in 0..m.masses() {
+        let (x, v, a) = (layout.x(i), layout.v(i), layout.a(i));
+        let pair = |f: usize, d: usize| match (column(f), column(d)) {
+            (Some(_), Some(_)) => {
+                let period = period_samples(f)?;
+                let len = ((32.0 * period) as usize).clamp(16, (longest / 2).max(16));
+                gain(f, d, len)
+            }
+            _ => None,
+        };
+        let (xv, va) = (pair(x, v), pair(v, a));
+        let name = |k: usize| format!("{} (column {:?})", names[k], column(k).unwrap_or("?"));
+        let says = |k: usize, factor: f64, against: &str| {
+            format!(
+                "the units do not fit together: {} is {factor:.4} times what {against} says it should be{}; check \
+                 [data.scale] for {:?} (docs/data.md, units)",
+                name(k),
+                unit_hint(factor),
+                column(k).unwrap_or("?")
+            )
+        };
+        match (xv, va) {
+            (Some(g1), Some(g2)) if off(g1) && off(g2) => {
+                return Err(says(v, g1, &format!("the rate of change of {}", name(x))))
+            }
+            (Some(g1), Some(_)) if off(g1) => {
+                return Err(says(x, 1.0 / g1, &format!("{} (its rate of change)", name(v))))
+            }
+            (Some(_), Some(g2)) if off(g2) => return Err(says(a, g2, &format!("the rate of change of {}", name(v)))),
+            (Some(g), None) if off(g) => {
+                return Err(format!(
+                    "{}, or {} is {:.4} times too large",
+                    says(v, g, &format!("the rate of change of {}", name(x))),
+                    name(x),
+                    1.0 / g
+                ))
+            }
+            (None, Some(g)) if off(g) => {
+                return Err(format!(
+                    "{}, or {} is {:.4} times too large",
+                    says(a, g, &format!("the rate of change of {}", name(v))),
+                    name(v),
+                    1.0 / g
+                ))
+            }
+            _ => {}
+        }
     }
-    out
+    Ok(())
 }
 
 /// `ω·h` above which differentiating displacements is too coarse (a 0.17 % smoothing of
@@ -623,21 +690,17 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
                     }
                 }
             }
-            if rk == 0 {
-                notes.extend(unit_checks(
-                    &samples,
-                    width,
-                    h,
-                    &m,
-                    &mapped.iter().map(|x| x.0).collect::<Vec<_>>(),
-                    &names,
-                ));
-            }
             let times = (0..rows.len()).map(|s| (s + 1) as f64 * h).collect();
             records.push((times, samples));
         }
     }
     let sample_interval = interval.ok_or_else(|| err(&tables[0].path, "no sample interval"))?;
+    let given: Vec<(usize, String)> = d
+        .columns
+        .iter()
+        .map(|(q, c)| (names.iter().position(|n| n == q).expect("a quantity"), c.clone()))
+        .collect();
+    check_units(&records, width, sample_interval, &m, &given, &names).map_err(|e| err(&tables[0].path, e))?;
     Ok(Measured {
         files: tables.iter().map(|t| t.path.clone()).collect(),
         width,
