@@ -265,18 +265,16 @@ fn velocities_can_be_derived_from_displacements_and_coarse_sampling_is_flagged()
     }
 }
 
-#[test]
-fn the_papers_bushing_from_rig_like_csv_matches_the_log_path() {
-    // The silentblock log (a quarter of its record) as a rig would have it: runs, time,
-    // the angle in degrees, angular velocity and acceleration, the moment; identified with
-    // the shipped model file (no stiffness values, A and B fitted).
-    let dir = tempfile::tempdir().unwrap();
+/// The silentblock log (`1/fraction` of its record) in `dir`, and the same samples as a rig
+/// would write them (runs, time, the angle in degrees, angular velocity and acceleration,
+/// the moment) in `dir/rig.csv`.
+fn bushing_rig(dir: &Path, fraction: f64) -> (std::path::PathBuf, std::path::PathBuf) {
     let src = std::fs::read_to_string("scenarios/silentblock.toml").unwrap();
     let mut s = Scenario::parse(&src, "silentblock.toml", "silentblock").unwrap();
-    s.simulation.record_length /= 4.0;
-    let log = dir.path().join("run.mcap");
+    s.simulation.record_length /= fraction;
+    let log = dir.join("run.mcap");
     common::fresh_log(&s, &log);
-    let csv = dir.path().join("export.csv");
+    let csv = dir.join("export.csv");
     export(&log, "csv", &csv);
     let t = read_table(&csv, &[]).unwrap();
     let col = |n: &str| &t.columns[t.names.iter().position(|x| x == n).unwrap()];
@@ -292,8 +290,18 @@ fn the_papers_bushing_from_rig_like_csv_matches_the_log_path() {
             col("p_moment")[r]
         );
     }
-    let rig_csv = dir.path().join("rig.csv");
+    let rig_csv = dir.join("rig.csv");
     std::fs::write(&rig_csv, rig).unwrap();
+    (log, rig_csv)
+}
+
+#[test]
+fn the_papers_bushing_from_rig_like_csv_matches_the_log_path() {
+    // The silentblock log (a quarter of its record) as a rig would have it: runs, time,
+    // the angle in degrees, angular velocity and acceleration, the moment; identified with
+    // the shipped model file (no stiffness values, A and B fitted).
+    let dir = tempfile::tempdir().unwrap();
+    let (log, rig_csv) = bushing_rig(dir.path(), 4.0);
     let model = Scenario::from_file(Path::new("models/bushing.toml")).unwrap();
     let data = measured(&model, &[read_table(&rig_csv, &[]).unwrap()]).unwrap();
     let r = identify(&Input::tables(model, data), &options()).unwrap();
@@ -345,29 +353,7 @@ fn the_bushing_with_its_angle_in_degrees_is_refused_at_its_coarse_sampling() {
     // differences cannot work) with the angle in degrees and no [data.scale]: once
     // k1 = −1.92 with exit 0; now refused, naming the column and the factor.
     let dir = tempfile::tempdir().unwrap();
-    let src = std::fs::read_to_string("scenarios/silentblock.toml").unwrap();
-    let mut s = Scenario::parse(&src, "silentblock.toml", "silentblock").unwrap();
-    s.simulation.record_length /= 8.0;
-    let log = dir.path().join("run.mcap");
-    common::fresh_log(&s, &log);
-    let csv = dir.path().join("export.csv");
-    export(&log, "csv", &csv);
-    let t = read_table(&csv, &[]).unwrap();
-    let col = |n: &str| &t.columns[t.names.iter().position(|x| x == n).unwrap()];
-    let mut rig = String::from("run,time,angle_deg,omega,alpha,moment\n");
-    for r in 0..t.rows() {
-        rig += &format!(
-            "{},{},{:?},{:?},{:?},{:?}\n",
-            col("trajectory")[r],
-            col("t")[r],
-            col("x_j")[r].to_degrees(),
-            col("v_j")[r],
-            col("a_j")[r],
-            col("p_moment")[r]
-        );
-    }
-    let rig_csv = dir.path().join("rig.csv");
-    std::fs::write(&rig_csv, rig).unwrap();
+    let (_, rig_csv) = bushing_rig(dir.path(), 8.0);
     let with_scale = std::fs::read_to_string("models/bushing.toml").unwrap();
     let model = Scenario::parse(&with_scale, "bushing.toml", "b").unwrap();
     assert!(measured(&model, &[read_table(&rig_csv, &[]).unwrap()]).is_ok());

@@ -74,10 +74,7 @@ fn parameter_table(m: &MethodReport) -> String {
 pub fn markdown(r: &Report) -> String {
     let mut s = format!("# fpkbench report: {}\n\n", r.scenario);
     s += &match &r.records {
-        Some(d) => format!(
-            "Measured data: {} samples every {} s in {} records, {} s in all (shortest {} s, longest {} s).\n\n",
-            r.samples, r.sample_interval_s, d.count, d.total_s, d.shortest_s, d.longest_s
-        ),
+        Some(d) => format!("Measured data: {}.\n\n", d.describe(r.samples, r.sample_interval_s)),
         None => format!(
             "{} samples every {} s from {} trajectories × {} s ({} s of record), {} scheme with dt {} s, seed {}.\n\n",
             r.samples,

@@ -56,8 +56,9 @@ pub fn summary(r: &Report) -> String {
     let mut s = String::new();
     s += &match &r.records {
         Some(d) => format!(
-            "model {}: measured data, {} samples every {} s in {} records, {} s in all (shortest {} s, longest {} s)\n",
-            r.scenario, r.samples, r.sample_interval_s, d.count, d.total_s, d.shortest_s, d.longest_s
+            "model {}: measured data, {}\n",
+            r.scenario,
+            d.describe(r.samples, r.sample_interval_s)
         ),
         None => format!(
             "scenario {}: {} samples every {} s, {} trajectories x {} s = {} s of record ({}; dt {} s, seed {})\n",

@@ -244,6 +244,16 @@ pub struct Records {
     pub longest_s: f64,
 }
 
+impl Records {
+    /// `N samples every h s in R records, T s in all (shortest a s, longest b s)`.
+    pub fn describe(&self, samples: u64, sample_interval: f64) -> String {
+        format!(
+            "{samples} samples every {sample_interval} s in {} records, {} s in all (shortest {} s, longest {} s)",
+            self.count, self.total_s, self.shortest_s, self.longest_s
+        )
+    }
+}
+
 /// The result of identifying one log.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
