@@ -119,9 +119,9 @@ def identify(
     """Identify ``data`` — a mapping of column name to array (a dict of numpy arrays, a
     pandas DataFrame) — with a model (path or dict) whose ``[data]`` section maps the
     model's quantities onto those columns (see docs/data.md). Bad data raise
-    ``ValueError`` naming the row and column; warnings about the data (sampling too coarse
-    to differentiate, units that do not fit together) are issued as ``UserWarning`` and
-    kept in ``report["data_notes"]``."""
+    ``ValueError`` naming the row and column (units that do not fit together: the column
+    and the factor); warnings about the data (sampling too coarse to differentiate) are
+    issued as ``UserWarning`` and kept in ``report["data_notes"]``."""
     text, label, is_json = _spec(model)
     names, columns = [], []
     for name in (data.columns if hasattr(data, "columns") else data.keys()):

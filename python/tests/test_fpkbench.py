@@ -135,12 +135,13 @@ def test_each_bad_data_case_raises_naming_the_place(case, message):
         fpkbench.identify(data, MODEL, validate=False)
 
 
-def test_units_that_do_not_fit_together_warn():
+def test_units_that_do_not_fit_together_are_refused():
+    """A velocity in degrees per second beside a displacement in radians: refused, naming
+    the column and the factor, never estimates with the wrong units."""
     data = _sdof_data()
     data["v_m1"] = data["v_m1"] * 57.29578  # degrees per second against radians
-    with pytest.warns(UserWarning, match="units look inconsistent"):
-        res = fpkbench.identify(data, MODEL, validate=False)
-    assert any("units look inconsistent" in n for n in res.report["data_notes"])
+    with pytest.raises(ValueError, match=r"the units do not fit together: v_m1 .*57.3: degrees against radians"):
+        fpkbench.identify(data, MODEL, validate=False)
 
 
 def test_validation_compares_the_response_spectra():

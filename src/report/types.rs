@@ -274,7 +274,7 @@ pub struct Report {
     pub dt_s: f64,
     pub timings_s: Timings,
     /// What reading measured data did that a user should know: derived quantities, and
-    /// warnings (lines starting `WARNING`) about coarse sampling or inconsistent units.
+    /// warnings (lines starting `WARNING`) about sampling too coarse to differentiate.
     pub data_notes: Vec<String>,
     /// Measured data: their records as they are (`None` for a simulation, whose records
     /// all have `record_length_s`).
