@@ -28,9 +28,9 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
          mean + 4 sd) and the coverage of all 95 % intervals.\n\n![Worst error against record length and \
          sample interval, coverage](study.svg)\n\n"
     );
-    s += "Every item × method has a row: *estimated*, *refused* (the data could not separate the \
-          unknowns, or too few samples: no estimates), *not applicable* (the method does not apply to this \
-          problem) or *failed* (the item could not be run). The error statistics are over the estimated \
+    s += "Every item × method has a row: estimated, refused (the data could not separate the \
+          unknowns, or too few samples: no estimates), not applicable (the method does not apply to this \
+          problem) or failed (the item could not be run). The error statistics are over the estimated \
           items; the refusal rate is refused / (estimated + refused).\n\n";
     s += "| record length (s) | interval (s) | method | estimated | refused | refusal rate | n/a | failed | median | q1 | q3 | max | mean | sd | coverage | s per item |\n\
           |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
