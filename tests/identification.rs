@@ -3,6 +3,7 @@
 use fpkbench::ident::moments::RawMoments;
 use fpkbench::ident::poly::exponent;
 use fpkbench::ident::{weak, IdentError, Problem, Specification};
+use fpkbench::model::Term;
 use fpkbench::{zoo, Model, Scenario};
 
 const SIM: &str = "dt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1";
@@ -205,7 +206,7 @@ fn models_without_an_exact_symmetry_are_not_refused_from_the_structure() {
     let mut s = sdof_duffing(
         "[identify]\nunknown_intensities = [\"m1\"]\nlinks.ground-m1 = { stiffness = [1, 3], damping = [1, 3] }\n",
     );
-    s.links[0].damping.terms.push((3, 0.2));
+    s.links[0].damping.terms.push((Term::Power(3), 0.2));
     assert!(Problem::new(&s).is_ok());
     // A known damper pins the scale: the mass is identifiable with the springs.
     let s = sdof_duffing("[identify]\nunknown_masses = [\"m1\"]\nlinks.ground-m1 = { stiffness = [1, 3] }\n");
@@ -225,7 +226,7 @@ fn the_force_scale_alone_is_refused_when_nothing_fixes_it() {
     let mut s = sdof_duffing(
         "[identify]\nunknown_masses = [\"m1\"]\nunknown_intensities = [\"m1\"]\nlinks.ground-m1 = { stiffness = [1, 3], damping = [1, 3] }\n",
     );
-    s.links[0].damping.terms.push((3, 0.2));
+    s.links[0].damping.terms.push((Term::Power(3), 0.2));
     match Problem::new(&s) {
         Err(IdentError::Symmetric { directions, why }) => {
             assert_eq!(directions.len(), 1);

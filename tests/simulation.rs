@@ -383,7 +383,7 @@ fn an_escape_is_not_put_down_to_the_step() {
         1.0,
         "dt = 1e-2\nrecord_length = 100.0\nsample_interval = 0.1\ntrajectories = 1\nburn_in = 0.0",
     );
-    s.links[0].stiffness.terms = vec![(1, -1.0)];
+    s.links[0].stiffness.terms = vec![(fpkbench::model::Term::Power(1), -1.0)];
     let err = simulate(&Model::new(&s), &s.simulation, &mut Collect::default(), &|_| {}).unwrap_err();
     let SimError::Diverged {
         last_finite,

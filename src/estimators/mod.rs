@@ -173,8 +173,16 @@ pub(crate) fn refused(e: IdentError) -> Box<dyn Estimator> {
     Box::new(Refused(e))
 }
 
+/// Which characteristic terms an estimator takes: any [`crate::model::Term`] (through the
+/// generalised moments of [`crate::ident::Atom`]s), or only terms with a polynomial form.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Terms {
+    Any,
+    Polynomial,
+}
+
 macro_rules! registry {
-    ($( $(#[doc = $doc:literal])+ $variant:ident = $name:literal, $kind:ident, $build:path; )+) => {
+    ($( $(#[doc = $doc:literal])+ $variant:ident = $name:literal, $kind:ident, $terms:ident, $build:path; )+) => {
         /// An identification method (`[identify] methods`, `--method`): one line of the
         /// registry in `estimators/mod.rs`.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -201,8 +209,31 @@ macro_rules! registry {
                 match self { $(Method::$variant => [$($doc),+][0].trim(),)+ }
             }
 
-            /// Its estimator, ready for the second pass.
+            /// Which terms it takes.
+            pub fn terms(self) -> Terms {
+                match self { $(Method::$variant => Terms::$terms,)+ }
+            }
+
+            /// Its estimator, ready for the second pass (one that reports why not where
+            /// the problem has terms it does not take).
             pub fn estimator(self, setup: &Setup) -> Box<dyn Estimator> {
+                let atoms = &setup.structure.atoms;
+                if self.terms() == Terms::Polynomial && !atoms.is_empty() {
+                    let names: Vec<String> = atoms
+                        .iter()
+                        .filter(|a| !a.slope)
+                        .map(|a| {
+                            let c = crate::model::Coefficient { link: a.link, kind: a.kind, term: a.term };
+                            setup.structure.model.coefficient_name(c).to_string()
+                        })
+                        .collect();
+                    return refused(IdentError::NotApplicable(format!(
+                        "{} evaluates the characteristics as polynomials, and the terms of {} have no polynomial \
+                         form; the weak form takes them",
+                        self.name(),
+                        names.join(", ")
+                    )));
+                }
                 match self { $(Method::$variant => $build(setup),)+ }
             }
         }
@@ -211,18 +242,18 @@ macro_rules! registry {
 
 registry! {
     /// Weak form: stationarity of test-function expectations from raw moments (docs/theory.md §5).
-    Weak = "weak", Fpk, weak::build;
+    Weak = "weak", Fpk, Any, weak::build;
     /// Strong form: the paper's FPK residual (3.8) point by point, from kernel estimates of the
     /// density and its fluxes (or the paper's histogram, `StrongDensity::Histogram`).
-    Strong = "strong", Fpk, strong::build;
+    Strong = "strong", Fpk, Polynomial, strong::build;
     /// Strong form with the joint density replaced by the product of its marginals (3.21).
-    StrongMarginals = "strong-marginals", Fpk, marginals::build;
+    StrongMarginals = "strong-marginals", Fpk, Polynomial, marginals::build;
     /// Baseline (not FPK): regression of velocity increments on the drift (Euler pseudo-likelihood).
-    Increments = "increments", Baseline, increments::build;
+    Increments = "increments", Baseline, Polynomial, increments::build;
     /// Baseline (not FPK): binned conditional mean increments (Kramers–Moyal), then the drift.
-    KramersMoyal = "kramers-moyal", Baseline, kramers_moyal::build;
+    KramersMoyal = "kramers-moyal", Baseline, Polynomial, kramers_moyal::build;
     /// Oracle bound (not FPK): the equation error with the measured excitation forces.
-    ForceRegression = "force-regression", Oracle, force_regression::build;
+    ForceRegression = "force-regression", Oracle, Polynomial, force_regression::build;
 }
 
 impl Method {
@@ -301,5 +332,57 @@ mod tests {
         let fpk: Vec<_> = Method::fpk().collect();
         assert_eq!(fpk, [Method::Weak, Method::Strong, Method::StrongMarginals]);
         assert!(Method::ForceRegression.is_baseline() && Method::Increments.is_baseline());
+    }
+
+    /// On a problem with terms entered as atoms (the way of a term without a polynomial
+    /// form), the weak form estimates and every method that evaluates polynomials reports
+    /// not-applicable, naming the terms.
+    #[test]
+    fn methods_that_take_polynomials_only_step_aside_for_other_terms() {
+        use crate::ident::{weak, Specification};
+        use crate::sim::{simulate, Collect};
+        let path = format!("{}/scenarios/sdof_duffing.toml", env!("CARGO_MANIFEST_DIR"));
+        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
+        s.simulation.record_length = 1000.0;
+        s.simulation.trajectories = 16;
+        let mut samples = Collect::default();
+        simulate(&crate::Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+        let problem = Problem::with_terms_as_atoms(&Specification::from_scenario(&s), &[], &[0]).unwrap();
+        let mut data = StationaryData::new(&problem, weak::moment_degree(&problem), 1000.0, 16, 8);
+        for b in &samples.batches {
+            b.for_each_sample(|j, t, row| data.push(j, t, row));
+        }
+        data.finish();
+        let total = data.total();
+        let (settings, arenas) = (Settings::default(), Arc::new(Arenas::default()));
+        let setup = Setup {
+            scenario: &s,
+            structure: &problem,
+            whitened: None,
+            data: &data,
+            total: &total,
+            settings: &settings,
+            arenas: &arenas,
+            measured: false,
+        };
+        let typical = problem.typical(&total);
+        let cx = Context {
+            problem: &problem,
+            data: &data,
+            typical: &typical,
+            bilinear: false,
+        };
+        for &m in Method::REGISTERED {
+            let result = m.estimator(&setup).estimate(&cx);
+            match m.terms() {
+                Terms::Any => assert!(result.is_ok(), "{m}: {result:?}"),
+                Terms::Polynomial => match result {
+                    Err(IdentError::NotApplicable(why)) => {
+                        assert!(why.contains("k3[ground-m1]") && why.contains("weak form"), "{m}: {why}")
+                    }
+                    other => panic!("{m}: {other:?}"),
+                },
+            }
+        }
     }
 }

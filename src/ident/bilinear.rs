@@ -152,6 +152,11 @@ impl Problem {
 /// coefficients by linear least squares, then the physical coefficients and corners by
 /// Gauss–Newton; both are reported (the monomial ones in the facts).
 pub fn identify_weak_bilinear(problem: &Problem, data: &data::StationaryData) -> Result<Estimate, IdentError> {
+    if !problem.atoms.is_empty() {
+        return Err(IdentError::Unsupported(
+            "an unknown filter corner together with terms without a polynomial form is not supported".into(),
+        ));
+    }
     let (mono, map) = problem.monomial_form();
     let linear = identify_weak(&mono, data)?;
     let start_b = problem.filters.iter().map(|f| f.b).next().unwrap_or(1.0);

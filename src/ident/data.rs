@@ -73,6 +73,8 @@ pub struct StationaryData {
     coarse: usize,
     record_length: f64,
     columns: Vec<usize>,
+    /// The problem's [`super::Atom`]s, valued at each sample after its columns.
+    atoms: Vec<super::Atom>,
     buffer: Vec<f64>,
     ids: Vec<u32>,
     /// Scratch: the buffer sorted by batch.
@@ -126,6 +128,7 @@ impl StationaryData {
             coarse: batches.clamp(1, layout.count()),
             record_length,
             columns: problem.columns.clone(),
+            atoms: problem.atoms.clone(),
             buffer: Vec::with_capacity(BLOCK * d),
             ids: Vec::with_capacity(BLOCK),
             sorted: Vec::new(),
@@ -170,6 +173,9 @@ impl StationaryData {
         for &c in &self.columns {
             self.buffer.push(row[c]);
         }
+        for a in &self.atoms {
+            self.buffer.push(a.value(&self.model, row));
+        }
         self.ids.push(b as u32);
         for l in 0..self.link_ranges.len() {
             let (u, w) = self.model.link_motion(l, row);
@@ -192,7 +198,7 @@ impl StationaryData {
         // Samples arrive in (time, trajectory) order, so consecutive ones belong to different
         // trajectory groups: a stable counting sort by batch makes each batch's samples one
         // run, summed in whole chunks (the order within a batch is kept: deterministic).
-        let d = self.columns.len();
+        let d = self.columns.len() + self.atoms.len();
         let fine = self.fine.len();
         let mut start = vec![0usize; fine + 1];
         for &b in &self.ids {

@@ -147,6 +147,11 @@ pub fn force_problem(s: &Scenario, st: &PaperStructure, k1: f64) -> Result<Probl
     if !p2_is_white(s, st) {
         p.white.clear();
     }
+    if !p.atoms.is_empty() {
+        return Err(IdentError::Unsupported(
+            "terms without a polynomial form together with measured inputs are not supported".into(),
+        ));
+    }
     let (q, r) = (p.dim(), p.dim() + 1);
     p.inputs = 2;
     p.known_force[0].add(&Poly::linear(&[(q, 1.0), (r, 2.0 * k1)]), 1.0);
@@ -188,8 +193,8 @@ pub fn direct(inp: &Inputs, problem: &Problem) -> Result<Estimate, IdentError> {
             Unknown::Coefficient(c) => dp
                 .unknowns
                 .iter()
-                .position(|x| matches!(x, Unknown::Coefficient(d) if d.kind == c.kind && d.power == c.power))
-                .expect("same powers"),
+                .position(|x| matches!(x, Unknown::Coefficient(d) if d.kind == c.kind && d.term == c.term))
+                .expect("same terms"),
             _ => unreachable!("step 0 has coefficients only"),
         })
         .collect();
@@ -232,6 +237,11 @@ pub fn force_bound_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem,
         .filter(|(e, _)| !filtered.contains(e))
         .map(|(_, source)| source)
         .collect();
+    if !p.atoms.is_empty() {
+        return Err(IdentError::Unsupported(
+            "terms without a polynomial form together with measured inputs are not supported".into(),
+        ));
+    }
     let log = Columns::new(s.masses.len(), s.excitations.len());
     let first = p.dim();
     for (k, &e) in filtered.iter().enumerate() {
@@ -255,8 +265,8 @@ fn k1_spec(step0: &Specification, st: &PaperStructure, problem: &Problem, values
         if let Unknown::Coefficient(c) = u {
             if c.link == st.ground {
                 match c.kind {
-                    Characteristic::Stiffness => k2.push((c.power, v)),
-                    Characteristic::Damping => c2.push((c.power, v)),
+                    Characteristic::Stiffness => k2.push((c.term, v)),
+                    Characteristic::Damping => c2.push((c.term, v)),
                 }
             }
         }
@@ -428,9 +438,7 @@ pub fn iterate(inp: &Inputs, single_mass: SingleMass) -> Result<Iteration, Ident
                         let j = dp
                             .unknowns
                             .iter()
-                            .position(
-                                |x| matches!(x, Unknown::Coefficient(d) if d.kind == c.kind && d.power == c.power),
-                            )
+                            .position(|x| matches!(x, Unknown::Coefficient(d) if d.kind == c.kind && d.term == c.term))
                             .expect("same powers");
                         values[k] = de.values[j];
                     }

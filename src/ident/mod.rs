@@ -42,7 +42,7 @@ pub use estimate::{
     estimate, identify_kernel, identify_strong, identify_weak, jackknife, Estimate, INSEPARABLE_RATIO,
     SPREAD_CHECK_RATIO, WEAK_RATIO,
 };
-pub use problem::{y, Filter, Layout, Pieces, Problem, Unknown};
+pub use problem::{y, Atom, Filter, Layout, Pieces, Problem, Unknown};
 pub use spec::Specification;
 pub use symmetry::{exact_symmetry, Symmetry};
 

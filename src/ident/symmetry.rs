@@ -16,7 +16,7 @@
 //!   unknown mass, the mass and springs against the damping.
 
 use super::{Layout, Problem, Unknown};
-use crate::model::Characteristic;
+use crate::model::{Characteristic, Term};
 use nalgebra::DMatrix;
 
 /// An exact symmetry: what it is and its null directions over the unknowns in relative
@@ -50,6 +50,10 @@ pub fn exact_symmetry(problem: &Problem) -> Option<Symmetry> {
     if problem.inputs > 0 {
         return None;
     }
+    if !problem.atoms.is_empty() {
+        // Terms without a polynomial form: only the force scale is decided structurally.
+        return force_scale(problem);
+    }
     match gibbs_temperatures(problem) {
         Some(_) => fluctuation_dissipation(problem),
         None => force_scale(problem),
@@ -61,7 +65,11 @@ fn force_scale(problem: &Problem) -> Option<Symmetry> {
     let m = &problem.model;
     let unknown_mass = |i| problem.unknowns.contains(&Unknown::Mass(i));
     let known_mass = (0..problem.n).any(|i| !unknown_mass(i));
-    let known_coefficient = m.coefs.iter().any(|&c| c != 0.0);
+    let known_coefficient = m
+        .coefs
+        .iter()
+        .chain(m.other_terms.iter().map(|t| &t.1))
+        .any(|&c| c != 0.0);
     let known_force = problem.white.iter().any(|(_, s, idx)| idx.is_none() && *s != 0.0);
     if known_mass || known_coefficient || known_force {
         return None;
@@ -87,11 +95,11 @@ fn gibbs_temperatures(problem: &Problem) -> Option<[f64; 2]> {
         return None;
     }
     let m = &problem.model;
-    let nonlinear_known = (0..m.links()).any(|l| m.damping(l).iter().skip(1).any(|&c| c != 0.0));
+    let nonlinear_known = (0..m.links()).any(|l| m.terms(l, Characteristic::Damping).any(|(t, _)| t != Term::Power(1)));
     let nonlinear_unknown = problem
         .unknowns
         .iter()
-        .any(|u| matches!(u, Unknown::Coefficient(c) if c.kind == Characteristic::Damping && c.power != 1));
+        .any(|u| matches!(u, Unknown::Coefficient(c) if c.kind == Characteristic::Damping && c.term != Term::Power(1)));
     if nonlinear_known || nonlinear_unknown {
         return None;
     }
@@ -174,7 +182,7 @@ fn fluctuation_dissipation(problem: &Problem) -> Option<Symmetry> {
         rows.push(r);
     };
     let known_mass = (0..n).any(|i| !problem.unknowns.contains(&Unknown::Mass(i)));
-    let known_stiffness = (0..m.links()).any(|l| m.stiffness(l).iter().any(|&k| k != 0.0));
+    let known_stiffness = (0..m.links()).any(|l| m.terms(l, Characteristic::Stiffness).next().is_some());
     if known_mass || known_stiffness {
         pin_tau(&mut rows);
     }

@@ -473,15 +473,15 @@ impl LogInfo {
         let mut truth: Vec<(String, f64)> = model.truth();
         for il in &model.identify.links {
             let link = &model.links[il.link];
-            for (powers, values, kind) in [
+            for (terms, values, kind) in [
                 (&il.stiffness, &link.stiffness, Characteristic::Stiffness),
                 (&il.damping, &link.damping, Characteristic::Damping),
             ] {
                 if values.is_empty() {
-                    for &power in powers.iter().flatten() {
+                    for &term in terms.iter().flatten() {
                         let name = ParameterName::Coefficient {
                             kind,
-                            power,
+                            term,
                             link: link.name.clone(),
                         };
                         truth.push((name.to_string(), f64::NAN));

@@ -3,24 +3,9 @@
 //! decided from the system's structure alone. The reasons are typed; `scenario::validate`
 //! maps each onto the place in the file that causes it.
 
+use super::{Characteristic as Kind, Term};
 use crate::scenario::{End, IdentifyLink, Link, Mass};
 use std::collections::BTreeMap;
-
-/// Spring or damper.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
-    Stiffness,
-    Damping,
-}
-
-impl Kind {
-    pub fn name(self) -> &'static str {
-        match self {
-            Kind::Stiffness => "stiffness",
-            Kind::Damping => "damping",
-        }
-    }
-}
 
 /// Why a system has no stationary density.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,13 +14,13 @@ pub enum NotStationary {
     NoSpringPath { mass: usize },
     /// No link dissipates energy.
     NoDamping,
-    /// The characteristic of link `link`'s pair of ends has its highest power `power` even,
+    /// The characteristic of link `link`'s pair of ends has its leading term `term` even,
     /// or odd with a negative coefficient, and no other pair of the same or a higher degree
     /// bounds the motion it stretches.
     Unbounded {
         link: usize,
         kind: Kind,
-        power: u32,
+        term: Term,
         coefficient: f64,
     },
 }
@@ -56,7 +41,7 @@ impl NotStationary {
             NotStationary::Unbounded {
                 link,
                 kind,
-                power,
+                term,
                 coefficient,
             } => {
                 let why = match kind {
@@ -68,10 +53,13 @@ impl NotStationary {
                          stationary density"
                     }
                 };
-                let how = if power % 2 == 0 {
-                    format!("its highest power {power} is even")
+                let how = if !term.is_odd() {
+                    format!("its highest {} is even", term.describe())
                 } else {
-                    format!("its highest power {power} has a negative coefficient {coefficient}")
+                    format!(
+                        "its highest {} has a negative coefficient {coefficient}",
+                        term.describe()
+                    )
                 };
                 format!(
                     "the {} between the ends of link {:?}: {how}: {why}, which the method assumes. The highest \
@@ -150,17 +138,17 @@ pub fn stationary(
                 Kind::Damping => &links[l].damping,
             };
             // The pair's combined characteristic in the orientation of its first link: a
-            // link turned round contributes −F(−u) (even powers negated).
+            // link turned round contributes −F(−u) (even terms negated).
             let first = links[ls[0]].ends;
-            let mut sum: BTreeMap<u32, f64> = BTreeMap::new();
+            let mut sum: BTreeMap<(u32, Term), f64> = BTreeMap::new();
             for &l in ls {
                 let same = links[l].ends == first;
-                for &(p, c) in &poly_of(l).terms {
-                    let sign = if same || p % 2 == 1 { 1.0 } else { -1.0 };
-                    *sum.entry(p).or_insert(0.0) += sign * c;
+                for &(t, c) in &poly_of(l).terms {
+                    let sign = if same || t.is_odd() { 1.0 } else { -1.0 };
+                    *sum.entry((t.degree(), t)).or_insert(0.0) += sign * c;
                 }
             }
-            let Some((&p, &c)) = sum.iter().rev().find(|t| *t.1 != 0.0) else {
+            let Some((&(p, term), &c)) = sum.iter().rev().find(|t| *t.1 != 0.0) else {
                 continue;
             };
             let unknown_kind = |l: usize| match kind {
@@ -170,7 +158,7 @@ pub fn stationary(
             if ls.iter().any(|&l| unknown_kind(l)) {
                 continue;
             }
-            if p % 2 == 1 && c > 0.0 {
+            if term.is_odd() && c > 0.0 {
                 continue;
             }
             // The bad term decides when some motion stretches this pair and no other pair
@@ -179,21 +167,17 @@ pub fn stationary(
             let others: Vec<Vec<f64>> = pairs
                 .iter()
                 .enumerate()
-                .filter(|&(pj, (_, lm))| pj != pi && lm.iter().map(|&l| poly_of(l).max_power()).max().unwrap_or(0) >= p)
+                .filter(|&(pj, (_, lm))| pj != pi && lm.iter().map(|&l| poly_of(l).degree()).max().unwrap_or(0) >= p)
                 .map(|(_, (k, _))| geometry(*k))
                 .collect();
             if in_span(&geometry(*key), &others) {
                 continue;
             }
-            let link = *ls
-                .iter()
-                .rev()
-                .find(|&&l| poly_of(l).max_power() == p)
-                .unwrap_or(&ls[0]);
+            let link = *ls.iter().rev().find(|&&l| poly_of(l).degree() == p).unwrap_or(&ls[0]);
             return Err(NotStationary::Unbounded {
                 link,
                 kind,
-                power: p,
+                term,
                 coefficient: c,
             });
         }
@@ -224,25 +208,25 @@ fn in_span(v: &[f64], rows: &[Vec<f64>]) -> bool {
 }
 
 /// Two links whose unknowns no data can separate: links between the same two ends
-/// (parallel springs or dampers) whose unknown coefficients share a power only ever act
+/// (parallel springs or dampers) whose unknown coefficients share a term only ever act
 /// as their sum.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Inseparable {
     pub links: [usize; 2],
     pub kind: Kind,
-    pub power: u32,
+    pub term: Term,
 }
 
 impl Inseparable {
     pub fn describe(&self, links: &[Link]) -> String {
         format!(
-            "links {:?} and {:?} join the same two ends and both have an unknown {} coefficient of power {}: only \
+            "links {:?} and {:?} join the same two ends and both have an unknown {} coefficient of {}: only \
              their sum acts, so no data can separate them. Identify one of them (declare the other known in \
              [identify.links]) or merge them into one link",
             links[self.links[0]].name,
             links[self.links[1]].name,
             self.kind.name(),
-            self.power
+            self.term.describe()
         )
     }
 }
@@ -254,13 +238,13 @@ pub fn separable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Result<(
     if !parallel || a.link == b.link {
         return Ok(());
     }
-    let common = |x: &Option<Vec<u32>>, y: &Option<Vec<u32>>| {
+    let common = |x: &Option<Vec<Term>>, y: &Option<Vec<Term>>| {
         x.iter()
             .flatten()
             .find(|p| y.iter().flatten().any(|q| q == *p))
             .copied()
     };
-    let (kind, power) = match (common(&a.stiffness, &b.stiffness), common(&a.damping, &b.damping)) {
+    let (kind, term) = match (common(&a.stiffness, &b.stiffness), common(&a.damping, &b.damping)) {
         (Some(p), _) => (Kind::Stiffness, p),
         (None, Some(p)) => (Kind::Damping, p),
         (None, None) => return Ok(()),
@@ -268,7 +252,7 @@ pub fn separable(links: &[Link], a: &IdentifyLink, b: &IdentifyLink) -> Result<(
     Err(Inseparable {
         links: [a.link, b.link],
         kind,
-        power,
+        term,
     })
 }
 
@@ -280,7 +264,7 @@ pub fn default_burn_in(masses: &[Mass], links: &[Link]) -> f64 {
         let c: f64 = links
             .iter()
             .filter(|l| l.ends.contains(&End::Mass(i)))
-            .map(|l| l.damping.coefficient(1).abs())
+            .map(|l| l.damping.coefficient(Term::Power(1)).abs())
             .sum();
         let tau = if c > 0.0 { 2.0 * m.value / c } else { 100.0 };
         worst = worst.max(tau);
@@ -291,7 +275,7 @@ pub fn default_burn_in(masses: &[Mass], links: &[Link]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Polynomial;
+    use crate::scenario::Curve;
 
     fn mass(name: &str) -> Mass {
         Mass {
@@ -304,8 +288,8 @@ mod tests {
         Link {
             name: format!("{a:?}-{b:?}"),
             ends: [a, b],
-            stiffness: Polynomial { terms: k.to_vec() },
-            damping: Polynomial { terms: c.to_vec() },
+            stiffness: Curve::powers(k),
+            damping: Curve::powers(c),
         }
     }
 
@@ -332,12 +316,13 @@ mod tests {
         );
         // The coupling's leading power even, then odd with a negative coefficient.
         for (k2, power, coefficient) in [(vec![(1, 1.0), (2, 1.0)], 2, 1.0), (vec![(1, 1.0), (3, -2.0)], 3, -2.0)] {
+            let term = Term::Power(power);
             assert_eq!(
                 stationary(&masses, &chain(&k2, &[(1, 0.5)]), KNOWN),
                 Err(NotStationary::Unbounded {
                     link: 1,
                     kind: Kind::Stiffness,
-                    power,
+                    term,
                     coefficient
                 })
             );
@@ -346,7 +331,7 @@ mod tests {
         // motion (a loop: m2 also to the ground with a quintic): admissible.
         let mut l = chain(&[(1, 1.0), (3, -2.0)], &[(1, 0.5)]);
         l.push(link(g, m2, &[(1, 1.0), (5, 1.0)], &[]));
-        l[0].stiffness.terms.push((5, 1.0));
+        l[0].stiffness.terms.push((Term::Power(5), 1.0));
         assert_eq!(stationary(&masses, &l, KNOWN), Ok(()));
         // In a model file an unknown characteristic's sign is the data's to tell.
         let l = chain(&[(1, 1.0), (2, 1.0)], &[(1, 0.5)]);
@@ -357,14 +342,15 @@ mod tests {
     fn parallel_links_with_a_common_unknown_power_cannot_be_separated() {
         let (g, m1) = (End::Ground, End::Mass(0));
         let links = [link(g, m1, &[(1, 1.0)], &[(1, 0.5)]), link(m1, g, &[(3, 1.0)], &[])];
+        let powers = |ps: &[u32]| (!ps.is_empty()).then(|| ps.iter().map(|&p| Term::Power(p)).collect());
         let id = |link, k: &[u32], c: &[u32]| IdentifyLink {
             link,
-            stiffness: (!k.is_empty()).then(|| k.to_vec()),
-            damping: (!c.is_empty()).then(|| c.to_vec()),
+            stiffness: powers(k),
+            damping: powers(c),
         };
         assert_eq!(separable(&links, &id(0, &[1], &[1]), &id(1, &[3], &[])), Ok(()));
         let e = separable(&links, &id(0, &[1, 3], &[]), &id(1, &[3], &[])).unwrap_err();
-        assert_eq!((e.kind, e.power), (Kind::Stiffness, 3));
+        assert_eq!((e.kind, e.term), (Kind::Stiffness, Term::Power(3)));
         assert!(e.describe(&links).contains("only their sum acts"));
     }
 }

@@ -2,15 +2,19 @@
 //!
 //! One `Model` serves the simulator (forces on every mass, stepped in lanes) and the
 //! identifier (the drift and its derivative with respect to each link coefficient, the
-//! "features" `g_ir(y)` of docs/theory.md §2). Coefficients live in one contiguous array, dense
-//! by power, so evaluation needs no allocation. Depends only on `scenario`.
+//! "features" `g_ir(y)` of docs/theory.md §2). A characteristic is a sum of [`Term`]s. Its
+//! polynomial part lives in one contiguous array, dense by power, so evaluation needs no
+//! allocation and the fast simulation kernels can take it; terms without a polynomial form
+//! are kept beside it, term by term. Depends only on `scenario`.
 
 pub mod admissible;
 mod columns;
 mod names;
+mod term;
 
 pub use columns::{Columns, Quantity};
 pub use names::{ParameterName, Truth};
+pub use term::Term;
 
 use crate::scenario::{End, Process, Scenario};
 
@@ -41,12 +45,12 @@ impl Characteristic {
     }
 }
 
-/// One polynomial coefficient of one link: `k_p` or `c_q`.
+/// One coefficient of one link: of term `t` in its stiffness (`k_t`) or damping (`c_t`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Coefficient {
     pub link: usize,
     pub kind: Characteristic,
-    pub power: u32,
+    pub term: Term,
 }
 
 /// A compiled excitation.
@@ -75,6 +79,10 @@ pub struct Model {
     pub c_start: Vec<usize>,
     pub c_len: Vec<usize>,
     pub coefs: Vec<f64>,
+    /// The terms without a polynomial form, with their coefficients (none of today's
+    /// kinds: every [`Term`] so far is a power). Evaluated term by term, by the generic
+    /// stepper only.
+    pub other_terms: Vec<(Coefficient, f64)>,
     pub excitations: Vec<CompiledExcitation>,
 }
 
@@ -104,6 +112,7 @@ impl Model {
             c_start: Vec::new(),
             c_len: Vec::new(),
             coefs: Vec::new(),
+            other_terms: Vec::new(),
             excitations: s
                 .excitations
                 .iter()
@@ -122,14 +131,18 @@ impl Model {
             // The scenario puts a ground end second, so `a` is always a mass.
             m.link_a.push(idx(l.ends[0]));
             m.link_b.push(idx(l.ends[1]));
-            for (poly, start, len) in [
-                (&l.stiffness, &mut m.k_start, &mut m.k_len),
-                (&l.damping, &mut m.c_start, &mut m.c_len),
+            let link = m.link_a.len() - 1;
+            for (kind, poly, start, len) in [
+                (Characteristic::Stiffness, &l.stiffness, &mut m.k_start, &mut m.k_len),
+                (Characteristic::Damping, &l.damping, &mut m.c_start, &mut m.c_len),
             ] {
                 let n = poly.max_power() as usize;
                 start.push(m.coefs.len());
                 len.push(n);
-                m.coefs.extend((1..=n as u32).map(|p| poly.coefficient(p)));
+                m.coefs.extend((1..=n as u32).map(|p| poly.coefficient(Term::Power(p))));
+                for &(term, c) in poly.terms.iter().filter(|t| t.0.power().is_none()) {
+                    m.other_terms.push((Coefficient { link, kind, term }, c));
+                }
             }
         }
         m
@@ -146,14 +159,36 @@ impl Model {
     pub fn stiffness(&self, l: usize) -> &[f64] {
         &self.coefs[self.k_start[l]..self.k_start[l] + self.k_len[l]]
     }
-    /// Replace link `l`'s characteristic `kind` by `Σ c z^p` over `terms` (`(p, c)`, powers
-    /// ascending); the flat arrays are laid out again as [`Model::new`] lays them out.
-    pub fn set_characteristic(&mut self, l: usize, kind: Characteristic, terms: &[(u32, f64)]) {
-        let dense = |terms: &[(u32, f64)]| -> Vec<f64> {
-            let n = terms.last().map_or(0, |t| t.0) as usize;
+    /// Every term of link `l`'s characteristic `kind` with a non-zero coefficient: the
+    /// polynomial part by ascending power, then the other terms.
+    pub fn terms(&self, l: usize, kind: Characteristic) -> impl Iterator<Item = (Term, f64)> + '_ {
+        let dense = match kind {
+            Characteristic::Stiffness => self.stiffness(l),
+            Characteristic::Damping => self.damping(l),
+        };
+        let powers = dense.iter().enumerate().map(|(p, &c)| (Term::Power(p as u32 + 1), c));
+        let others = self
+            .other_terms
+            .iter()
+            .filter(move |(c, _)| c.link == l && c.kind == kind)
+            .map(|&(c, v)| (c.term, v));
+        powers.chain(others).filter(|t| t.1 != 0.0)
+    }
+
+    /// Replace link `l`'s characteristic `kind` by `Σ c t(z)` over `terms` (`(t, c)`, sorted
+    /// by term); the flat arrays are laid out again as [`Model::new`] lays them out.
+    pub fn set_characteristic(&mut self, l: usize, kind: Characteristic, terms: &[(Term, f64)]) {
+        self.other_terms.retain(|(c, _)| (c.link, c.kind) != (l, kind));
+        for &(term, c) in terms.iter().filter(|t| t.0.power().is_none()) {
+            self.other_terms.push((Coefficient { link: l, kind, term }, c));
+        }
+        let dense = |terms: &[(Term, f64)]| -> Vec<f64> {
+            let n = terms.iter().filter_map(|t| t.0.power()).max().unwrap_or(0) as usize;
             let mut d = vec![0.0; n];
-            for &(p, c) in terms {
-                d[p as usize - 1] = c;
+            for &(t, c) in terms {
+                if let Some(p) = t.power() {
+                    d[p as usize - 1] = c;
+                }
             }
             d
         };
@@ -180,6 +215,12 @@ impl Model {
     pub fn single_mass(&self, i: usize, l: usize, excitation: CompiledExcitation, name: &str) -> Model {
         assert_eq!(self.ends(l), (i, None), "link {l} joins mass {i} to the ground");
         let (k, c) = (self.stiffness(l).to_vec(), self.damping(l).to_vec());
+        let other_terms = self
+            .other_terms
+            .iter()
+            .filter(|(c, _)| c.link == l)
+            .map(|&(c, v)| (Coefficient { link: 0, ..c }, v))
+            .collect();
         Model {
             mass_names: vec![self.mass_names[i].clone()],
             link_names: vec![self.link_names[l].clone()],
@@ -193,6 +234,7 @@ impl Model {
             c_start: vec![k.len()],
             c_len: vec![c.len()],
             coefs: [k, c].concat(),
+            other_terms,
             excitations: vec![excitation],
         }
     }
@@ -204,6 +246,7 @@ impl Model {
             Characteristic::Damping => (self.c_start[l], self.c_len[l]),
         };
         self.coefs[start..start + len].iter_mut().for_each(|c| *c = 0.0);
+        self.other_terms.retain(|(c, _)| (c.link, c.kind) != (l, kind));
     }
     /// Damping coefficients of link `l`, dense from power 1.
     pub fn damping(&self, l: usize) -> &[f64] {
@@ -257,7 +300,20 @@ impl Model {
     /// The link force `F = K(u) + C(w)`.
     #[inline]
     pub fn link_force(&self, l: usize, u: f64, w: f64) -> f64 {
-        poly(self.stiffness(l), u) + poly(self.damping(l), w)
+        let f = poly(self.stiffness(l), u) + poly(self.damping(l), w);
+        if self.other_terms.is_empty() {
+            return f;
+        }
+        let others: f64 = self
+            .other_terms
+            .iter()
+            .filter(|(c, _)| c.link == l)
+            .map(|&(c, v)| match c.kind {
+                Characteristic::Stiffness => v * c.term.value(u),
+                Characteristic::Damping => v * c.term.value(w),
+            })
+            .sum();
+        f + others
     }
 
     /// Net force on every mass from the links alone: `−Σ_ℓ s_iℓ F_ℓ` (no excitation).
@@ -284,7 +340,7 @@ impl Model {
     pub fn coefficient_name(&self, c: Coefficient) -> ParameterName {
         ParameterName::Coefficient {
             kind: c.kind,
-            power: c.power,
+            term: c.term,
             link: self.link_names[c.link].clone(),
         }
     }
@@ -306,25 +362,42 @@ impl Model {
         (self.link_a[l], (b != GROUND).then_some(b))
     }
 
-    /// Whether every link is linear (powers ≤ 1): then the stationary response is Gaussian.
+    /// Whether every link is linear (powers ≤ 1, no other term): then the stationary
+    /// response is Gaussian.
     pub fn is_linear(&self) -> bool {
-        self.k_len.iter().chain(&self.c_len).all(|&n| n <= 1)
+        self.k_len.iter().chain(&self.c_len).all(|&n| n <= 1) && self.other_terms.is_empty()
+    }
+
+    /// This model with its polynomial part moved among the other terms: the same system,
+    /// evaluated term by term as a term without a polynomial form is. Tests of that path.
+    #[cfg(test)]
+    pub(crate) fn with_powers_as_other_terms(&self) -> Model {
+        let mut m = self.clone();
+        for l in 0..m.links() {
+            for kind in [Characteristic::Stiffness, Characteristic::Damping] {
+                for (term, v) in self.terms(l, kind).collect::<Vec<_>>() {
+                    m.other_terms.push((Coefficient { link: l, kind, term }, v));
+                }
+            }
+        }
+        m.coefs.iter_mut().for_each(|c| *c = 0.0);
+        m
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Polynomial;
+    use crate::scenario::Curve;
 
     #[test]
     fn a_set_characteristic_is_laid_out_as_a_model_of_the_edited_scenario() {
         let mut s = crate::zoo::linear_2dof("dt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1");
         let mut model = Model::new(&s);
         // A longer polynomial in the middle link shifts every later link's coefficients.
-        let terms = [(1, 3.0), (2, -0.5), (5, 0.25)];
+        let terms = Curve::powers(&[(1, 3.0), (2, -0.5), (5, 0.25)]).terms;
         model.set_characteristic(1, Characteristic::Stiffness, &terms);
-        s.links[1].stiffness = Polynomial { terms: terms.to_vec() };
+        s.links[1].stiffness = Curve { terms };
         let edited = Model::new(&s);
         assert_eq!(
             (&model.coefs, &model.k_start, &model.k_len, &model.c_start, &model.c_len),

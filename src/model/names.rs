@@ -2,8 +2,8 @@
 //! `k3[ground-m1]`, `c1[m1-m2]`, `sigma[m1]`, `A[P]`, `B[P]`. Formatted and parsed here
 //! only; everything else handles a [`ParameterName`].
 
-use super::Characteristic;
-use crate::scenario::Polynomial;
+use super::{Characteristic, Term};
+use crate::scenario::Curve;
 use std::collections::BTreeMap;
 use std::fmt;
 use std::str::FromStr;
@@ -13,11 +13,11 @@ use std::str::FromStr;
 pub enum ParameterName {
     /// `m[<mass>]`: a mass (or moment of inertia).
     Mass(String),
-    /// `k<p>[<link>]` or `c<q>[<link>]`: the coefficient of `u^p` in the link's stiffness
-    /// `K(u)` or of `w^q` in its damping `C(w)` (3.3).
+    /// `k<t>[<link>]` or `c<t>[<link>]`: the coefficient of term `t` in the link's stiffness
+    /// `K(u)` or damping `C(w)`: `k3[ground-m1]` multiplies `u³` (3.3).
     Coefficient {
         kind: Characteristic,
-        power: u32,
+        term: Term,
         link: String,
     },
     /// `sigma[<excitation>]`: the intensity of a white excitation.
@@ -32,7 +32,7 @@ impl fmt::Display for ParameterName {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             ParameterName::Mass(m) => write!(f, "m[{m}]"),
-            ParameterName::Coefficient { kind, power, link } => write!(f, "{}{power}[{link}]", kind.symbol()),
+            ParameterName::Coefficient { kind, term, link } => write!(f, "{}{term}[{link}]", kind.symbol()),
             ParameterName::Intensity(e) => write!(f, "sigma[{e}]"),
             ParameterName::FilterGain(e) => write!(f, "A[{e}]"),
             ParameterName::Corner(e) => write!(f, "B[{e}]"),
@@ -64,14 +64,10 @@ impl FromStr for ParameterName {
                     Some('c') => Characteristic::Damping,
                     _ => return Err(bad()),
                 };
-                let digits = &head[1..];
-                if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
-                    return Err(bad());
-                }
-                let power = digits.parse().map_err(|_| bad())?;
+                let term = head[1..].parse().map_err(|_| bad())?;
                 ParameterName::Coefficient {
                     kind,
-                    power,
+                    term,
                     link: owner,
                 }
             }
@@ -111,22 +107,18 @@ impl Truth {
         }
     }
 
-    /// The true characteristic `K(u)` or `C(w)` of the link named `link`, by ascending power
+    /// The true characteristic `K(u)` or `C(w)` of the link named `link`, term by term
     /// (empty when the link has none).
-    pub fn characteristic(&self, link: &str, kind: Characteristic) -> Polynomial {
+    pub fn characteristic(&self, link: &str, kind: Characteristic) -> Curve {
         let terms = self
             .0
             .iter()
             .filter_map(|(n, &v)| match n {
-                ParameterName::Coefficient {
-                    kind: k,
-                    power,
-                    link: l,
-                } if *k == kind && l == link => Some((*power, v)),
+                ParameterName::Coefficient { kind: k, term, link: l } if *k == kind && l == link => Some((*term, v)),
                 _ => None,
             })
             .collect();
-        Polynomial { terms }
+        Curve { terms }
     }
 }
 
@@ -152,7 +144,7 @@ mod tests {
             "c2[ground-m2]".parse::<ParameterName>().unwrap(),
             ParameterName::Coefficient {
                 kind: Characteristic::Damping,
-                power: 2,
+                term: Term::Power(2),
                 link: "ground-m2".into()
             }
         );

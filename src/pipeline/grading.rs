@@ -5,7 +5,7 @@
 use super::source::Input;
 use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
-use crate::model::{Characteristic, Coefficient, Truth};
+use crate::model::{Characteristic, Coefficient, Term, Truth};
 use crate::report::{
     Curve, FilterReport, IterationReport, MethodReport, Outcome, Parameter, PlotData, Provenance, Records, Report,
     Timings, Validation,
@@ -126,7 +126,7 @@ pub(crate) fn fill_accuracy(
         let rel = match coef_of[k] {
             Some(c) => {
                 let (lo, hi) = range(c);
-                stats::coefficient_error(values[k], t, c.power, &true_curve(c.link, c.kind), lo, hi)
+                stats::coefficient_error(values[k], t, c.term, &true_curve(c.link, c.kind), lo, hi)
             }
             None => ((values[k] - t) / t).abs(),
         };
@@ -155,7 +155,7 @@ pub(crate) fn fill_accuracy(
             let (lo, hi) = range(Coefficient {
                 link: l,
                 kind,
-                power: 1,
+                term: Term::Power(1),
             });
             let e = if graded {
                 stats::rel_l2(&est, &truth, lo, hi)
@@ -167,14 +167,10 @@ pub(crate) fn fill_accuracy(
             let index: Vec<Option<usize>> = est
                 .terms
                 .iter()
-                .map(|&(p, _)| {
-                    coef_of.iter().position(|c| {
-                        *c == Some(Coefficient {
-                            link: l,
-                            kind,
-                            power: p,
-                        })
-                    })
+                .map(|&(term, _)| {
+                    coef_of
+                        .iter()
+                        .position(|c| *c == Some(Coefficient { link: l, kind, term }))
                 })
                 .collect();
             let terms_covariance = match covariance.is_empty() {

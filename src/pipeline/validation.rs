@@ -6,7 +6,7 @@ use crate::ident::data::StationaryData;
 use crate::ident::spectrum::{Spectrum, Welch};
 use crate::ident::{spectrum, Problem, Unknown};
 use crate::model::Quantity;
-use crate::model::{Characteristic, Coefficient, Model};
+use crate::model::{Characteristic, Coefficient, Model, Term};
 use crate::report::{PlotData, SpectrumComparison, Validation, ValidationRow};
 use crate::scenario::ReportMethod;
 use crate::scenario::{Process, Scenario};
@@ -267,7 +267,7 @@ pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coeff
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
             let (est, unknown) = stats::estimated_characteristic(s, coef_of, values, l, kind);
             if unknown {
-                let terms: Vec<(u32, f64)> = est.terms.into_iter().filter(|t| t.1 != 0.0).collect();
+                let terms: Vec<(Term, f64)> = est.terms.into_iter().filter(|t| t.1 != 0.0).collect();
                 model.set_characteristic(l, kind, &terms);
             }
         }

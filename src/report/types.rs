@@ -1,7 +1,7 @@
 //! The result types of a run, serialised as `report.json` (fields in `docs/methods.md`).
 
 use crate::ident::{disturbance, lsq::Diagnostics, spectrum};
-use crate::model::Truth;
+use crate::model::{Term, Truth};
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
 use crate::stats::Histogram;
@@ -31,8 +31,8 @@ pub struct Curve {
     pub rel_l2_error: f64,
     /// Observed range of the relative displacement or velocity.
     pub range: [f64; 2],
-    /// `(power, coefficient)` of the identified characteristic.
-    pub identified: Vec<(u32, f64)>,
+    /// `(term, coefficient)` of the identified characteristic.
+    pub identified: Vec<(Term, f64)>,
     /// The jackknife's covariance of those coefficients (empty without standard errors).
     pub covariance: Vec<Vec<f64>>,
     /// Degrees of freedom of that covariance (batches − 1).
@@ -41,12 +41,12 @@ pub struct Curve {
 
 impl Curve {
     /// The 95 % pointwise interval's half-width of the identified characteristic at `z`:
-    /// `t(0.975, dof) · √(gᵀ Σ g)` with `g = (z^p)`; `None` without a covariance.
+    /// `t(0.975, dof) · √(gᵀ Σ g)` with `g` the terms at `z`; `None` without a covariance.
     pub fn half_width_95(&self, z: f64) -> Option<f64> {
         if self.covariance.is_empty() || self.dof == 0 {
             return None;
         }
-        let g: Vec<f64> = self.identified.iter().map(|&(p, _)| z.powi(p as i32)).collect();
+        let g: Vec<f64> = self.identified.iter().map(|&(t, _)| t.value(z)).collect();
         let var: f64 = (0..g.len())
             .map(|a| (0..g.len()).map(|b| g[a] * self.covariance[a][b] * g[b]).sum::<f64>())
             .sum();

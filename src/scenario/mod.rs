@@ -11,6 +11,7 @@ mod paper;
 mod raw;
 mod validate;
 
+use crate::model::Term;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -100,25 +101,38 @@ pub enum End {
     Mass(usize),
 }
 
-/// A polynomial characteristic `Σ c_p z^p` over positive integer powers, sorted by power.
+/// A characteristic `K(u)` or `C(w)` as a scenario gives it: `Σ c_t t(z)` over its terms
+/// (powers in the paper's (3.3)), each term once, sorted by term.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Polynomial {
-    pub terms: Vec<(u32, f64)>,
+pub struct Curve {
+    pub terms: Vec<(Term, f64)>,
 }
 
-impl Polynomial {
-    pub fn eval(&self, z: f64) -> f64 {
-        self.terms.iter().map(|&(p, c)| c * z.powi(p as i32)).sum()
+impl Curve {
+    /// A power polynomial `Σ c_p z^p` from `(p, c_p)` pairs in ascending `p`.
+    pub fn powers(terms: &[(u32, f64)]) -> Curve {
+        Curve {
+            terms: terms.iter().map(|&(p, c)| (Term::Power(p), c)).collect(),
+        }
     }
+    pub fn eval(&self, z: f64) -> f64 {
+        self.terms.iter().map(|&(t, c)| c * t.value(z)).sum()
+    }
+    /// The highest power among the terms (0 when there is none): the length of the
+    /// model's dense polynomial form.
     pub fn max_power(&self) -> u32 {
-        self.terms.last().map_or(0, |t| t.0)
+        self.terms.iter().filter_map(|t| t.0.power()).max().unwrap_or(0)
+    }
+    /// The highest [`Term::degree`] among the terms (0 when there is none).
+    pub fn degree(&self) -> u32 {
+        self.terms.iter().map(|t| t.0.degree()).max().unwrap_or(0)
     }
     pub fn is_empty(&self) -> bool {
         self.terms.is_empty()
     }
-    /// Coefficient of `z^p` (0 when absent).
-    pub fn coefficient(&self, p: u32) -> f64 {
-        self.terms.iter().find(|t| t.0 == p).map_or(0.0, |t| t.1)
+    /// The coefficient of term `t` (0 when absent).
+    pub fn coefficient(&self, t: Term) -> f64 {
+        self.terms.iter().find(|x| x.0 == t).map_or(0.0, |x| x.1)
     }
 }
 
@@ -129,8 +143,8 @@ pub struct Link {
     /// The force `K(u) + C(w)` with `u = x_a − x_b` acts against `ends[0]` and, reversed,
     /// against `ends[1]`.
     pub ends: [End; 2],
-    pub stiffness: Polynomial,
-    pub damping: Polynomial,
+    pub stiffness: Curve,
+    pub damping: Curve,
 }
 
 /// The random process of an excitation.
@@ -270,10 +284,10 @@ pub const MAX_STEPS: f64 = 1e13;
 #[derive(Debug, Clone, PartialEq)]
 pub struct IdentifyLink {
     pub link: usize,
-    /// Powers of the stiffness model to identify; `None`: the stiffness is known.
-    pub stiffness: Option<Vec<u32>>,
-    /// Powers of the damping model to identify; `None`: the damping is known.
-    pub damping: Option<Vec<u32>>,
+    /// Terms of the stiffness model to identify; `None`: the stiffness is known.
+    pub stiffness: Option<Vec<Term>>,
+    /// Terms of the damping model to identify; `None`: the damping is known.
+    pub damping: Option<Vec<Term>>,
 }
 
 /// `[identify]`: what the identifier is asked to find and how.
@@ -574,9 +588,9 @@ impl Scenario {
                 (Characteristic::Stiffness, &l.stiffness),
                 (Characteristic::Damping, &l.damping),
             ] {
-                for &(power, c) in &poly.terms {
+                for &(term, c) in &poly.terms {
                     let link = l.name.clone();
-                    out.push((N::Coefficient { kind, power, link }, c));
+                    out.push((N::Coefficient { kind, term, link }, c));
                 }
             }
         }

@@ -2,6 +2,7 @@
 //! defined for; a scenario of another shape is refused with what is missing.
 
 use super::{End, Excitation, IdentifyLink, Link, Mass, PaperStructure};
+use crate::model::Term;
 
 /// Find the paper's structure (4.3) for the iterative procedure of section 4, or say what
 /// is missing.
@@ -55,7 +56,7 @@ pub(crate) fn paper_structure(
             stiffness: Some(p),
             damping: None,
             ..
-        }) if p == &[1] => {}
+        }) if p == &[Term::Power(1)] => {}
         _ => {
             return fail(&format!(
                 "[identify.links.{}] must be {{ stiffness = [1] }}",

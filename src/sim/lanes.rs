@@ -4,7 +4,7 @@
 
 use super::normals::{self, Xoshiro};
 use super::{trajectory_seed, Lane, SimError, DIVERGENCE_LIMIT, LANES};
-use crate::model::{Model, Quantity, GROUND};
+use crate::model::{Characteristic, Model, Quantity, Term, GROUND};
 use crate::scenario::{Process, Scheme, Simulation};
 use multiversion::multiversion;
 use rand::rngs::Xoshiro256PlusPlus;
@@ -26,9 +26,12 @@ pub(crate) struct LaneModel<const D: usize> {
     pub(super) semi_implicit: bool,
     pub(super) a: Vec<usize>,
     pub(super) b: Vec<usize>,
-    /// `k[l][p − 1]`, `c[l][p − 1]`.
+    /// `k[l][p − 1]`, `c[l][p − 1]`: the polynomial part.
     pub(super) k: Vec<[f64; D]>,
     pub(super) c: Vec<[f64; D]>,
+    /// Per link: its terms without a polynomial form, `(is damping, term, coefficient)`.
+    /// Only the generic stepper evaluates them; with any, no fast kernel is chosen.
+    pub(super) other: Vec<Vec<(bool, Term, f64)>>,
     /// `h / m_i`.
     pub(super) h_inv_mass: Vec<f64>,
     pub(super) inv_mass: Vec<f64>,
@@ -75,6 +78,15 @@ impl<const D: usize> LaneModel<D> {
             b: m.link_b.iter().map(|&b| if b == GROUND { n } else { b }).collect(),
             k: (0..m.links()).map(|l| pad(m.stiffness(l))).collect(),
             c: (0..m.links()).map(|l| pad(m.damping(l))).collect(),
+            other: (0..m.links())
+                .map(|l| {
+                    m.other_terms
+                        .iter()
+                        .filter(|(c, _)| c.link == l)
+                        .map(|&(c, v)| (c.kind == Characteristic::Damping, c.term, v))
+                        .collect()
+                })
+                .collect(),
             h_inv_mass: m.inv_mass.iter().map(|im| h * im).collect(),
             inv_mass: m.inv_mass.clone(),
             white: Vec::new(),
@@ -122,7 +134,9 @@ impl<const D: usize> LaneModel<D> {
                 lm.ou_weight[i * no + slot] = 1.0;
             }
         }
-        if let Some(kernel) = shaped(&lm) {
+        if !m.other_terms.is_empty() {
+            // Terms the fused kernels do not evaluate: the generic stepper.
+        } else if let Some(kernel) = shaped(&lm) {
             lm.complete_links();
             lm.advance = kernel;
         } else {
@@ -291,6 +305,12 @@ impl Group {
             let mut force = zero();
             for j in 0..LANES {
                 force[j] = ku[j].mul_add(u[j], cw[j] * w[j]);
+            }
+            for &(damping, term, coefficient) in &lm.other[l] {
+                let z = if damping { &w } else { &u };
+                for j in 0..LANES {
+                    force[j] += coefficient * term.value(z[j]);
+                }
             }
             let fa = &mut f[a];
             for j in 0..LANES {

@@ -296,3 +296,44 @@ pub(crate) fn simulate_padded<const D: usize>(
         steps: steps_total,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+
+    /// A system whose terms are evaluated one by one (the path of a term without a
+    /// polynomial form, here taken by powers) gives the samples of its polynomial form to
+    /// rounding: the generic stepper and `Model::link_force` evaluate every [`Term`] kind,
+    /// and the fast kernels step aside when a model has such terms.
+    #[test]
+    fn terms_evaluated_one_by_one_step_as_their_polynomial() {
+        let file = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/duffing2dof.toml");
+        let mut s = Scenario::parse(&std::fs::read_to_string(file).unwrap(), file, "t").unwrap();
+        s.simulation.record_length = 20.0;
+        s.simulation.trajectories = 9;
+        let poly = Model::new(&s);
+        let terms = poly.with_powers_as_other_terms();
+        assert!(terms.coefs.iter().all(|&c| c == 0.0) && terms.other_terms.len() == 9);
+        for (u, w) in [(0.3, -1.2), (-2.0, 0.7), (0.0, 0.0)] {
+            for l in 0..poly.links() {
+                let (a, b) = (poly.link_force(l, u, w), terms.link_force(l, u, w));
+                assert!((a - b).abs() <= 1e-12 * a.abs().max(1.0), "link {l}: {a} against {b}");
+            }
+        }
+        let (mut a, mut b) = (sinks::Collect::default(), sinks::Collect::default());
+        simulate(&poly, &s.simulation, &mut a, &|_| {}).unwrap();
+        simulate(&terms, &s.simulation, &mut b, &|_| {}).unwrap();
+        let values = |c: &sinks::Collect| -> Vec<f64> { c.batches.iter().flat_map(|b| b.values.clone()).collect() };
+        let (va, vb) = (values(&a), values(&b));
+        assert_eq!(va.len(), vb.len());
+        let scale = va.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let worst = va.iter().zip(&vb).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        assert!(
+            worst <= 1e-9 * scale,
+            "largest difference {worst:e} against a scale of {scale}"
+        );
+        // Not bit-identical: the fused kernel's Horner is not the term-by-term sum.
+        assert!(va != vb, "the term-by-term path was not taken");
+    }
+}

@@ -94,6 +94,9 @@ impl<const D: usize> LaneModel<D> {
         (self.a, self.b) = (0..slots).map(|s| link_slot(n, s)).unzip();
         (self.k, self.c) = (k, c);
         self.lens = lens;
+        // Chosen only when every term is a power (see `LaneModel::new`).
+        debug_assert!(self.other.iter().all(Vec::is_empty));
+        self.other = vec![Vec::new(); slots];
     }
 }
 

@@ -6,8 +6,8 @@ mod histogram;
 
 pub use histogram::Histogram;
 
-use crate::model::{Characteristic, Coefficient};
-use crate::scenario::{Polynomial, Scenario};
+use crate::model::{Characteristic, Coefficient, Term};
+use crate::scenario::{Curve, Scenario};
 
 /// The bin of a value at `q` bin widths from the low edge of `bins` bins, if inside.
 /// Equal to `⌊q⌋` where `0 ≤ ⌊q⌋ < bins`, computed without `floor` (a library call on
@@ -17,11 +17,11 @@ pub fn bin(q: f64, bins: usize) -> Option<usize> {
     (q >= 0.0 && q < bins as f64).then_some(q as usize)
 }
 
-/// A polynomial characteristic from `(power, coefficient)` terms.
-pub fn characteristic(terms: &[(u32, f64)]) -> Polynomial {
+/// A characteristic from `(term, coefficient)` pairs in any order.
+pub fn characteristic(terms: &[(Term, f64)]) -> Curve {
     let mut t = terms.to_vec();
     t.sort_by_key(|x| x.0);
-    Polynomial { terms: t }
+    Curve { terms: t }
 }
 
 /// The 0.975 quantile of Student's t with `dof` degrees of freedom (the half-width of a
@@ -51,7 +51,7 @@ pub fn student_t_975(dof: usize) -> f64 {
 const POINTS: usize = 401;
 
 /// RMS of `p` over `[lo, hi]`.
-pub fn rms(p: &Polynomial, lo: f64, hi: f64) -> f64 {
+pub fn rms(p: &Curve, lo: f64, hi: f64) -> f64 {
     let s: f64 = (0..POINTS)
         .map(|k| {
             let z = lo + (hi - lo) * k as f64 / (POINTS - 1) as f64;
@@ -62,7 +62,7 @@ pub fn rms(p: &Polynomial, lo: f64, hi: f64) -> f64 {
 }
 
 /// Relative L2 error `‖p̂ − p‖ / ‖p‖` over `[lo, hi]`.
-pub fn rel_l2(estimate: &Polynomial, truth: &Polynomial, lo: f64, hi: f64) -> f64 {
+pub fn rel_l2(estimate: &Curve, truth: &Curve, lo: f64, hi: f64) -> f64 {
     let mut diff = estimate.clone();
     for &(p, c) in &truth.terms {
         match diff.terms.iter_mut().find(|t| t.0 == p) {
@@ -80,13 +80,13 @@ pub fn rel_l2(estimate: &Polynomial, truth: &Polynomial, lo: f64, hi: f64) -> f6
 
 /// Relative error of one coefficient estimate. A coefficient whose true value is 0 is
 /// measured against the scale of its characteristic over the observed range: the RMS of
-/// `ĉ z^p` divided by the RMS of the true characteristic.
-pub fn coefficient_error(estimate: f64, truth: f64, power: u32, true_curve: &Polynomial, lo: f64, hi: f64) -> f64 {
+/// `ĉ t(z)` divided by the RMS of the true characteristic.
+pub fn coefficient_error(estimate: f64, truth: f64, term: Term, true_curve: &Curve, lo: f64, hi: f64) -> f64 {
     if truth != 0.0 {
         ((estimate - truth) / truth).abs()
     } else {
-        let term = Polynomial {
-            terms: vec![(power, estimate)],
+        let term = Curve {
+            terms: vec![(term, estimate)],
         };
         let scale = rms(true_curve, lo, hi);
         if scale > 0.0 {
@@ -109,7 +109,7 @@ pub struct Dissipativity {
 }
 
 /// Check `K(u)·u > 0` (or `C(w)·w > 0`) over the observed `[lo, hi]` (3.4), (3.16)–(3.17).
-pub fn dissipativity(link: &str, kind: Characteristic, p: &Polynomial, lo: f64, hi: f64) -> Dissipativity {
+pub fn dissipativity(link: &str, kind: Characteristic, p: &Curve, lo: f64, hi: f64) -> Dissipativity {
     let mut fails_at = None;
     for k in 0..POINTS {
         let z = lo + (hi - lo) * k as f64 / (POINTS - 1) as f64;
@@ -154,7 +154,7 @@ pub fn dissipativity(link: &str, kind: Characteristic, p: &Polynomial, lo: f64, 
 }
 
 /// The true characteristic of `(link, kind)` in a scenario.
-pub fn true_characteristic(s: &Scenario, link: usize, kind: Characteristic) -> Polynomial {
+pub fn true_characteristic(s: &Scenario, link: usize, kind: Characteristic) -> Curve {
     match kind {
         Characteristic::Stiffness => s.links[link].stiffness.clone(),
         Characteristic::Damping => s.links[link].damping.clone(),
@@ -169,11 +169,11 @@ pub fn estimated_characteristic(
     values: &[f64],
     link: usize,
     kind: Characteristic,
-) -> (Polynomial, bool) {
-    let terms: Vec<(u32, f64)> = unknowns
+) -> (Curve, bool) {
+    let terms: Vec<(Term, f64)> = unknowns
         .iter()
         .zip(values)
-        .filter_map(|(u, &v)| u.filter(|c| c.link == link && c.kind == kind).map(|c| (c.power, v)))
+        .filter_map(|(u, &v)| u.filter(|c| c.link == link && c.kind == kind).map(|c| (c.term, v)))
         .collect();
     if terms.is_empty() {
         (true_characteristic(s, link, kind), false)
@@ -211,22 +211,16 @@ mod tests {
     #[test]
     fn the_dissipativity_advice_keeps_the_highest_power_odd() {
         // 6u + 3u²: K(u)·u = 6u² + 3u³ < 0 for u < −2.
-        let even = Polynomial {
-            terms: vec![(1, 6.0), (2, 3.0)],
-        };
+        let even = Curve::powers(&[(1, 6.0), (2, 3.0)]);
         let d = dissipativity("m1-m2", Characteristic::Stiffness, &even, -3.0, 3.0);
         assert!(!d.holds && d.fails_at.is_some_and(|u| u <= -2.0), "{d:?}");
         assert!(d.message.contains("powers up to 1 or 3"), "{}", d.message);
         // 10u − 20u³ (softening): fails beyond |u| = 1/√2.
-        let odd = Polynomial {
-            terms: vec![(1, 10.0), (3, -20.0)],
-        };
+        let odd = Curve::powers(&[(1, 10.0), (3, -20.0)]);
         let d = dissipativity("ground-m1", Characteristic::Stiffness, &odd, -1.0, 1.0);
         assert!(!d.holds);
         assert!(d.message.contains("powers up to 1 or 5"), "{}", d.message);
-        let good = Polynomial {
-            terms: vec![(1, 10.0), (3, 20.0)],
-        };
+        let good = Curve::powers(&[(1, 10.0), (3, 20.0)]);
         assert!(dissipativity("ground-m1", Characteristic::Stiffness, &good, -1.0, 1.0).holds);
     }
 }

@@ -6,7 +6,7 @@
 
 use super::characteristics::{observed, words};
 use super::{histogram_strip, write_figure};
-use crate::model::Characteristic;
+use crate::model::{Characteristic, Term};
 use crate::report::figure::{color, padded, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK};
 use crate::report::Report;
 use crate::scenario::ReportMethod;
@@ -32,16 +32,9 @@ fn significant(x: f64, digits: i32) -> String {
 }
 
 /// A characteristic as a formula: `225.2 u + 1.335e4 u³`.
-fn formula(coefficients: &[(u32, f64)], var: &str) -> String {
-    let sup = |p: u32| match p {
-        1 => String::new(),
-        2 => "²".into(),
-        3 => "³".into(),
-        5 => "⁵".into(),
-        p => format!("^{p}"),
-    };
+fn formula(coefficients: &[(Term, f64)], var: &str) -> String {
     let mut s = String::new();
-    for (k, &(p, c)) in coefficients.iter().enumerate() {
+    for (k, &(t, c)) in coefficients.iter().enumerate() {
         let mag = significant(c.abs(), 5);
         let sign = if c < 0.0 { "−" } else { "+" };
         s += &match (k, c < 0.0) {
@@ -49,7 +42,7 @@ fn formula(coefficients: &[(u32, f64)], var: &str) -> String {
             (0, true) => "−".into(),
             _ => format!(" {sign} "),
         };
-        s += &format!("{mag} {var}{}", sup(p));
+        s += &format!("{mag} {}", t.written(var));
     }
     s
 }
@@ -103,7 +96,7 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
                 Axis::linear(0.0, 1.0, format!("{func} ({uf})")),
             );
             let mut ys_all = Vec::new();
-            let mut curve = |p: &mut Panel, coefficients: &[(u32, f64)], stroke: Stroke, label: String| {
+            let mut curve = |p: &mut Panel, coefficients: &[(Term, f64)], stroke: Stroke, label: String| {
                 let poly = stats::characteristic(coefficients);
                 let pts: Vec<(f64, f64)> = xs.iter().map(|&z| (z, poly.eval(z))).collect();
                 ys_all.extend(pts.iter().map(|q| q.1));
@@ -136,7 +129,7 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
                     Stroke::dashed(color(j + 1), 2.0, 8.0, 4.0),
                     format!("{}: {func} = {}", m.method, formula(&c.identified, var)),
                 );
-                let linear = c.identified.len() == 1 && c.identified[0].0 == 1;
+                let linear = c.identified.len() == 1 && c.identified[0].0 == Term::Power(1);
                 caption.push(format!(
                     "{}: {func} = {} ({uf}){}",
                     m.method,

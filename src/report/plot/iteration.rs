@@ -27,9 +27,11 @@ pub(crate) fn parameter_unit(name: &str, motion: Motion) -> String {
     };
     match name.parse::<ParameterName>() {
         Ok(ParameterName::Mass(_)) => um.into(),
-        Ok(ParameterName::Coefficient { kind, power, .. }) => match kind {
-            Characteristic::Stiffness => format!("{uf}/{}", over(ux, power)),
-            Characteristic::Damping => format!("{uf}/{}", over(uv, power)),
+        // A coefficient is a force per its term's unit (the argument's to the term's degree).
+        Ok(ParameterName::Coefficient { kind, term, .. }) => match (term.degree(), kind) {
+            (0, _) => uf.into(),
+            (d, Characteristic::Stiffness) => format!("{uf}/{}", over(ux, d)),
+            (d, Characteristic::Damping) => format!("{uf}/{}", over(uv, d)),
         },
         Ok(ParameterName::Corner(_)) => "1/s".into(),
         _ => String::new(),

@@ -56,8 +56,8 @@ pub(crate) fn check_identify(
                 let sp = spec.get_ref();
                 let id = IdentifyLink {
                     link,
-                    stiffness: powers(loc, &sp.stiffness, &format!("{key}.stiffness"))?,
-                    damping: powers(loc, &sp.damping, &format!("{key}.damping"))?,
+                    stiffness: terms(loc, &sp.stiffness, &format!("{key}.stiffness"))?,
+                    damping: terms(loc, &sp.damping, &format!("{key}.damping"))?,
                 };
                 if let Some(why) = out.iter().find_map(|o| inseparable(links, o, &id)) {
                     return Err(loc.at(spec.span(), &key, why));
@@ -73,7 +73,7 @@ pub(crate) fn check_identify(
             .iter()
             .enumerate()
             .map(|(i, l)| {
-                let ps = |p: &Polynomial| (!p.is_empty()).then(|| p.terms.iter().map(|t| t.0).collect());
+                let ps = |p: &Curve| (!p.is_empty()).then(|| p.terms.iter().map(|t| t.0).collect());
                 IdentifyLink {
                     link: i,
                     stiffness: ps(&l.stiffness),

@@ -5,6 +5,7 @@ use super::paper::paper_structure;
 use super::raw::*;
 use super::*;
 use crate::model::admissible::{self, NotStationary};
+use crate::model::{Characteristic, Term};
 use std::collections::BTreeMap;
 use std::ops::Range;
 use toml::Spanned;
@@ -92,28 +93,25 @@ pub(crate) fn check_name(loc: &Locator, s: &Spanned<String>, key: &str, field: b
     }
 }
 
-pub(crate) fn polynomial(
+/// A characteristic `{ <term> = <coefficient>, … }` (docs/scenario.md): each key a
+/// [`Term`] as names write it, each coefficient finite, each term once.
+pub(crate) fn curve(
     loc: &Locator,
     raw: &Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
     key: &str,
-) -> Result<Polynomial, ScenarioError> {
+) -> Result<Curve, ScenarioError> {
     let Some(map) = raw else {
-        return Ok(Polynomial::default());
+        return Ok(Curve::default());
     };
-    let mut terms: Vec<(u32, f64)> = Vec::new();
+    let mut terms: Vec<(Term, f64)> = Vec::new();
     for (p, c) in map.get_ref() {
-        let power: u32 = match p.parse::<u32>() {
-            Ok(p) if (1..=15).contains(&p) => p,
-            _ => {
-                return Err(loc.at(
-                    c.span(),
-                    format!("{key}.{p}"),
-                    format!(
-                        "power {p:?} is not allowed: powers are whole numbers 1..=15, e.g. {{ 1 = 10.0, 3 = 20.0 }}"
-                    ),
-                ))
-            }
-        };
+        let term: Term = p.parse().map_err(|e| {
+            loc.at(
+                c.span(),
+                format!("{key}.{p}"),
+                format!("{e}, e.g. {{ 1 = 10.0, 3 = 20.0 }}"),
+            )
+        })?;
         let v = *c.get_ref();
         if !v.is_finite() {
             return Err(loc.at(
@@ -122,14 +120,17 @@ pub(crate) fn polynomial(
                 format!("coefficient must be a finite number, got {v}"),
             ));
         }
-        if let Some(&(_, first)) = terms.iter().find(|t| t.0 == power) {
+        if let Some(&(_, first)) = terms.iter().find(|t| t.0 == term) {
             return Err(loc.at(
                 c.span(),
                 format!("{key}.{p}"),
-                format!("power {power} is given twice ({p:?} = {v} and another key = {first}): give each power once"),
+                format!(
+                    "{} is given twice ({p:?} = {v} and another key = {first}): give each term once",
+                    term.describe()
+                ),
             ));
         }
-        terms.push((power, v));
+        terms.push((term, v));
     }
     if terms.is_empty() {
         return Err(loc.at(
@@ -139,29 +140,25 @@ pub(crate) fn polynomial(
         ));
     }
     terms.sort_by_key(|t| t.0);
-    Ok(Polynomial { terms })
+    Ok(Curve { terms })
 }
 
-pub(crate) fn powers(
+/// The terms of a characteristic to identify, `[1, 3]` (powers), each once; an empty list
+/// is none.
+pub(crate) fn terms(
     loc: &Locator,
     raw: &Option<Vec<Spanned<i64>>>,
     key: &str,
-) -> Result<Option<Vec<u32>>, ScenarioError> {
+) -> Result<Option<Vec<Term>>, ScenarioError> {
     let Some(list) = raw else { return Ok(None) };
     let mut out = Vec::new();
     for p in list {
         let v = *p.get_ref();
-        if !(1..=15).contains(&v) {
-            return Err(loc.at(
-                p.span(),
-                key,
-                format!("power {v} is not allowed: powers are whole numbers 1..=15"),
-            ));
+        let term: Term = v.to_string().parse().map_err(|e| loc.at(p.span(), key, e))?;
+        if out.contains(&term) {
+            return Err(loc.at(p.span(), key, format!("{} is listed twice", term.describe())));
         }
-        if out.contains(&(v as u32)) {
-            return Err(loc.at(p.span(), key, format!("power {v} is listed twice")));
-        }
-        out.push(v as u32);
+        out.push(term);
     }
     if out.is_empty() {
         return Ok(None);
@@ -467,8 +464,8 @@ pub(crate) fn check_links(loc: &Locator, raw: &RawScenario, masses: &[Mass]) -> 
                 format!("duplicate link name {n:?}: give the links distinct `name`s"),
             ));
         }
-        let stiffness = polynomial(loc, &l.stiffness, &format!("{key}.stiffness"))?;
-        let damping = polynomial(loc, &l.damping, &format!("{key}.damping"))?;
+        let stiffness = curve(loc, &l.stiffness, &format!("{key}.stiffness"))?;
+        let damping = curve(loc, &l.damping, &format!("{key}.damping"))?;
         let (k_unknown, c_unknown) = unknown_in_model_file(raw, &n);
         if stiffness.is_empty() && damping.is_empty() && !k_unknown && !c_unknown {
             return Err(loc.at(
@@ -515,8 +512,8 @@ pub(crate) fn check_stationary(
         NotStationary::NoDamping => (raw.link.first().map_or(0..0, |l| l.ends.span()), "link".to_string()),
         NotStationary::Unbounded { link, kind, .. } => {
             let raw_poly = match kind {
-                admissible::Kind::Stiffness => &raw.link[*link].stiffness,
-                admissible::Kind::Damping => &raw.link[*link].damping,
+                Characteristic::Stiffness => &raw.link[*link].stiffness,
+                Characteristic::Damping => &raw.link[*link].damping,
             };
             (
                 raw_poly
