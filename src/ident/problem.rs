@@ -1030,8 +1030,14 @@ mod tests {
         let mut t = String::new();
         for i in 1..=9 {
             t += &format!("[[mass]]\nname = \"m{i}\"\nvalue = 1.0\n");
-            let from = if i == 1 { "ground".to_string() } else { format!("m{}", i - 1) };
-            t += &format!("[[link]]\nends = [\"{from}\", \"m{i}\"]\nstiffness = {{ 1 = 10.0 }}\ndamping = {{ 1 = 0.5 }}\n");
+            let from = if i == 1 {
+                "ground".to_string()
+            } else {
+                format!("m{}", i - 1)
+            };
+            t += &format!(
+                "[[link]]\nends = [\"{from}\", \"m{i}\"]\nstiffness = {{ 1 = 10.0 }}\ndamping = {{ 1 = 0.5 }}\n"
+            );
             t += &format!("[[excitation]]\nkind = \"white\"\nsigma = 1.0\nacts_on = [\"m{i}\"]\n");
         }
         t += "[simulation]\ndt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1\n";

@@ -1,5 +1,6 @@
 //! The console report: tables of estimates, errors, diagnostics and validation.
 
+use crate::report::types::{MethodReport, Validation};
 use crate::report::Report;
 use crate::scenario::{Method, ReportMethod};
 
@@ -53,6 +54,35 @@ pub(crate) const GATE_MEANING: &str = "a regression gate is the mean + 4 sd of t
 
 /// The human summary (also the body of `report.md`).
 pub fn summary(r: &Report) -> String {
+    let mut s = header(r);
+    s += &filters(r);
+    s += &parameter_table(r);
+    for m in &r.methods {
+        s += &method_lines(m);
+    }
+    s += &marginals_comparison(r);
+    for it in &r.iterations {
+        s += &iteration_summary(it);
+    }
+    if let Some(v) = &r.validation {
+        s += &validation(v);
+    }
+    s += &format!(
+        "\nresult: {}. Note: {GATE_MEANING}.\n",
+        if r.passed && r.methods.iter().all(|m| m.threshold.is_none()) {
+            "every method gave an estimate (nothing graded: no truth)"
+        } else if r.passed {
+            "every regression gate holds"
+        } else {
+            "a regression gate is EXCEEDED or its method failed"
+        }
+    );
+    s
+}
+
+/// What was identified from: the scenario or measured records, a truncated log, the
+/// variant, data notes and timings.
+fn header(r: &Report) -> String {
     let mut s = String::new();
     s += &match &r.records {
         Some(d) => format!(
@@ -93,6 +123,12 @@ pub fn summary(r: &Report) -> String {
             r.timings_s.simulate, r.timings_s.identify, r.timings_s.total
         )
     };
+    s
+}
+
+/// Each fitted filter against the truth and its spectral fit.
+fn filters(r: &Report) -> String {
+    let mut s = String::new();
     for f in &r.filters {
         let fit = if f.true_a.is_finite() {
             format!(
@@ -116,6 +152,12 @@ pub fn summary(r: &Report) -> String {
     if !r.filters.is_empty() {
         s += "\n";
     }
+    s
+}
+
+/// Per parameter and method: the estimate ± standard error and its error, with the legend.
+fn parameter_table(r: &Report) -> String {
+    let mut s = String::new();
     let methods: Vec<_> = r.methods.iter().collect();
     // Parameter table: per method its estimate ± standard error and its error.
     s += &format!("| {:<18} | {:>10} |", "parameter", "true");
@@ -173,63 +215,70 @@ pub fn summary(r: &Report) -> String {
         s += "; ° its 95 % interval contains 0 (the data do not ask for this term)";
     }
     s += "\n\n";
-    for m in &methods {
-        s += &format!("{}: ", m.method);
-        if let Some(why) = &m.not_applicable {
-            s += &format!("NOT APPLICABLE: {why}\n");
-            continue;
-        }
-        if let Some(e) = &m.error {
-            s += &format!("{}: {e}\n", m.outcome.name().to_uppercase());
-            continue;
-        }
-        match (m.threshold, m.passed) {
-            (Some(t), Some(ok)) => {
-                s += &format!(
-                    "worst error {}; regression gate {}: {}",
-                    fmt_err(m.worst_rel_error),
-                    fmt_err(t),
-                    if ok { "within" } else { "EXCEEDED" }
-                )
-            }
-            _ if m.worst_rel_error.is_nan() => s += "not graded (no truth for its parameters)",
-            _ => {
-                s += &format!(
-                    "worst error {} (baseline or comparison, no gate)",
-                    fmt_err(m.worst_rel_error)
-                )
-            }
-        }
-        if let Some(d) = &m.diagnostics {
-            s += &format!("; rank {}/{}, sv ratio {:.2e}", d.rank, d.cols, d.sv_ratio);
-        }
-        s += &format!("; {:.2} s\n", m.seconds);
-        if m.weakly_determined {
-            s += "  WARNING: smallest/largest singular value below 1e-3: the estimates are weakly determined\n";
-        }
-        for w in &m.warnings {
-            s += &format!("  WARNING: {w}\n");
-        }
-        for c in &m.curves {
+    s
+}
+
+/// One method's outcome, gate, diagnostics, warnings, curves, facts and dissipativity.
+fn method_lines(m: &MethodReport) -> String {
+    let mut s = format!("{}: ", m.method);
+    if let Some(why) = &m.not_applicable {
+        return s + &format!("NOT APPLICABLE: {why}\n");
+    }
+    if let Some(e) = &m.error {
+        return s + &format!("{}: {e}\n", m.outcome.name().to_uppercase());
+    }
+    match (m.threshold, m.passed) {
+        (Some(t), Some(ok)) => {
             s += &format!(
-                "  curve {} {}: relative L2 error {} over [{:.4}, {:.4}]\n",
-                c.link,
-                c.kind,
-                fmt_err(c.rel_l2_error),
-                c.range[0],
-                c.range[1]
-            );
+                "worst error {}; regression gate {}: {}",
+                fmt_err(m.worst_rel_error),
+                fmt_err(t),
+                if ok { "within" } else { "EXCEEDED" }
+            )
         }
-        for (k, v) in &m.facts {
-            s += &format!("  {k}: {v}\n");
-        }
-        for d in m.dissipativity.iter().filter(|d| !d.holds) {
-            s += &format!("  DISSIPATIVITY: {} {}: {}\n", d.link, d.kind, d.message);
-        }
-        if m.dissipativity.iter().all(|d| d.holds) && !m.dissipativity.is_empty() {
-            s += "  dissipativity (3.4): K(u)·u > 0 and C(w)·w > 0 hold over the observed ranges\n";
+        _ if m.worst_rel_error.is_nan() => s += "not graded (no truth for its parameters)",
+        _ => {
+            s += &format!(
+                "worst error {} (baseline or comparison, no gate)",
+                fmt_err(m.worst_rel_error)
+            )
         }
     }
+    if let Some(d) = &m.diagnostics {
+        s += &format!("; rank {}/{}, sv ratio {:.2e}", d.rank, d.cols, d.sv_ratio);
+    }
+    s += &format!("; {:.2} s\n", m.seconds);
+    if m.weakly_determined {
+        s += "  WARNING: smallest/largest singular value below 1e-3: the estimates are weakly determined\n";
+    }
+    for w in &m.warnings {
+        s += &format!("  WARNING: {w}\n");
+    }
+    for c in &m.curves {
+        s += &format!(
+            "  curve {} {}: relative L2 error {} over [{:.4}, {:.4}]\n",
+            c.link,
+            c.kind,
+            fmt_err(c.rel_l2_error),
+            c.range[0],
+            c.range[1]
+        );
+    }
+    for (k, v) in &m.facts {
+        s += &format!("  {k}: {v}\n");
+    }
+    for d in m.dissipativity.iter().filter(|d| !d.holds) {
+        s += &format!("  DISSIPATIVITY: {} {}: {}\n", d.link, d.kind, d.message);
+    }
+    if m.dissipativity.iter().all(|d| d.holds) && !m.dissipativity.is_empty() {
+        s += "  dissipativity (3.4): K(u)·u > 0 and C(w)·w > 0 hold over the observed ranges\n";
+    }
+    s
+}
+
+/// The strong form on the joint density against the product of its marginals (3.21).
+fn marginals_comparison(r: &Report) -> String {
+    let mut s = String::new();
     if let (Some(j), Some(m)) = (
         r.methods
             .iter()
@@ -249,55 +298,46 @@ pub fn summary(r: &Report) -> String {
             worst.map(|p| format!(" ({} off by {})", p.name, fmt_err(p.rel_error))).unwrap_or_default()
         );
     }
-    for it in &r.iterations {
-        s += &iteration_summary(it);
-    }
-    if let Some(v) = &r.validation {
-        s += &format!(
-            "\nvalidation: the {} model re-simulated ({} trajectories x {:.0} s, seed {})\n",
-            v.method, v.trajectories, v.record_length_s, v.seed
-        );
-        if let Some(e) = &v.error {
-            s += &format!("  {e}\n");
-        } else {
-            s += &format!(
-                "| {:<10} | {:>10} | {:>10} | {:>9} | {:>10} | {:>10} | {:>17} | {:>15} |\n",
-                "response", "data std", "model std", "diff", "data kurt", "model kurt", "spectrum rms ln", "peak ω d/m"
-            );
-            s += "|------------|------------|------------|-----------|------------|------------|-------------------|-----------------|\n";
-            for row in &v.rows {
-                s += &format!(
-                    "| {:<10} | {:>10.5} | {:>10.5} | {:>8.2}% | {:>10.3} | {:>10.3} | {:>17} | {:>15} |\n",
-                    row.variable,
-                    row.data_std,
-                    row.model_std,
-                    100.0 * (row.model_std / row.data_std - 1.0),
-                    row.data_kurtosis,
-                    row.model_kurtosis,
-                    row.spectrum.as_ref().map_or("-".into(), |c| format!(
-                        "{:.3} ({:.3})",
-                        c.rms_log_difference, c.averaging_alone
-                    )),
-                    row.spectrum.as_ref().map_or("-".into(), |c| format!(
-                        "{:.3}/{:.3}",
-                        c.data_peak_rad_s, c.model_peak_rad_s
-                    )),
-                );
-            }
-            s += "  spectrum rms ln: RMS of ln(S_model/S_data) over the band holding 99 % of the data's variance, \
-                  (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
-        }
-    }
+    s
+}
+
+/// The identified model re-simulated against the data.
+fn validation(v: &Validation) -> String {
+    let mut s = String::new();
     s += &format!(
-        "\nresult: {}. Note: {GATE_MEANING}.\n",
-        if r.passed && r.methods.iter().all(|m| m.threshold.is_none()) {
-            "every method gave an estimate (nothing graded: no truth)"
-        } else if r.passed {
-            "every regression gate holds"
-        } else {
-            "a regression gate is EXCEEDED or its method failed"
-        }
+        "\nvalidation: the {} model re-simulated ({} trajectories x {:.0} s, seed {})\n",
+        v.method, v.trajectories, v.record_length_s, v.seed
     );
+    if let Some(e) = &v.error {
+        s += &format!("  {e}\n");
+    } else {
+        s += &format!(
+            "| {:<10} | {:>10} | {:>10} | {:>9} | {:>10} | {:>10} | {:>17} | {:>15} |\n",
+            "response", "data std", "model std", "diff", "data kurt", "model kurt", "spectrum rms ln", "peak ω d/m"
+        );
+        s += "|------------|------------|------------|-----------|------------|------------|-------------------|-----------------|\n";
+        for row in &v.rows {
+            s += &format!(
+                "| {:<10} | {:>10.5} | {:>10.5} | {:>8.2}% | {:>10.3} | {:>10.3} | {:>17} | {:>15} |\n",
+                row.variable,
+                row.data_std,
+                row.model_std,
+                100.0 * (row.model_std / row.data_std - 1.0),
+                row.data_kurtosis,
+                row.model_kurtosis,
+                row.spectrum.as_ref().map_or("-".into(), |c| format!(
+                    "{:.3} ({:.3})",
+                    c.rms_log_difference, c.averaging_alone
+                )),
+                row.spectrum.as_ref().map_or("-".into(), |c| format!(
+                    "{:.3}/{:.3}",
+                    c.data_peak_rad_s, c.model_peak_rad_s
+                )),
+            );
+        }
+        s += "  spectrum rms ln: RMS of ln(S_model/S_data) over the band holding 99 % of the data's variance, \
+              (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
+    }
     s
 }
 
