@@ -426,7 +426,34 @@ fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64),
         w: pw,
         h: ph,
     };
-    // Grid and ticks.
+    let (ticks, xmaj, ymaj) = draw_grid(out, p, &f);
+    let exits = draw_marks(out, p, &f, clip);
+    draw_exits(out, &f, &exits);
+    // Frame, ticks, labels.
+    let _ = writeln!(
+        out,
+        "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\" stroke-width=\"1\"/>",
+        c(left),
+        c(top),
+        c(pw),
+        c(ph)
+    );
+    let _ = writeln!(
+        out,
+        "<path d=\"{}\" stroke=\"black\" stroke-width=\"1\" fill=\"none\"/>",
+        ticks.trim()
+    );
+    draw_labels(out, p, &f, &xmaj, &ymaj, x0);
+    draw_legend_and_notes(out, p, &f);
+}
+
+/// A tick's value and its label.
+type Ticks = Vec<(f64, String)>;
+
+/// The grid lines of the major ticks; returns the tick marks' path (drawn over the frame)
+/// and the labelled ticks.
+fn draw_grid(out: &mut String, p: &Panel, f: &Frame) -> (String, Ticks, Ticks) {
+    let (left, top, pw, ph) = (f.left, f.top, f.w, f.h);
     let mut grid = String::new();
     let mut ticks = String::new();
     let (xmaj, xmin) = p.x.ticks();
@@ -458,7 +485,13 @@ fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64),
         "<path d=\"{}\" stroke=\"#e6e6e6\" stroke-width=\"1\" fill=\"none\"/>",
         grid.trim()
     );
-    // Marks, clipped to the plot area.
+    (ticks, xmaj, ymaj)
+}
+
+/// Every mark, clipped to the plot area; returns where clipped curves leave the range
+/// (`x`, above, colour).
+fn draw_marks(out: &mut String, p: &Panel, f: &Frame, clip: &mut usize) -> Vec<(f64, bool, Color)> {
+    let (left, top, pw, ph) = (f.left, f.top, f.w, f.h);
     *clip += 1;
     let id = format!("clip{clip}");
     let _ = writeln!(
@@ -561,8 +594,13 @@ fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64),
         }
     }
     out.push_str("</g>\n");
-    // Arrows where clipped curves leave the range.
-    for (x, up, color) in exits {
+    exits
+}
+
+/// Arrows where clipped curves leave the range.
+fn draw_exits(out: &mut String, f: &Frame, exits: &[(f64, bool, Color)]) {
+    let (top, bottom) = (f.top, f.top + f.h);
+    for &(x, up, color) in exits {
         let (tip, base) = if up {
             (top + 1.0, top + 11.0)
         } else {
@@ -580,23 +618,15 @@ fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64),
             color.hex()
         );
     }
-    // Frame, ticks, labels.
-    let _ = writeln!(
-        out,
-        "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\" stroke-width=\"1\"/>",
-        c(left),
-        c(top),
-        c(pw),
-        c(ph)
-    );
-    let _ = writeln!(
-        out,
-        "<path d=\"{}\" stroke=\"black\" stroke-width=\"1\" fill=\"none\"/>",
-        ticks.trim()
-    );
+}
+
+/// Tick labels that do not overlap, and the axis labels.
+fn draw_labels(out: &mut String, p: &Panel, f: &Frame, xmaj: &Ticks, ymaj: &Ticks, x0: f64) {
+    let (left, top, pw, ph) = (f.left, f.top, f.w, f.h);
+    let bottom = top + ph;
     if p.x.tick_labels {
         let mut last_right = f64::NEG_INFINITY;
-        for (v, l) in &xmaj {
+        for (v, l) in xmaj {
             let x = f.px(*v);
             let half = text_width(l, 12.0) / 2.0;
             if x - half < last_right + 4.0 {
@@ -612,7 +642,7 @@ fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64),
     }
     if p.y.tick_labels {
         let mut last_top = f64::INFINITY;
-        for (v, l) in &ymaj {
+        for (v, l) in ymaj {
             let y = f.py(*v);
             if y + 6.0 > last_top - 2.0 {
                 continue;
@@ -634,7 +664,12 @@ fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64),
             escape(&p.y.label)
         );
     }
-    // Legend and notes.
+}
+
+/// The legend in its corner and the notes below it.
+fn draw_legend_and_notes(out: &mut String, p: &Panel, f: &Frame) {
+    let (left, top, pw, ph) = (f.left, f.top, f.w, f.h);
+    let bottom = top + ph;
     let lw = legend_width(&p.legend);
     let lh = 20.0 * p.legend.len() as f64 + 8.0;
     let at = match p.legend_at {
