@@ -4,7 +4,7 @@
 //! is made from the same text ([`super::html`]), folding the blocks after `<!-- fold: … -->`.
 
 use super::text::{decimals, fixed, fmt_err, iteration_summary, GATE_MEANING};
-use super::{MethodReport, Report};
+use super::{MethodReport, Report, Validation};
 
 /// A number for a table cell: `—` when not finite.
 fn num(x: f64, digits: usize) -> String {
@@ -119,52 +119,68 @@ pub fn markdown(r: &Report) -> String {
           record's batches; 95 % intervals: ± Student's t(0.975) standard errors. They measure the sampling \
           noise only, not a method's bias.\n\n";
     for m in &r.methods {
-        s += &format!("### {}\n\n", m.method);
-        if let Some(why) = &m.not_applicable {
-            s += &format!("Not applicable: {why}\n\n");
-            continue;
-        }
-        if let Some(e) = &m.error {
-            s += &format!("No estimate ({}): {e}\n\n", m.outcome.name());
-            continue;
-        }
-        s += &parameter_table(m);
-        if !m.curves.is_empty() {
-            s += "\n| characteristic | relative L2 error | observed range |\n|---|---:|---|\n";
-            for c in &m.curves {
-                s += &format!(
-                    "| {} {} | {} | [{:.4}, {:.4}] |\n",
-                    c.link,
-                    c.kind,
-                    fmt_err(c.rel_l2_error),
-                    c.range[0],
-                    c.range[1]
-                );
-            }
-        }
-        s += &format!("\n<!-- fold: diagnostics of {} -->\n", m.method);
-        if let Some(d) = &m.diagnostics {
-            s += &format!(
-                "- identifiability: rank {}/{}, singular-value ratio {:.2e}\n",
-                d.rank, d.cols, d.sv_ratio
-            );
-        }
-        for (k, v) in &m.facts {
-            s += &format!("- {k}: {v}\n");
-        }
-        for d in &m.dissipativity {
-            if !d.holds {
-                s += &format!("- **dissipativity** {} {}: {}\n", d.link, d.kind, d.message);
-            }
-        }
-        if !m.dissipativity.is_empty() && m.dissipativity.iter().all(|d| d.holds) {
-            s += "- dissipativity (3.4): K(u)·u > 0 and C(w)·w > 0 hold over the observed ranges\n";
-        }
-        s += &format!("- time: {:.2} s\n\n", m.seconds);
+        s += &method_section(m);
     }
     if super::plot::compare::has_comparisons(r) {
         s += "## Models compared\n\n![The scenario's model and its comparison models](compare.svg)\n\n";
     }
+    s += &filters_section(r);
+    s += &iterations_section(r);
+    if let Some(v) = &r.validation {
+        s += &validation_section(r, v);
+    }
+    s += &provenance_section(r);
+    s
+}
+
+/// One method's estimates, curves and diagnostics.
+fn method_section(m: &MethodReport) -> String {
+    let mut s = format!("### {}\n\n", m.method);
+    if let Some(why) = &m.not_applicable {
+        return s + &format!("Not applicable: {why}\n\n");
+    }
+    if let Some(e) = &m.error {
+        return s + &format!("No estimate ({}): {e}\n\n", m.outcome.name());
+    }
+    s += &parameter_table(m);
+    if !m.curves.is_empty() {
+        s += "\n| characteristic | relative L2 error | observed range |\n|---|---:|---|\n";
+        for c in &m.curves {
+            s += &format!(
+                "| {} {} | {} | [{:.4}, {:.4}] |\n",
+                c.link,
+                c.kind,
+                fmt_err(c.rel_l2_error),
+                c.range[0],
+                c.range[1]
+            );
+        }
+    }
+    s += &format!("\n<!-- fold: diagnostics of {} -->\n", m.method);
+    if let Some(d) = &m.diagnostics {
+        s += &format!(
+            "- identifiability: rank {}/{}, singular-value ratio {:.2e}\n",
+            d.rank, d.cols, d.sv_ratio
+        );
+    }
+    for (k, v) in &m.facts {
+        s += &format!("- {k}: {v}\n");
+    }
+    for d in &m.dissipativity {
+        if !d.holds {
+            s += &format!("- **dissipativity** {} {}: {}\n", d.link, d.kind, d.message);
+        }
+    }
+    if !m.dissipativity.is_empty() && m.dissipativity.iter().all(|d| d.holds) {
+        s += "- dissipativity (3.4): K(u)·u > 0 and C(w)·w > 0 hold over the observed ranges\n";
+    }
+    s += &format!("- time: {:.2} s\n\n", m.seconds);
+    s
+}
+
+/// The filtered excitations' fits.
+fn filters_section(r: &Report) -> String {
+    let mut s = String::new();
     if !r.filters.is_empty() {
         s += "## Filtered excitations\n\n| excitation | used | A | B | fitted A | fitted B | true A | true B |\n|---|---|---:|---:|---:|---:|---:|---:|\n";
         for f in &r.filters {
@@ -178,6 +194,12 @@ pub fn markdown(r: &Report) -> String {
             s += "![Force spectra and their fits](spectrum.svg)\n\n";
         }
     }
+    s
+}
+
+/// The section-4 procedure's sequences, step by step.
+fn iterations_section(r: &Report) -> String {
+    let mut s = String::new();
     if !r.iterations.is_empty() {
         s += "## Iterative procedure (paper section 4)\n\n![Estimates over the steps](iteration.svg)\n\n";
         for it in &r.iterations {
@@ -188,42 +210,52 @@ pub fn markdown(r: &Report) -> String {
             );
         }
     }
-    if let Some(v) = &r.validation {
-        s += &format!(
-            "## Validation\n\nThe {} model re-simulated ({} trajectories × {:.0} s, seed {}) against the data.\n\n",
-            v.method, v.trajectories, v.record_length_s, v.seed
-        );
-        match &v.error {
-            Some(e) => s += &format!("{e}\n\n"),
-            None => {
-                s += "| response | data std | model std | difference | data kurtosis | model kurtosis | spectrum RMS ln ratio (averaging alone) | peak ω data / model (rad/s) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
-                for row in &v.rows {
-                    let (spec, peak) = row.spectrum.as_ref().map_or(("–".into(), "–".into()), |c| {
-                        (
-                            format!("{:.3} ({:.3})", c.rms_log_difference, c.averaging_alone),
-                            format!("{:.3} / {:.3}", c.data_peak_rad_s, c.model_peak_rad_s),
-                        )
-                    });
-                    s += &format!(
-                        "| {} | {:.5} | {:.5} | {:+.2} % | {:.3} | {:.3} | {spec} | {peak} |\n",
-                        row.variable,
-                        row.data_std,
-                        row.model_std,
-                        100.0 * (row.model_std / row.data_std - 1.0),
-                        row.data_kurtosis,
-                        row.model_kurtosis
-                    );
-                }
-                s += "\nThe spectra are compared over the band that holds 99 % of the data's variance.\n\n";
+    s
+}
+
+/// The identified model re-simulated against the data.
+fn validation_section(r: &Report, v: &Validation) -> String {
+    let mut s = String::new();
+    s += &format!(
+        "## Validation\n\nThe {} model re-simulated ({} trajectories × {:.0} s, seed {}) against the data.\n\n",
+        v.method, v.trajectories, v.record_length_s, v.seed
+    );
+    match &v.error {
+        Some(e) => s += &format!("{e}\n\n"),
+        None => {
+            s += "| response | data std | model std | difference | data kurtosis | model kurtosis | spectrum RMS ln ratio (averaging alone) | peak ω data / model (rad/s) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
+            for row in &v.rows {
+                let (spec, peak) = row.spectrum.as_ref().map_or(("–".into(), "–".into()), |c| {
+                    (
+                        format!("{:.3} ({:.3})", c.rms_log_difference, c.averaging_alone),
+                        format!("{:.3} / {:.3}", c.data_peak_rad_s, c.model_peak_rad_s),
+                    )
+                });
+                s += &format!(
+                    "| {} | {:.5} | {:.5} | {:+.2} % | {:.3} | {:.3} | {spec} | {peak} |\n",
+                    row.variable,
+                    row.data_std,
+                    row.model_std,
+                    100.0 * (row.model_std / row.data_std - 1.0),
+                    row.data_kurtosis,
+                    row.model_kurtosis
+                );
             }
-        }
-        if !r.plot.marginals.is_empty() {
-            s += "![Marginal densities, data and re-simulated model](densities.svg)\n\n";
-        }
-        if r.plot.response_spectra.iter().any(|x| x.2.segments > 0) {
-            s += "![Response spectra, data and re-simulated model](response_spectra.svg)\n\n";
+            s += "\nThe spectra are compared over the band that holds 99 % of the data's variance.\n\n";
         }
     }
+    if !r.plot.marginals.is_empty() {
+        s += "![Marginal densities, data and re-simulated model](densities.svg)\n\n";
+    }
+    if r.plot.response_spectra.iter().any(|x| x.2.segments > 0) {
+        s += "![Response spectra, data and re-simulated model](response_spectra.svg)\n\n";
+    }
+    s
+}
+
+/// Tool, scenario hash, log, timings and overrides.
+fn provenance_section(r: &Report) -> String {
+    let mut s = String::new();
     let p = &r.provenance;
     let time = if r.records.is_some() {
         format!("identify {:.2} s", r.timings_s.identify)
