@@ -228,8 +228,8 @@ macro_rules! registry {
                         })
                         .collect();
                     return refused(IdentError::NotApplicable(format!(
-                        "{} evaluates the characteristics as polynomials, and the terms of {} have no polynomial \
-                         form; the weak form takes them",
+                        "{} evaluates the characteristics as polynomials, and {} multiply terms without a \
+                         polynomial form; the weak form takes them",
                         self.name(),
                         names.join(", ")
                     )));

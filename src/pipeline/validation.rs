@@ -153,7 +153,7 @@ pub(crate) struct Distributions {
 impl Distributions {
     pub(crate) fn new(s: &Scenario, problem: &Problem, data: &StationaryData) -> Distributions {
         let total = data.total();
-        let state_hist: Vec<Histogram> = (0..problem.dim())
+        let state_hist: Vec<Histogram> = (0..problem.columns.len())
             .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
             .collect();
         let names = problem
@@ -182,7 +182,7 @@ impl Distributions {
                     )
                 })
                 .collect(),
-            marg: Marginals::new(problem.columns.clone(), state_hist, vec![welch; problem.dim()]),
+            marg: Marginals::new(problem.columns.clone(), state_hist, vec![welch; problem.columns.len()]),
             names,
             model_marg: None,
         }
@@ -317,7 +317,7 @@ pub(crate) fn validate(
     sim.seed = sim.seed.wrapping_add(1_000_003);
     let mut m = data.fresh(traj);
     simulate(&model, &sim, &mut m, &|_| {})?;
-    let rows = (0..problem.dim())
+    let rows = (0..problem.columns.len())
         .map(|j| {
             let (ds, dk) = data.std_kurtosis(j);
             let (ms, mk) = m.std_kurtosis(j);
