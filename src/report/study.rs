@@ -102,53 +102,97 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
     if configurations.len() == 1 {
         return plot_methods(summary, rows, path);
     }
-    let mut methods: Vec<&str> = Vec::new();
-    for x in summary {
-        if !methods.contains(&x.method.as_str()) {
-            methods.push(&x.method);
+    let st = StudyLines::new(summary);
+    let mut panels: Vec<Panel> = st.axes.iter().map(|&by_length| error_panel(&st, by_length)).collect();
+    if st.ok.iter().any(|x| x.coverage.is_some()) {
+        panels.push(coverage_panel(&st));
+    }
+    if summary.iter().any(|x| x.refused + x.failed > 0) {
+        panels.push(refusal_panel(&st, summary));
+    }
+    let mut fig = Figure::new(540.0 * panels.len() as f64);
+    fig.row(460.0, panels.into_iter().map(Some).collect());
+    write_figure(path, &fig)
+}
+
+/// What the panels of [`plot_study`] share: the methods in order, the configurations with
+/// a positive median worst error, the record lengths and intervals they span, the error
+/// axis's range and the axes the study varies (record length, sample interval, or both).
+struct StudyLines<'a> {
+    methods: Vec<&'a str>,
+    ok: Vec<&'a Summary>,
+    lengths: Vec<f64>,
+    intervals: Vec<f64>,
+    ylo: f64,
+    yhi: f64,
+    /// One entry per panel of errors: `true` against record length, `false` against the
+    /// sample interval (the interval's when it varies neither).
+    axes: Vec<bool>,
+}
+
+impl<'a> StudyLines<'a> {
+    fn new(summary: &'a [Summary]) -> StudyLines<'a> {
+        let mut methods: Vec<&str> = Vec::new();
+        for x in summary {
+            if !methods.contains(&x.method.as_str()) {
+                methods.push(&x.method);
+            }
+        }
+        let ok: Vec<&Summary> = summary
+            .iter()
+            .filter(|x| x.worst_median.is_finite() && x.worst_median > 0.0)
+            .collect();
+        let sorted = |f: fn(&Summary) -> f64| {
+            let mut v: Vec<f64> = ok.iter().map(|x| f(x)).collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v
+        };
+        let lengths = sorted(|x| x.record_length);
+        let intervals = sorted(|x| x.sample_interval);
+        let axes = match (lengths.len() > 1, intervals.len() > 1) {
+            (true, true) => vec![true, false],
+            (true, false) => vec![true],
+            _ => vec![false],
+        };
+        let (ylo, yhi) = log_range(
+            ok.iter()
+                .flat_map(|x| [x.worst_q1.max(x.worst_median * 0.1), x.worst_q3, x.worst_max]),
+            1.6,
+        );
+        StudyLines {
+            methods,
+            ok,
+            lengths,
+            intervals,
+            ylo,
+            yhi,
+            axes,
         }
     }
-    let ok: Vec<&Summary> = summary
-        .iter()
-        .filter(|x| x.worst_median.is_finite() && x.worst_median > 0.0)
-        .collect();
-    let sorted = |f: fn(&Summary) -> f64| {
-        let mut v: Vec<f64> = ok.iter().map(|x| f(x)).collect();
-        v.sort_by(f64::total_cmp);
-        v.dedup();
-        v
-    };
-    let lengths = sorted(|x| x.record_length);
-    let intervals = sorted(|x| x.sample_interval);
-    // A panel per axis the study varies (the interval's when it varies neither).
-    let axes: Vec<bool> = match (lengths.len() > 1, intervals.len() > 1) {
-        (true, true) => vec![true, false],
-        (true, false) => vec![true],
-        _ => vec![false],
-    };
-    // The items of one line: a method at one value of the other axis (every interval
-    // against record length; the longest record against the interval).
-    let groups = |by_length: bool| -> Vec<f64> {
+
+    /// The values of the axis not plotted that make one line each: every interval against
+    /// record length; the longest record against the interval.
+    fn groups(&self, by_length: bool) -> Vec<f64> {
         if by_length {
-            intervals.clone()
+            self.intervals.clone()
         } else {
-            lengths.last().copied().into_iter().collect()
+            self.lengths.last().copied().into_iter().collect()
         }
-    };
-    // Whether `x` is on the line of method `m` at `other` on the axis not plotted.
-    let on_line = |x: &Summary, m: &str, by_length: bool, other: f64| {
-        x.method == m
-            && if by_length {
-                x.sample_interval == other
-            } else {
-                x.record_length == other
-            }
-    };
-    let line_of = |m: &str, by_length: bool, other: f64| -> Vec<&Summary> {
-        ok.iter().copied().filter(|x| on_line(x, m, by_length, other)).collect()
-    };
-    let at = |x: &Summary, by_length: bool| if by_length { x.record_length } else { x.sample_interval };
-    let x_axis = |by_length: bool, values: &[f64]| {
+    }
+
+    /// The configurations on the line of method `m` at `other`.
+    fn line_of(&self, m: &str, by_length: bool, other: f64) -> Vec<&'a Summary> {
+        self.ok
+            .iter()
+            .copied()
+            .filter(|x| on_line(x, m, by_length, other))
+            .collect()
+    }
+
+    /// The logarithmic x axis over the record lengths or the intervals.
+    fn x_axis(&self, by_length: bool) -> Axis {
+        let values = if by_length { &self.lengths } else { &self.intervals };
         let (lo, hi) = (
             values.first().copied().unwrap_or(1.0),
             values.last().copied().unwrap_or(1.0),
@@ -162,141 +206,160 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
                 "sample interval h (s)"
             },
         )
-    };
-    let (ylo, yhi) = log_range(
-        ok.iter()
-            .flat_map(|x| [x.worst_q1.max(x.worst_median * 0.1), x.worst_q3, x.worst_max]),
-        1.6,
-    );
-    let mut panels = Vec::new();
-    for &by_length in &axes {
-        let mut p = Panel::new(
-            if by_length {
-                "worst error against record length"
-            } else {
-                "worst error against sample interval"
-            },
-            x_axis(by_length, if by_length { &lengths } else { &intervals }),
-            Axis::log(
-                100.0 * ylo,
-                100.0 * yhi * 2.5,
-                "worst relative error (%): median, quartiles",
-            ),
-        );
-        for (k, m) in methods.iter().enumerate() {
-            for (g, &other) in groups(by_length).iter().enumerate() {
-                let pts = line_of(m, by_length, other);
-                if pts.is_empty() {
-                    continue;
-                }
-                let col = color(k + g * methods.len());
-                let stroke = Stroke::solid(col, 2.0);
-                let line: Vec<(f64, f64)> = pts.iter().map(|x| (at(x, by_length), 100.0 * x.worst_median)).collect();
-                p.mark(Mark::Bars {
-                    bars: pts
-                        .iter()
-                        .map(|x| (at(x, by_length), 100.0 * x.worst_q1, 100.0 * x.worst_q3))
-                        .collect(),
-                    stroke: Stroke::solid(col, 1.5),
-                });
-                p.mark(Mark::Line {
-                    points: line.clone(),
-                    stroke,
-                });
-                p.mark(Mark::Points {
-                    points: line,
-                    color: col,
-                    radius: 3.0,
-                });
-                let label = if by_length && intervals.len() > 1 {
-                    format!("{m}, h = {other} s")
-                } else {
-                    m.to_string()
-                };
-                p.entry(Swatch::LinePoint(stroke, 3.0), label);
-            }
-        }
-        if by_length && lengths.len() > 1 {
-            // The 1/√T guide through the first method's first point.
-            if let Some(first) = ok
-                .iter()
-                .find(|x| x.method == methods[0] && x.record_length == lengths[0])
-            {
-                let guide = lengths
-                    .iter()
-                    .map(|&t| (t, 100.0 * first.worst_median * (lengths[0] / t).sqrt()))
-                    .collect();
-                p.line(guide, Stroke::dashed(GREY, 1.2, 6.0, 4.0), Some("1/√T".into()));
-            }
-        }
-        p.legend_at = if by_length {
-            Corner::UpperRight
+    }
+}
+
+/// Whether `x` is on the line of method `m` at `other` on the axis not plotted.
+fn on_line(x: &Summary, m: &str, by_length: bool, other: f64) -> bool {
+    x.method == m
+        && if by_length {
+            x.sample_interval == other
         } else {
-            Corner::UpperLeft
-        };
-        panels.push(p);
-    }
-    if ok.iter().any(|x| x.coverage.is_some()) {
-        let by_length = axes[0];
-        let lowest = ok.iter().filter_map(|x| x.coverage).fold(1.0f64, f64::min);
-        let y0 = if lowest > 0.8 { 75.0 } else { 0.0 };
-        let mut p = Panel::new(
-            "coverage of the 95 % intervals",
-            x_axis(by_length, if by_length { &lengths } else { &intervals }),
-            Axis::linear(y0, 102.0, "intervals holding the truth (%)"),
-        );
-        let nominal = Stroke::dashed(GREY, 1.2, 6.0, 4.0);
-        p.mark(Mark::HLine {
-            y: 95.0,
-            stroke: nominal,
-        });
-        p.entry(Swatch::Line(nominal), "nominal 95 %");
-        for (k, m) in methods.iter().enumerate() {
-            for (g, &other) in groups(by_length).iter().enumerate() {
-                let pts: Vec<(f64, f64)> = line_of(m, by_length, other)
-                    .iter()
-                    .filter_map(|x| x.coverage.map(|c| (at(x, by_length), (100.0 * c).max(y0))))
-                    .collect();
-                if pts.is_empty() {
-                    continue;
-                }
-                connected(&mut p, pts, color(k + g * methods.len()));
-            }
+            x.record_length == other
         }
-        p.legend_at = Corner::LowerLeft;
-        panels.push(p);
+}
+
+/// Where `x` sits on the plotted axis.
+fn at(x: &Summary, by_length: bool) -> f64 {
+    if by_length {
+        x.record_length
+    } else {
+        x.sample_interval
     }
-    if summary.iter().any(|x| x.refused + x.failed > 0) {
-        // How often each method could not decide (or the item could not be run), against
-        // the first varied axis: a refusal is a result of the study.
-        let by_length = axes[0];
-        let mut p = Panel::new(
-            "refused or failed items",
-            x_axis(by_length, if by_length { &lengths } else { &intervals }),
-            Axis::linear(0.0, 102.0, "items refused or failed (%)"),
-        );
-        for (k, m) in methods.iter().enumerate() {
-            for (g, &other) in groups(by_length).iter().enumerate() {
-                let pts: Vec<(f64, f64)> = summary
-                    .iter()
-                    .filter(|x| on_line(x, m, by_length, other))
-                    .filter_map(|x| {
-                        let n = x.items + x.refused + x.failed;
-                        (n > 0).then(|| (at(x, by_length), 100.0 * (x.refused + x.failed) as f64 / n as f64))
-                    })
-                    .collect();
-                if pts.is_empty() {
-                    continue;
-                }
-                connected(&mut p, pts, color(k + g * methods.len()));
+}
+
+/// Median worst error (quartiles as bars) per method against record length or interval,
+/// with the `1/√T` guide against record length.
+fn error_panel(st: &StudyLines, by_length: bool) -> Panel {
+    let mut p = Panel::new(
+        if by_length {
+            "worst error against record length"
+        } else {
+            "worst error against sample interval"
+        },
+        st.x_axis(by_length),
+        Axis::log(
+            100.0 * st.ylo,
+            100.0 * st.yhi * 2.5,
+            "worst relative error (%): median, quartiles",
+        ),
+    );
+    for (k, m) in st.methods.iter().enumerate() {
+        for (g, &other) in st.groups(by_length).iter().enumerate() {
+            let pts = st.line_of(m, by_length, other);
+            if pts.is_empty() {
+                continue;
             }
+            let col = color(k + g * st.methods.len());
+            let stroke = Stroke::solid(col, 2.0);
+            let line: Vec<(f64, f64)> = pts.iter().map(|x| (at(x, by_length), 100.0 * x.worst_median)).collect();
+            p.mark(Mark::Bars {
+                bars: pts
+                    .iter()
+                    .map(|x| (at(x, by_length), 100.0 * x.worst_q1, 100.0 * x.worst_q3))
+                    .collect(),
+                stroke: Stroke::solid(col, 1.5),
+            });
+            p.mark(Mark::Line {
+                points: line.clone(),
+                stroke,
+            });
+            p.mark(Mark::Points {
+                points: line,
+                color: col,
+                radius: 3.0,
+            });
+            let label = if by_length && st.intervals.len() > 1 {
+                format!("{m}, h = {other} s")
+            } else {
+                m.to_string()
+            };
+            p.entry(Swatch::LinePoint(stroke, 3.0), label);
         }
-        p.legend_at = Corner::UpperLeft;
-        panels.push(p);
     }
-    let mut fig = Figure::new(540.0 * panels.len() as f64);
-    fig.row(460.0, panels.into_iter().map(Some).collect());
-    write_figure(path, &fig)
+    if by_length && st.lengths.len() > 1 {
+        // The 1/√T guide through the first method's first point.
+        if let Some(first) = st
+            .ok
+            .iter()
+            .find(|x| x.method == st.methods[0] && x.record_length == st.lengths[0])
+        {
+            let guide = st
+                .lengths
+                .iter()
+                .map(|&t| (t, 100.0 * first.worst_median * (st.lengths[0] / t).sqrt()))
+                .collect();
+            p.line(guide, Stroke::dashed(GREY, 1.2, 6.0, 4.0), Some("1/√T".into()));
+        }
+    }
+    p.legend_at = if by_length {
+        Corner::UpperRight
+    } else {
+        Corner::UpperLeft
+    };
+    p
+}
+
+/// The coverage of the 95 % intervals against the first varied axis.
+fn coverage_panel(st: &StudyLines) -> Panel {
+    let by_length = st.axes[0];
+    let lowest = st.ok.iter().filter_map(|x| x.coverage).fold(1.0f64, f64::min);
+    let y0 = if lowest > 0.8 { 75.0 } else { 0.0 };
+    let mut p = Panel::new(
+        "coverage of the 95 % intervals",
+        st.x_axis(by_length),
+        Axis::linear(y0, 102.0, "intervals holding the truth (%)"),
+    );
+    let nominal = Stroke::dashed(GREY, 1.2, 6.0, 4.0);
+    p.mark(Mark::HLine {
+        y: 95.0,
+        stroke: nominal,
+    });
+    p.entry(Swatch::Line(nominal), "nominal 95 %");
+    for (k, m) in st.methods.iter().enumerate() {
+        for (g, &other) in st.groups(by_length).iter().enumerate() {
+            let pts: Vec<(f64, f64)> = st
+                .line_of(m, by_length, other)
+                .iter()
+                .filter_map(|x| x.coverage.map(|c| (at(x, by_length), (100.0 * c).max(y0))))
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            connected(&mut p, pts, color(k + g * st.methods.len()));
+        }
+    }
+    p.legend_at = Corner::LowerLeft;
+    p
+}
+
+/// How often each method could not decide (or the item could not be run), against the
+/// first varied axis: a refusal is a result of the study.
+fn refusal_panel(st: &StudyLines, summary: &[Summary]) -> Panel {
+    let by_length = st.axes[0];
+    let mut p = Panel::new(
+        "refused or failed items",
+        st.x_axis(by_length),
+        Axis::linear(0.0, 102.0, "items refused or failed (%)"),
+    );
+    for (k, m) in st.methods.iter().enumerate() {
+        for (g, &other) in st.groups(by_length).iter().enumerate() {
+            let pts: Vec<(f64, f64)> = summary
+                .iter()
+                .filter(|x| on_line(x, m, by_length, other))
+                .filter_map(|x| {
+                    let n = x.items + x.refused + x.failed;
+                    (n > 0).then(|| (at(x, by_length), 100.0 * (x.refused + x.failed) as f64 / n as f64))
+                })
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            connected(&mut p, pts, color(k + g * st.methods.len()));
+        }
+    }
+    p.legend_at = Corner::UpperLeft;
+    p
 }
 
 /// A line through `pts` with a point on each.
