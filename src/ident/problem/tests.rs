@@ -1,0 +1,113 @@
+//! The term paths of [`super::Problem`] against the polynomial ones, and its limits.
+
+use super::*;
+use crate::scenario::Scenario;
+
+/// Known terms kept beside the polynomial part (the place of a term without a
+/// polynomial form) enter the moment equations through their polynomial form exactly as the
+/// polynomial part does, white and filtered.
+#[test]
+fn known_terms_enter_the_drift_as_their_polynomial_form() {
+    for file in ["duffing2dof", "filtered2dof"] {
+        let path = format!("{}/scenarios/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
+        // Identify the first link only; the others are known.
+        s.identify.links.retain(|l| l.link == 0);
+        let spec = Specification::from_scenario(&s);
+        let mut moved = spec.clone();
+        moved.model = spec.model.with_powers_as_other_terms();
+        assert!(!moved.model.other_terms.is_empty());
+        let filters = spec.given_filters();
+        let (a, b) = (
+            Problem::from_spec(&spec, &filters).unwrap(),
+            Problem::from_spec(&moved, &filters).unwrap(),
+        );
+        assert_eq!(a.known_force, b.known_force, "{file}");
+        assert_eq!(a.unit_force, b.unit_force, "{file}");
+        assert_eq!((a.pmax, &a.names), (b.pmax, &b.names), "{file}");
+    }
+}
+
+/// More variables than a monomial holds (nine masses: 18) are refused with the reason,
+/// never packed into wrong exponents.
+#[test]
+fn a_state_beyond_the_monomials_variables_is_refused() {
+    let mut t = String::new();
+    for i in 1..=9 {
+        t += &format!("[[mass]]\nname = \"m{i}\"\nvalue = 1.0\n");
+        let from = if i == 1 {
+            "ground".to_string()
+        } else {
+            format!("m{}", i - 1)
+        };
+        t += &format!("[[link]]\nends = [\"{from}\", \"m{i}\"]\nstiffness = {{ 1 = 10.0 }}\ndamping = {{ 1 = 0.5 }}\n");
+        t += &format!("[[excitation]]\nkind = \"white\"\nsigma = 1.0\nacts_on = [\"m{i}\"]\n");
+    }
+    t += "[simulation]\ndt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1\n";
+    let s = Scenario::parse(&t, "chain9.toml", "chain9").unwrap();
+    match Problem::new(&s) {
+        Err(IdentError::Unsupported(why)) => {
+            assert!(why.contains("at most 16 variables") && why.contains("has 18"), "{why}")
+        }
+        other => panic!("{other:?}"),
+    }
+    // Eight masses (16 variables) are still taken.
+    let eight = t.split("[[mass]]\nname = \"m9\"").next().unwrap().to_string()
+        + "[simulation]\ndt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1\n";
+    assert!(Problem::new(&Scenario::parse(&eight, "chain8.toml", "chain8").unwrap()).is_ok());
+}
+
+/// The weak form through [`Atom`]s — generalised moments `E[t(z) y^β]` accumulated from
+/// each sample's link motion, the path of a term without a polynomial form — gives the
+/// estimates and standard errors of the polynomial path on the same samples, white and
+/// filtered, known and unknown terms alike.
+#[test]
+fn the_weak_form_through_atoms_matches_the_polynomial_form() {
+    use crate::ident::{data::StationaryData, identify_weak, weak};
+    use crate::sim::{simulate, Collect};
+    for file in ["duffing2dof", "filtered2dof"] {
+        let path = format!("{}/scenarios/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
+        s.simulation.record_length = 2500.0;
+        s.simulation.trajectories = 32;
+        // The first link known (its terms enter the known force), the others unknown.
+        s.identify.links.retain(|l| l.link != 0);
+        let mut samples = Collect::default();
+        simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+        let spec = Specification::from_scenario(&s);
+        let filters = spec.given_filters();
+        let poly = Problem::from_spec(&spec, &filters).unwrap();
+        // Every link white; the filtered state's slopes double the atoms, so two links.
+        let links: &[usize] = if file == "duffing2dof" { &[0, 1, 2] } else { &[1, 2] };
+        let atoms = Problem::with_terms_as_atoms(&spec, &filters, links).unwrap();
+        assert!(
+            poly.atoms.is_empty() && atoms.atoms.len() >= 6,
+            "{file}: {} atoms",
+            atoms.atoms.len()
+        );
+        let estimate = |p: &Problem| {
+            let mut data = StationaryData::new(p, weak::moment_degree(p), 2500.0, 32, 8);
+            for b in &samples.batches {
+                b.for_each_sample(|j, t, row| data.push(j, t, row));
+            }
+            data.finish();
+            identify_weak(p, &data).unwrap()
+        };
+        let (a, b) = (estimate(&poly), estimate(&atoms));
+        assert_eq!(a.names, b.names);
+        for k in 0..a.values.len() {
+            let (x, y) = (a.values[k], b.values[k]);
+            assert!(
+                (x - y).abs() <= 1e-6 * a.std_error[k],
+                "{file} {}: {x} against {y}",
+                a.names[k]
+            );
+            let (x, y) = (a.std_error[k], b.std_error[k]);
+            assert!(
+                (x - y).abs() <= 1e-6 * x,
+                "{file} {} standard error: {x} against {y}",
+                a.names[k]
+            );
+        }
+    }
+}
