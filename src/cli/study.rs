@@ -187,66 +187,12 @@ fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) 
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    if let Some(Merge::Merge { dirs, out, reference }) = args.merge {
-        let files = dirs
-            .iter()
-            .map(|d| item_files(d))
-            .collect::<anyhow::Result<Vec<_>>>()?
-            .concat();
-        if files.is_empty() {
-            anyhow::bail!(
-                "no rows: none of {} holds items/*.jsonl",
-                dirs.iter()
-                    .map(|d| d.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-        let rows = gather(&files).map_err(|e| anyhow::anyhow!(e))?;
-        let dir = out.unwrap_or_else(|| dirs[0].clone());
-        std::fs::create_dir_all(&dir).map_err(|e| at(&dir, "creating the summary folder", e))?;
-        let name = dir.file_name().and_then(|n| n.to_str()).unwrap_or("study").to_string();
-        write_summary(&name, &rows, &dir, reference.as_deref())?;
+    if let Some(Merge::Merge { dirs, out, reference }) = &args.merge {
+        merge(dirs, out.as_deref(), reference.as_deref())?;
         return Ok(ExitCode::SUCCESS);
     }
-    let study = match (&args.study, &args.scenario) {
-        (Some(file), _) => {
-            // The grid flags build a study from --scenario; with a study file they would be
-            // silently outvoted by the file's keys.
-            let flags = [
-                ("--seeds", args.seeds.is_some()),
-                ("--seed", args.seed.is_some()),
-                ("--record-length", !args.record_lengths.is_empty()),
-                ("--sample-interval", !args.sample_intervals.is_empty()),
-                ("--method", !args.methods.is_empty()),
-                ("--set", !args.set.is_empty()),
-                ("--reference", args.reference.is_some()),
-                ("--print", args.print),
-            ];
-            let given: Vec<&str> = flags.iter().filter(|f| f.1).map(|f| f.0).collect();
-            if !given.is_empty() {
-                anyhow::bail!(
-                    "{}: {} describe a study made with --scenario; a study file has its own keys \
-                     (seeds, seed, record_lengths, sample_intervals, methods, set, reference): edit the file, \
-                     or run fpkbench study --scenario SCENARIO with the flags",
-                    file.display(),
-                    given.join(", ")
-                );
-            }
-            Study::from_file(file)?
-        }
-        (None, Some(scenario)) => {
-            let text = study_text(&args, scenario);
-            if args.print {
-                print!("{text}");
-                return Ok(ExitCode::SUCCESS);
-            }
-            let name = scenario.file_stem().and_then(|s| s.to_str()).unwrap_or("study");
-            Study::from_text(&text, Path::new("(flags)"), name, Path::new("."))?
-        }
-        (None, None) => anyhow::bail!(
-            "a study is needed: fpkbench study STUDY.toml, fpkbench study --scenario SCENARIO [--seeds N …], or fpkbench study merge DIR…"
-        ),
+    let Some(study) = study_of(&args)? else {
+        return Ok(ExitCode::SUCCESS);
     };
     let (index, count) = study::shard_from(args.shard, args.shard_count.map(|n| n as usize), |k| {
         std::env::var(k).ok()
@@ -336,4 +282,73 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::from(2));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `fpkbench study merge`: the summary of the items in `dirs`, written to `out` (the first
+/// folder when not given).
+fn merge(dirs: &[PathBuf], out: Option<&Path>, reference: Option<&str>) -> anyhow::Result<()> {
+    let files = dirs
+        .iter()
+        .map(|d| item_files(d))
+        .collect::<anyhow::Result<Vec<_>>>()?
+        .concat();
+    if files.is_empty() {
+        anyhow::bail!(
+            "no rows: none of {} holds items/*.jsonl",
+            dirs.iter()
+                .map(|d| d.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let rows = gather(&files).map_err(|e| anyhow::anyhow!(e))?;
+    let dir = out.map_or_else(|| dirs[0].clone(), Path::to_path_buf);
+    std::fs::create_dir_all(&dir).map_err(|e| at(&dir, "creating the summary folder", e))?;
+    let name = dir.file_name().and_then(|n| n.to_str()).unwrap_or("study").to_string();
+    write_summary(&name, &rows, &dir, reference)?;
+    Ok(())
+}
+
+/// The study to run: from its file, or made from `--scenario` and the grid flags; none
+/// when `--print` only shows the study file the flags make.
+fn study_of(args: &Args) -> anyhow::Result<Option<Study>> {
+    Ok(Some(match (&args.study, &args.scenario) {
+        (Some(file), _) => {
+            // The grid flags build a study from --scenario; with a study file they would be
+            // silently outvoted by the file's keys.
+            let flags = [
+                ("--seeds", args.seeds.is_some()),
+                ("--seed", args.seed.is_some()),
+                ("--record-length", !args.record_lengths.is_empty()),
+                ("--sample-interval", !args.sample_intervals.is_empty()),
+                ("--method", !args.methods.is_empty()),
+                ("--set", !args.set.is_empty()),
+                ("--reference", args.reference.is_some()),
+                ("--print", args.print),
+            ];
+            let given: Vec<&str> = flags.iter().filter(|f| f.1).map(|f| f.0).collect();
+            if !given.is_empty() {
+                anyhow::bail!(
+                    "{}: {} describe a study made with --scenario; a study file has its own keys \
+                     (seeds, seed, record_lengths, sample_intervals, methods, set, reference): edit the file, \
+                     or run fpkbench study --scenario SCENARIO with the flags",
+                    file.display(),
+                    given.join(", ")
+                );
+            }
+            Study::from_file(file)?
+        }
+        (None, Some(scenario)) => {
+            let text = study_text(args, scenario);
+            if args.print {
+                print!("{text}");
+                return Ok(None);
+            }
+            let name = scenario.file_stem().and_then(|s| s.to_str()).unwrap_or("study");
+            Study::from_text(&text, Path::new("(flags)"), name, Path::new("."))?
+        }
+        (None, None) => anyhow::bail!(
+            "a study is needed: fpkbench study STUDY.toml, fpkbench study --scenario SCENARIO [--seeds N …], or fpkbench study merge DIR…"
+        ),
+    }))
 }

@@ -422,70 +422,20 @@ impl DensityGrid {
     ) -> (Pieces, usize, Stencils) {
         assert!(self.pending.is_empty(), "DensityGrid::finish after the last push_in");
         assert!(marginals || self.joint, "the joint histogram of a marginals-only grid");
-        let d = self.dim;
         let n = problem.n;
         let rc = problem.coefficient_count();
-        let nb = self.options.bins;
         let vol: f64 = self.h.iter().product();
         let total = self.total as f64;
-        // Equivalent count of every cell: the joint histogram's, or the product of the
-        // marginals' (computed once: the stencils below read each cell many times).
         let product;
         let eq: &[f64] = if marginals {
-            let scaled: Vec<Vec<f64>> = self
-                .marginals
-                .iter()
-                .map(|m| m.iter().map(|&c| c as f64 / total).collect())
-                .collect();
-            // Cell by cell in flat order, the bin per dimension kept as an odometer.
-            let mut bin = vec![0; d];
-            product = (0..self.counts.len())
-                .map(|_| {
-                    let mut c = total;
-                    for (m, &i) in scaled.iter().zip(&bin) {
-                        c *= m[i];
-                    }
-                    next_cell(&mut bin, nb);
-                    c
-                })
-                .collect::<Vec<f64>>();
+            product = self.marginal_product();
             &product
         } else {
             &self.counts
         };
         let count = |flat: usize| eq[flat];
         let cross = problem.white.iter().any(|(t, _, _)| t.len() > 1);
-        let min = self.options.min_count as f64;
-        let mut rows: Vec<usize> = Vec::new();
-        let mut bin = vec![0; d];
-        'cells: for flat in 0..self.counts.len() {
-            // The bins of `flat` per dimension, the odometer moved on to the next cell's.
-            let edge = bin.iter().any(|&i| i == 0 || i == nb - 1);
-            next_cell(&mut bin, nb);
-            if count(flat) < min || edge {
-                continue;
-            }
-            for j in 0..d {
-                if count(flat + self.stride[j]) < min || count(flat - self.stride[j]) < min {
-                    continue 'cells;
-                }
-            }
-            if cross {
-                for i in 0..n {
-                    for k in 0..n {
-                        if i != k {
-                            let (si, sk) = (self.stride[problem.noise_var[i]], self.stride[problem.noise_var[k]]);
-                            for c in [flat + si + sk, flat + si - sk, flat - si + sk, flat - si - sk] {
-                                if count(c) < min {
-                                    continue 'cells;
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-            rows.push(flat);
-        }
+        let rows = self.usable_cells(problem, eq, cross);
         let f = |flat: usize| count(flat) / (total * vol);
         let mut pc = Pieces::new(rows.len(), n, rc);
         // The drift's parts at each row's stencil: from the full grid's values when given
@@ -497,6 +447,7 @@ impl DensityGrid {
             values: Vec::new(),
         };
         let mut buf = vec![0.0; width];
+        let d = self.dim;
         let (mut y, mut yu, mut yd) = (vec![0.0; d], vec![0.0; d], vec![0.0; d]);
         // The known stencils' rows and `rows` both ascend: one cursor walks the former.
         let mut cursor = 0;
@@ -504,31 +455,7 @@ impl DensityGrid {
             let vals: &[f64] = match known.and_then(|c| c.from(&mut cursor, flat)) {
                 Some(v) => v,
                 None => {
-                    let mut rest = flat;
-                    for j in 0..d {
-                        y[j] = self.lo[j] + ((rest % nb) as f64 + 0.5) * self.h[j];
-                        rest /= nb;
-                    }
-                    let mut at = 0;
-                    let mut shifted = |j: usize, buf: &mut [f64], at: &mut usize, g: &Poly| {
-                        yu.copy_from_slice(&y);
-                        yu[j] += self.h[j];
-                        yd.copy_from_slice(&y);
-                        yd[j] -= self.h[j];
-                        buf[*at] = g.eval(&yu);
-                        buf[*at + 1] = g.eval(&yd);
-                        *at += 2;
-                    };
-                    for (j, drift) in &problem.free_drift {
-                        shifted(*j, &mut buf, &mut at, drift);
-                    }
-                    for i in 0..n {
-                        let j = problem.noise_var[i];
-                        shifted(j, &mut buf, &mut at, &problem.known_force[i]);
-                        for r in 0..rc {
-                            shifted(j, &mut buf, &mut at, &problem.unit_force[r][i]);
-                        }
-                    }
+                    self.stencil_values(problem, flat, &mut buf, [&mut y, &mut yu, &mut yd]);
                     if known.is_none() {
                         evaluated.rows.push(flat);
                         evaluated.values.extend_from_slice(&buf);
@@ -571,6 +498,103 @@ impl DensityGrid {
             }
         }
         (pc, rows.len(), evaluated)
+    }
+
+    /// The equivalent count of every cell of the product of the marginals, computed once
+    /// (the stencils read each cell many times).
+    fn marginal_product(&self) -> Vec<f64> {
+        let total = self.total as f64;
+        let scaled: Vec<Vec<f64>> = self
+            .marginals
+            .iter()
+            .map(|m| m.iter().map(|&c| c as f64 / total).collect())
+            .collect();
+        // Cell by cell in flat order, the bin per dimension kept as an odometer.
+        let mut bin = vec![0; self.dim];
+        (0..self.counts.len())
+            .map(|_| {
+                let mut c = total;
+                for (m, &i) in scaled.iter().zip(&bin) {
+                    c *= m[i];
+                }
+                next_cell(&mut bin, self.options.bins);
+                c
+            })
+            .collect()
+    }
+
+    /// The cells where the residual is formed, ascending: off the grid's edge, with at least
+    /// `min_count` equivalent samples (`eq`) in the cell and in every cell its stencil reads
+    /// (the diagonal neighbours too when the noise is correlated, `cross`).
+    fn usable_cells(&self, problem: &Problem, eq: &[f64], cross: bool) -> Vec<usize> {
+        let (d, n, nb) = (self.dim, problem.n, self.options.bins);
+        let count = |flat: usize| eq[flat];
+        let min = self.options.min_count as f64;
+        let mut rows: Vec<usize> = Vec::new();
+        let mut bin = vec![0; d];
+        'cells: for flat in 0..self.counts.len() {
+            // The bins of `flat` per dimension, the odometer moved on to the next cell's.
+            let edge = bin.iter().any(|&i| i == 0 || i == nb - 1);
+            next_cell(&mut bin, nb);
+            if count(flat) < min || edge {
+                continue;
+            }
+            for j in 0..d {
+                if count(flat + self.stride[j]) < min || count(flat - self.stride[j]) < min {
+                    continue 'cells;
+                }
+            }
+            if cross {
+                for i in 0..n {
+                    for k in 0..n {
+                        if i != k {
+                            let (si, sk) = (self.stride[problem.noise_var[i]], self.stride[problem.noise_var[k]]);
+                            for c in [flat + si + sk, flat + si - sk, flat - si + sk, flat - si - sk] {
+                                if count(c) < min {
+                                    continue 'cells;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            rows.push(flat);
+        }
+        rows
+    }
+
+    /// The drift's parts one cell up and one down along each dimension they act in, at the
+    /// cell `flat`'s centre, into `buf`: the free drift, then per noise variable the known
+    /// force and each coefficient's unit force. `scratch` holds three points of the grid's
+    /// dimension.
+    fn stencil_values(&self, problem: &Problem, flat: usize, buf: &mut [f64], scratch: [&mut Vec<f64>; 3]) {
+        let [y, yu, yd] = scratch;
+        let nb = self.options.bins;
+        let mut rest = flat;
+        for j in 0..self.dim {
+            y[j] = self.lo[j] + ((rest % nb) as f64 + 0.5) * self.h[j];
+            rest /= nb;
+        }
+        let mut at = 0;
+        let mut shifted = |j: usize, g: &Poly| {
+            yu.copy_from_slice(y);
+            yu[j] += self.h[j];
+            yd.copy_from_slice(y);
+            yd[j] -= self.h[j];
+            buf[at] = g.eval(yu);
+            buf[at + 1] = g.eval(yd);
+            at += 2;
+        };
+        for (j, drift) in &problem.free_drift {
+            shifted(*j, drift);
+        }
+        for i in 0..problem.n {
+            let j = problem.noise_var[i];
+            shifted(j, &problem.known_force[i]);
+            for r in 0..problem.coefficient_count() {
+                shifted(j, &problem.unit_force[r][i]);
+            }
+        }
     }
 }
 

@@ -7,7 +7,8 @@
 //! - `cdr` with a `ros2msg` schema (ROS 2): the message definition text with its
 //!   dependencies after `====` / `MSG: pkg/Type` lines, classic little- or big-endian CDR;
 //! - `protobuf` with a `protobuf` schema: a serialized `FileDescriptorSet` and the message's
-//!   full name (proto2 and proto3, packed or not; absent proto3 scalars are 0).
+//!   full name, decoded by `prost-reflect` (proto2 and proto3, packed or not; absent scalars
+//!   at their default, maps as records keyed by the map's keys: `gains.k1`).
 
 use std::collections::BTreeMap;
 
@@ -359,232 +360,84 @@ impl Cdr<'_> {
 }
 
 // ---------------------------------------------------------------------------------------
-// Protobuf: a FileDescriptorSet and the wire format.
+// Protobuf: the schema's FileDescriptorSet and dynamic messages, by prost-reflect.
 
-#[derive(Debug, Clone)]
-struct ProtoField {
-    name: String,
-    number: u64,
-    /// FieldDescriptorProto.Type: 1 double … 18 sint64.
-    ty: u64,
-    repeated: bool,
-    /// Full name of a message field's type (without the leading dot).
-    type_name: String,
-}
-
-/// The message types of a `FileDescriptorSet` by full name, and the one to decode.
+/// The message type to decode, from the schema's `FileDescriptorSet`.
 #[derive(Debug, Clone)]
 pub struct ProtoSchema {
-    root: String,
-    types: BTreeMap<String, Vec<ProtoField>>,
-}
-
-/// A protobuf wire cursor.
-struct Wire<'a> {
-    data: &'a [u8],
-    at: usize,
-}
-
-impl<'a> Wire<'a> {
-    fn varint(&mut self) -> Result<u64, String> {
-        let mut v = 0u64;
-        for shift in (0..64).step_by(7) {
-            let Some(&b) = self.data.get(self.at) else {
-                return Err("truncated protobuf varint".into());
-            };
-            self.at += 1;
-            v |= ((b & 0x7f) as u64) << shift;
-            if b & 0x80 == 0 {
-                return Ok(v);
-            }
-        }
-        Err("protobuf varint longer than 10 bytes".into())
-    }
-    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
-        let end = self.at.checked_add(n).filter(|&e| e <= self.data.len());
-        let end = end.ok_or_else(|| format!("truncated protobuf message: {n} bytes wanted at byte {}", self.at))?;
-        let s = &self.data[self.at..end];
-        self.at = end;
-        Ok(s)
-    }
-    /// The next field: (number, wire type, varint or fixed value, or length-delimited bytes).
-    fn field(&mut self) -> Result<(u64, u8, u64, &'a [u8]), String> {
-        let key = self.varint()?;
-        let (number, wt) = (key >> 3, (key & 7) as u8);
-        match wt {
-            0 => Ok((number, 0, self.varint()?, &[])),
-            1 => Ok((number, 1, u64::from_le_bytes(self.take(8)?.try_into().expect("8")), &[])),
-            2 => {
-                let n = self.varint()? as usize;
-                Ok((number, 2, 0, self.take(n)?))
-            }
-            5 => Ok((
-                number,
-                5,
-                u32::from_le_bytes(self.take(4)?.try_into().expect("4")) as u64,
-                &[],
-            )),
-            _ => Err(format!("protobuf wire type {wt} (field {number}) is not read")),
-        }
-    }
-    fn done(&self) -> bool {
-        self.at >= self.data.len()
-    }
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
+    message: prost_reflect::MessageDescriptor,
 }
 
 impl ProtoSchema {
+    /// The message `name` (its full name, `package.Type`) of the serialized
+    /// `FileDescriptorSet` `set`.
     pub fn parse(name: &str, set: &[u8]) -> Result<ProtoSchema, String> {
-        let mut types = BTreeMap::new();
-        let mut files = Wire { data: set, at: 0 };
-        while !files.done() {
-            let (n, _, _, file) = files.field()?;
-            if n != 1 {
-                continue;
-            }
-            let (mut package, mut messages) = (String::new(), Vec::new());
-            let mut w = Wire { data: file, at: 0 };
-            while !w.done() {
-                match w.field()? {
-                    (2, 2, _, b) => package = text(b),
-                    (4, 2, _, b) => messages.push(b),
-                    _ => {}
-                }
-            }
-            for m in messages {
-                Self::message(&package, m, &mut types)?;
-            }
-        }
-        let root = name.trim_start_matches('.').to_string();
-        if !types.contains_key(&root) {
-            return Err(format!(
+        let pool = prost_reflect::DescriptorPool::decode(set)
+            .map_err(|e| format!("the protobuf schema is not a valid FileDescriptorSet: {e}"))?;
+        let root = name.trim_start_matches('.');
+        match pool.get_message_by_name(root) {
+            Some(message) => Ok(ProtoSchema { message }),
+            None => Err(format!(
                 "the protobuf schema has no message {root:?}; it has {}",
-                types.keys().cloned().collect::<Vec<_>>().join(", ")
-            ));
+                pool.all_messages()
+                    .map(|m| m.full_name().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
         }
-        Ok(ProtoSchema { root, types })
-    }
-
-    fn message(scope: &str, b: &[u8], types: &mut BTreeMap<String, Vec<ProtoField>>) -> Result<(), String> {
-        let (mut name, mut fields, mut nested) = (String::new(), Vec::new(), Vec::new());
-        let mut w = Wire { data: b, at: 0 };
-        while !w.done() {
-            match w.field()? {
-                (1, 2, _, b) => name = text(b),
-                (2, 2, _, b) => fields.push(b),
-                (3, 2, _, b) => nested.push(b),
-                _ => {}
-            }
-        }
-        let full = if scope.is_empty() {
-            name
-        } else {
-            format!("{scope}.{name}")
-        };
-        let mut out = Vec::new();
-        for f in fields {
-            let mut field = ProtoField {
-                name: String::new(),
-                number: 0,
-                ty: 0,
-                repeated: false,
-                type_name: String::new(),
-            };
-            let mut w = Wire { data: f, at: 0 };
-            while !w.done() {
-                match w.field()? {
-                    (1, 2, _, b) => field.name = text(b),
-                    (3, 0, v, _) => field.number = v,
-                    (4, 0, v, _) => field.repeated = v == 3,
-                    (5, 0, v, _) => field.ty = v,
-                    (6, 2, _, b) => field.type_name = text(b).trim_start_matches('.').to_string(),
-                    _ => {}
-                }
-            }
-            out.push(field);
-        }
-        for n in nested {
-            Self::message(&full, n, types)?;
-        }
-        types.insert(full, out);
-        Ok(())
     }
 
     pub fn decode(&self, data: &[u8]) -> Result<Value, String> {
-        self.record(&self.root, data, 0)
+        let msg = prost_reflect::DynamicMessage::decode(self.message.clone(), data)
+            .map_err(|e| format!("protobuf message of {}: {e}", self.message.full_name()))?;
+        Ok(Self::record(&msg))
     }
 
-    fn record(&self, ty: &str, data: &[u8], depth: usize) -> Result<Value, String> {
-        if depth > 32 {
-            return Err("message types nested more than 32 deep".into());
-        }
-        let Some(fields) = self.types.get(ty) else {
-            return Err(format!("the protobuf schema lacks message type {ty:?}"));
-        };
-        let mut values: Vec<Vec<Value>> = vec![Vec::new(); fields.len()];
-        let mut w = Wire { data, at: 0 };
-        while !w.done() {
-            let (number, wt, v, bytes) = w.field()?;
-            let Some(k) = fields.iter().position(|f| f.number == number) else {
-                continue;
-            };
-            let f = &fields[k];
-            match (f.ty, wt) {
-                (11, 2) => values[k].push(self.record(&f.type_name, bytes, depth + 1)?),
-                (9 | 12, 2) => values[k].push(Value::Text),
-                // A packed repeated scalar.
-                (_, 2) => {
-                    let mut p = Wire { data: bytes, at: 0 };
-                    while !p.done() {
-                        let raw = match f.ty {
-                            1 | 6 | 16 => u64::from_le_bytes(p.take(8)?.try_into().expect("8")),
-                            2 | 7 | 15 => u32::from_le_bytes(p.take(4)?.try_into().expect("4")) as u64,
-                            _ => p.varint()?,
-                        };
-                        values[k].push(Value::Number(scalar(f.ty, raw)));
-                    }
-                }
-                _ => values[k].push(Value::Number(scalar(f.ty, v))),
+    /// Every field of `msg` by name: absent scalars at their default (proto3 leaves zeros
+    /// out), absent sub-messages left out, maps as records keyed by the map's keys.
+    fn record(msg: &prost_reflect::DynamicMessage) -> Value {
+        use prost_reflect::ReflectMessage;
+        let fields = msg
+            .descriptor()
+            .fields()
+            .filter(|f| f.is_list() || f.is_map() || f.kind().as_message().is_none() || msg.has_field(f))
+            .map(|f| (f.name().to_string(), Self::value(&msg.get_field(&f))))
+            .collect();
+        Value::Record(fields)
+    }
+
+    fn value(v: &prost_reflect::Value) -> Value {
+        use prost_reflect::Value as P;
+        match v {
+            P::Bool(b) => Value::Number(f64::from(u8::from(*b))),
+            P::I32(x) | P::EnumNumber(x) => Value::Number(f64::from(*x)),
+            P::I64(x) => Value::Number(*x as f64),
+            P::U32(x) => Value::Number(f64::from(*x)),
+            P::U64(x) => Value::Number(*x as f64),
+            P::F32(x) => Value::Number(f64::from(*x)),
+            P::F64(x) => Value::Number(*x),
+            P::String(_) | P::Bytes(_) => Value::Text,
+            P::Message(m) => Self::record(m),
+            P::List(items) => Value::List(items.iter().map(Self::value).collect()),
+            P::Map(map) => {
+                let mut entries: Vec<_> = map.iter().collect();
+                entries.sort_by(|a, b| a.0.cmp(b.0));
+                Value::Record(entries.into_iter().map(|(k, v)| (map_key(k), Self::value(v))).collect())
             }
         }
-        let out = fields
-            .iter()
-            .zip(values)
-            .filter_map(|(f, mut v)| {
-                let value = if f.repeated {
-                    Value::List(v)
-                } else if let Some(last) = v.pop() {
-                    last
-                } else if f.ty == 11 || f.ty == 9 || f.ty == 12 {
-                    return None;
-                } else {
-                    // proto3 leaves zeros out.
-                    Value::Number(0.0)
-                };
-                Some((f.name.clone(), value))
-            })
-            .collect();
-        Ok(Value::Record(out))
     }
 }
 
-/// A scalar field's value from its raw varint or fixed bits.
-fn scalar(ty: u64, raw: u64) -> f64 {
-    match ty {
-        1 => f64::from_bits(raw),
-        2 => f32::from_bits(raw as u32) as f64,
-        3 | 16 => raw as i64 as f64,
-        5 | 14 => raw as u32 as i32 as f64,
-        15 => raw as u32 as i32 as f64,
-        17 => {
-            let v = raw as u32;
-            ((v >> 1) as i32 ^ -((v & 1) as i32)) as f64
-        }
-        18 => ((raw >> 1) as i64 ^ -((raw & 1) as i64)) as f64,
-        _ => raw as f64,
+/// A map key as a path component.
+fn map_key(k: &prost_reflect::MapKey) -> String {
+    use prost_reflect::MapKey as K;
+    match k {
+        K::Bool(b) => b.to_string(),
+        K::I32(x) => x.to_string(),
+        K::I64(x) => x.to_string(),
+        K::U32(x) => x.to_string(),
+        K::U64(x) => x.to_string(),
+        K::String(s) => s.clone(),
     }
 }
 
@@ -655,37 +508,74 @@ mod tests {
         out.extend(b);
         out
     }
-    fn field(name: &str, number: u64, ty: u64, repeated: bool, type_name: &str) -> Vec<u8> {
-        let mut f = len(1, name.as_bytes());
-        f.extend(key(3, 0));
-        f.extend(varint(number));
-        f.extend(key(4, 0));
-        f.extend(varint(if repeated { 3 } else { 1 }));
-        f.extend(key(5, 0));
-        f.extend(varint(ty));
-        if !type_name.is_empty() {
-            f.extend(len(6, type_name.as_bytes()));
+
+    /// The `FileDescriptorSet` of package `rig`:
+    /// `message Pose { double angle = 1; sint32 turns = 2; }`,
+    /// `message State { Pose pose = 1; repeated double q = 2; float gain = 3; int64 count = 4;
+    /// map<string, double> gains = 5; string frame = 6; }` (proto3).
+    fn rig_schema() -> Vec<u8> {
+        use prost::Message;
+        use prost_types::field_descriptor_proto::{Label, Type};
+        use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet};
+        let field = |name: &str, number: i32, ty: Type, label: Label, type_name: &str| FieldDescriptorProto {
+            name: Some(name.into()),
+            number: Some(number),
+            r#type: Some(ty as i32),
+            label: Some(label as i32),
+            type_name: (!type_name.is_empty()).then(|| type_name.into()),
+            ..Default::default()
+        };
+        let one = Label::Optional;
+        let pose = DescriptorProto {
+            name: Some("Pose".into()),
+            field: vec![
+                field("angle", 1, Type::Double, one, ""),
+                field("turns", 2, Type::Sint32, one, ""),
+            ],
+            ..Default::default()
+        };
+        let entry = DescriptorProto {
+            name: Some("GainsEntry".into()),
+            field: vec![
+                field("key", 1, Type::String, one, ""),
+                field("value", 2, Type::Double, one, ""),
+            ],
+            options: Some(prost_types::MessageOptions {
+                map_entry: Some(true),
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        let state = DescriptorProto {
+            name: Some("State".into()),
+            field: vec![
+                field("pose", 1, Type::Message, one, ".rig.Pose"),
+                field("q", 2, Type::Double, Label::Repeated, ""),
+                field("gain", 3, Type::Float, one, ""),
+                field("count", 4, Type::Int64, one, ""),
+                field("gains", 5, Type::Message, Label::Repeated, ".rig.State.GainsEntry"),
+                field("frame", 6, Type::String, one, ""),
+            ],
+            nested_type: vec![entry],
+            ..Default::default()
+        };
+        FileDescriptorSet {
+            file: vec![FileDescriptorProto {
+                name: Some("rig.proto".into()),
+                package: Some("rig".into()),
+                message_type: vec![pose, state],
+                syntax: Some("proto3".into()),
+                ..Default::default()
+            }],
         }
-        f
+        .encode_to_vec()
     }
 
     #[test]
-    fn protobuf_scalars_packed_nested_and_proto3_zeros() {
-        // message Pose { double angle = 1; sint32 turns = 2; }
-        // message State { Pose pose = 1; repeated double q = 2; float gain = 3; int64 count = 4; }
-        let mut pose = len(1, b"Pose");
-        pose.extend(len(2, &field("angle", 1, 1, false, "")));
-        pose.extend(len(2, &field("turns", 2, 17, false, "")));
-        let mut state = len(1, b"State");
-        state.extend(len(2, &field("pose", 1, 11, false, ".rig.Pose")));
-        state.extend(len(2, &field("q", 2, 1, true, "")));
-        state.extend(len(2, &field("gain", 3, 2, false, "")));
-        state.extend(len(2, &field("count", 4, 3, false, "")));
-        let mut file = len(2, b"rig");
-        file.extend(len(4, &pose));
-        file.extend(len(4, &state));
-        let set = len(1, &file);
+    fn protobuf_scalars_packed_nested_maps_and_proto3_zeros() {
+        let set = rig_schema();
         let s = ProtoSchema::parse("rig.State", &set).unwrap();
+        // The wire bytes written by hand, as another tool's encoder would.
         let mut pose_msg = key(1, 1);
         pose_msg.extend(0.125f64.to_le_bytes());
         pose_msg.extend(key(2, 0));
@@ -695,13 +585,25 @@ mod tests {
         msg.extend(len(2, &packed));
         msg.extend(key(4, 0));
         msg.extend(varint((-2i64) as u64));
+        let mut entry = len(1, b"k1");
+        entry.extend(key(2, 1));
+        entry.extend(7.5f64.to_le_bytes());
+        msg.extend(len(5, &entry));
+        msg.extend(len(6, b"base"));
         let v = s.decode(&msg).unwrap();
         assert_eq!(v.at("pose.angle"), Some(0.125));
         assert_eq!(v.at("pose.turns"), Some(-3.0));
         assert_eq!(v.at("q.1"), Some(-4.5));
         assert_eq!(v.at("gain"), Some(0.0), "proto3 leaves zeros out");
         assert_eq!(v.at("count"), Some(-2.0));
+        assert_eq!(v.at("gains.k1"), Some(7.5));
+        assert_eq!(v.at("frame"), None, "text is not a number");
+        // An absent sub-message is absent, not a record of zeros.
+        let only_q = len(2, &packed);
+        assert_eq!(s.decode(&only_q).unwrap().at("pose.angle"), None);
+        // Cut short: an error, not a panic.
         assert!(s.decode(&msg[..msg.len() - 1]).is_err());
         assert!(ProtoSchema::parse("rig.Other", &set).unwrap_err().contains("rig.State"));
+        assert!(ProtoSchema::parse("rig.State", &set[..set.len() - 3]).is_err());
     }
 }

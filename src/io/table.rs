@@ -559,81 +559,12 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
             .as_ref()
             .map(|c| t.column(c, "the record column, [data] record"))
             .transpose()?;
-        // Every value finite (record ids too).
-        for (_, c, v) in mapped
-            .iter()
-            .chain(time.map(|v| (0, d.time.as_deref().unwrap_or(""), v)).iter())
-            .chain(record.map(|v| (0, d.record.as_deref().unwrap_or(""), v)).iter())
-        {
-            if let Some(r) = v.iter().position(|x| !x.is_finite()) {
-                return Err(err(
-                    &t.path,
-                    format!("row {}, column {c:?}: {} (every value must be finite)", r + 1, v[r]),
-                ));
-            }
-        }
-        for (_, c, v) in &mapped {
-            if v.len() > 1 && v.iter().all(|x| *x == v[0]) {
-                return Err(err(
-                    &t.path,
-                    format!("column {c:?} is constant ({}): a measured response varies", v[0]),
-                ));
-            }
-        }
-        // Rows per record, in order of first appearance.
-        let mut ids: Vec<f64> = Vec::new();
-        let mut rows_of: Vec<Vec<usize>> = Vec::new();
-        for r in 0..t.rows() {
-            let id = record.map_or(0.0, |c| c[r]);
-            let k = match ids.iter().position(|&x| x == id) {
-                Some(k) => k,
-                None => {
-                    ids.push(id);
-                    rows_of.push(Vec::new());
-                    ids.len() - 1
-                }
-            };
-            rows_of[k].push(r);
-        }
-        // Records in the order of their ids, not of their first rows: the jackknife's groups
-        // follow the records, so a logger's interleaved rows and a sorted table must give
-        // the same estimates.
-        let mut order: Vec<usize> = (0..ids.len()).collect();
-        order.sort_by(|&a, &b| ids[a].total_cmp(&ids[b]));
-        let ids: Vec<f64> = order.iter().map(|&k| ids[k]).collect();
-        let rows_of: Vec<Vec<usize>> = order.iter().map(|&k| std::mem::take(&mut rows_of[k])).collect();
+        check_values(t, &mapped, d, time, record)?;
+        let (ids, rows_of) = records_by_id(t.rows(), record);
         for (rk, rows) in rows_of.iter().enumerate() {
             if let Some(time) = time {
-                for w in rows.windows(2) {
-                    let dt = time[w[1]] - time[w[0]];
-                    if dt <= 0.0 {
-                        return Err(err(
-                            &t.path,
-                            format!(
-                                "row {}: time {} does not increase (previous {}){}",
-                                w[1] + 1,
-                                time[w[1]],
-                                time[w[0]],
-                                if record.is_some() {
-                                    format!(" in record {}", ids[rk])
-                                } else {
-                                    String::new()
-                                }
-                            ),
-                        ));
-                    }
-                    let h = *interval.get_or_insert(dt);
-                    if (dt - h).abs() > 1e-6 * h {
-                        return Err(err(
-                            &t.path,
-                            format!(
-                                "row {}: time step {dt} s where the sampling is every {h} s: the samples must be \
-                                 evenly spaced (split a record at a gap with the record column)",
-                                w[1] + 1
-                            ),
-                        ));
-                    }
-                }
+                let id = record.is_some().then_some(ids[rk]);
+                check_times(t, time, rows, id, &mut interval)?;
             }
             let h = interval.ok_or_else(|| err(&t.path, "one sample per record and no sample interval"))?;
             let mut samples = vec![f64::NAN; rows.len() * width];
@@ -642,51 +573,13 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
                     samples[s * width + k] = v[r] * scale(c);
                 }
             }
-            // Derivatives the table lacks, by central differences (one-sided at the ends):
-            // velocities from displacements, then accelerations from velocities.
             if d.derive {
-                let mut present: Vec<usize> = mapped.iter().map(|x| x.0).collect();
-                for i in 0..m.masses() {
-                    for (fk, dk) in [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))] {
-                        if present.contains(&dk) || !present.contains(&fk) {
-                            continue;
-                        }
-                        let n = rows.len();
-                        for s in 0..n {
-                            let (a, b) = (s.saturating_sub(1), (s + 1).min(n - 1));
-                            samples[s * width + dk] =
-                                (samples[b * width + fk] - samples[a * width + fk]) / ((b - a) as f64 * h);
-                        }
-                        present.push(dk);
-                        if rk > 0 {
-                            continue;
-                        }
-                        notes.push(format!(
-                            "{} derived from {} by central differences over 2 × {h} s (docs/data.md)",
-                            names[dk], names[fk]
-                        ));
-                        // The rule's resolution: a motion at ω is smoothed by (ω·h)²/6, with ω
-                        // the signal's typical frequency std(derivative)/std(signal).
-                        let std = |k: usize| {
-                            let v: Vec<f64> = (0..n).map(|s| samples[s * width + k]).collect();
-                            let m = v.iter().sum::<f64>() / n as f64;
-                            (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n as f64).sqrt()
-                        };
-                        let wh = std(dk) / std(fk) * h;
-                        if wh > DERIVE_LIMIT {
-                            notes.push(format!(
-                                "WARNING: the sampling is too coarse to differentiate {}: ω·h = {wh:.2} (ω = \
-                                 std({})/std({})), so the derived {} is smoothed by about (ω·h)²/6 = {:.1} % and the \
-                                 estimates are biased (on sdof_duffing at ω·h = 0.33, k3 by −24 %); sample at least \
-                                 {:.0}× faster or measure it",
-                                names[fk],
-                                names[dk],
-                                names[fk],
-                                names[dk],
-                                100.0 * wh * wh / 6.0,
-                                (wh / DERIVE_LIMIT).ceil()
-                            ));
-                        }
+                let present: Vec<usize> = mapped.iter().map(|x| x.0).collect();
+                let derived = derive_missing(&mut samples, width, h, &m, &present);
+                // The notes once, from the first record.
+                if rk == 0 {
+                    for (fk, dk, wh) in derived {
+                        notes.extend(derive_notes(&names[fk], &names[dk], h, wh));
                     }
                 }
             }
@@ -708,4 +601,154 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
         records,
         notes,
     })
+}
+
+/// Every value of the mapped, time and record columns finite, and no mapped column constant.
+fn check_values(
+    t: &Table,
+    mapped: &[(usize, &str, &[f64])],
+    d: &DataMapping,
+    time: Option<&[f64]>,
+    record: Option<&[f64]>,
+) -> Result<(), DataError> {
+    for (_, c, v) in mapped
+        .iter()
+        .copied()
+        .chain(time.map(|v| (0, d.time.as_deref().unwrap_or(""), v)))
+        .chain(record.map(|v| (0, d.record.as_deref().unwrap_or(""), v)))
+    {
+        if let Some(r) = v.iter().position(|x| !x.is_finite()) {
+            return Err(err(
+                &t.path,
+                format!("row {}, column {c:?}: {} (every value must be finite)", r + 1, v[r]),
+            ));
+        }
+    }
+    for (_, c, v) in mapped {
+        if v.len() > 1 && v.iter().all(|x| *x == v[0]) {
+            return Err(err(
+                &t.path,
+                format!("column {c:?} is constant ({}): a measured response varies", v[0]),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The rows of each record (all rows one record without a record column), the records in
+/// the order of their ids, not of their first rows: the jackknife's groups follow the
+/// records, so a logger's interleaved rows and a sorted table give the same estimates.
+fn records_by_id(rows: usize, record: Option<&[f64]>) -> (Vec<f64>, Vec<Vec<usize>>) {
+    let mut ids: Vec<f64> = Vec::new();
+    let mut rows_of: Vec<Vec<usize>> = Vec::new();
+    for r in 0..rows {
+        let id = record.map_or(0.0, |c| c[r]);
+        let k = match ids.iter().position(|&x| x == id) {
+            Some(k) => k,
+            None => {
+                ids.push(id);
+                rows_of.push(Vec::new());
+                ids.len() - 1
+            }
+        };
+        rows_of[k].push(r);
+    }
+    let mut order: Vec<usize> = (0..ids.len()).collect();
+    order.sort_by(|&a, &b| ids[a].total_cmp(&ids[b]));
+    let ids = order.iter().map(|&k| ids[k]).collect();
+    let rows_of = order.iter().map(|&k| std::mem::take(&mut rows_of[k])).collect();
+    (ids, rows_of)
+}
+
+/// The times of one record's `rows` increase by one even step, `interval` (set from the
+/// first step seen when not given). `id` names the record in messages.
+fn check_times(
+    t: &Table,
+    time: &[f64],
+    rows: &[usize],
+    id: Option<f64>,
+    interval: &mut Option<f64>,
+) -> Result<(), DataError> {
+    for w in rows.windows(2) {
+        let dt = time[w[1]] - time[w[0]];
+        if dt <= 0.0 {
+            return Err(err(
+                &t.path,
+                format!(
+                    "row {}: time {} does not increase (previous {}){}",
+                    w[1] + 1,
+                    time[w[1]],
+                    time[w[0]],
+                    id.map_or(String::new(), |id| format!(" in record {id}"))
+                ),
+            ));
+        }
+        let h = *interval.get_or_insert(dt);
+        if (dt - h).abs() > 1e-6 * h {
+            return Err(err(
+                &t.path,
+                format!(
+                    "row {}: time step {dt} s where the sampling is every {h} s: the samples must be \
+                     evenly spaced (split a record at a gap with the record column)",
+                    w[1] + 1
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Derivatives a record lacks, by central differences (one-sided at the ends): velocities
+/// from displacements, then accelerations from velocities. `samples` holds the record's rows
+/// of `width` columns, `present` the columns it has. Returns (from, derived, ω·h) for each
+/// derived column, ω the signal's typical frequency std(derivative)/std(signal).
+fn derive_missing(
+    samples: &mut [f64],
+    width: usize,
+    h: f64,
+    m: &crate::model::Model,
+    present: &[usize],
+) -> Vec<(usize, usize, f64)> {
+    let layout = m.columns();
+    let n = samples.len() / width;
+    let mut present = present.to_vec();
+    let mut derived = Vec::new();
+    for i in 0..m.masses() {
+        for (fk, dk) in [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))] {
+            if present.contains(&dk) || !present.contains(&fk) {
+                continue;
+            }
+            for s in 0..n {
+                let (a, b) = (s.saturating_sub(1), (s + 1).min(n - 1));
+                samples[s * width + dk] = (samples[b * width + fk] - samples[a * width + fk]) / ((b - a) as f64 * h);
+            }
+            present.push(dk);
+            let std = |k: usize| {
+                let v: Vec<f64> = (0..n).map(|s| samples[s * width + k]).collect();
+                let m = v.iter().sum::<f64>() / n as f64;
+                (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n as f64).sqrt()
+            };
+            derived.push((fk, dk, std(dk) / std(fk) * h));
+        }
+    }
+    derived
+}
+
+/// What the report says of a derived column: the rule, and a warning where the sampling is
+/// too coarse (a motion at ω is smoothed by (ω·h)²/6).
+fn derive_notes(from: &str, derived: &str, h: f64, wh: f64) -> Vec<String> {
+    let mut notes = vec![format!(
+        "{derived} derived from {from} by central differences over 2 × {h} s (docs/data.md)"
+    )];
+    if wh > DERIVE_LIMIT {
+        notes.push(format!(
+            "WARNING: the sampling is too coarse to differentiate {from}: ω·h = {wh:.2} (ω = \
+             std({derived})/std({from})), so the derived {derived} is smoothed by about (ω·h)²/6 = {:.1} % and the \
+             estimates are biased (on sdof_duffing at ω·h = 0.33, k3 by −24 %); sample at least \
+             {:.0}× faster or measure it",
+            100.0 * wh * wh / 6.0,
+            (wh / DERIVE_LIMIT).ceil()
+        ));
+    }
+    notes
 }

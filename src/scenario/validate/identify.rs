@@ -19,56 +19,9 @@ pub(crate) fn check_identify(
     excitations: &[Excitation],
 ) -> Result<Identify, ScenarioError> {
     let ident = raw.identify.as_ref();
-    let methods = match ident.and_then(|i| i.methods.as_ref()) {
-        None => vec![Method::Weak],
-        Some(m) if m.get_ref().is_empty() => {
-            return Err(loc.at(
-                m.span(),
-                "identify.methods",
-                "empty: name at least one method (weak, strong, strong-marginals), or leave the key \
-                 out for weak",
-            ))
-        }
-        Some(m) => {
-            let mut seen = Vec::new();
-            for &x in m.get_ref() {
-                if seen.contains(&x) {
-                    return Err(loc.at(m.span(), "identify.methods", format!("{:?} is listed twice", x.name())));
-                }
-                seen.push(x);
-            }
-            seen
-        }
-    };
-    let parse_links =
-        |map: &BTreeMap<String, Spanned<RawIdentifyLink>>, prefix: &str| -> Result<Vec<IdentifyLink>, ScenarioError> {
-            let mut out = Vec::new();
-            for (lname, spec) in map {
-                let key = format!("{prefix}.{lname}");
-                let link = links.iter().position(|l| &l.name == lname).ok_or_else(|| {
-                    let names: Vec<_> = links.iter().map(|l| l.name.as_str()).collect();
-                    loc.at(
-                        spec.span(),
-                        &key,
-                        format!("unknown link {lname:?}: links are {}", names.join(", ")),
-                    )
-                })?;
-                let sp = spec.get_ref();
-                let id = IdentifyLink {
-                    link,
-                    stiffness: terms(loc, &sp.stiffness, &format!("{key}.stiffness"))?,
-                    damping: terms(loc, &sp.damping, &format!("{key}.damping"))?,
-                };
-                if let Some(why) = out.iter().find_map(|o| inseparable(links, o, &id)) {
-                    return Err(loc.at(spec.span(), &key, why));
-                }
-                out.push(id);
-            }
-            out.sort_by_key(|l| l.link);
-            Ok(out)
-        };
+    let methods = check_methods(loc, ident.and_then(|i| i.methods.as_ref()))?;
     let id_links = match ident.and_then(|i| i.links.as_ref()) {
-        Some(map) => parse_links(map, "identify.links")?,
+        Some(map) => identify_links(loc, links, map, "identify.links")?,
         None => links
             .iter()
             .enumerate()
@@ -84,27 +37,13 @@ pub(crate) fn check_identify(
     };
     let mut compare = Vec::new();
     for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
-        compare.push((
-            name.clone(),
-            parse_links(&c.get_ref().links, &format!("identify.compare.{name}.links"))?,
-        ));
+        let key = format!("identify.compare.{name}.links");
+        compare.push((name.clone(), identify_links(loc, links, &c.get_ref().links, &key)?));
     }
-    // Names of filtered excitations in an `[identify]` list.
-    let filtered_list = |list: Option<&Vec<Spanned<String>>>, key: &str| -> Result<Vec<usize>, ScenarioError> {
+    let filtered = |list: Option<&Vec<Spanned<String>>>, key: &str| -> Result<Vec<usize>, ScenarioError> {
         let mut out = Vec::new();
         for e in list.into_iter().flatten() {
-            let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
-                let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
-                loc.at(
-                    e.span(),
-                    key,
-                    format!(
-                        "unknown excitation {:?}: excitations are {}",
-                        e.get_ref(),
-                        names.join(", ")
-                    ),
-                )
-            })?;
+            let k = excitation_index(loc, excitations, e, key)?;
             if !matches!(excitations[k].process, Process::Filtered { .. }) {
                 return Err(loc.at(
                     e.span(),
@@ -119,8 +58,8 @@ pub(crate) fn check_identify(
         }
         Ok(out)
     };
-    let known_filters = filtered_list(ident.and_then(|i| i.known_filters.as_ref()), "identify.known_filters")?;
-    let unknown_corners = filtered_list(
+    let known_filters = filtered(ident.and_then(|i| i.known_filters.as_ref()), "identify.known_filters")?;
+    let unknown_corners = filtered(
         ident.and_then(|i| i.unknown_corners.as_ref()),
         "identify.unknown_corners",
     )?;
@@ -131,22 +70,12 @@ pub(crate) fn check_identify(
         };
         unknown_masses.push(k);
     }
-    let mut unknown_intensities = Vec::new();
-    for e in ident.and_then(|i| i.unknown_intensities.as_ref()).into_iter().flatten() {
-        let k = excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
-            let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
-            loc.at(
-                e.span(),
-                "identify.unknown_intensities",
-                format!(
-                    "unknown excitation {:?}: excitations are {}",
-                    e.get_ref(),
-                    names.join(", ")
-                ),
-            )
-        })?;
-        unknown_intensities.push(k);
-    }
+    let unknown_intensities = ident
+        .and_then(|i| i.unknown_intensities.as_ref())
+        .into_iter()
+        .flatten()
+        .map(|e| excitation_index(loc, excitations, e, "identify.unknown_intensities"))
+        .collect::<Result<Vec<_>, _>>()?;
     let disturbance = match ident.and_then(|i| i.disturbance.as_ref()) {
         None => None,
         Some(d) => Some(check_disturbance(loc, d, || {
@@ -172,6 +101,84 @@ pub(crate) fn check_identify(
         disturbance,
     };
     Ok(identify)
+}
+
+/// `[identify] methods`: weak when left out; not empty, no method twice.
+fn check_methods(loc: &Locator, methods: Option<&Spanned<Vec<Method>>>) -> Result<Vec<Method>, ScenarioError> {
+    match methods {
+        None => Ok(vec![Method::Weak]),
+        Some(m) if m.get_ref().is_empty() => Err(loc.at(
+            m.span(),
+            "identify.methods",
+            "empty: name at least one method (weak, strong, strong-marginals), or leave the key \
+             out for weak",
+        )),
+        Some(m) => {
+            let mut seen = Vec::new();
+            for &x in m.get_ref() {
+                if seen.contains(&x) {
+                    return Err(loc.at(m.span(), "identify.methods", format!("{:?} is listed twice", x.name())));
+                }
+                seen.push(x);
+            }
+            Ok(seen)
+        }
+    }
+}
+
+/// The links of `[identify.links]` (or a comparison's, under `prefix`) with the terms to
+/// identify on each, in the scenario's link order; no two that the data cannot separate.
+fn identify_links(
+    loc: &Locator,
+    links: &[Link],
+    map: &BTreeMap<String, Spanned<RawIdentifyLink>>,
+    prefix: &str,
+) -> Result<Vec<IdentifyLink>, ScenarioError> {
+    let mut out = Vec::new();
+    for (lname, spec) in map {
+        let key = format!("{prefix}.{lname}");
+        let link = links.iter().position(|l| &l.name == lname).ok_or_else(|| {
+            let names: Vec<_> = links.iter().map(|l| l.name.as_str()).collect();
+            loc.at(
+                spec.span(),
+                &key,
+                format!("unknown link {lname:?}: links are {}", names.join(", ")),
+            )
+        })?;
+        let sp = spec.get_ref();
+        let id = IdentifyLink {
+            link,
+            stiffness: terms(loc, &sp.stiffness, &format!("{key}.stiffness"))?,
+            damping: terms(loc, &sp.damping, &format!("{key}.damping"))?,
+        };
+        if let Some(why) = out.iter().find_map(|o| inseparable(links, o, &id)) {
+            return Err(loc.at(spec.span(), &key, why));
+        }
+        out.push(id);
+    }
+    out.sort_by_key(|l| l.link);
+    Ok(out)
+}
+
+/// The index of the excitation named by `e` under `key`.
+fn excitation_index(
+    loc: &Locator,
+    excitations: &[Excitation],
+    e: &Spanned<String>,
+    key: &str,
+) -> Result<usize, ScenarioError> {
+    excitations.iter().position(|x| &x.name == e.get_ref()).ok_or_else(|| {
+        let names: Vec<_> = excitations.iter().map(|x| x.name.as_str()).collect();
+        loc.at(
+            e.span(),
+            key,
+            format!(
+                "unknown excitation {:?}: excitations are {}",
+                e.get_ref(),
+                names.join(", ")
+            ),
+        )
+    })
 }
 
 /// `[identify.disturbance]`: the section-4 procedure's stopping rules and sweep levels,
