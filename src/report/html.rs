@@ -1,10 +1,11 @@
 //! `report.html` (and a study's `study.html`): one self-contained page per run, made from
-//! the same markdown as `report.md` so the two never disagree. Tables become real tables,
-//! every figure the markdown links (`![caption](name.svg)`) is inlined as vector SVG with
-//! links to its PNG and PDF, and a block after a `<!-- fold: TITLE -->` line is folded
-//! into a `<details>` element (the diagnostics). No script, no external resource.
+//! the same markdown as `report.md` so the two never disagree. The markdown is rendered by
+//! `pulldown-cmark` (CommonMark with tables); two things are this page's own: every figure
+//! the markdown shows alone in a paragraph (`![caption](name.svg)`) is inlined as vector SVG
+//! with links to its PNG and PDF, and the block after a `<!-- fold: TITLE -->` comment is
+//! folded into a `<details>` element (the diagnostics). No script, no external resource.
 
-use std::fmt::Write;
+use pulldown_cmark::{CowStr, Event, Options, Parser, Tag, TagEnd};
 use std::path::Path;
 
 fn escape(s: &str) -> String {
@@ -12,49 +13,6 @@ fn escape(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
-}
-
-/// Inline markdown: `code`, **bold**, [text](link); everything else escaped.
-fn inline(s: &str) -> String {
-    let mut out = String::new();
-    let mut rest = s;
-    while !rest.is_empty() {
-        if let Some(r) = rest.strip_prefix('`') {
-            if let Some(end) = r.find('`') {
-                let _ = write!(out, "<code>{}</code>", escape(&r[..end]));
-                rest = &r[end + 1..];
-                continue;
-            }
-        }
-        if let Some(r) = rest.strip_prefix("**") {
-            if let Some(end) = r.find("**") {
-                let _ = write!(out, "<strong>{}</strong>", inline(&r[..end]));
-                rest = &r[end + 2..];
-                continue;
-            }
-        }
-        if let Some(r) = rest.strip_prefix('[') {
-            if let Some(mid) = r.find("](") {
-                if let Some(end) = r[mid + 2..].find(')') {
-                    let href = &r[mid + 2..mid + 2 + end];
-                    if !href.contains(' ') {
-                        let _ = write!(out, "<a href=\"{}\">{}</a>", escape(href), inline(&r[..mid]));
-                        rest = &r[mid + 2 + end + 1..];
-                        continue;
-                    }
-                }
-            }
-        }
-        let ch = rest.chars().next().expect("not empty");
-        out += &escape(&ch.to_string());
-        rest = &rest[ch.len_utf8()..];
-    }
-    out
-}
-
-fn cells(line: &str) -> Vec<&str> {
-    let t = line.trim().trim_start_matches('|').trim_end_matches('|');
-    t.split('|').map(str::trim).collect()
 }
 
 /// The SVG file `name` in `dir`, ready to sit inline: its element ids prefixed with
@@ -71,139 +29,144 @@ fn inline_svg(dir: &Path, name: &str, prefix: &str) -> String {
     }
 }
 
+/// The caption's HTML: the image's alt text as markdown inline (code, emphasis).
+fn caption(alt: &str) -> String {
+    let mut out = String::new();
+    let events = Parser::new_ext(alt, Options::empty())
+        .filter(|e| !matches!(e, Event::Start(Tag::Paragraph) | Event::End(TagEnd::Paragraph)));
+    pulldown_cmark::html::push_html(&mut out, events);
+    out.trim().to_string()
+}
+
+/// The `<figure>` of a paragraph that holds one image and nothing else: the events
+/// `events[at..]` are `Start(Paragraph), Start(Image), …, End(Image), End(Paragraph)`.
+/// Returns the figure's HTML and the number of events it took.
+fn figure(events: &[Event], at: usize, dir: &Path, number: usize) -> Option<(String, usize)> {
+    let Some(Event::Start(Tag::Image { dest_url, .. })) = events.get(at + 1) else {
+        return None;
+    };
+    let close = at
+        + 2
+        + events[at + 2..]
+            .iter()
+            .position(|e| matches!(e, Event::End(TagEnd::Image)))?;
+    if !matches!(events.get(close + 1), Some(Event::End(TagEnd::Paragraph))) {
+        return None;
+    }
+    // The alt text back as markdown: its text and code spans.
+    let mut alt = String::new();
+    for e in &events[at + 2..close] {
+        match e {
+            Event::Text(t) => alt += t,
+            Event::Code(c) => alt += &format!("`{c}`"),
+            _ => {}
+        }
+    }
+    let src = dest_url.to_string();
+    let svg = inline_svg(dir, &src, &format!("fig{number}-"));
+    let stem = src.trim_end_matches(".svg");
+    let html = format!(
+        "<figure>\n{svg}<figcaption>{} <span class=\"files\">(<a href=\"{s}\">SVG</a>, <a href=\"{stem}.png\">PNG</a>, \
+         <a href=\"{stem}.pdf\">PDF</a>)</span></figcaption>\n</figure>\n",
+        caption(&alt),
+        s = escape(&src),
+        stem = escape(stem)
+    );
+    Some((html, close + 2 - at))
+}
+
 /// Render the markdown `md` (as the report writes it) to a whole HTML page titled
 /// `title`, with the figures it links read from `dir`.
 pub fn page(title: &str, md: &str, dir: &Path) -> std::io::Result<String> {
-    let mut body = String::new();
-    let lines: Vec<&str> = md.lines().collect();
-    let mut i = 0;
+    let events: Vec<Event> = Parser::new_ext(md, Options::ENABLE_TABLES).collect();
+    let mut out: Vec<Event> = Vec::with_capacity(events.len());
     let mut figures = 0usize;
-    // The `<details>` wrapper of the next block, if a fold marker asked for one.
-    let mut fold: Option<String> = None;
-    let mut open_fold = false;
-    while i < lines.len() {
-        let line = lines[i];
-        let trimmed = line.trim();
-        if trimmed.is_empty() {
-            if open_fold {
-                body += "</details>\n";
-                open_fold = false;
+    // Block nesting depth, and the depth at which an open `<details>` closes.
+    let mut depth = 0usize;
+    let mut fold_pending: Option<String> = None;
+    let mut fold_open = false;
+    let mut i = 0;
+    while i < events.len() {
+        let e = &events[i];
+        if let Event::Html(h) = e {
+            if let Some(t) = h.trim().strip_prefix("<!-- fold:").and_then(|t| t.strip_suffix("-->")) {
+                fold_pending = Some(t.trim().to_string());
+                i += 1;
+                continue;
             }
-            i += 1;
-            continue;
         }
-        if let Some(t) = trimmed.strip_prefix("<!-- fold:").and_then(|t| t.strip_suffix("-->")) {
-            fold = Some(t.trim().to_string());
-            i += 1;
-            continue;
+        let starts_block = matches!(e, Event::Start(t) if is_block(t));
+        if starts_block && depth == 0 && !matches!(e, Event::Start(Tag::HtmlBlock)) {
+            if let Some(t) = fold_pending.take() {
+                out.push(Event::Html(CowStr::from(format!(
+                    "<details><summary>{}</summary>\n",
+                    caption(&t)
+                ))));
+                fold_open = true;
+            }
         }
-        if let Some(t) = fold.take() {
-            let _ = writeln!(body, "<details><summary>{}</summary>", inline(&t));
-            open_fold = true;
+        if matches!(e, Event::Start(Tag::Paragraph)) {
+            if let Some((html, taken)) = figure(&events, i, dir, figures + 1) {
+                figures += 1;
+                out.push(Event::Html(CowStr::from(html)));
+                i += taken;
+                close_fold(depth, &mut fold_open, &mut out);
+                continue;
+            }
         }
-        if let Some(h) = trimmed.strip_prefix('#') {
-            let level = 1 + h.chars().take_while(|&c| c == '#').count();
-            let text = h.trim_start_matches('#').trim();
-            let _ = writeln!(body, "<h{level}>{}</h{level}>", inline(text));
-            i += 1;
-        } else if trimmed.starts_with("```") {
-            let mut code = String::new();
-            i += 1;
-            while i < lines.len() && !lines[i].trim_start().starts_with("```") {
-                code += lines[i];
-                code.push('\n');
-                i += 1;
-            }
-            i += 1;
-            let _ = writeln!(body, "<pre>{}</pre>", escape(&code));
-        } else if let Some(img) = trimmed.strip_prefix("![") {
-            let (alt, rest) = img.split_once("](").unwrap_or((img, ""));
-            let src = rest.trim_end_matches(')');
-            figures += 1;
-            let svg = inline_svg(dir, src, &format!("fig{figures}-"));
-            let stem = src.trim_end_matches(".svg");
-            let _ = writeln!(
-                body,
-                "<figure>\n{svg}<figcaption>{} <span class=\"files\">(<a href=\"{s}\">SVG</a>, <a href=\"{stem}.png\">PNG</a>, \
-                 <a href=\"{stem}.pdf\">PDF</a>)</span></figcaption>\n</figure>",
-                inline(alt),
-                s = escape(src),
-                stem = escape(stem)
-            );
-            i += 1;
-        } else if trimmed.starts_with('|') {
-            let header = cells(trimmed);
-            let align: Vec<&str> = if i + 1 < lines.len() && lines[i + 1].trim().starts_with("|-") {
-                cells(lines[i + 1])
-                    .iter()
-                    .map(|c| if c.ends_with(':') { "right" } else { "left" })
-                    .collect()
-            } else {
-                Vec::new()
-            };
-            body += "<table>\n<thead><tr>";
-            for (k, h) in header.iter().enumerate() {
-                let _ = write!(
-                    body,
-                    "<th style=\"text-align:{}\">{}</th>",
-                    align.get(k).unwrap_or(&"left"),
-                    inline(h)
-                );
-            }
-            body += "</tr></thead>\n<tbody>\n";
-            i += if align.is_empty() { 1 } else { 2 };
-            while i < lines.len() && lines[i].trim().starts_with('|') {
-                body += "<tr>";
-                for (k, c) in cells(lines[i]).iter().enumerate() {
-                    let _ = write!(
-                        body,
-                        "<td style=\"text-align:{}\">{}</td>",
-                        align.get(k).unwrap_or(&"left"),
-                        inline(c)
-                    );
-                }
-                body += "</tr>\n";
-                i += 1;
-            }
-            body += "</tbody></table>\n";
-        } else if trimmed.starts_with("- ") {
-            body += "<ul>\n";
-            while i < lines.len() && lines[i].trim_start().starts_with("- ") {
-                let _ = writeln!(body, "<li>{}</li>", inline(&lines[i].trim_start()[2..]));
-                i += 1;
-            }
-            body += "</ul>\n";
-        } else if trimmed.starts_with('>') {
-            let mut text = String::new();
-            while i < lines.len() && lines[i].trim_start().starts_with('>') {
-                text += lines[i].trim_start().trim_start_matches('>').trim();
-                text.push(' ');
-                i += 1;
-            }
-            let _ = writeln!(body, "<blockquote>{}</blockquote>", inline(text.trim()));
-        } else {
-            let mut text = String::new();
-            while i < lines.len() {
-                let t = lines[i].trim();
-                if t.is_empty() || t.starts_with(['#', '|', '>', '!']) || t.starts_with("- ") || t.starts_with("```") {
-                    break;
-                }
-                text += t;
-                text.push(' ');
-                i += 1;
-            }
-            let _ = writeln!(body, "<p>{}</p>", inline(text.trim()));
+        match e {
+            Event::Start(t) if is_block(t) => depth += 1,
+            Event::End(t) if is_block_end(t) => depth -= 1,
+            _ => {}
         }
+        out.push(e.clone());
+        if matches!(e, Event::End(t) if is_block_end(t)) && !matches!(e, Event::End(TagEnd::HtmlBlock)) {
+            close_fold(depth, &mut fold_open, &mut out);
+        }
+        i += 1;
     }
-    if open_fold {
-        body += "</details>\n";
-    }
+    let mut body = String::new();
+    pulldown_cmark::html::push_html(&mut body, out.into_iter());
     Ok(format!(
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
          <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{}</title>\n<style>{STYLE}</style>\n\
          </head>\n<body>\n<main>\n{body}</main>\n</body>\n</html>\n",
         escape(title)
     ))
+}
+
+/// Close an open `<details>` once the folded block has ended (back at the top level).
+fn close_fold(depth: usize, open: &mut bool, out: &mut Vec<Event>) {
+    if *open && depth == 0 {
+        out.push(Event::Html(CowStr::from("</details>\n")));
+        *open = false;
+    }
+}
+
+fn is_block(t: &Tag) -> bool {
+    matches!(
+        t,
+        Tag::Paragraph
+            | Tag::Heading { .. }
+            | Tag::BlockQuote(_)
+            | Tag::CodeBlock(_)
+            | Tag::HtmlBlock
+            | Tag::List(_)
+            | Tag::Table(_)
+    )
+}
+
+fn is_block_end(t: &TagEnd) -> bool {
+    matches!(
+        t,
+        TagEnd::Paragraph
+            | TagEnd::Heading(_)
+            | TagEnd::BlockQuote(_)
+            | TagEnd::CodeBlock
+            | TagEnd::HtmlBlock
+            | TagEnd::List(_)
+            | TagEnd::Table
+    )
 }
 
 const STYLE: &str = "
@@ -218,6 +181,7 @@ thead th { background: #f0f0f0; }
 tbody tr:nth-child(even) { background: #fafafa; }
 code { font-family: 'DejaVu Sans Mono', Menlo, Consolas, monospace; font-size: .92em; background: #f3f3f3; padding: 0 .2em; }
 pre { background: #f6f6f6; border: 1px solid #e0e0e0; padding: .7em; overflow-x: auto; font-size: .85em; }
+pre code { background: none; padding: 0; font-size: inherit; }
 figure { margin: 1.2em 0; }
 figure svg { max-width: 100%; height: auto; display: block; }
 figcaption { font-size: .9em; color: #444; margin-top: .3em; }
@@ -241,12 +205,22 @@ mod tests {
         )
         .expect("write");
         let md = "# T\n\nSome **bold** `x<y`.\n\n| a | b |\n|---|---:|\n| 1 | 2 |\n\n![The caption](a.svg)\n\n\
-                  <!-- fold: diagnostics -->\n- rank 3/3\n- time 1 s\n\n## Next\n";
+                  <!-- fold: diagnostics -->\n- rank 3/3\n- time 1 s\n\n## Next\n\n<!-- fold: steps -->\n```\na | b < c\n```\n\nAfter.\n";
         let html = page("t", md, dir.path()).expect("page");
-        assert!(html.contains("<table>") && html.contains("<td style=\"text-align:right\">2</td>"));
+        assert!(
+            html.contains("<table>") && html.contains("<td style=\"text-align: right\">2</td>"),
+            "{html}"
+        );
         assert!(html.contains("<strong>bold</strong>") && html.contains("<code>x&lt;y</code>"));
         assert!(html.contains("id=\"fig1-clip1\"") && html.contains("url(#fig1-clip1)"));
         assert!(html.contains("<details><summary>diagnostics</summary>\n<ul>"));
-        assert!(html.contains("</ul>\n</details>\n<h2>Next</h2>"));
+        assert!(html.contains("</ul>\n</details>\n<h2>Next</h2>"), "{html}");
+        assert!(
+            html.contains(
+                "<details><summary>steps</summary>\n<pre><code>a | b &lt; c\n</code></pre>\n</details>\n<p>After.</p>"
+            ),
+            "{html}"
+        );
+        assert!(html.contains("<figcaption>The caption <span"), "{html}");
     }
 }
