@@ -48,7 +48,7 @@ fn estimates(r: &fpkbench::report::Report) -> Vec<(String, f64, f64)> {
     r.methods[0]
         .parameters
         .iter()
-        .map(|p| (p.name.clone(), p.estimate, p.std_error))
+        .map(|p| (p.name.to_string(), p.estimate, p.std_error))
         .collect()
 }
 

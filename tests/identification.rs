@@ -3,7 +3,7 @@
 use fpkbench::ident::moments::RawMoments;
 use fpkbench::ident::poly::exponent;
 use fpkbench::ident::{weak, IdentError, Problem, Specification};
-use fpkbench::model::Term;
+use fpkbench::model::{Term, UnknownName};
 use fpkbench::{zoo, Model, Scenario};
 
 const SIM: &str = "dt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1";
@@ -111,7 +111,7 @@ fn strong_form_on_the_exact_density_converges_like_h_squared() {
     );
 }
 
-fn dir(d: &[(String, f64)], name: &str) -> f64 {
+fn dir(d: &[(UnknownName, f64)], name: &str) -> f64 {
     d.iter().find(|x| x.0 == name).map_or(0.0, |x| x.1)
 }
 
@@ -119,7 +119,7 @@ fn dir(d: &[(String, f64)], name: &str) -> f64 {
 /// direction of the same unknowns on exact moments (the check bypassed), both in relative
 /// units (`d ln value`), the numerical one scaled to agree in `scale_by`.
 #[allow(clippy::type_complexity)]
-fn refused_and_null(identify: &str, scale_by: &str) -> (Vec<Vec<(String, f64)>>, Vec<(String, f64)>, f64) {
+fn refused_and_null(identify: &str, scale_by: &str) -> (Vec<Vec<(UnknownName, f64)>>, Vec<(UnknownName, f64)>, f64) {
     let s = sdof_duffing(identify);
     let structural = match Problem::new(&s) {
         Err(IdentError::Symmetric { directions, .. }) => directions,
@@ -144,7 +144,7 @@ fn damping_with_intensity_unknown_is_refused_from_the_structure_along_the_exact_
         refused_and_null("[identify]\nunknown_intensities = [\"m1\"]\n", "c1[ground-m1]");
     assert_eq!(structural.len(), 1, "{structural:?}");
     let d = &structural[0];
-    let names: Vec<&str> = d.iter().map(|x| x.0.as_str()).collect();
+    let names: Vec<String> = d.iter().map(|x| x.0.to_string()).collect();
     assert_eq!(names, ["c1[ground-m1]", "sigma[m1]"]);
     assert!(
         (dir(d, "c1[ground-m1]") - 1.0).abs() < 1e-9 && (dir(d, "sigma[m1]") - 0.5).abs() < 1e-9,
@@ -154,7 +154,7 @@ fn damping_with_intensity_unknown_is_refused_from_the_structure_along_the_exact_
     assert!(ratio < 1e-8, "sv ratio {ratio:e}");
     for (n, x) in &numeric {
         assert!(
-            (x - dir(d, n)).abs() < 1e-6,
+            (x - dir(d, &n.to_string())).abs() < 1e-6,
             "{n}: structural {d:?}, numerical {numeric:?}"
         );
     }
@@ -177,7 +177,7 @@ fn mass_unknown_is_refused_from_the_structure_along_the_exact_null_direction() {
     assert!(ratio < 1e-8, "sv ratio {ratio:e}");
     for (n, x) in &numeric {
         assert!(
-            (x - dir(d, n)).abs() < 1e-6,
+            (x - dir(d, &n.to_string())).abs() < 1e-6,
             "{n}: structural {d:?}, numerical {numeric:?}"
         );
     }

@@ -8,6 +8,7 @@ use super::{
     estimate::{jackknife, std_errors},
     identify_weak, lsq, poly, weak, Estimate, IdentError, Problem, Unknown, INSEPARABLE_RATIO, WEAK_RATIO,
 };
+use crate::model::UnknownName;
 use nalgebra::{DMatrix, DVector};
 
 impl Problem {
@@ -58,11 +59,10 @@ impl Problem {
                         p => format!("{}^{p}", self.state_names[j]),
                     })
                     .collect();
-                format!(
-                    "drift[{}]:{}",
-                    self.model.mass_names[i],
-                    if term.is_empty() { "1".into() } else { term.join("*") }
-                )
+                UnknownName::Monomial {
+                    mass: self.model.mass_names[i].clone(),
+                    monomial: if term.is_empty() { "1".into() } else { term.join("*") },
+                }
             })
             .collect();
         (out, map)

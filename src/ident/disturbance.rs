@@ -46,7 +46,7 @@ use super::data::StationaryData;
 use super::poly::Poly;
 use super::spectrum::{fit_ou, CrossWelch, OuFit};
 use super::{identify_weak, Estimate, Filter, IdentError, Problem, Specification, Unknown};
-use crate::model::{Characteristic, Columns, CompiledExcitation};
+use crate::model::{Characteristic, Coefficient, Columns, CompiledExcitation, Term, UnknownName};
 use crate::scenario::{Disturbance, PaperStructure, Process, Scenario};
 use serde::Serialize;
 
@@ -171,7 +171,12 @@ pub fn direct_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem, Iden
     let at = p.coefficient_count();
     p.unknowns.insert(at, Unknown::InputGain(1));
     p.unit_force.insert(at, vec![Poly::linear(&[(r, 2.0)])]);
-    p.names.insert(at, format!("k1[{}]", s.links[st.coupling].name));
+    let coupling = Coefficient {
+        link: st.coupling,
+        kind: Characteristic::Stiffness,
+        term: Term::Power(1),
+    };
+    p.names.insert(at, p.model.coefficient_name(coupling).into());
     p.start.insert(at, 0.0);
     Ok(p)
 }
@@ -350,7 +355,7 @@ impl Serialize for StopReason {
 pub struct Iteration {
     /// The single-mass step of steps ≥ 1.
     pub single_mass: SingleMass,
-    pub names: Vec<String>,
+    pub names: Vec<UnknownName>,
     pub steps: Vec<Step>,
     /// `tolerance`, `max_steps`, or why a step failed.
     pub stopped_by: StopReason,

@@ -3,6 +3,7 @@
 //! before any number is reported (`docs/theory.md` §6).
 
 use super::{data, kernel, lsq, moments, strong, weak, IdentError, Pieces, Problem};
+use crate::model::UnknownName;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
@@ -24,7 +25,7 @@ pub const SPREAD_CHECK_RATIO: f64 = 1e-2;
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Estimate {
     pub method: &'static str,
-    pub names: Vec<String>,
+    pub names: Vec<UnknownName>,
     pub values: Vec<f64>,
     /// Standard errors by the delete-one-batch jackknife ([`jackknife`]); NaN without
     /// batches.

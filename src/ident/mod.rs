@@ -38,6 +38,7 @@ pub mod strong;
 pub mod weak;
 
 pub use bilinear::identify_weak_bilinear;
+use crate::model::UnknownName;
 pub use estimate::{
     estimate, identify_kernel, identify_strong, identify_weak, jackknife, Estimate, INSEPARABLE_RATIO,
     SPREAD_CHECK_RATIO, WEAK_RATIO,
@@ -55,14 +56,14 @@ pub enum IdentError {
          the direction [{}] (singular values {}; smallest/largest = {:.2e}, rank {} of {}; {}). \
          No estimates are given. Declare some of them known (docs/theory.md §6: the excitation \
          intensity and the masses must be known)",
-        .names.join(", "),
+        .names.iter().map(ToString::to_string).collect::<Vec<_>>().join(", "),
         .direction.iter().map(|(n, d)| format!("{n}: {d:+.3}")).collect::<Vec<_>>().join(", "),
         .singular_values.iter().map(|s| format!("{s:.3e}")).collect::<Vec<_>>().join(" "),
         .sv_ratio, .rank, .cols, .reason
     )]
     NotIdentifiable {
-        names: Vec<String>,
-        direction: Vec<(String, f64)>,
+        names: Vec<UnknownName>,
+        direction: Vec<(UnknownName, f64)>,
         singular_values: Vec<f64>,
         sv_ratio: f64,
         rank: usize,
@@ -81,7 +82,7 @@ pub enum IdentError {
     )]
     Symmetric {
         /// Per null direction: the unknowns it moves and by how much.
-        directions: Vec<Vec<(String, f64)>>,
+        directions: Vec<Vec<(UnknownName, f64)>>,
         why: String,
     },
     #[error("too little data: {0}")]

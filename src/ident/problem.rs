@@ -7,7 +7,7 @@
 
 use super::poly::{var, Poly, MAX_VARS};
 use super::{lsq, moments, poly, IdentError, Specification};
-use crate::model::{Characteristic, Coefficient, Model, ParameterName, Quantity, Term, Truth};
+use crate::model::{Characteristic, Coefficient, Model, ParameterName, Quantity, Term, Truth, UnknownName};
 use crate::scenario::{Process, Scenario};
 use nalgebra::{DMatrix, DVector};
 use std::cell::RefCell;
@@ -64,7 +64,7 @@ pub struct Problem {
     pub model: Model,
     pub layout: Layout,
     pub unknowns: Vec<Unknown>,
-    pub names: Vec<String>,
+    pub names: Vec<UnknownName>,
     /// Value each unknown starts Gauss–Newton from: the log's nominal mass or intensity;
     /// 0 for coefficients (they enter linearly, so their start does not matter).
     pub start: Vec<f64>,
@@ -243,17 +243,9 @@ impl Problem {
     }
 
     /// The true value of every unknown, looked up by its name in `truth` (for grading; the
-    /// identifier itself never sees a truth). A product of unknowns (`B[P]*k1[…]`) is the
-    /// product of its factors' values; NaN where the truth has none (e.g. a monomial).
+    /// identifier itself never sees a truth); NaN where the truth has none (e.g. a monomial).
     pub fn true_values(&self, truth: &Truth) -> Vec<f64> {
-        self.names
-            .iter()
-            .map(|name| {
-                name.split('*')
-                    .map(|factor| truth.of(factor).unwrap_or(f64::NAN))
-                    .product()
-            })
-            .collect()
+        self.names.iter().map(|n| truth.of(n).unwrap_or(f64::NAN)).collect()
     }
 
     /// Index of `x_i` in the state.

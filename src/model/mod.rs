@@ -13,7 +13,7 @@ mod names;
 mod term;
 
 pub use columns::{Columns, Quantity};
-pub use names::{ParameterName, Truth};
+pub use names::{ParameterName, Truth, UnknownName};
 pub use term::Term;
 
 use crate::scenario::{End, Process, Scenario};

@@ -1,6 +1,8 @@
 //! Parameter names as reports, plots and the log's truth record write them: `m[m1]`,
-//! `k3[ground-m1]`, `c1[m1-m2]`, `sigma[m1]`, `A[P]`, `B[P]`. Formatted and parsed here
-//! only; everything else handles a [`ParameterName`].
+//! `k3[ground-m1]`, `c1[m1-m2]`, `sigma[m1]`, `A[P]`, `B[P]`, and the names of a problem's
+//! unknowns that are not parameters (`B[P]*k1[m1-m2]`, `drift[m1]:x_m1*v_m1`). Formatted
+//! here only, and parsed only from a log's truth record; everything else, from the problem
+//! to the report's rows, handles a [`ParameterName`] or an [`UnknownName`].
 
 use super::{Characteristic, Term};
 use crate::scenario::Curve;
@@ -75,6 +77,65 @@ impl FromStr for ParameterName {
     }
 }
 
+/// The name of one unknown of an identification problem, carried from the problem through
+/// the estimate into the report's rows (written as text only when printed or serialized).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub enum UnknownName {
+    /// A parameter of the system.
+    Parameter(ParameterName),
+    /// The product of an unknown corner and a coefficient, `B[P]*k1[m1-m2]`: what the data
+    /// determine when both are unknown (docs/theory.md §6).
+    Product(ParameterName, ParameterName),
+    /// A coefficient of the drift's monomial form on `mass`: `drift[m1]:x_m1*v_m1`.
+    Monomial { mass: String, monomial: String },
+}
+
+impl UnknownName {
+    /// The system parameter this unknown is, if it is one.
+    pub fn parameter(&self) -> Option<&ParameterName> {
+        match self {
+            UnknownName::Parameter(p) => Some(p),
+            _ => None,
+        }
+    }
+}
+
+impl From<ParameterName> for UnknownName {
+    fn from(p: ParameterName) -> UnknownName {
+        UnknownName::Parameter(p)
+    }
+}
+
+impl fmt::Display for UnknownName {
+    /// The name as reports write it, padded to a width where one is asked for.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let text = match self {
+            UnknownName::Parameter(p) => p.to_string(),
+            UnknownName::Product(a, b) => format!("{a}*{b}"),
+            UnknownName::Monomial { mass, monomial } => format!("drift[{mass}]:{monomial}"),
+        };
+        f.pad(&text)
+    }
+}
+
+impl serde::Serialize for UnknownName {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl PartialEq<str> for UnknownName {
+    fn eq(&self, other: &str) -> bool {
+        self.to_string() == other
+    }
+}
+
+impl PartialEq<&str> for UnknownName {
+    fn eq(&self, other: &&str) -> bool {
+        self.to_string() == *other
+    }
+}
+
 /// True parameter values by name: what a log's `fpkbench.truth` record holds. The one
 /// source the pipeline grades against; the identifier never sees it.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -95,12 +156,20 @@ impl Truth {
         self.0.get(name).copied()
     }
 
-    /// The true value of the parameter named `name` as written in a report: a coefficient
-    /// the true system does not have is 0; a name that is no parameter (e.g. a product of
-    /// unknowns) or a mass or excitation parameter the truth lacks has none.
-    pub fn of(&self, name: &str) -> Option<f64> {
-        let n: ParameterName = name.parse().ok()?;
-        match (self.get(&n), &n) {
+    /// The true value of the unknown `name`: a product's is the product of its factors'; a
+    /// monomial of the drift has none.
+    pub fn of(&self, name: &UnknownName) -> Option<f64> {
+        match name {
+            UnknownName::Parameter(p) => self.parameter(p),
+            UnknownName::Product(a, b) => Some(self.parameter(a)? * self.parameter(b)?),
+            UnknownName::Monomial { .. } => None,
+        }
+    }
+
+    /// The true value of the parameter `n`: a coefficient the true system does not have is
+    /// 0; a mass or excitation parameter the truth lacks has none.
+    fn parameter(&self, n: &ParameterName) -> Option<f64> {
+        match (self.get(n), n) {
             (Some(v), _) => Some(v),
             (None, ParameterName::Coefficient { .. }) => Some(0.0),
             (None, _) => None,

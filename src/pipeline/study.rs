@@ -294,7 +294,7 @@ fn rows_of(study: &str, item: &Item, r: &Report, simulate_s: f64, item_s: f64) -
                 .parameters
                 .iter()
                 .map(|p| RowParameter {
-                    name: p.name.clone(),
+                    name: p.name.to_string(),
                     true_value: p.true_value,
                     estimate: p.estimate,
                     std_error: p.std_error.is_finite().then_some(p.std_error),

@@ -188,7 +188,7 @@ fn parameter_table(r: &Report) -> String {
     let names: Vec<String> = methods
         .iter()
         .find(|m| !m.parameters.is_empty())
-        .map(|m| m.parameters.iter().map(|p| p.name.clone()).collect())
+        .map(|m| m.parameters.iter().map(|p| p.name.to_string()).collect())
         .unwrap_or_default();
     for (k, name) in names.iter().enumerate() {
         let t = methods

@@ -1,7 +1,7 @@
 //! The result types of a run, serialised as `report.json` (fields in `docs/methods.md`).
 
 use crate::ident::{disturbance, lsq::Diagnostics, spectrum};
-use crate::model::{Term, Truth};
+use crate::model::{Term, Truth, UnknownName};
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
 use crate::stats::Histogram;
@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Parameter {
-    pub name: String,
+    pub name: UnknownName,
     pub true_value: f64,
     pub estimate: f64,
     /// The jackknife's standard error (NaN, `null` in JSON, where the method has none).
@@ -356,7 +356,7 @@ pub struct SweepSequence {
 #[derive(Debug, Clone, Serialize)]
 pub struct Sweep {
     pub scenario: String,
-    pub names: Vec<String>,
+    pub names: Vec<UnknownName>,
     pub truth: Vec<f64>,
     pub points: Vec<SweepPoint>,
 }

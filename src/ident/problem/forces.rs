@@ -170,7 +170,7 @@ impl ForceTerms<'_> {
         &self,
         unknowns: &[Unknown],
         mut pmax: u32,
-    ) -> Result<(Vec<Vec<Poly>>, Vec<String>, Vec<f64>, u32), IdentError> {
+    ) -> Result<(Vec<Vec<Poly>>, Vec<UnknownName>, Vec<f64>, u32), IdentError> {
         let (model, st) = (self.model, self.state);
         let n = model.masses();
         let mut unit_force = Vec::new();
@@ -181,7 +181,7 @@ impl ForceTerms<'_> {
                 Unknown::Coefficient(c) => {
                     pmax = pmax.max(c.term.degree());
                     unit_force.push((0..n).map(|i| self.term(c.link, c.kind, c.term, i)).collect());
-                    names.push(model.coefficient_name(c).to_string());
+                    names.push(model.coefficient_name(c).into());
                     start.push(0.0);
                 }
                 Unknown::CornerProduct(c, e) => {
@@ -193,17 +193,16 @@ impl ForceTerms<'_> {
                             })
                             .collect(),
                     );
-                    names.push(format!(
-                        "{}*{}",
+                    names.push(UnknownName::Product(
                         ParameterName::Corner(model.excitation_names[e].clone()),
-                        model.coefficient_name(c)
+                        model.coefficient_name(c),
                     ));
                     start.push(0.0);
                 }
                 Unknown::Corner(e) => {
                     // Per unit of B: −(m_i a_i + Σ s F_known) on every mass it drives.
                     unit_force.push((0..n).map(|i| self.corner_force(e, i)).collect());
-                    names.push(ParameterName::Corner(model.excitation_names[e].clone()).to_string());
+                    names.push(ParameterName::Corner(model.excitation_names[e].clone()).into());
                     start.push(0.0);
                 }
                 Unknown::Monomial(..) => unreachable!("monomial unknowns come from monomial_form"),
@@ -214,7 +213,7 @@ impl ForceTerms<'_> {
                             "unknown masses with filtered excitation are not supported".into(),
                         ));
                     }
-                    names.push(ParameterName::Mass(model.mass_names[i].clone()).to_string());
+                    names.push(ParameterName::Mass(model.mass_names[i].clone()).into());
                     start.push(model.mass[i]);
                 }
                 Unknown::Intensity(e) => {
@@ -224,7 +223,7 @@ impl ForceTerms<'_> {
                             model.excitation_names[e]
                         )));
                     };
-                    names.push(ParameterName::Intensity(model.excitation_names[e].clone()).to_string());
+                    names.push(ParameterName::Intensity(model.excitation_names[e].clone()).into());
                     start.push(sigma);
                 }
             }

@@ -1,14 +1,14 @@
 //! `iteration.svg`: the section-4 sequences step by step.
 
 use super::write_figure;
-use crate::model::{Characteristic, ParameterName};
+use crate::model::{Characteristic, ParameterName, UnknownName};
 use crate::report::figure::{color, padded, Axis, Figure, Mark, Panel, Stroke, Swatch, BLACK};
 use crate::report::Report;
 use crate::scenario::{Motion, ReportMethod};
 use std::path::{Path, PathBuf};
 
-/// The unit of a parameter named as in reports (`k3[ground-m1]`: N/m³), empty when unknown.
-pub(crate) fn parameter_unit(name: &str, motion: Motion) -> String {
+/// The unit of an unknown (`k3[ground-m1]`: N/m³), empty for one that is no parameter.
+pub(crate) fn parameter_unit(name: &UnknownName, motion: Motion) -> String {
     let [ux, uv, _, uf, um] = motion.units().map(crate::report::figure::unit);
     let (ux, uv, uf, um) = (ux.as_str(), uv.as_str(), uf.as_str(), um.as_str());
     let sup = |p: u32| match p {
@@ -25,15 +25,15 @@ pub(crate) fn parameter_unit(name: &str, motion: Motion) -> String {
             format!("{u}{}", sup(p))
         }
     };
-    match name.parse::<ParameterName>() {
-        Ok(ParameterName::Mass(_)) => um.into(),
+    match name.parameter() {
+        Some(ParameterName::Mass(_)) => um.into(),
         // A coefficient is a force per its term's unit (the argument's to the term's degree).
-        Ok(ParameterName::Coefficient { kind, term, .. }) => match (term.degree(), kind) {
+        Some(ParameterName::Coefficient { kind, term, .. }) => match (term.degree(), kind) {
             (0, _) => uf.into(),
             (d, Characteristic::Stiffness) => format!("{uf}/{}", over(ux, d)),
             (d, Characteristic::Damping) => format!("{uf}/{}", over(uv, d)),
         },
-        Ok(ParameterName::Corner(_)) => "1/s".into(),
+        Some(ParameterName::Corner(_)) => "1/s".into(),
         _ => String::new(),
     }
 }
@@ -102,7 +102,7 @@ pub fn plot_iteration(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> 
         );
         let unit = parameter_unit(name, motion);
         let mut p = Panel::new(
-            name.clone(),
+            name.to_string(),
             Axis::linear(-0.2, last + 0.2, "step"),
             Axis::linear(
                 lo,
