@@ -143,8 +143,9 @@ fn channel_metadata(s: &Scenario, model: &Model, cols: &[String]) -> BTreeMap<St
     let mut m = BTreeMap::new();
     m.insert("columns".into(), cols.join(","));
     let mut units = vec!["t:s".to_string()];
-    for c in cols {
-        let u = Quantity::of_column(c).unwrap_or(Quantity::Force).unit(s.motion);
+    let layout = model.columns();
+    for (k, c) in cols.iter().enumerate() {
+        let u = layout.at(k).0.unit(s.motion);
         units.push(format!("{c}:{u}"));
     }
     m.insert("units".into(), units.join(","));

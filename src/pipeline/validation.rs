@@ -5,7 +5,6 @@ use super::grading::coefficients_of;
 use crate::ident::data::StationaryData;
 use crate::ident::spectrum::{Spectrum, Welch};
 use crate::ident::{spectrum, Problem, Unknown};
-use crate::model::Quantity;
 use crate::model::{Characteristic, Coefficient, Model, Term};
 use crate::report::{PlotData, SpectrumComparison, Validation, ValidationRow};
 use crate::scenario::ReportMethod;
@@ -156,13 +155,12 @@ impl Distributions {
         let state_hist: Vec<Histogram> = (0..problem.columns.len())
             .map(|j| Histogram::new(total.min[j], total.max[j], HIST_BINS))
             .collect();
+        let log = problem.model.columns();
         let names = problem
             .state_names
             .iter()
-            .map(|name| {
-                let q = Quantity::of_column(name).unwrap_or(Quantity::Acceleration);
-                (name.clone(), q.unit(s.motion).to_string())
-            })
+            .zip(&problem.columns)
+            .map(|(name, &c)| (name.clone(), log.at(c).0.unit(s.motion).to_string()))
             .collect();
         let sim = &s.simulation;
         let welch = Welch::new(
