@@ -229,7 +229,7 @@ macro_rules! registry {
                         .collect();
                     return refused(IdentError::NotApplicable(format!(
                         "{} evaluates the characteristics as polynomials, and {} multiply terms without a \
-                         polynomial form; the weak form takes them",
+                         polynomial form; the weak form and the strong forms take them",
                         self.name(),
                         names.join(", ")
                     )));
@@ -245,9 +245,9 @@ registry! {
     Weak = "weak", Fpk, Any, weak::build;
     /// Strong form: the paper's FPK residual (3.8) point by point, from kernel estimates of the
     /// density and its fluxes (or the paper's histogram, `StrongDensity::Histogram`).
-    Strong = "strong", Fpk, Polynomial, strong::build;
+    Strong = "strong", Fpk, Any, strong::build;
     /// Strong form with the joint density replaced by the product of its marginals (3.21).
-    StrongMarginals = "strong-marginals", Fpk, Polynomial, marginals::build;
+    StrongMarginals = "strong-marginals", Fpk, Any, marginals::build;
     /// Baseline (not FPK): regression of velocity increments on the drift (Euler pseudo-likelihood).
     Increments = "increments", Baseline, Polynomial, increments::build;
     /// Baseline (not FPK): binned conditional mean increments (Kramers–Moyal), then the drift.
@@ -335,8 +335,8 @@ mod tests {
     }
 
     /// On a problem with terms entered as atoms (the way of a term without a polynomial
-    /// form), the weak form estimates and every method that evaluates polynomials reports
-    /// not-applicable, naming the terms.
+    /// form), the weak and strong forms estimate and every method that evaluates
+    /// polynomials reports not-applicable, naming the terms.
     #[test]
     fn methods_that_take_polynomials_only_step_aside_for_other_terms() {
         use crate::ident::{weak, Specification};
@@ -373,12 +373,20 @@ mod tests {
             bilinear: false,
         };
         for &m in Method::REGISTERED {
-            let result = m.estimator(&setup).estimate(&cx);
+            let mut estimator = m.estimator(&setup);
+            for b in &samples.batches {
+                b.for_each_sample(|j, t, row| estimator.push(j, t, data.batch_of(j, t), row));
+            }
+            estimator.finish();
+            let result = estimator.estimate(&cx);
             match m.terms() {
                 Terms::Any => assert!(result.is_ok(), "{m}: {result:?}"),
                 Terms::Polynomial => match result {
                     Err(IdentError::NotApplicable(why)) => {
-                        assert!(why.contains("k3[ground-m1]") && why.contains("weak form"), "{m}: {why}")
+                        assert!(
+                            why.contains("k3[ground-m1]") && why.contains("weak form and the strong forms"),
+                            "{m}: {why}"
+                        )
                     }
                     other => panic!("{m}: {other:?}"),
                 },

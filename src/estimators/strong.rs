@@ -27,8 +27,8 @@ pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
 
 /// The kernel lattice over `problem`'s state.
 fn lattice(setup: &Setup, problem: &Problem) -> Result<FluxLattice, IdentError> {
-    let options = setup.settings.kernel(problem.dim(), setup.total.count);
-    let (mean, std) = setup.mean_std(problem.dim());
+    let options = setup.settings.kernel(problem.density_dim(), setup.total.count);
+    let (mean, std) = setup.mean_std(problem.density_dim());
     FluxLattice::new(problem, &mean, &std, options, setup.data.batch_count(), setup.arenas)
 }
 
@@ -36,7 +36,7 @@ fn lattice(setup: &Setup, problem: &Problem) -> Result<FluxLattice, IdentError> 
 /// automatic from the sample count, and not applicable when even the coarsest automatic
 /// grid would be too sparse. `joint`: count the joint histogram, not only the marginals.
 pub(super) fn grid(setup: &Setup, joint: bool) -> Result<DensityGrid, IdentError> {
-    let (dim, count) = (setup.structure.dim(), setup.total.count);
+    let (dim, count) = (setup.structure.density_dim(), setup.total.count);
     if !setup.settings.grid.is_set() {
         strong::applicable(dim, count).map_err(IdentError::NotApplicable)?;
     }

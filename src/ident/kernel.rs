@@ -227,6 +227,9 @@ pub struct FluxLattice {
     cell_nodes: Vec<(usize, f64)>,
     /// Where the lattices come from and go back to.
     arenas: Arc<Arenas>,
+    /// The terms without a polynomial form, valued from each sample's link motion and
+    /// appended to its state before the fluxes are evaluated (`None` without any).
+    atoms: Option<(crate::model::Model, Vec<super::Atom>)>,
 }
 
 /// Samples gathered before they are spread over the lattice in the order of their cells
@@ -341,7 +344,7 @@ impl FluxLattice {
         batches: usize,
         arenas: &Arc<Arenas>,
     ) -> Result<FluxLattice, IdentError> {
-        let d = problem.dim();
+        let d = problem.density_dim();
         let h_std = (options.smoothing * SPACING).min(MAX_SPACING);
         let taps = (CUT * options.smoothing / h_std).ceil() as usize;
         let half_width = (options.span_std + CUT * options.smoothing).min(options.span_std + MARGIN);
@@ -399,7 +402,7 @@ impl FluxLattice {
             groups,
             finished: true,
             pending_keys: Vec::with_capacity(PENDING),
-            pending_y: Vec::with_capacity(PENDING * d),
+            pending_y: Vec::with_capacity(PENDING * (d + problem.atoms.len())),
             compiled: Compiled::new(&channels.polys[1..]),
             y: vec![0.0; d],
             values: vec![0.0; width],
@@ -407,6 +410,7 @@ impl FluxLattice {
             cell_nodes: vec![(0, 0.0); 1 << d],
             arenas: arenas.clone(),
             channels,
+            atoms: (!problem.atoms.is_empty()).then(|| (problem.model.clone(), problem.atoms.clone())),
         })
     }
 
@@ -420,6 +424,7 @@ impl FluxLattice {
         options: KernelOptions,
         f: impl Fn(&[f64]) -> f64,
     ) -> Result<FluxLattice, IdentError> {
+        assert!(problem.atoms.is_empty(), "an exact density over the state has no atoms");
         let mut l = FluxLattice::new(problem, mean, std, options, 0, &Arc::default())?;
         let width = l.channels.len();
         let volume: f64 = l.h.iter().product();
@@ -479,6 +484,9 @@ impl FluxLattice {
         let slot = (group * self.cells + first) as u64;
         self.pending_keys.push(slot << ENTRY_BITS | entry as u64);
         self.pending_y.extend(self.columns.iter().map(|&c| row[c]));
+        if let Some((model, atoms)) = &self.atoms {
+            self.pending_y.extend(atoms.iter().map(|a| a.value(model, row)));
+        }
         if entry + 1 == PENDING {
             self.spread();
         }
@@ -505,32 +513,34 @@ impl FluxLattice {
         let mut keys = std::mem::take(&mut self.pending_keys);
         keys.sort_unstable();
         let (d, width) = (self.dim, self.channels.len());
+        // Values per gathered sample: the state, then the atoms'.
+        let vars = d + self.atoms.as_ref().map_or(0, |a| a.1.len());
         // The fluxes of a run of samples evaluated together (variable-major states, then
         // channel-major values: `Compiled::eval_block`), then each spread in turn.
         let mut ys = std::mem::take(&mut self.y);
         let mut block = std::mem::take(&mut self.values);
-        ys.resize(d * SPREAD_RUN, 0.0);
+        ys.resize(vars * SPREAD_RUN, 0.0);
         block.resize(width * SPREAD_RUN, 0.0);
         let mut values = vec![1.0; width];
         // The states are gathered in the order of the cells, far from the order they came
         // in: the next run's are asked for while this one is spread.
         let entry_of = |key: u64| (key & ((1 << ENTRY_BITS) - 1)) as usize;
         for &key in keys.iter().take(SPREAD_RUN) {
-            prefetch(&self.pending_y[entry_of(key) * d]);
+            prefetch(&self.pending_y[entry_of(key) * vars]);
         }
         for (r, run) in keys.chunks(SPREAD_RUN).enumerate() {
             let lanes = run.len();
             for &key in keys.iter().skip((r + 1) * SPREAD_RUN).take(SPREAD_RUN) {
-                prefetch(&self.pending_y[entry_of(key) * d]);
+                prefetch(&self.pending_y[entry_of(key) * vars]);
             }
             for (l, &key) in run.iter().enumerate() {
                 let entry = entry_of(key);
-                for j in 0..d {
-                    ys[j * lanes + l] = self.pending_y[entry * d + j];
+                for j in 0..vars {
+                    ys[j * lanes + l] = self.pending_y[entry * vars + j];
                 }
             }
             self.compiled
-                .eval_block(&ys[..d * lanes], lanes, &mut block[lanes..width * lanes]);
+                .eval_block(&ys[..vars * lanes], lanes, &mut block[lanes..width * lanes]);
             for (l, &key) in run.iter().enumerate() {
                 let group = (key >> ENTRY_BITS) as usize / self.cells;
                 for j in 0..d {

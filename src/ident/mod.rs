@@ -37,8 +37,8 @@ pub mod spectrum;
 pub mod strong;
 pub mod weak;
 
-pub use bilinear::identify_weak_bilinear;
 use crate::model::UnknownName;
+pub use bilinear::identify_weak_bilinear;
 pub use estimate::{
     estimate, identify_kernel, identify_strong, identify_weak, jackknife, Estimate, INSEPARABLE_RATIO,
     SPREAD_CHECK_RATIO, WEAK_RATIO,

@@ -308,6 +308,24 @@ impl Problem {
         self.width() * self.n + self.inputs + self.atoms.len()
     }
 
+    /// Number of the variables a density over the state is over: the masses' state and
+    /// the measured inputs, not the atoms (which are functions of the state).
+    pub fn density_dim(&self) -> usize {
+        self.columns.len()
+    }
+
+    /// The atoms' values at a point `y` of the state: its first [`Problem::density_dim`]
+    /// values in, the atoms' written after them. `row` is scratch of the log's width.
+    pub fn fill_atoms(&self, y: &mut [f64], row: &mut [f64]) {
+        let d = self.density_dim();
+        for (j, &c) in self.columns.iter().enumerate() {
+            row[c] = y[j];
+        }
+        for (k, a) in self.atoms.iter().enumerate() {
+            y[d + k] = a.value(&self.model, row);
+        }
+    }
+
     /// Number of the masses' own state variables (those test functions depend on).
     pub fn dynamic_dim(&self) -> usize {
         self.width() * self.n

@@ -127,7 +127,7 @@ const IN_FLIGHT: usize = 16;
 impl DensityGrid {
     /// A grid over mean ± span·std of each state variable (from `mom`).
     pub fn new(problem: &Problem, mom: &RawMoments, options: GridOptions) -> Result<DensityGrid, super::IdentError> {
-        let d = problem.dim();
+        let d = problem.density_dim();
         let cells = (options.bins as f64).powi(d as i32);
         if cells > MAX_CELLS as f64 {
             return Err(super::IdentError::NotApplicable(format!(
@@ -346,7 +346,8 @@ impl DensityGrid {
         bins: usize,
         f: impl Fn(&[f64]) -> f64,
     ) -> DensityGrid {
-        let d = problem.dim();
+        assert!(problem.atoms.is_empty(), "an exact density over the state has no atoms");
+        let d = problem.density_dim();
         let mut stride = vec![1; d];
         for j in 1..d {
             stride[j] = stride[j - 1] * bins;
@@ -447,15 +448,17 @@ impl DensityGrid {
             values: Vec::new(),
         };
         let mut buf = vec![0.0; width];
-        let d = self.dim;
-        let (mut y, mut yu, mut yd) = (vec![0.0; d], vec![0.0; d], vec![0.0; d]);
+        // Points of the problem's variables: the state, then the atoms' values there.
+        let v = problem.dim();
+        let (mut y, mut yu, mut yd) = (vec![0.0; v], vec![0.0; v], vec![0.0; v]);
+        let mut row = vec![0.0; problem.model.columns().len()];
         // The known stencils' rows and `rows` both ascend: one cursor walks the former.
         let mut cursor = 0;
         for (k, &flat) in rows.iter().enumerate() {
             let vals: &[f64] = match known.and_then(|c| c.from(&mut cursor, flat)) {
                 Some(v) => v,
                 None => {
-                    self.stencil_values(problem, flat, &mut buf, [&mut y, &mut yu, &mut yd]);
+                    self.stencil_values(problem, flat, &mut buf, [&mut y, &mut yu, &mut yd], &mut row);
                     if known.is_none() {
                         evaluated.rows.push(flat);
                         evaluated.values.extend_from_slice(&buf);
@@ -565,9 +568,16 @@ impl DensityGrid {
 
     /// The drift's parts one cell up and one down along each dimension they act in, at the
     /// cell `flat`'s centre, into `buf`: the free drift, then per noise variable the known
-    /// force and each coefficient's unit force. `scratch` holds three points of the grid's
-    /// dimension.
-    fn stencil_values(&self, problem: &Problem, flat: usize, buf: &mut [f64], scratch: [&mut Vec<f64>; 3]) {
+    /// force and each coefficient's unit force. `scratch` holds three points of the
+    /// problem's variables, `row` one of the log's width (for the atoms' values).
+    fn stencil_values(
+        &self,
+        problem: &Problem,
+        flat: usize,
+        buf: &mut [f64],
+        scratch: [&mut Vec<f64>; 3],
+        row: &mut [f64],
+    ) {
         let [y, yu, yd] = scratch;
         let nb = self.options.bins;
         let mut rest = flat;
@@ -581,6 +591,10 @@ impl DensityGrid {
             yu[j] += self.h[j];
             yd.copy_from_slice(y);
             yd[j] -= self.h[j];
+            if !problem.atoms.is_empty() {
+                problem.fill_atoms(yu, row);
+                problem.fill_atoms(yd, row);
+            }
             buf[at] = g.eval(yu);
             buf[at + 1] = g.eval(yd);
             at += 2;

@@ -111,3 +111,84 @@ fn the_weak_form_through_atoms_matches_the_polynomial_form() {
         }
     }
 }
+
+/// The strong forms through [`Atom`]s — the kernel form valuing each sample's terms from
+/// its link motion, the histogram forms valuing them at the cells' stencil points from the
+/// state — give the estimates and standard errors of the polynomial path on the same
+/// samples.
+#[test]
+fn the_strong_forms_through_atoms_match_the_polynomial_form() {
+    use crate::ident::data::StationaryData;
+    use crate::ident::kernel::{FluxLattice, KernelOptions};
+    use crate::ident::strong::{DensityGrid, GridOptions};
+    use crate::ident::{identify_kernel, identify_strong, weak};
+    use crate::sim::{simulate, Collect};
+    let path = format!("{}/scenarios/duffing2dof.toml", env!("CARGO_MANIFEST_DIR"));
+    let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
+    s.simulation.record_length = 1250.0;
+    s.simulation.trajectories = 32;
+    s.identify.links.retain(|l| l.link != 0);
+    let mut samples = Collect::default();
+    simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+    let spec = Specification::from_scenario(&s);
+    let poly = Problem::from_spec(&spec, &[]).unwrap();
+    let atoms = Problem::with_terms_as_atoms(&spec, &[], &[0, 1, 2]).unwrap();
+    assert!(atoms.atoms.len() >= 6 && atoms.density_dim() == poly.dim());
+    let arenas = std::sync::Arc::new(crate::ident::Arenas::default());
+    let estimates = |p: &Problem| {
+        let mut data = StationaryData::new(p, weak::moment_degree(p), 1250.0, 32, 8);
+        for b in &samples.batches {
+            b.for_each_sample(|j, t, row| data.push(j, t, row));
+        }
+        data.finish();
+        let total = data.total();
+        let d = p.density_dim();
+        let (mean, std): (Vec<f64>, Vec<f64>) = (0..d).map(|j| (total.mean(j), total.std(j))).unzip();
+        let mut lattice = FluxLattice::new(
+            p,
+            &mean,
+            &std,
+            KernelOptions::auto(d, total.count),
+            data.batch_count(),
+            &arenas,
+        )
+        .unwrap();
+        let mut grid = DensityGrid::new(p, &total, GridOptions::auto(d, total.count))
+            .unwrap()
+            .with_batches(data.batch_count());
+        for b in &samples.batches {
+            b.for_each_sample(|j, t, row| {
+                let batch = data.batch_of(j, t);
+                lattice.push_in(batch, row);
+                grid.push_in(batch, row);
+            });
+        }
+        lattice.finish();
+        grid.finish();
+        let typical = p.typical(&total);
+        [
+            identify_kernel(p, &lattice, &typical).unwrap(),
+            identify_strong(p, &grid, false, &typical).unwrap(),
+            identify_strong(p, &grid, true, &typical).unwrap(),
+        ]
+    };
+    for (a, b) in estimates(&poly).iter().zip(&estimates(&atoms)) {
+        assert_eq!(a.names, b.names);
+        for k in 0..a.values.len() {
+            let (x, y) = (a.values[k], b.values[k]);
+            assert!(
+                (x - y).abs() <= 1e-6 * a.std_error[k],
+                "{} {}: {x} against {y}",
+                a.method,
+                a.names[k]
+            );
+            let (x, y) = (a.std_error[k], b.std_error[k]);
+            assert!(
+                (x - y).abs() <= 1e-6 * x,
+                "{} {} standard error: {x} against {y}",
+                a.method,
+                a.names[k]
+            );
+        }
+    }
+}
