@@ -125,14 +125,24 @@ impl serde::Serialize for UnknownName {
 }
 
 impl PartialEq<str> for UnknownName {
+    /// Whether `other` is this name as written.
     fn eq(&self, other: &str) -> bool {
-        self.to_string() == other
+        /// What is left of `other` after the name's text so far (`None`: no match).
+        struct Rest<'a>(Option<&'a str>);
+        impl fmt::Write for Rest<'_> {
+            fn write_str(&mut self, s: &str) -> fmt::Result {
+                self.0 = self.0.and_then(|r| r.strip_prefix(s));
+                Ok(())
+            }
+        }
+        let mut rest = Rest(Some(other));
+        fmt::write(&mut rest, format_args!("{self}")).is_ok() && rest.0 == Some("")
     }
 }
 
 impl PartialEq<&str> for UnknownName {
     fn eq(&self, other: &&str) -> bool {
-        self.to_string() == *other
+        self == *other
     }
 }
 
@@ -194,6 +204,30 @@ impl Truth {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unknown_names_write_as_reports_do_and_truths_value_them() {
+        let k1: ParameterName = "k1[m1-m2]".parse().unwrap();
+        let b = ParameterName::Corner("P".into());
+        let product = UnknownName::Product(b.clone(), k1.clone());
+        let monomial = UnknownName::Monomial {
+            mass: "m1".into(),
+            monomial: "x_m1*v_m1".into(),
+        };
+        assert_eq!(product.to_string(), "B[P]*k1[m1-m2]");
+        assert_eq!(monomial.to_string(), "drift[m1]:x_m1*v_m1");
+        assert_eq!(format!("|{:<16}|", UnknownName::from(k1.clone())), "|k1[m1-m2]       |");
+        assert!(product == "B[P]*k1[m1-m2]" && product != "B[P]*k1[m1-m2]x" && product != "B[P]");
+        assert_eq!(serde_json::to_string(&product).unwrap(), "\"B[P]*k1[m1-m2]\"");
+        let truth = Truth::from_pairs(&[("k1[m1-m2]".into(), 10.0), ("B[P]".into(), 2.0)]).unwrap();
+        assert_eq!(truth.of(&product), Some(20.0));
+        assert_eq!(
+            truth.of(&"k3[m1-m2]".parse::<ParameterName>().unwrap().into()),
+            Some(0.0)
+        );
+        assert_eq!(truth.of(&monomial), None);
+        assert_eq!(truth.of(&ParameterName::Mass("m1".into()).into()), None);
+    }
 
     #[test]
     fn every_kind_of_name_parses_back_to_itself() {
