@@ -127,7 +127,7 @@ fn disturbed(record_length: f64) -> Scenario {
 }
 
 /// Seed standard deviation of each step-0 estimate of `disturbed2dof` at level 0 and
-/// 32 × 375 s (seeds 1000–1011, measured through the log pipeline before studies existed),
+/// 32 × 375 s (seeds 1000–1011, measured through the log pipeline),
 /// in the order k1[m1-m2], k1, k3, c1, c3[ground-m2]. The study `studies/pz0.toml` (12
 /// other seeds) gives 0.00660, 0.06713, 0.25614, 0.04419, 0.01018 and the paired table the
 /// comments below quote.

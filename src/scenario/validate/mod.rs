@@ -278,15 +278,9 @@ pub(crate) fn check_data(
     let Some(d) = &raw.data else {
         return Ok(None);
     };
-    let mut allowed: Vec<String> = Vec::new();
-    for m in masses {
-        for q in ["x", "v", "a"] {
-            allowed.push(format!("{q}_{}", m.name));
-        }
-    }
-    for e in excitations {
-        allowed.push(format!("p_{}", e.name));
-    }
+    let mass_names: Vec<String> = masses.iter().map(|m| m.name.clone()).collect();
+    let excitation_names: Vec<String> = excitations.iter().map(|e| e.name.clone()).collect();
+    let allowed = crate::model::Columns::new(masses.len(), excitations.len()).names(&mass_names, &excitation_names);
     let mut columns = Vec::new();
     for (k, v) in d.get_ref().columns.get_ref() {
         if !allowed.contains(k) {
