@@ -1,12 +1,13 @@
-//! Identification throughput: weak-form moment accumulation (4-D samples per second per
-//! core, 9 unknowns, target ≥ 3e7) and the strong form's 20⁴ grid (seconds per 1e7
-//! samples, target ≤ 0.3), on duffing2dof samples held in memory; the drift's parts (what
-//! the pair regressions and the kernel strong form evaluate per sample) one state at a time
-//! against 64 states at once, as a ratio.
+//! Identification throughput on duffing2dof samples held in memory: weak-form moment
+//! accumulation (4-D samples per second per core, 9 unknowns, target ≥ 3e7), the strong
+//! form's 20⁴ grid (seconds per 1e7 samples, target ≤ 0.3) and the kernel lattice's flux
+//! spreading; the drift's parts (what the pair regressions and the kernel strong form
+//! evaluate per sample) one state at a time against 64 states at once, as a ratio.
 //! Run: `cargo bench --bench identify` (add `-- --quick` for a cheap pass).
 
 use criterion::{Criterion, Throughput};
 use fpkbench::ident::data::StationaryData;
+use fpkbench::ident::kernel::{FluxLattice, KernelOptions};
 use fpkbench::ident::moments::RawMoments;
 use fpkbench::ident::poly::Compiled;
 use fpkbench::ident::strong::{DensityGrid, GridOptions};
@@ -68,6 +69,24 @@ fn main() {
                 grid.push(r);
             }
             black_box(grid.inside)
+        })
+    });
+    // The kernel strong form's accumulation: every sample's fluxes spread over the lattice
+    // (automatic options for 2e6 4-D samples), no jackknife groups.
+    let (mean, std): (Vec<f64>, Vec<f64>) = {
+        let mut m = RawMoments::new(4, 2);
+        m.add_block(&rows);
+        (0..4).map(|j| (m.mean(j), m.std(j))).unzip()
+    };
+    let arenas = std::sync::Arc::new(fpkbench::ident::Arenas::default());
+    g.bench_function("strong: spread the kernel lattice's fluxes", |b| {
+        b.iter(|| {
+            let mut l = FluxLattice::new(&p, &mean, &std, KernelOptions::auto(4, n as u64), 0, &arenas).unwrap();
+            for (_, _, r) in &full_rows {
+                l.push_in(0, r);
+            }
+            l.finish();
+            black_box(l.inside)
         })
     });
     // The drift's parts: known forces, then every unit force per mass.
