@@ -38,6 +38,42 @@ impl Value {
         }
     }
 
+    /// The dotted paths of its numeric leaves, in order, for messages that name what a
+    /// message has: a list of numbers as one entry, `q.0 … q.5`.
+    pub fn numeric_paths(&self) -> Vec<String> {
+        fn collect(v: &Value, prefix: &str, out: &mut Vec<String>) {
+            let join = |k: &str| {
+                if prefix.is_empty() {
+                    k.to_string()
+                } else {
+                    format!("{prefix}.{k}")
+                }
+            };
+            match v {
+                Value::Number(_) => out.push(prefix.to_string()),
+                Value::Text => {}
+                Value::Record(fields) => {
+                    for (k, x) in fields {
+                        collect(x, &join(k), out);
+                    }
+                }
+                Value::List(items) if !items.is_empty() && items.iter().all(|x| matches!(x, Value::Number(_))) => out
+                    .push(match items.len() {
+                        1 => join("0"),
+                        n => format!("{} … {}", join("0"), join(&(n - 1).to_string())),
+                    }),
+                Value::List(items) => {
+                    for (i, x) in items.iter().enumerate() {
+                        collect(x, &join(&i.to_string()), out);
+                    }
+                }
+            }
+        }
+        let mut out = Vec::new();
+        collect(self, "", &mut out);
+        out
+    }
+
     fn of_json(v: &serde_json::Value) -> Value {
         match v {
             serde_json::Value::Number(n) => Value::Number(n.as_f64().unwrap_or(f64::NAN)),
@@ -598,6 +634,10 @@ mod tests {
         assert_eq!(v.at("count"), Some(-2.0));
         assert_eq!(v.at("gains.k1"), Some(7.5));
         assert_eq!(v.at("frame"), None, "text is not a number");
+        assert_eq!(
+            v.numeric_paths(),
+            ["pose.angle", "pose.turns", "q.0 … q.1", "gain", "count", "gains.k1"]
+        );
         // An absent sub-message is absent, not a record of zeros.
         let only_q = len(2, &packed);
         assert_eq!(s.decode(&only_q).unwrap().at("pose.angle"), None);

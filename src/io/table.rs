@@ -157,8 +157,11 @@ pub fn read_mcap_topic(path: &Path, topic: &str, fields: &[String]) -> Result<Ta
                         match v.at(f) {
                             Some(x) => columns[k + 1].push(x),
                             None => {
+                                let has = v.numeric_paths();
                                 failure = Some(format!(
-                                    "message {count} (byte {offset}) on {topic:?}: no numeric field {f:?}"
+                                    "message {count} (byte {offset}) on {topic:?}: no numeric field {f:?}; its numeric \
+                                     fields are {}",
+                                    if has.is_empty() { "none".into() } else { has.join(", ") }
                                 ));
                                 return ControlFlow::Break(());
                             }
@@ -174,10 +177,23 @@ pub fn read_mcap_topic(path: &Path, topic: &str, fields: &[String]) -> Result<Ta
         return Err(err(path, f));
     }
     if count == 0 {
-        let topics: Vec<&str> = channels.iter().map(|c| c.1.as_str()).collect();
+        // A channel can be written twice (the data section and the summary): each topic once.
+        let mut topics: Vec<&str> = Vec::new();
+        for c in &channels {
+            if !topics.contains(&c.1.as_str()) {
+                topics.push(&c.1);
+            }
+        }
         return Err(err(
             path,
-            format!("no messages on topic {topic:?}; the file has {}", topics.join(", ")),
+            format!(
+                "no messages on topic {topic:?}; the file has {}",
+                if topics.is_empty() {
+                    "no topics".to_string()
+                } else {
+                    topics.join(", ")
+                }
+            ),
         ));
     }
     Ok(Table {
