@@ -594,8 +594,8 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
                 let derived = derive_missing(&mut samples, width, h, &m, &present);
                 // The notes once, from the first record.
                 if rk == 0 {
-                    for (fk, dk, wh) in derived {
-                        notes.extend(derive_notes(&names[fk], &names[dk], h, wh));
+                    for (fk, dk, r) in derived {
+                        notes.extend(derive_notes(&names[fk], &names[dk], h, r));
                     }
                 }
             }
@@ -716,15 +716,15 @@ fn check_times(
 
 /// Derivatives a record lacks, by central differences (one-sided at the ends): velocities
 /// from displacements, then accelerations from velocities. `samples` holds the record's rows
-/// of `width` columns, `present` the columns it has. Returns (from, derived, ω·h) for each
-/// derived column, ω the signal's typical frequency std(derivative)/std(signal).
+/// of `width` columns, `present` the columns it has. Returns per derived column (from,
+/// derived, its [`Resolution`]), judged on the measured signal it is derived from.
 fn derive_missing(
     samples: &mut [f64],
     width: usize,
     h: f64,
     m: &crate::model::Model,
     present: &[usize],
-) -> Vec<(usize, usize, f64)> {
+) -> Vec<(usize, usize, Resolution)> {
     let layout = m.columns();
     let n = samples.len() / width;
     let mut present = present.to_vec();
@@ -734,36 +734,69 @@ fn derive_missing(
             if present.contains(&dk) || !present.contains(&fk) {
                 continue;
             }
+            // Judged before the differencing: the source may itself be derived (an
+            // acceleration from a derived velocity), and then its spectrum is what it is.
+            let resolution = Resolution::of((0..n).map(|s| samples[s * width + fk]), n, h);
             for s in 0..n {
                 let (a, b) = (s.saturating_sub(1), (s + 1).min(n - 1));
                 samples[s * width + dk] = (samples[b * width + fk] - samples[a * width + fk]) / ((b - a) as f64 * h);
             }
             present.push(dk);
-            let std = |k: usize| {
-                let v: Vec<f64> = (0..n).map(|s| samples[s * width + k]).collect();
-                let m = v.iter().sum::<f64>() / n as f64;
-                (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n as f64).sqrt()
-            };
-            derived.push((fk, dk, std(dk) / std(fk) * h));
+            derived.push((fk, dk, resolution));
         }
     }
     derived
 }
 
+/// How well central differences at the sampling `h` resolve a signal, from the signal's own
+/// spectrum (Welch, up to the Nyquist frequency): its RMS frequency `ω = √(∫ω²S / ∫S)`
+/// (what the derivative's std over the signal's would be), and the share of the
+/// derivative's amplitude the differences lose (they pass `sin(ωh)/(ωh)` at each `ω`).
+#[derive(Debug, Clone, Copy)]
+struct Resolution {
+    /// `ω·h`.
+    wh: f64,
+    /// `1 − std(central difference) / std(derivative)`.
+    loss: f64,
+}
+
+impl Resolution {
+    fn of(signal: impl Iterator<Item = f64>, n: usize, h: f64) -> Resolution {
+        let len = (n / 4).next_power_of_two().clamp(16, 4096);
+        let mut welch = crate::ident::spectrum::Welch::new(len, h, 1);
+        for x in signal {
+            welch.push(0, x);
+        }
+        let sp = welch.spectrum();
+        let (mut m0, mut m2, mut kept) = (0.0, 0.0, 0.0);
+        for (&w, &s) in sp.omega.iter().zip(&sp.density) {
+            let sinc = (w * h).sin() / (w * h);
+            m0 += s;
+            m2 += w * w * s;
+            kept += w * w * s * sinc * sinc;
+        }
+        Resolution {
+            wh: (m2 / m0).sqrt() * h,
+            loss: 1.0 - (kept / m2).sqrt(),
+        }
+    }
+}
+
 /// What the report says of a derived column: the rule, and a warning where the sampling is
-/// too coarse (a motion at ω is smoothed by (ω·h)²/6).
-fn derive_notes(from: &str, derived: &str, h: f64, wh: f64) -> Vec<String> {
+/// too coarse for it.
+fn derive_notes(from: &str, derived: &str, h: f64, r: Resolution) -> Vec<String> {
     let mut notes = vec![format!(
         "{derived} derived from {from} by central differences over 2 × {h} s (docs/data.md)"
     )];
-    if wh > DERIVE_LIMIT {
+    if r.wh > DERIVE_LIMIT {
         notes.push(format!(
-            "WARNING: the sampling is too coarse to differentiate {from}: ω·h = {wh:.2} (ω = \
-             std({derived})/std({from})), so the derived {derived} is smoothed by about (ω·h)²/6 = {:.1} % and the \
-             estimates are biased (on sdof_duffing at ω·h = 0.33, k3 by −24 %); sample at least \
-             {:.0}× faster or measure it",
-            100.0 * wh * wh / 6.0,
-            (wh / DERIVE_LIMIT).ceil()
+            "WARNING: the sampling is too coarse to differentiate {from}: ω·h = {:.2} (ω the RMS frequency of \
+             {from}'s spectrum), so the derived {derived} lacks about {:.0} % of the motion's derivative (central \
+             differences pass sin(ωh)/(ωh)) and the estimates are biased (on sdof_duffing at ω·h = 0.33, k3 by \
+             −24 %); sample at least {:.0}× faster or measure it",
+            r.wh,
+            100.0 * r.loss,
+            (r.wh / DERIVE_LIMIT).ceil()
         ));
     }
     notes
