@@ -137,6 +137,29 @@ fn good_csv(n: usize) -> String {
 }
 
 #[test]
+fn csv_format_keys_are_checked_naming_the_line_and_key() {
+    let bad = |extra: &str| {
+        let text = MODEL.replace("record = \"trajectory\"", &format!("record = \"trajectory\"\n{extra}"));
+        Scenario::parse(&text, "model.toml", "m").unwrap_err().to_string()
+    };
+    let e = bad("delimiter = \":\"");
+    assert!(
+        e.contains("model.toml:") && e.contains("data.delimiter") && e.contains("\";\""),
+        "{e}"
+    );
+    let e = bad("delimiter = \",\"\ndecimal = \",\"");
+    assert!(e.contains("data.decimal") && e.contains("another delimiter"), "{e}");
+    let e = bad("decimal = \"'\"");
+    assert!(e.contains("data.decimal") && e.contains("\".\" or \",\""), "{e}");
+    let ok = MODEL.replace(
+        "record = \"trajectory\"",
+        "record = \"trajectory\"\ndelimiter = \";\"\ndecimal = \",\"",
+    );
+    let d = Scenario::parse(&ok, "model.toml", "m").unwrap().data.unwrap();
+    assert_eq!((d.delimiter, d.decimal_comma), (Some(b';'), true));
+}
+
+#[test]
 fn bad_data_are_refused_naming_the_file_row_and_column() {
     let good = good_csv(400);
     let lines: Vec<&str> = good.lines().collect();

@@ -109,6 +109,7 @@ fn identify_table(
             path: PathBuf::from("<data>"),
             names,
             columns,
+            record_labels: None,
         };
         let data = measured(&model, &[table]).map_err(err)?;
         let input = Input::tables(model, data);

@@ -193,3 +193,77 @@ def test_a_datetime_time_column_is_seconds_since_the_first_sample():
     frame["x_m1"] = frame["x_m1"].astype(str).where(frame.index != 5, "n/a")
     with pytest.raises(ValueError, match="column 'x_m1': not numbers"):
         fpkbench.identify(frame, MODEL)
+
+
+MODEL_TOML = """name = "sdof-model"
+[[mass]]
+name = "m1"
+value = 1.0
+[[link]]
+ends = ["ground", "m1"]
+[[excitation]]
+kind = "white"
+sigma = 1.0
+acts_on = ["m1"]
+[identify]
+methods = ["weak"]
+[identify.links.ground-m1]
+stiffness = [1, 3]
+damping = [1]
+[data]
+time = "t"
+record = "trajectory"
+{extra}
+[data.columns]
+x_m1 = "x_m1"
+v_m1 = "v_m1"
+"""
+
+
+def _cli_estimates(tmp_path, name, extra, csv):
+    model = tmp_path / f"{name}.toml"
+    model.write_text(MODEL_TOML.format(extra=extra))
+    out = subprocess.run(
+        [CLI, "identify", "--model", str(model), "--data", str(csv), "--no-validate", "--json",
+         "--out", str(tmp_path / name)],
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 0, out.stderr
+    report = json.loads(out.stdout)
+    return {p["name"]: p["estimate"] for p in report["methods"][0]["parameters"]}, out
+
+
+def test_a_spreadsheet_csv_gives_the_estimates_of_a_plain_one(tmp_path):
+    """A table as a European spreadsheet or logger exports it with pandas — `;` between
+    fields, decimal commas, a byte-order mark, text run ids and zoned date-times — reads
+    as the plain CSV of the same samples."""
+    import pandas as pd
+
+    frame = pd.DataFrame(_sdof_data())
+    plain = tmp_path / "plain.csv"
+    frame.to_csv(plain, index=False, float_format="%.17g")
+    expected, _ = _cli_estimates(tmp_path, "plain", "", plain)
+
+    euro = frame.copy()
+    euro["trajectory"] = [f"run-{int(j):02d}" for j in euro["trajectory"]]
+    # Each run on its own clock, as a logger stamps them: wall-clock times in Warsaw.
+    start = pd.Timestamp("2026-03-01 08:00:00", tz="Europe/Warsaw")
+    euro["t"] = start + pd.to_timedelta(frame["t"] + 1000.0 * frame["trajectory"], unit="s")
+    sheet = tmp_path / "sheet.csv"
+    euro.to_csv(sheet, index=False, sep=";", decimal=",", encoding="utf-8-sig", float_format="%.17g")
+    assert sheet.read_bytes().startswith(b"\xef\xbb\xbf")
+    got, _ = _cli_estimates(tmp_path, "sheet", 'decimal = ","', sheet)
+    assert got.keys() == expected.keys()
+    for name, value in expected.items():
+        assert got[name] == pytest.approx(value, rel=1e-6), name
+
+    # Without the decimal key the comma is named, with what to set.
+    model = tmp_path / "nodecimal.toml"
+    model.write_text(MODEL_TOML.format(extra=""))
+    out = subprocess.run(
+        [CLI, "identify", "--model", str(model), "--data", str(sheet), "--no-validate", "--out", str(tmp_path / "x")],
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 2 and 'decimal = ","' in out.stderr and "line 2" in out.stderr, out.stderr

@@ -456,6 +456,10 @@ pub struct DataMapping {
     /// Derivatives the table lacks are derived (central differences): velocities from
     /// displacements, accelerations from velocities.
     pub derive: bool,
+    /// A CSV file's field delimiter; `None`: the header's own (`,`, `;` or tab).
+    pub delimiter: Option<u8>,
+    /// A CSV file's numbers use a decimal comma (`decimal = ","`).
+    pub decimal_comma: bool,
 }
 
 /// A checked scenario.

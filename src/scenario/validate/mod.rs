@@ -336,6 +336,43 @@ pub(crate) fn check_data(
         }
         scale.insert(k.clone(), f);
     }
+    let delimiter = match &d.delimiter {
+        None => None,
+        Some(v) => match v.get_ref().as_str() {
+            "," => Some(b','),
+            ";" => Some(b';'),
+            "\t" => Some(b'\t'),
+            "|" => Some(b'|'),
+            other => {
+                return Err(loc.at(
+                    v.span(),
+                    "data.delimiter",
+                    format!("{other:?}: the delimiters are \",\", \";\", \"\\t\" (tab) and \"|\"; leave it out to take the header's own"),
+                ))
+            }
+        },
+    };
+    let decimal_comma = match &d.decimal {
+        None => false,
+        Some(v) => match v.get_ref().as_str() {
+            "." => false,
+            "," if delimiter == Some(b',') => {
+                return Err(loc.at(
+                    v.span(),
+                    "data.decimal",
+                    "a decimal comma needs another delimiter (delimiter = \";\", as spreadsheets write it)",
+                ))
+            }
+            "," => true,
+            other => {
+                return Err(loc.at(
+                    v.span(),
+                    "data.decimal",
+                    format!("{other:?}: the decimal mark is \".\" or \",\""),
+                ))
+            }
+        },
+    };
     Ok(Some(DataMapping {
         time: d.time.as_ref().map(|t| t.get_ref().clone()),
         sample_interval,
@@ -345,6 +382,8 @@ pub(crate) fn check_data(
         npy_columns: d.npy_columns.iter().flatten().map(|c| c.get_ref().clone()).collect(),
         topic: d.topic.as_ref().map(|t| t.get_ref().clone()),
         derive: d.derive.unwrap_or(false),
+        delimiter,
+        decimal_comma,
     }))
 }
 
