@@ -1023,4 +1023,18 @@ mod tests {
         assert!(e("run,x\n1,abc\n").contains("line 2, column \"x\": \"abc\" is not a number"));
         assert!(e("").contains("empty"));
     }
+
+    proptest::proptest! {
+        /// Any text under a header naming the record and time columns is read or refused
+        /// with a message, never a panic.
+        #[test]
+        fn any_csv_text_is_read_or_refused(
+            body in "[ab,;\t\"\n#0-9.eE+:TZ -]{0,300}",
+            header in "(a;b|a,b|b\ta|\"a\";b;c)\n",
+            decimal_comma in proptest::prelude::any::<bool>(),
+        ) {
+            let o = CsvOptions { decimal_comma, record: Some("a"), time: Some("b"), ..Default::default() };
+            let _ = read(&(header + &body), &o);
+        }
+    }
 }
