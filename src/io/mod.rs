@@ -4,6 +4,7 @@
 //! numerics (`model`, `sim`) never import this module.
 
 pub mod decode;
+mod delimited;
 pub mod export;
 pub mod log;
 pub mod output;
