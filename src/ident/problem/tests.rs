@@ -57,6 +57,38 @@ fn a_state_beyond_the_monomials_variables_is_refused() {
     assert!(Problem::new(&Scenario::parse(&eight, "chain8.toml", "chain8").unwrap()).is_ok());
 }
 
+/// `file`'s scenario at `record_length` × 32 trajectories with its first link known (its
+/// terms enter the known force), the others unknown, and its samples.
+fn first_link_known(file: &str, record_length: f64) -> (Scenario, crate::sim::Collect) {
+    let path = format!("{}/scenarios/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+    let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
+    s.simulation.record_length = record_length;
+    s.simulation.trajectories = 32;
+    s.identify.links.retain(|l| l.link != 0);
+    let mut samples = crate::sim::Collect::default();
+    crate::sim::simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+    (s, samples)
+}
+
+/// The same names, and estimates and standard errors within 1e-6 of a standard error.
+fn assert_same_estimates(a: &crate::ident::Estimate, b: &crate::ident::Estimate, what: &str) {
+    assert_eq!(a.names, b.names);
+    for k in 0..a.values.len() {
+        let (x, y) = (a.values[k], b.values[k]);
+        assert!(
+            (x - y).abs() <= 1e-6 * a.std_error[k],
+            "{what} {}: {x} against {y}",
+            a.names[k]
+        );
+        let (x, y) = (a.std_error[k], b.std_error[k]);
+        assert!(
+            (x - y).abs() <= 1e-6 * x,
+            "{what} {} standard error: {x} against {y}",
+            a.names[k]
+        );
+    }
+}
+
 /// The weak form through [`Atom`]s — generalised moments `E[t(z) y^β]` accumulated from
 /// each sample's link motion, the path of a term without a polynomial form — gives the
 /// estimates and standard errors of the polynomial path on the same samples, white and
@@ -64,16 +96,8 @@ fn a_state_beyond_the_monomials_variables_is_refused() {
 #[test]
 fn the_weak_form_through_atoms_matches_the_polynomial_form() {
     use crate::ident::{data::StationaryData, identify_weak, weak};
-    use crate::sim::{simulate, Collect};
     for file in ["duffing2dof", "filtered2dof"] {
-        let path = format!("{}/scenarios/{file}.toml", env!("CARGO_MANIFEST_DIR"));
-        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
-        s.simulation.record_length = 2500.0;
-        s.simulation.trajectories = 32;
-        // The first link known (its terms enter the known force), the others unknown.
-        s.identify.links.retain(|l| l.link != 0);
-        let mut samples = Collect::default();
-        simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+        let (s, samples) = first_link_known(file, 2500.0);
         let spec = Specification::from_scenario(&s);
         let filters = spec.given_filters();
         let poly = Problem::from_spec(&spec, &filters).unwrap();
@@ -93,22 +117,7 @@ fn the_weak_form_through_atoms_matches_the_polynomial_form() {
             data.finish();
             identify_weak(p, &data).unwrap()
         };
-        let (a, b) = (estimate(&poly), estimate(&atoms));
-        assert_eq!(a.names, b.names);
-        for k in 0..a.values.len() {
-            let (x, y) = (a.values[k], b.values[k]);
-            assert!(
-                (x - y).abs() <= 1e-6 * a.std_error[k],
-                "{file} {}: {x} against {y}",
-                a.names[k]
-            );
-            let (x, y) = (a.std_error[k], b.std_error[k]);
-            assert!(
-                (x - y).abs() <= 1e-6 * x,
-                "{file} {} standard error: {x} against {y}",
-                a.names[k]
-            );
-        }
+        assert_same_estimates(&estimate(&poly), &estimate(&atoms), file);
     }
 }
 
@@ -122,14 +131,7 @@ fn the_strong_forms_through_atoms_match_the_polynomial_form() {
     use crate::ident::kernel::{FluxLattice, KernelOptions};
     use crate::ident::strong::{DensityGrid, GridOptions};
     use crate::ident::{identify_kernel, identify_strong, weak};
-    use crate::sim::{simulate, Collect};
-    let path = format!("{}/scenarios/duffing2dof.toml", env!("CARGO_MANIFEST_DIR"));
-    let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
-    s.simulation.record_length = 1250.0;
-    s.simulation.trajectories = 32;
-    s.identify.links.retain(|l| l.link != 0);
-    let mut samples = Collect::default();
-    simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+    let (s, samples) = first_link_known("duffing2dof", 1250.0);
     let spec = Specification::from_scenario(&s);
     let poly = Problem::from_spec(&spec, &[]).unwrap();
     let atoms = Problem::with_terms_as_atoms(&spec, &[], &[0, 1, 2]).unwrap();
@@ -173,22 +175,6 @@ fn the_strong_forms_through_atoms_match_the_polynomial_form() {
         ]
     };
     for (a, b) in estimates(&poly).iter().zip(&estimates(&atoms)) {
-        assert_eq!(a.names, b.names);
-        for k in 0..a.values.len() {
-            let (x, y) = (a.values[k], b.values[k]);
-            assert!(
-                (x - y).abs() <= 1e-6 * a.std_error[k],
-                "{} {}: {x} against {y}",
-                a.method,
-                a.names[k]
-            );
-            let (x, y) = (a.std_error[k], b.std_error[k]);
-            assert!(
-                (x - y).abs() <= 1e-6 * x,
-                "{} {} standard error: {x} against {y}",
-                a.method,
-                a.names[k]
-            );
-        }
+        assert_same_estimates(a, b, a.method);
     }
 }
