@@ -550,9 +550,13 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
             if d.derive {
                 let present: Vec<usize> = mapped.iter().map(|x| x.0).collect();
                 let derived = derive_missing(&mut samples, width, h, &m, &present);
-                // The notes once, from the first record.
+                // The notes once, from the first record, each judged on the signal its
+                // column was derived from (itself derived, for an acceleration from a
+                // derived velocity).
                 if rk == 0 {
-                    for (fk, dk, r) in derived {
+                    let n = rows.len();
+                    for (fk, dk) in derived {
+                        let r = Resolution::of((0..n).map(|s| samples[s * width + fk]), n, h);
                         notes.extend(derive_notes(&names[fk], &names[dk], h, r));
                     }
                 }
@@ -674,15 +678,14 @@ fn check_times(
 
 /// Derivatives a record lacks, by central differences (one-sided at the ends): velocities
 /// from displacements, then accelerations from velocities. `samples` holds the record's rows
-/// of `width` columns, `present` the columns it has. Returns per derived column (from,
-/// derived, its [`Resolution`]), judged on the measured signal it is derived from.
+/// of `width` columns, `present` the columns it has. Returns the (from, derived) columns.
 fn derive_missing(
     samples: &mut [f64],
     width: usize,
     h: f64,
     m: &crate::model::Model,
     present: &[usize],
-) -> Vec<(usize, usize, Resolution)> {
+) -> Vec<(usize, usize)> {
     let layout = m.columns();
     let n = samples.len() / width;
     let mut present = present.to_vec();
@@ -692,15 +695,12 @@ fn derive_missing(
             if present.contains(&dk) || !present.contains(&fk) {
                 continue;
             }
-            // Judged before the differencing: the source may itself be derived (an
-            // acceleration from a derived velocity), and then its spectrum is what it is.
-            let resolution = Resolution::of((0..n).map(|s| samples[s * width + fk]), n, h);
             for s in 0..n {
                 let (a, b) = (s.saturating_sub(1), (s + 1).min(n - 1));
                 samples[s * width + dk] = (samples[b * width + fk] - samples[a * width + fk]) / ((b - a) as f64 * h);
             }
             present.push(dk);
-            derived.push((fk, dk, resolution));
+            derived.push((fk, dk));
         }
     }
     derived
