@@ -36,6 +36,7 @@
 
 pub mod estimators;
 pub mod ident;
+pub mod interrupt;
 pub mod io;
 pub mod model;
 pub mod pipeline;

@@ -136,6 +136,50 @@ fn good_csv(n: usize) -> String {
     s
 }
 
+/// `split_gaps`: a record with lost samples becomes one record per piece between its
+/// gaps, each in order, and the note names the pieces; the key needs a time column.
+#[test]
+fn split_gaps_makes_each_piece_between_gaps_a_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("gaps.csv");
+    // 600 rows of one record, the velocity the displacement's rate of change; 20 rows
+    // lost after row 200 and 3 after row 450.
+    let x = |t: f64| (1.3 * t).sin() * 0.4 + (0.37 * t).cos() * 0.1;
+    let v = |t: f64| (1.3 * t).cos() * 0.52 - (0.37 * t).sin() * 0.037;
+    let text: String = std::iter::once("trajectory,t,x_m1,v_m1\n".to_string())
+        .chain(
+            (1..=623)
+                .filter(|k| !(201..221).contains(k) && !(471..474).contains(k))
+                .map(|k| 0.1 * k as f64)
+                .map(|t| format!("0,{t},{},{}\n", x(t), v(t))),
+        )
+        .collect();
+    std::fs::write(&csv, text).unwrap();
+    let split = MODEL.replace("[data.columns]", "split_gaps = true\n[data.columns]");
+    let model = Scenario::parse(&split, "model.toml", "m").unwrap();
+    let data = measured(&model, &[read_table(&csv, &[]).unwrap()]).unwrap();
+    let lengths: Vec<usize> = data.records.iter().map(|r| r.0.len()).collect();
+    assert_eq!(lengths, [200, 250, 150]);
+    assert_eq!(data.sample_interval, 0.1);
+    // Each piece's own samples, in order: the second starts at the row after the gap.
+    let first_x = |r: usize| data.records[r].1[fpkbench::Model::new(&model).columns().x(0)];
+    assert_eq!(first_x(1), x(0.1 * 221.0));
+    assert_eq!(first_x(2), x(0.1 * 474.0));
+    assert_eq!(
+        data.notes,
+        [
+            "record 0 split at 2 time gap(s) into 3 records: piece 1 from t = 0.1 s, 200 samples (19.9 s); \
+          piece 2 from t = 22.1 s, 250 samples (24.9 s); piece 3 from t = 47.4 s, 150 samples (14.9 s)"
+        ]
+    );
+    let no_time = split.replace("time = \"t\"\n", "sample_interval = 0.1\n");
+    let e = Scenario::parse(&no_time, "model.toml", "m").unwrap_err().to_string();
+    assert!(
+        e.contains("model.toml:") && e.contains("data.split_gaps") && e.contains("time column"),
+        "{e}"
+    );
+}
+
 #[test]
 fn csv_format_keys_are_checked_naming_the_line_and_key() {
     let bad = |extra: &str| {
@@ -198,6 +242,24 @@ fn bad_data_are_refused_naming_the_file_row_and_column() {
             MODEL.into(),
             with_line(10, "0,1.05,0.1,0.5"),
             vec!["row 10", "evenly spaced"],
+        ),
+        (
+            "a gap in time",
+            MODEL.into(),
+            lines
+                .iter()
+                .enumerate()
+                .map(|(k, l)| match l.split(',').collect::<Vec<_>>()[..] {
+                    [j, t, x, v] if k > 200 => format!("{j},{},{x},{v}", t.parse::<f64>().unwrap() + 5.0),
+                    _ => l.to_string(),
+                })
+                .collect::<Vec<_>>()
+                .join("\n")
+                + "\n",
+            vec![
+                "record 0, row 201, t = 25.1 s: a gap of 5.1 s where the sampling is every 0.1 s",
+                "split_gaps = true",
+            ],
         ),
         (
             "constant column",

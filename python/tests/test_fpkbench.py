@@ -5,6 +5,7 @@ import math
 import os
 import pathlib
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -14,6 +15,16 @@ import fpkbench
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SDOF = ROOT / "scenarios" / "sdof_duffing.toml"
 CLI = os.environ.get("FPKBENCH_BIN", str(ROOT / "target" / "release" / "fpkbench"))
+
+
+def _cli():
+    """The command the package is compared with: skipped, saying how to build it, when it
+    is not built; a wrong ``FPKBENCH_BIN`` fails."""
+    if not os.path.exists(CLI):
+        if "FPKBENCH_BIN" in os.environ:
+            pytest.fail(f"FPKBENCH_BIN={CLI} does not exist")
+        pytest.skip("the fpkbench command is not built: run `cargo build --release` (or set FPKBENCH_BIN)")
+    return CLI
 
 # The SDOF Duffing system as a model for its simulated data: the link to identify has no values.
 MODEL = {
@@ -29,7 +40,7 @@ MODEL = {
 def test_run_equals_the_command_line_tools_report(tmp_path):
     res = fpkbench.run(SDOF, methods=["weak"], validate=False)
     out = subprocess.run(
-        [CLI, "run", str(SDOF), "--method", "weak", "--no-validate", "--json", "--out", str(tmp_path)],
+        [_cli(), "run", str(SDOF), "--method", "weak", "--no-validate", "--json", "--out", str(tmp_path)],
         capture_output=True,
         text=True,
     )
@@ -98,9 +109,9 @@ def _with(data, name, values):
     "case, message",
     [
         ("inf", r"row 6, column \"v_m1\": inf"),
-        ("time backwards", r"row 4: time .* does not increase .* in record 0"),
-        ("irregular time", r"row 8: time step .* evenly spaced"),
-        ("gap between records", r"split a record at a gap with the record column"),
+        ("time backwards", r"record 0, row 4, t = .* s: the time does not increase"),
+        ("irregular time", r"row 8, t = .* s: time step .* evenly spaced"),
+        ("gap between records", r"record 0, row 3126, t = 412.6 s: a gap of 100.1 s where the sampling is every 0.1 s; set `split_gaps = true`"),
         ("constant column", r"column \"x_m1\" is constant"),
         ("misspelt column", r"no column \"v_m1\" .* did you mean \"V_m1\""),
         ("too few samples", r"250 samples for 3 unknowns: at least 100 per unknown"),
@@ -224,7 +235,7 @@ def _cli_estimates(tmp_path, name, extra, csv):
     model = tmp_path / f"{name}.toml"
     model.write_text(MODEL_TOML.format(extra=extra))
     out = subprocess.run(
-        [CLI, "identify", "--model", str(model), "--data", str(csv), "--no-validate", "--json",
+        [_cli(), "identify", "--model", str(model), "--data", str(csv), "--no-validate", "--json",
          "--out", str(tmp_path / name)],
         capture_output=True,
         text=True,
@@ -262,8 +273,155 @@ def test_a_spreadsheet_csv_gives_the_estimates_of_a_plain_one(tmp_path):
     model = tmp_path / "nodecimal.toml"
     model.write_text(MODEL_TOML.format(extra=""))
     out = subprocess.run(
-        [CLI, "identify", "--model", str(model), "--data", str(sheet), "--no-validate", "--out", str(tmp_path / "x")],
+        [_cli(), "identify", "--model", str(model), "--data", str(sheet), "--no-validate", "--out", str(tmp_path / "x")],
         capture_output=True,
         text=True,
     )
     assert out.returncode == 2 and 'decimal = ","' in out.stderr and "line 2" in out.stderr, out.stderr
+
+
+def test_errors_are_classed_and_point_at_what_they_are_about():
+    """Each kind of mistake raises its own class, a ValueError, with the column, row or key
+    it is about; a dict's mistake is named by its key path, not by a line of TOML the user
+    never wrote."""
+    data = _sdof_data()
+    bad = _with(data, "x_m1", data["x_m1"].copy())
+    bad["x_m1"][10] = math.nan
+    with pytest.raises(fpkbench.DataError) as e:
+        fpkbench.identify(bad, MODEL)
+    assert isinstance(e.value, ValueError) and (e.value.column, e.value.row) == ("x_m1", 11)
+    frame_error = {**data, "x_m1": np.array(["n/a"] * len(data["t"]))}
+    with pytest.raises(fpkbench.DataError) as e:
+        fpkbench.identify(frame_error, MODEL)
+    assert e.value.column == "x_m1"
+
+    typo = json.loads(json.dumps(MODEL))
+    typo["data"]["scale"] = {"X_m1": 2.0}
+    with pytest.raises(fpkbench.ScenarioError) as e:
+        fpkbench.identify(data, typo)
+    assert e.value.key == "data.scale.X_m1" and str(e.value).startswith("<dict>, key `data.scale.X_m1`: ")
+    assert not any(f"<dict>:{n}:" in str(e.value) for n in range(1, 40)), str(e.value)
+    nested = json.loads(json.dumps(MODEL))
+    nested["identify"]["links"]["ground-m1"]["stiffness"] = [1, "three"]
+    with pytest.raises(fpkbench.ScenarioError) as e:
+        fpkbench.identify(data, nested)
+    assert e.value.key and e.value.key.startswith("identify.links"), (e.value.key, str(e.value))
+
+    with pytest.raises(fpkbench.IdentifiabilityError, match="cannot be separated"):
+        fpkbench.run(_sigma_unknown())
+    with pytest.raises(fpkbench.ScenarioError, match="unknown method"):
+        fpkbench.identify(data, MODEL, methods=["fast"])
+
+
+def test_a_record_split_at_its_gaps_gives_the_records_estimates():
+    """A logger's table with one clock and dropouts: with ``split_gaps`` each piece between
+    gaps is a record, and the estimates equal those of the pieces given as records; the
+    report names the pieces."""
+    import pandas as pd
+
+    frame = pd.DataFrame(_sdof_data()).iloc[: 3125 * 4].copy()
+    records = fpkbench.identify(frame, MODEL, validate=False)
+    # One record on one clock, 12.3 s lost between the runs.
+    glued = frame.copy()
+    glued["t"] = glued["t"] + (312.5 + 12.3) * glued["trajectory"]
+    glued["trajectory"] = 7
+    with pytest.raises(fpkbench.DataError, match=r"record 7, row 3126, t = 324.9\d* s: a gap of 12.4 s") as e:
+        fpkbench.identify(glued, MODEL, validate=False)
+    assert e.value.column == "t" and e.value.row == 3126
+    split = json.loads(json.dumps(MODEL))
+    split["data"]["split_gaps"] = True
+    pieces = fpkbench.identify(glued, split, validate=False)
+    assert pieces.estimates == records.estimates
+    assert pieces.std_errors == records.std_errors
+    note = [n for n in pieces.report["data_notes"] if "split at" in n]
+    assert note and note[0].startswith("record 7 split at 3 time gap(s) into 4 records: piece 1 from t = 0.1 s"), note
+    assert pieces.report["records"]["count"] == 4, pieces.report["records"]
+
+
+def test_ctrl_c_interrupts_a_call_within_a_second(tmp_path):
+    """SIGINT in the middle of a long simulation and of a long identification: each call
+    raises KeyboardInterrupt within a second, and the next call runs normally."""
+    script = tmp_path / "interrupt.py"
+    script.write_text(
+        """
+import os, signal, sys, threading, time
+import fpkbench
+spec = {"mass": [{"name": "m1", "value": 1.0}],
+        "link": [{"ends": ["ground", "m1"], "stiffness": {"1": 10.0, "3": 20.0}, "damping": {"1": 0.5}}],
+        "excitation": [{"kind": "white", "sigma": 1.0, "acts_on": ["m1"]}],
+        "simulation": {"dt": 1e-3, "record_length": 100000.0, "sample_interval": 0.1, "trajectories": 64, "seed": 1}}
+sent = []
+def fire(after):
+    time.sleep(after)
+    sent.append(time.monotonic())
+    os.kill(os.getpid(), signal.SIGINT)
+for call in ("simulate", "run"):
+    sent.clear()
+    threading.Thread(target=fire, args=(1.5,), daemon=True).start()
+    try:
+        getattr(fpkbench, call)(spec, progress=False)
+        print(call, "not interrupted")
+    except KeyboardInterrupt:
+        print(call, "interrupted after", time.monotonic() - sent[0])
+small = dict(spec, simulation=dict(spec["simulation"], record_length=100.0, trajectories=8))
+print("then", len(fpkbench.simulate(small, progress=False)["t"]))
+"""
+    )
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    for call, line in zip(("simulate", "run"), lines):
+        assert line.startswith(f"{call} interrupted after "), out.stdout
+        assert float(line.split()[-1]) < 1.0, out.stdout
+    assert lines[2] == "then 8000", out.stdout
+
+
+def test_progress_goes_to_a_callback():
+    """A run long enough to be looked at several times: the simulation's samples, then the
+    identification's passes, each within its total, the last call the finished state."""
+    import tomllib
+
+    s = tomllib.loads(SDOF.read_text())
+    s["simulation"].update(record_length=20000.0, trajectories=64)
+    seen = []
+    fpkbench.run(s, methods=["weak"], validate=False, progress=lambda *a: seen.append(a))
+    stages = [stage for stage, _, _ in seen]
+    assert stages[0] == "simulate" and stages[-1] == "identify, pass 2", stages
+    assert all(0 <= done <= total for _, done, total in seen), seen
+    assert seen[-1][1] == seen[-1][2] == 64 * 200_000, seen[-1]
+
+
+def test_a_long_call_shows_a_tqdm_bar_by_default(capsys):
+    pytest.importorskip("tqdm")
+    import tomllib
+
+    s = tomllib.loads(SDOF.read_text())
+    s["simulation"].update(record_length=40000.0, trajectories=64)
+    fpkbench.run(s, methods=["weak"], validate=False)
+    assert "identify, pass 2" in capsys.readouterr().err
+
+
+def test_a_result_is_short_in_a_terminal_and_a_table_in_pandas_and_notebooks():
+    pd = pytest.importorskip("pandas")
+    data = fpkbench.simulate(SDOF)
+    res = fpkbench.identify(data, MODEL, validate=False)
+    assert len(repr(res)) < 200 and repr(res).startswith("<fpkbench.Result 3 parameters by weak"), repr(res)
+    table = res.to_pandas()
+    assert isinstance(table, pd.DataFrame) and list(table.index.names) == ["method", "parameter"]
+    row = table.loc[("weak", "k3[ground-m1]")]
+    assert row["true_value"] == 20.0 and row["error"] == pytest.approx(row["estimate"] - 20.0)
+    assert row["z"] == pytest.approx(row["error"] / row["std_error"])
+    assert row["ci95_low"] < row["estimate"] < row["ci95_high"]
+    html = res._repr_html_()
+    assert html.count("<tr>") == 4 and "k3[ground-m1]" in html
+
+
+def test_the_readmes_python_example_runs_as_written():
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split("```python\n", 1)[1].split("```", 1)[0]
+    cwd = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        exec(compile(block, "README.md", "exec"), {})
+    finally:
+        os.chdir(cwd)

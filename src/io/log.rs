@@ -749,6 +749,10 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
         match rec {
             Record::Channel { id, topic, .. } if topic == TOPIC => ours.push(id),
             Record::Message { channel_id, data, .. } if ours.contains(&channel_id) => {
+                // A stop requested: the caller (`pipeline::Input`) reports it.
+                if crate::interrupt::requested() {
+                    return ControlFlow::Break(());
+                }
                 match check_message(data, info, size, stride) {
                     Ok(()) => {}
                     Err(e) => {

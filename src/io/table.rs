@@ -11,18 +11,38 @@ pub use super::delimited::CsvOptions;
 use crate::scenario::{DataMapping, Scenario};
 use std::path::{Path, PathBuf};
 
-/// An error in measured data.
+/// An error in measured data: the file, and where the message names them, the column and
+/// the row (1-based, counting the table's rows, not the file's lines) it is about, for a
+/// program to point at them (the Python package's `DataError.column`).
 #[derive(Debug, thiserror::Error)]
 #[error("{path}: {message}")]
 pub struct DataError {
     pub path: String,
     pub message: String,
+    pub column: Option<String>,
+    pub row: Option<usize>,
 }
 
 pub(super) fn err(path: &Path, message: impl Into<String>) -> DataError {
     DataError {
         path: path.display().to_string(),
         message: message.into(),
+        column: None,
+        row: None,
+    }
+}
+
+impl DataError {
+    /// The error is about `column`.
+    pub(super) fn in_column(mut self, column: &str) -> DataError {
+        self.column = Some(column.to_string());
+        self
+    }
+
+    /// The error is about the table's `row` (1-based).
+    pub(super) fn at_row(mut self, row: usize) -> DataError {
+        self.row = Some(row);
+        self
     }
 }
 
@@ -66,7 +86,8 @@ impl Table {
                             )
                         }
                     ),
-                ))
+                )
+                .in_column(name))
             }
         }
     }
@@ -390,7 +411,7 @@ fn check_units(
     m: &crate::model::Model,
     mapped: &[(usize, String)],
     names: &[String],
-) -> Result<(), String> {
+) -> Result<(), (usize, String)> {
     let layout = m.columns();
     let column = |k: usize| mapped.iter().find(|x| x.0 == k).map(|x| x.1.as_str());
     let longest = records.iter().map(|r| r.0.len()).max().unwrap_or(0);
@@ -440,26 +461,34 @@ fn check_units(
         };
         match (xv, va) {
             (Some(g1), Some(g2)) if off(g1) && off(g2) => {
-                return Err(says(v, g1, &format!("the rate of change of {}", name(x))))
+                return Err((v, says(v, g1, &format!("the rate of change of {}", name(x)))))
             }
             (Some(g1), Some(_)) if off(g1) => {
-                return Err(says(x, 1.0 / g1, &format!("{} (its rate of change)", name(v))))
+                return Err((x, says(x, 1.0 / g1, &format!("{} (its rate of change)", name(v)))))
             }
-            (Some(_), Some(g2)) if off(g2) => return Err(says(a, g2, &format!("the rate of change of {}", name(v)))),
+            (Some(_), Some(g2)) if off(g2) => {
+                return Err((a, says(a, g2, &format!("the rate of change of {}", name(v)))))
+            }
             (Some(g), None) if off(g) => {
-                return Err(format!(
-                    "{}, or {} is {:.4} times too large",
-                    says(v, g, &format!("the rate of change of {}", name(x))),
-                    name(x),
-                    1.0 / g
+                return Err((
+                    v,
+                    format!(
+                        "{}, or {} is {:.4} times too large",
+                        says(v, g, &format!("the rate of change of {}", name(x))),
+                        name(x),
+                        1.0 / g
+                    ),
                 ))
             }
             (None, Some(g)) if off(g) => {
-                return Err(format!(
-                    "{}, or {} is {:.4} times too large",
-                    says(a, g, &format!("the rate of change of {}", name(v))),
-                    name(v),
-                    1.0 / g
+                return Err((
+                    a,
+                    format!(
+                        "{}, or {} is {:.4} times too large",
+                        says(a, g, &format!("the rate of change of {}", name(v))),
+                        name(v),
+                        1.0 / g
+                    ),
                 ))
             }
             _ => {}
@@ -532,37 +561,48 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
             .transpose()?;
         check_values(t, &mapped, d, time, record)?;
         let (ids, rows_of) = records_by_id(t.rows(), record);
-        for (rk, rows) in rows_of.iter().enumerate() {
-            if let Some(time) = time {
-                let id = record.is_some().then(|| match &t.record_labels {
-                    Some(labels) => format!("{:?}", labels[ids[rk] as usize]),
-                    None => ids[rk].to_string(),
-                });
-                check_times(t, time, rows, id.as_deref(), &mut interval)?;
-            }
-            let h = interval.ok_or_else(|| err(&t.path, "one sample per record and no sample interval"))?;
-            let mut samples = vec![f64::NAN; rows.len() * width];
-            for (s, &r) in rows.iter().enumerate() {
-                for (k, c, v) in &mapped {
-                    samples[s * width + k] = v[r] * scale(c);
+        for (rk, all_rows) in rows_of.iter().enumerate() {
+            let id = record.is_some().then(|| match &t.record_labels {
+                Some(labels) => format!("{:?}", labels[ids[rk] as usize]),
+                None => ids[rk].to_string(),
+            });
+            let pieces = match (time, d.time.as_deref()) {
+                (Some(time), Some(c)) => {
+                    let p = pieces(t, (c, time), all_rows, id.as_deref(), &mut interval, d.split_gaps)?;
+                    if p.len() > 1 {
+                        notes.push(split_note(id.as_deref(), time, all_rows, &p));
+                    }
+                    p
                 }
-            }
-            if d.derive {
-                let present: Vec<usize> = mapped.iter().map(|x| x.0).collect();
-                let derived = derive_missing(&mut samples, width, h, &m, &present);
-                // The notes once, from the first record, each judged on the signal its
-                // column was derived from (itself derived, for an acceleration from a
-                // derived velocity).
-                if rk == 0 {
-                    let n = rows.len();
-                    for (fk, dk) in derived {
-                        let r = Resolution::of((0..n).map(|s| samples[s * width + fk]), n, h);
-                        notes.extend(derive_notes(&names[fk], &names[dk], h, r));
+                _ => std::iter::once(0..all_rows.len()).collect(),
+            };
+            for piece in pieces {
+                let rows = &all_rows[piece];
+                let first = records.is_empty();
+                let h = interval.ok_or_else(|| err(&t.path, "one sample per record and no sample interval"))?;
+                let mut samples = vec![f64::NAN; rows.len() * width];
+                for (s, &r) in rows.iter().enumerate() {
+                    for (k, c, v) in &mapped {
+                        samples[s * width + k] = v[r] * scale(c);
                     }
                 }
+                if d.derive {
+                    let present: Vec<usize> = mapped.iter().map(|x| x.0).collect();
+                    let derived = derive_missing(&mut samples, width, h, &m, &present);
+                    // The notes once, from the first record, each judged on the signal its
+                    // column was derived from (itself derived, for an acceleration from a
+                    // derived velocity).
+                    if first {
+                        let n = rows.len();
+                        for (fk, dk) in derived {
+                            let r = Resolution::of((0..n).map(|s| samples[s * width + fk]), n, h);
+                            notes.extend(derive_notes(&names[fk], &names[dk], h, r));
+                        }
+                    }
+                }
+                let times = (0..rows.len()).map(|s| (s + 1) as f64 * h).collect();
+                records.push((times, samples));
             }
-            let times = (0..rows.len()).map(|s| (s + 1) as f64 * h).collect();
-            records.push((times, samples));
         }
     }
     let sample_interval = interval.ok_or_else(|| err(&tables[0].path, "no sample interval"))?;
@@ -571,7 +611,10 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
         .iter()
         .map(|(q, c)| (names.iter().position(|n| n == q).expect("a quantity"), c.clone()))
         .collect();
-    check_units(&records, width, sample_interval, &m, &given, &names).map_err(|e| err(&tables[0].path, e))?;
+    check_units(&records, width, sample_interval, &m, &given, &names).map_err(|(k, e)| {
+        let column = given.iter().find(|g| g.0 == k).map_or("?", |g| g.1.as_str());
+        err(&tables[0].path, e).in_column(column)
+    })?;
     Ok(Measured {
         files: tables.iter().map(|t| t.path.clone()).collect(),
         width,
@@ -599,7 +642,9 @@ fn check_values(
             return Err(err(
                 &t.path,
                 format!("row {}, column {c:?}: {} (every value must be finite)", r + 1, v[r]),
-            ));
+            )
+            .in_column(c)
+            .at_row(r + 1));
         }
     }
     for (_, c, v) in mapped {
@@ -607,7 +652,8 @@ fn check_values(
             return Err(err(
                 &t.path,
                 format!("column {c:?} is constant ({}): a measured response varies", v[0]),
-            ));
+            )
+            .in_column(c));
         }
     }
     Ok(())
@@ -638,42 +684,106 @@ fn records_by_id(rows: usize, record: Option<&[f64]>) -> (Vec<f64>, Vec<Vec<usiz
     (ids, rows_of)
 }
 
-/// The times of one record's `rows` increase by one even step, `interval` (set from the
-/// first step seen when not given). `id` names the record in messages.
-fn check_times(
+/// A step of at least this many sample intervals is a gap in the record (lost samples, a
+/// paused logger), not uneven sampling.
+pub const GAP: f64 = 1.5;
+
+/// The pieces of one record's `rows` (ranges of `rows`): the whole record, or with `split`
+/// the runs between its time gaps (steps of [`GAP`] sample intervals or more). The times,
+/// the `time` column's (name, values), must increase by one even step, `interval` (when
+/// not given, the median of the first record's first thousand steps, to nine digits). Refused, naming the
+/// record `id`, the row and the time: a time that does not increase, an uneven step, a
+/// gap when not splitting.
+fn pieces(
     t: &Table,
-    time: &[f64],
+    (column, time): (&str, &[f64]),
     rows: &[usize],
     id: Option<&str>,
     interval: &mut Option<f64>,
-) -> Result<(), DataError> {
-    for w in rows.windows(2) {
-        let dt = time[w[1]] - time[w[0]];
-        if dt <= 0.0 {
-            return Err(err(
-                &t.path,
-                format!(
-                    "row {}: time {} does not increase (previous {}){}",
-                    w[1] + 1,
-                    time[w[1]],
-                    time[w[0]],
-                    id.map_or(String::new(), |id| format!(" in record {id}"))
-                ),
-            ));
-        }
-        let h = *interval.get_or_insert(dt);
-        if (dt - h).abs() > 1e-6 * h {
-            return Err(err(
-                &t.path,
-                format!(
-                    "row {}: time step {dt} s where the sampling is every {h} s: the samples must be \
-                     evenly spaced (split a record at a gap with the record column)",
-                    w[1] + 1
-                ),
-            ));
+    split: bool,
+) -> Result<Vec<std::ops::Range<usize>>, DataError> {
+    if interval.is_none() && rows.len() > 1 {
+        let mut steps: Vec<f64> = rows.windows(2).take(1000).map(|w| time[w[1]] - time[w[0]]).collect();
+        steps.sort_by(f64::total_cmp);
+        // To nine significant digits: a difference of two printed times carries their
+        // rounding (0.10000000000000142 for 0.1).
+        let h = steps[steps.len() / 2];
+        let h = format!("{h:.8e}").parse::<f64>().unwrap_or(h);
+        if h > 0.0 {
+            *interval = Some(h);
         }
     }
-    Ok(())
+    let in_record = id.map_or(String::new(), |id| format!("record {id}, "));
+    let mut pieces = Vec::new();
+    let mut start = 0;
+    for (s, w) in rows.windows(2).enumerate() {
+        let dt = time[w[1]] - time[w[0]];
+        let at = |what: String| {
+            err(
+                &t.path,
+                format!("{in_record}row {}, t = {} s: {what}", w[1] + 1, time[w[1]]),
+            )
+            .in_column(column)
+            .at_row(w[1] + 1)
+        };
+        if dt <= 0.0 {
+            return Err(at(format!("the time does not increase (previous {} s)", time[w[0]])));
+        }
+        let h = interval.expect("set from the steps");
+        if (dt - h).abs() <= 1e-6 * h {
+            continue;
+        }
+        let (dt, h) = (sig6(dt), sig6(h));
+        if dt < GAP * h {
+            return Err(at(format!(
+                "time step {dt} s where the sampling is every {h} s: the samples must be evenly spaced"
+            )));
+        }
+        if !split {
+            return Err(at(format!(
+                "a gap of {dt} s where the sampling is every {h} s; set `split_gaps = true` in [data] to make \
+                 each piece between gaps a record of its own (or split it with the record column)"
+            )));
+        }
+        pieces.push(start..s + 1);
+        start = s + 1;
+    }
+    pieces.push(start..rows.len());
+    Ok(pieces)
+}
+
+/// `x` to six significant digits: a time difference's rounding in the last bits is no
+/// news to a reader.
+fn sig6(x: f64) -> f64 {
+    format!("{x:.5e}").parse::<f64>().unwrap_or(x)
+}
+
+/// The report's note on a record split at its gaps: each piece by its start time and
+/// length.
+fn split_note(id: Option<&str>, time: &[f64], rows: &[usize], pieces: &[std::ops::Range<usize>]) -> String {
+    let shown: Vec<String> = pieces
+        .iter()
+        .take(6)
+        .enumerate()
+        .map(|(k, p)| {
+            let (a, b) = (time[rows[p.start]], time[rows[p.end - 1]]);
+            format!(
+                "piece {} from t = {} s, {} samples ({} s)",
+                k + 1,
+                sig6(a),
+                p.len(),
+                sig6(b - a)
+            )
+        })
+        .collect();
+    format!(
+        "{} split at {} time gap(s) into {} records: {}{}",
+        id.map_or("the record".to_string(), |id| format!("record {id}")),
+        pieces.len() - 1,
+        pieces.len(),
+        shown.join("; "),
+        if pieces.len() > 6 { "; …" } else { "" }
+    )
 }
 
 /// Derivatives a record lacks, by central differences (one-sided at the ends): velocities

@@ -212,6 +212,7 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     reports.extend(comparison_reports(&spec, &filters, naive, &data, &grader)?);
 
     // Validation by re-simulation of the first identified model.
+    crate::interrupt::check()?;
     let validation = match (first, options.validate) {
         (Some((values, method)), true) => Some(dist.validate(s, &reported, &values, method)),
         _ => None,
@@ -244,6 +245,7 @@ fn estimator_reports(
     let mut reports = Vec::new();
     let mut first = None;
     for (m, estimator) in estimators {
+        crate::interrupt::check()?;
         let t = Instant::now();
         let est = estimator.estimate(cx);
         let method = ReportMethod::Estimator(*m);

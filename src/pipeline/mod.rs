@@ -50,6 +50,9 @@ pub enum PipelineError {
     /// A study item's scenario is not valid.
     #[error("{0}")]
     Study(String),
+    /// A stop was requested (`crate::interrupt`).
+    #[error(transparent)]
+    Interrupted(#[from] crate::interrupt::Interrupted),
 }
 
 /// Settings of an identification.

@@ -9,6 +9,7 @@ use crate::ident::Arenas;
 use crate::io::log::{read_samples, LogInfo};
 use crate::io::table::Measured;
 use crate::scenario::Scenario;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 
 /// A stream of stationary samples, read as often as the identification needs.
@@ -47,6 +48,9 @@ impl SampleSource for Tables {
         let m = &self.0;
         for (r, (times, rows)) in m.records.iter().enumerate() {
             for (s, t) in times.iter().enumerate() {
+                if s % Input::LOOK_EVERY == 0 && crate::interrupt::requested() {
+                    return Ok(0);
+                }
                 f(r as u32, *t, &rows[s * m.width..(s + 1) * m.width]);
             }
         }
@@ -135,24 +139,33 @@ impl SampleSource for Simulation {
 pub struct Input {
     pub info: LogInfo,
     pub source: Box<dyn SampleSource>,
+    /// Samples handed over so far, over every pass (for a progress display).
+    read: AtomicU64,
 }
 
 impl Input {
-    /// A log file described by `info` (`io::log::read_info`).
-    pub fn log(info: LogInfo) -> Input {
+    /// How many samples pass between two looks at the interrupt flag and two updates of
+    /// [`Input::samples_read`] (a few milliseconds of work).
+    pub const LOOK_EVERY: usize = 1 << 14;
+
+    /// `source`'s samples, described by `info`.
+    pub fn new(info: LogInfo, source: Box<dyn SampleSource>) -> Input {
         Input {
             info,
-            source: Box::new(LogFile),
+            source,
+            read: AtomicU64::new(0),
         }
+    }
+
+    /// A log file described by `info` (`io::log::read_info`).
+    pub fn log(info: LogInfo) -> Input {
+        Input::new(info, Box::new(LogFile))
     }
 
     /// Measured data on a model file (`LogInfo::of_measured`).
     pub fn tables(model: Scenario, data: Measured) -> Input {
         let data = Arc::new(data);
-        Input {
-            info: LogInfo::of_measured(model, &data),
-            source: Box::new(Tables(data)),
-        }
+        Input::new(LogInfo::of_measured(model, &data), Box::new(Tables(data)))
     }
 
     /// `scenario` simulated in memory, no log written.
@@ -162,15 +175,34 @@ impl Input {
 
     /// `scenario` simulated in memory, its kept samples' buffer from `arenas`.
     pub fn simulation_in(scenario: Scenario, arenas: Arc<Arenas>) -> Input {
-        Input {
-            info: LogInfo::of_simulation(scenario),
-            source: Box::new(Simulation::new(arenas)),
-        }
+        Input::new(LogInfo::of_simulation(scenario), Box::new(Simulation::new(arenas)))
     }
 
-    /// Every sample, in the source's order; the number of samples.
+    /// Every sample, in the source's order; the number of samples. A stop requested
+    /// meanwhile (`crate::interrupt`) ends the pass with `PipelineError::Interrupted`:
+    /// from then on `f` is no longer called, and the source stops at its next look.
     pub fn for_each_sample(&self, mut f: impl FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError> {
-        self.source.for_each_sample(&self.info, &mut f)
+        crate::interrupt::check()?;
+        let (mut n, mut stopped) = (0usize, false);
+        let result = self.source.for_each_sample(&self.info, &mut |j, t, row| {
+            n += 1;
+            if n % Input::LOOK_EVERY == 0 {
+                self.read.fetch_add(Input::LOOK_EVERY as u64, Ordering::Relaxed);
+                stopped = crate::interrupt::requested();
+            }
+            if !stopped {
+                f(j, t, row)
+            }
+        });
+        self.read.fetch_add((n % Input::LOOK_EVERY) as u64, Ordering::Relaxed);
+        crate::interrupt::check()?;
+        result
+    }
+
+    /// Samples handed over so far, over every pass (updated every
+    /// [`Input::LOOK_EVERY`] samples).
+    pub fn samples_read(&self) -> u64 {
+        self.read.load(Ordering::Relaxed)
     }
 
     /// The measured tables, if the samples are measured data.

@@ -456,6 +456,9 @@ pub struct DataMapping {
     /// Derivatives the table lacks are derived (central differences): velocities from
     /// displacements, accelerations from velocities.
     pub derive: bool,
+    /// A record's time gaps (a step of 1.5 sample intervals or more) split it into
+    /// pieces, each an independent record, instead of being refused.
+    pub split_gaps: bool,
     /// A CSV file's field delimiter; `None`: the header's own (`,`, `;` or tab).
     pub delimiter: Option<u8>,
     /// A CSV file's numbers use a decimal comma (`decimal = ","`).

@@ -37,6 +37,7 @@ pub(crate) struct RawData {
     pub(super) npy_columns: Option<Vec<Spanned<String>>>,
     pub(super) topic: Option<Spanned<String>>,
     pub(super) derive: Option<bool>,
+    pub(super) split_gaps: Option<Spanned<bool>>,
     pub(super) delimiter: Option<Spanned<String>>,
     pub(super) decimal: Option<Spanned<String>>,
 }

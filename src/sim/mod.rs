@@ -63,6 +63,9 @@ pub enum SimError {
     /// The sink refused a batch (e.g. the log file could not be written).
     #[error("writing samples failed")]
     Sink(#[source] Box<dyn std::error::Error + Send + Sync>),
+    /// A stop was requested (`crate::interrupt`).
+    #[error(transparent)]
+    Interrupted(#[from] crate::interrupt::Interrupted),
 }
 
 /// Above this `ω·h` (or `γ·h`) at the last finite state, a divergence is put down to the
@@ -229,6 +232,7 @@ pub(crate) fn simulate_padded<const D: usize>(
     let burn_intervals = burn_steps / steps;
     let burn_rest = burn_steps % steps;
     let t_burn = -(burn_steps as f64) * lm.h;
+    crate::interrupt::check()?;
     groups.par_iter_mut().try_for_each(|g| {
         run_group(g, model, &lm, steps, burn_intervals, interval, t_burn, &mut [])?;
         let t_rest = t_burn + burn_intervals as f64 * interval;
@@ -246,6 +250,7 @@ pub(crate) fn simulate_padded<const D: usize>(
     let block = block_samples(steps, cols * sim.trajectories, total);
     let mut done = 0usize;
     while done < total {
+        crate::interrupt::check()?;
         let b = block.min(total - done);
         let t0 = done as f64 * interval;
         let per_k = sim.trajectories;

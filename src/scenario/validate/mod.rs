@@ -307,6 +307,17 @@ pub(crate) fn check_data(
             "give the time column (`time = \"t\"`) or the sample interval (`sample_interval = 0.01`, s)",
         ));
     }
+    let split_gaps = match &d.split_gaps {
+        Some(v) if *v.get_ref() && d.time.is_none() => {
+            return Err(loc.at(
+                v.span(),
+                "data.split_gaps",
+                "splitting records at time gaps needs the time column (`time = \"t\"`)",
+            ))
+        }
+        Some(v) => *v.get_ref(),
+        None => false,
+    };
     let mut scale = BTreeMap::new();
     for (k, v) in d.scale.iter().flatten() {
         let f = *v.get_ref();
@@ -382,6 +393,7 @@ pub(crate) fn check_data(
         npy_columns: d.npy_columns.iter().flatten().map(|c| c.get_ref().clone()).collect(),
         topic: d.topic.as_ref().map(|t| t.get_ref().clone()),
         derive: d.derive.unwrap_or(false),
+        split_gaps,
         delimiter,
         decimal_comma,
     }))
