@@ -244,6 +244,16 @@ fn bad_data_are_refused_naming_the_file_row_and_column() {
             vec!["row 10", "evenly spaced"],
         ),
         (
+            "a lost decimal point",
+            MODEL.into(),
+            with_line(10, "0,1.0,-2.8e16,0.5"),
+            vec![
+                "row 10, column \"x_m1\": -28000000000000000 lies 5.1e16 interquartile ranges",
+                "interquartile ranges from the column's median",
+                "a lost decimal point",
+            ],
+        ),
+        (
             "a gap in time",
             MODEL.into(),
             lines

@@ -425,3 +425,30 @@ def test_the_readmes_python_example_runs_as_written():
         exec(compile(block, "README.md", "exec"), {})
     finally:
         os.chdir(cwd)
+
+
+@pytest.mark.parametrize(
+    "case, column, message",
+    [
+        ("lost decimal point", "v_m1", r"row 813, column \"v_m1\": -28000000000000000 lies .* a lost decimal point"),
+        ("swapped", "v_m1", r"x_m1 \(column \"v_m1\"\) and v_m1 \(column \"x_m1\"\) look swapped"),
+        ("sign", "v_m1", r"v_m1 \(column \"v_m1\"\) is the negative of the rate of change of x_m1"),
+    ],
+)
+def test_bad_columns_are_named_not_reported_as_inseparable_unknowns(case, column, message):
+    """Once "the unknowns cannot be separated": a lost decimal point, the displacement
+    and velocity columns swapped in the mapping, a velocity sensor mounted the other way.
+    Each is now named by its column (and row), with what to check."""
+    data = _sdof_data()
+    model = json.loads(json.dumps(MODEL))
+    if case == "lost decimal point":
+        v = data["v_m1"].copy()
+        v[812] = -2.8e16
+        data = _with(data, "v_m1", v)
+    elif case == "swapped":
+        model["data"]["columns"] = {"x_m1": "v_m1", "v_m1": "x_m1"}
+    else:
+        data = _with(data, "v_m1", -data["v_m1"])
+    with pytest.raises(fpkbench.DataError, match=message) as e:
+        fpkbench.identify(data, model, validate=False)
+    assert e.value.column == column

@@ -167,6 +167,15 @@ impl Welch {
     }
 }
 
+/// How one signal relates to another's rate of change ([`CrossWelch::derivative_gain`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Derivative {
+    /// Its size over the rate of change's: 1 for the derivative in the same units.
+    pub gain: f64,
+    /// +1 a quarter period ahead (the derivative), −1 behind (its negative), 0 in phase.
+    pub lead: f64,
+}
+
 /// Streaming Welch estimate of two signals `q`, `r` and their cross-spectrum, so that the
 /// spectrum of any combination `q + c·r` follows without another pass (the paper's
 /// `P3s = P2 + m1ẍ1 + 2k1(x1 − x2)` for every iterate of `k1`, (4.9)).
@@ -214,12 +223,14 @@ impl CrossWelch {
         }
     }
 
-    /// How `r` scales against the rate of change of `q` where `q` has its power: the
-    /// gain `Σ ω |S_qr| / Σ ω² S_qq` over the frequencies that hold 99 % of `q`'s variance,
-    /// below 0.7 of the Nyquist frequency. For `r = dq/dt`, `|S_qr| = ω S_qq` and the gain
-    /// is 1 at any sampling that resolves `q` (aliasing aside); `r` in other units gives
-    /// their factor. `None` without segments or power.
-    pub fn derivative_gain(&self) -> Option<f64> {
+    /// How `r` relates to the rate of change of `q` where `q` has its power, over the
+    /// frequencies that hold 99 % of `q`'s variance, below 0.7 of the Nyquist frequency:
+    /// the gain `Σ ω |S_qr| / Σ ω² S_qq` and the lead `Σ ω Im S_rq / Σ ω |S_qr|`. For
+    /// `r = dq/dt`, `S_rq = iω S_qq`: the gain is 1 at any sampling that resolves `q`
+    /// (aliasing aside) and the lead +1 (`r` a quarter period ahead); `r` in other units
+    /// gives their factor as the gain, `r = −dq/dt` a lead of −1. `None` without segments
+    /// or power.
+    pub fn derivative_gain(&self) -> Option<Derivative> {
         let sq = self.q.spectrum();
         if sq.segments == 0 {
             return None;
@@ -229,16 +240,21 @@ impl CrossWelch {
             return None;
         }
         let nyquist = PI / self.q.dt;
-        let (mut num, mut den, mut seen) = (0.0, 0.0, 0.0);
+        let (mut num, mut den, mut lead, mut seen) = (0.0, 0.0, 0.0, 0.0);
         for (k, (&w, &d)) in sq.omega.iter().zip(&sq.density).enumerate() {
             if seen >= 0.99 * total || w > 0.7 * nyquist {
                 break;
             }
             seen += d;
             num += w * self.cross[k + 1].hypot(self.cross_im[k + 1]);
+            // `cross_im` is `Im(Q R̄)`, so `Im S_rq` is its negative.
+            lead -= w * self.cross_im[k + 1];
             den += w * w * self.q.acc[k + 1];
         }
-        (den > 0.0).then(|| num / den)
+        (den > 0.0 && num > 0.0).then(|| Derivative {
+            gain: num / den,
+            lead: lead / num,
+        })
     }
 
     /// Spectrum of `q + c·r`: `S_qq + 2c Re S_qr + c² S_rr`.
@@ -328,5 +344,34 @@ pub fn fit_ou(s: &Spectrum) -> OuFit {
         b,
         rms_log_residual: (ss / logs.len() as f64).sqrt(),
         expected_rms: 1.0 / (s.segments.max(1) as f64).sqrt(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A two-tone signal and its exact rate of change, sampled every 0.05 s.
+    fn fit(pair: impl Fn(f64) -> (f64, f64)) -> Derivative {
+        let mut w = CrossWelch::new(512, 0.05, 1);
+        for k in 0..20_000 {
+            let (q, r) = pair(0.05 * k as f64);
+            w.push(0, q, r);
+        }
+        w.derivative_gain().unwrap()
+    }
+
+    #[test]
+    fn a_derivative_leads_and_its_negative_or_a_swap_does_not() {
+        let x = |t: f64| (1.3 * t).sin() + 0.5 * (3.1 * t).cos();
+        let v = |t: f64| 1.3 * (1.3 * t).cos() - 1.55 * (3.1 * t).sin();
+        let d = fit(|t| (x(t), v(t)));
+        assert!((d.gain - 1.0).abs() < 0.05 && d.lead > 0.95, "{d:?}");
+        let d = fit(|t| (x(t), -v(t)));
+        assert!((d.gain - 1.0).abs() < 0.05 && d.lead < -0.95, "{d:?}");
+        // Swapped: the displacement as the velocity's rate of change lags it and is
+        // 1/ω² of its size.
+        let d = fit(|t| (v(t), x(t)));
+        assert!(d.lead < -0.95 && d.gain < 0.4, "{d:?}");
     }
 }

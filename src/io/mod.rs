@@ -10,3 +10,4 @@ pub mod log;
 pub mod output;
 pub mod reader;
 pub mod table;
+mod units;

@@ -374,129 +374,6 @@ fn read_npy(path: &Path, b: &[u8], npy_columns: &[String]) -> Result<Table, Data
     })
 }
 
-/// How far a derivative's column may scale from the rate of change of its quantity's
-/// column before the units count as wrong (a degree against a radian is 57.3, a
-/// millimetre against a metre 1000, g against m/s² 9.81, Hz against rad/s 6.28).
-pub const UNITS_TOLERANCE: f64 = 1.5;
-
-/// The unit mix-ups a factor suggests.
-fn unit_hint(factor: f64) -> &'static str {
-    let f = if factor < 1.0 { 1.0 / factor } else { factor };
-    let near = |x: f64| (f / x - 1.0).abs() < 0.03;
-    if near(180.0 / std::f64::consts::PI) {
-        " (57.3: degrees against radians)"
-    } else if near(1000.0) {
-        " (1000: millimetres against metres)"
-    } else if near(9.80665) {
-        " (9.81: g against m/s²)"
-    } else if near(2.0 * std::f64::consts::PI) {
-        " (6.28: cycles against radians, Hz against rad/s)"
-    } else if near(100.0) {
-        " (100: centimetres against metres)"
-    } else {
-        ""
-    }
-}
-
-/// Units that make no physical sense, at any sampling that resolves the motion: where a
-/// mass's displacement and velocity (or velocity and acceleration) are both in the table,
-/// the derivative's spectrum must be the rate of change of the other's, `|S_fd(ω)| = ω
-/// S_f(ω)` over the band that holds the motion's power (`CrossWelch::derivative_gain`),
-/// within [`UNITS_TOLERANCE`]. Otherwise the error says which column is off by which
-/// factor: with `x`, `v` and `a` all given, the one that disagrees with both others.
-fn check_units(
-    records: &[(Vec<f64>, Vec<f64>)],
-    width: usize,
-    h: f64,
-    m: &crate::model::Model,
-    mapped: &[(usize, String)],
-    names: &[String],
-) -> Result<(), (usize, String)> {
-    let layout = m.columns();
-    let column = |k: usize| mapped.iter().find(|x| x.0 == k).map(|x| x.1.as_str());
-    let longest = records.iter().map(|r| r.0.len()).max().unwrap_or(0);
-    // Segments of about 32 periods of the motion (its period from the mean crossings of a
-    // displacement or velocity, which needs no units), so that a derivative's spectrum is
-    // resolved, at most half the longest record.
-    let period_samples = |k: usize| -> Option<f64> {
-        let (mut crossings, mut n) = (0usize, 0usize);
-        for (_, samples) in records {
-            let v: Vec<f64> = samples.chunks_exact(width).map(|r| r[k]).collect();
-            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
-            crossings += v.windows(2).filter(|w| (w[0] - mean) * (w[1] - mean) < 0.0).count();
-            n += v.len();
-        }
-        (crossings > 0).then(|| 2.0 * n as f64 / crossings as f64)
-    };
-    let gain = |f: usize, d: usize, len: usize| -> Option<f64> {
-        let mut w = crate::ident::spectrum::CrossWelch::new(len, h, records.len());
-        for (j, (_, samples)) in records.iter().enumerate() {
-            for row in samples.chunks_exact(width) {
-                w.push(j, row[f], row[d]);
-            }
-        }
-        w.derivative_gain()
-    };
-    let off = |g: f64| !(1.0 / UNITS_TOLERANCE..=UNITS_TOLERANCE).contains(&g);
-    for i in 0..m.masses() {
-        let (x, v, a) = (layout.x(i), layout.v(i), layout.a(i));
-        let pair = |f: usize, d: usize| match (column(f), column(d)) {
-            (Some(_), Some(_)) => {
-                let period = period_samples(f)?;
-                let len = ((32.0 * period) as usize).clamp(16, (longest / 2).max(16));
-                gain(f, d, len)
-            }
-            _ => None,
-        };
-        let (xv, va) = (pair(x, v), pair(v, a));
-        let name = |k: usize| format!("{} (column {:?})", names[k], column(k).unwrap_or("?"));
-        let says = |k: usize, factor: f64, against: &str| {
-            format!(
-                "the units do not fit together: {} is {factor:.4} times what {against} says it should be{}; check \
-                 [data.scale] for {:?} (docs/data.md, units)",
-                name(k),
-                unit_hint(factor),
-                column(k).unwrap_or("?")
-            )
-        };
-        match (xv, va) {
-            (Some(g1), Some(g2)) if off(g1) && off(g2) => {
-                return Err((v, says(v, g1, &format!("the rate of change of {}", name(x)))))
-            }
-            (Some(g1), Some(_)) if off(g1) => {
-                return Err((x, says(x, 1.0 / g1, &format!("{} (its rate of change)", name(v)))))
-            }
-            (Some(_), Some(g2)) if off(g2) => {
-                return Err((a, says(a, g2, &format!("the rate of change of {}", name(v)))))
-            }
-            (Some(g), None) if off(g) => {
-                return Err((
-                    v,
-                    format!(
-                        "{}, or {} is {:.4} times too large",
-                        says(v, g, &format!("the rate of change of {}", name(x))),
-                        name(x),
-                        1.0 / g
-                    ),
-                ))
-            }
-            (None, Some(g)) if off(g) => {
-                return Err((
-                    a,
-                    format!(
-                        "{}, or {} is {:.4} times too large",
-                        says(a, g, &format!("the rate of change of {}", name(v))),
-                        name(v),
-                        1.0 / g
-                    ),
-                ))
-            }
-            _ => {}
-        }
-    }
-    Ok(())
-}
-
 /// `ω·h` above which differentiating displacements is too coarse (a 0.17 % smoothing of
 /// the velocity's amplitude; the weak form's moments amplify it).
 pub const DERIVE_LIMIT: f64 = 0.1;
@@ -611,7 +488,17 @@ pub fn measured(model: &Scenario, tables: &[Table]) -> Result<Measured, DataErro
         .iter()
         .map(|(q, c)| (names.iter().position(|n| n == q).expect("a quantity"), c.clone()))
         .collect();
-    check_units(&records, width, sample_interval, &m, &given, &names).map_err(|(k, e)| {
+    let mapped = super::units::Mapped {
+        records: &records,
+        width,
+        h: sample_interval,
+        columns: &given,
+        names: &names,
+    };
+    let masses: Vec<_> = (0..m.masses())
+        .map(|i| (layout.x(i), layout.v(i), layout.a(i)))
+        .collect();
+    super::units::check_units(&mapped, &masses).map_err(|(k, e)| {
         let column = given.iter().find(|g| g.0 == k).map_or("?", |g| g.1.as_str());
         err(&tables[0].path, e).in_column(column)
     })?;
@@ -655,8 +542,73 @@ fn check_values(
             )
             .in_column(c));
         }
+        if let Some(o) = Outlier::find(v) {
+            return Err(err(
+                &t.path,
+                format!(
+                    "row {}, column {c:?}: {} lies {} interquartile ranges from the column's median ({}; the middle \
+                     half within [{}, {}]): a lost decimal point, a logger glitch? {} value(s) lie over {OUTLIER} \
+                     interquartile ranges out, which a stationary response does not reach; correct or remove them \
+                     (with `split_gaps = true` the rows around a removed one become records of their own)",
+                    o.row + 1,
+                    v[o.row],
+                    if o.distance < 1e4 {
+                        format!("{:.0}", o.distance)
+                    } else {
+                        format!("{:.1e}", o.distance)
+                    },
+                    sig6(o.median),
+                    sig6(o.quartiles[0]),
+                    sig6(o.quartiles[1]),
+                    o.count
+                ),
+            )
+            .in_column(c)
+            .at_row(o.row + 1));
+        }
     }
     Ok(())
+}
+
+/// How many interquartile ranges from its column's median a value may lie: 40 standard
+/// deviations of a normal variable (a chance below 10^-300), far beyond any stationary
+/// response's tail, while a lost decimal point or a logger's glitch lands further out.
+pub const OUTLIER: f64 = 30.0;
+
+/// The first value of a column over [`OUTLIER`] interquartile ranges from its median.
+struct Outlier {
+    row: usize,
+    distance: f64,
+    median: f64,
+    quartiles: [f64; 2],
+    count: usize,
+}
+
+impl Outlier {
+    fn find(v: &[f64]) -> Option<Outlier> {
+        let mut sorted = v.to_vec();
+        let n = sorted.len();
+        let mut at = |q: f64| {
+            *sorted
+                .select_nth_unstable_by(((n - 1) as f64 * q) as usize, f64::total_cmp)
+                .1
+        };
+        let (q1, median, q3) = (at(0.25), at(0.5), at(0.75));
+        let iqr = q3 - q1;
+        if iqr <= 0.0 {
+            return None;
+        }
+        let distance = |x: f64| (x - median).abs() / iqr;
+        let count = v.iter().filter(|&&x| distance(x) > OUTLIER).count();
+        let row = v.iter().position(|&x| distance(x) > OUTLIER)?;
+        Some(Outlier {
+            row,
+            distance: distance(v[row]),
+            median,
+            quartiles: [q1, q3],
+            count,
+        })
+    }
 }
 
 /// The rows of each record (all rows one record without a record column), the records in
