@@ -465,7 +465,7 @@ impl LogInfo {
     pub fn of_measured(mut model: Scenario, data: &super::table::Measured) -> LogInfo {
         let sim = &mut model.simulation;
         sim.sample_interval = data.sample_interval;
-        sim.dt = data.sample_interval / 10.0;
+        sim.dt = data.sample_interval / data.steps_per_sample() as f64;
         sim.record_length = data.record_length();
         sim.trajectories = data.records.len();
         sim.burn_in = 0.0;
