@@ -346,6 +346,9 @@ def test_ctrl_c_interrupts_a_call_within_a_second(tmp_path):
         """
 import os, signal, sys, threading, time
 import fpkbench
+# Ctrl-C's handler as in a terminal: a shell starts background jobs with SIGINT ignored,
+# and Python then installs none.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 spec = {"mass": [{"name": "m1", "value": 1.0}],
         "link": [{"ends": ["ground", "m1"], "stiffness": {"1": 10.0, "3": 20.0}, "damping": {"1": 0.5}}],
         "excitation": [{"kind": "white", "sigma": 1.0, "acts_on": ["m1"]}],

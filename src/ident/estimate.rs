@@ -208,14 +208,17 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
             "test functions".into(),
             format!("{} monomials of degree 1..={}", pc.rows, weak::test_degree(problem)),
         ),
-        (
-            "moments".into(),
-            format!(
-                "{} raw moments of degree <= {}",
-                total.monomials().len() - 1,
-                weak::moment_degree(problem)
-            ),
-        ),
+        ("moments".into(), {
+            // The moments this problem's equations can use: the accumulator may be
+            // shared with a problem of higher degree (a `[identify.compare]` row).
+            let d = weak::moment_degree(problem);
+            let n = total
+                .monomials()
+                .iter()
+                .filter(|&&e| (1..=d).contains(&super::poly::degree(e)))
+                .count();
+            format!("{n} raw moments of degree <= {d}")
+        }),
         (
             "standard errors".into(),
             format!("delete-one jackknife over {} batches", replicates.len()),

@@ -312,6 +312,12 @@ fn final_and_steps(
         ("steps".into(), (it.steps.len() - 1).to_string()),
         ("stopped by".into(), it.stopped_by.to_string()),
         ("monotone differences".into(), it.monotone.to_string()),
+        (
+            "standard errors".into(),
+            "none: the final iterate depends on every step's estimates and fitted filter, and no resampling \
+             of the whole procedure is run (step 0 and the bounds have theirs)"
+                .into(),
+        ),
     ];
     (report(method, Some(threshold), Ok(final_est), problem), steps)
 }

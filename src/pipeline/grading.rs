@@ -197,8 +197,11 @@ pub(crate) fn fill_accuracy(
                 covariance: terms_covariance,
                 dof,
             });
-            rep.dissipativity
-                .push(stats::dissipativity(&s.links[l].name, kind, &est, lo, hi));
+            let d = stats::dissipativity(&s.links[l].name, kind, &est, lo, hi);
+            rep.dissipativity.push(match rep.method.ignores() {
+                Some(cause) => d.blame(cause),
+                None => d,
+            });
         }
     }
     if graded {

@@ -388,6 +388,17 @@ impl ReportMethod {
         out
     }
 
+    /// What this row ignores by design, when it does: a non-dissipative estimate there is
+    /// that model error's doing, not the polynomial degree's.
+    pub fn ignores(&self) -> Option<&'static str> {
+        match self {
+            ReportMethod::WeakWhiteNaive => Some("the filtered forces' spectra (each force taken as white)"),
+            ReportMethod::Step0 => Some("the unmeasured disturbance (the paper's step 0)"),
+            ReportMethod::PzMeasured => Some("the filtered forces' spectra (the paper's white-noise model of them)"),
+            _ => None,
+        }
+    }
+
     /// The name reports and scenarios use, e.g. `strong-marginals`, `weak [linear]`.
     pub fn name(&self) -> String {
         match self {

@@ -153,6 +153,26 @@ pub fn dissipativity(link: &str, kind: Characteristic, p: &Curve, lo: f64, hi: f
     }
 }
 
+impl Dissipativity {
+    /// A failure put down to what the estimate's model ignores by design (`cause`), not to
+    /// the polynomial degree: the advice to try another degree would mislead.
+    pub fn blame(mut self, cause: &str) -> Dissipativity {
+        if let Some(z) = self.fails_at {
+            let (f, v) = if self.kind == Characteristic::Stiffness.name() {
+                ("K(u)·u", "u")
+            } else {
+                ("C(w)·w", "w")
+            };
+            self.message = format!(
+                "{f} <= 0 at {v} = {z:.4} within the observed range: the identified {} is not dissipative there; \
+                 this row ignores {cause} by design, the likely cause (another polynomial degree would not mend it)",
+                self.kind
+            );
+        }
+        self
+    }
+}
+
 /// The true characteristic of `(link, kind)` in a scenario.
 pub fn true_characteristic(s: &Scenario, link: usize, kind: Characteristic) -> Curve {
     match kind {
@@ -222,5 +242,23 @@ mod tests {
         assert!(d.message.contains("powers up to 1 or 5"), "{}", d.message);
         let good = Curve::powers(&[(1, 10.0), (3, 20.0)]);
         assert!(dissipativity("ground-m1", Characteristic::Stiffness, &good, -1.0, 1.0).holds);
+        // A row that ignores a force by design: the failure is put down to that, with no
+        // advice about the degree; a holding check keeps its message.
+        let d = dissipativity(
+            "ground-m1",
+            Characteristic::Damping,
+            &Curve::powers(&[(1, -0.04)]),
+            -4.0,
+            4.0,
+        )
+        .blame("the unmeasured disturbance");
+        assert!(
+            !d.holds && d.message.starts_with("C(w)·w <= 0 at w = -4.0000"),
+            "{}",
+            d.message
+        );
+        assert!(d.message.contains("ignores the unmeasured disturbance by design") && !d.message.contains("degree ("));
+        let kept = dissipativity("ground-m1", Characteristic::Stiffness, &good, -1.0, 1.0);
+        assert_eq!(kept.clone().blame("x").message, kept.message);
     }
 }
