@@ -222,6 +222,7 @@ impl Distributions {
                 seed: 0,
                 rows: Vec::new(),
                 error: Some(format!("the identified model could not be simulated: {e}")),
+                left_out: left_out(s),
             },
         }
     }
@@ -257,10 +258,20 @@ impl Distributions {
     }
 }
 
-/// The logged system with the identified values in place of the unknowns: the model the
-/// validation simulates.
+/// The logged system as the identifier knows it, with the identified values in place of
+/// the unknowns: the model the validation simulates. An unmeasured excitation (a
+/// disturbance the identifier is never told about) is left out — re-simulating it would
+/// use what the method does not have (docs/methods.md, validation).
 pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coefficient>], values: &[f64]) -> Model {
     let mut model = Model::new(s);
+    for (e, x) in s.excitations.iter().enumerate() {
+        if !x.measured {
+            match &mut model.excitations[e].process {
+                Process::White { sigma } => *sigma = 0.0,
+                Process::Filtered { a, .. } => *a = 0.0,
+            }
+        }
+    }
     for l in 0..model.links() {
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
             let (est, unknown) = stats::estimated_characteristic(s, coef_of, values, l, kind);
@@ -294,6 +305,15 @@ pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coeff
         }
     }
     model
+}
+
+/// The excitations the validation leaves out: those the identifier is not told about.
+fn left_out(s: &Scenario) -> Vec<String> {
+    s.excitations
+        .iter()
+        .filter(|x| !x.measured)
+        .map(|x| x.name.clone())
+        .collect()
 }
 
 /// Re-simulate the identified model with the same excitation (another seed) and compare
@@ -337,6 +357,7 @@ pub(crate) fn validate(
             seed: sim.seed,
             rows,
             error: None,
+            left_out: left_out(s),
         },
         m,
     ))

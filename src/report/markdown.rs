@@ -220,6 +220,9 @@ fn validation_section(r: &Report, v: &Validation) -> String {
         "## Validation\n\nThe {} model re-simulated ({} trajectories × {:.0} s, seed {}) against the data.\n\n",
         v.method, v.trajectories, v.record_length_s, v.seed
     );
+    if !v.left_out.is_empty() {
+        s += &format!("{}\n\n", v.left_out_note());
+    }
     match &v.error {
         Some(e) => s += &format!("{e}\n\n"),
         None => {

@@ -308,6 +308,9 @@ fn validation(v: &Validation) -> String {
         "\nvalidation: the {} model re-simulated ({} trajectories x {:.0} s, seed {})\n",
         v.method, v.trajectories, v.record_length_s, v.seed
     );
+    if !v.left_out.is_empty() {
+        s += &format!("  {}\n", v.left_out_note());
+    }
     if let Some(e) = &v.error {
         s += &format!("  {e}\n");
     } else {

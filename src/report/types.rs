@@ -178,6 +178,23 @@ pub struct Validation {
     pub rows: Vec<ValidationRow>,
     /// Set when the identified model could not be simulated (e.g. not dissipative).
     pub error: Option<String>,
+    /// Unmeasured excitations, left out of the re-simulation: the method does not know
+    /// them, so the model's responses lack their share.
+    pub left_out: Vec<String>,
+}
+
+impl Validation {
+    /// What the re-simulation leaves out, as a sentence (empty when nothing is).
+    pub fn left_out_note(&self) -> String {
+        if self.left_out.is_empty() {
+            return String::new();
+        }
+        format!(
+            "Left out of the re-simulation: the unmeasured excitation {} (the method is not told about it, so \
+             the model's responses lack its share; the differences below include it).",
+            self.left_out.join(", ")
+        )
+    }
 }
 
 #[derive(Debug, Clone, Serialize)]
