@@ -295,7 +295,7 @@ fn iterated_force_gate_needs_the_disturbance_procedure() {
         &text,
         31,
         "accept.methods.iterated-force",
-        "methods are weak, strong, strong-marginals",
+        "the gated methods are weak, strong\n",
     );
 }
 

@@ -257,9 +257,17 @@ registry! {
 }
 
 impl Method {
-    /// The FPK estimators: the methods a regression gate may hold.
-    pub fn fpk() -> impl Iterator<Item = Method> {
-        Method::REGISTERED.iter().copied().filter(|m| m.kind() == Kind::Fpk)
+    /// The methods a regression gate may hold: the FPK estimators, but for the paper's
+    /// product-of-marginals simplification (3.21), which is known to miss (by about 95 %
+    /// on the shipped two-mass and bushing cases) and is reported to show what it costs,
+    /// as a comparison: a gate on it would call a known failure "within".
+    pub fn gated() -> impl Iterator<Item = Method> {
+        Method::REGISTERED.iter().copied().filter(|m| m.is_gated())
+    }
+
+    /// Whether a regression gate holds it ([`Method::gated`]).
+    pub fn is_gated(self) -> bool {
+        self.kind() == Kind::Fpk && self != Method::StrongMarginals
     }
 
     /// Whether it is compared, never gated (a baseline or an oracle).
@@ -329,8 +337,8 @@ mod tests {
 
     #[test]
     fn only_fpk_estimators_are_gated() {
-        let fpk: Vec<_> = Method::fpk().collect();
-        assert_eq!(fpk, [Method::Weak, Method::Strong, Method::StrongMarginals]);
+        let gated: Vec<_> = Method::gated().collect();
+        assert_eq!(gated, [Method::Weak, Method::Strong]);
         assert!(Method::ForceRegression.is_baseline() && Method::Increments.is_baseline());
     }
 

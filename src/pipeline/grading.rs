@@ -241,6 +241,7 @@ pub(crate) fn method_report(
     ranges: &[[f64; 4]],
     started: Instant,
 ) -> MethodReport {
+    let threshold_default = threshold.is_some() && g.scenario.accept.is_default(&method);
     let mut rep = MethodReport {
         method,
         outcome: Outcome::Estimated,
@@ -249,6 +250,7 @@ pub(crate) fn method_report(
         curves: Vec::new(),
         worst_rel_error: f64::NAN,
         threshold,
+        threshold_default,
         passed: threshold.map(|_| false),
         not_applicable: None,
         warnings: Vec::new(),

@@ -252,8 +252,8 @@ fn estimator_reports(
         if let (Ok(est), None, false) = (&est, &first, m.is_baseline()) {
             first = Some((est.values.clone(), method.clone()));
         }
-        // Baselines are compared, never gated.
-        let threshold = (!m.is_baseline()).then(|| s.accept.threshold(&method));
+        // Baselines and known-biased comparisons are compared, never gated.
+        let threshold = m.is_gated().then(|| s.accept.threshold(&method));
         reports.push(method_report(method, threshold, est, grader, reported, ranges, t));
     }
     Ok((reports, first))

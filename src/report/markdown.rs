@@ -23,9 +23,14 @@ fn verdict(m: &MethodReport) -> String {
     if let Some(e) = &m.error {
         return format!("**{}**: {}, no estimate — {e}", m.method, m.outcome.name());
     }
+    let kind = if m.threshold_default {
+        "default gate (not calibrated: the scenario's [accept] sets none)"
+    } else {
+        "regression gate"
+    };
     let gate = match (m.threshold, m.passed) {
-        (Some(t), Some(true)) => format!("within its regression gate of {}", fmt_err(t)),
-        (Some(t), Some(false)) => format!("**exceeds** its regression gate of {}", fmt_err(t)),
+        (Some(t), Some(true)) => format!("within its {kind} of {}", fmt_err(t)),
+        (Some(t), Some(false)) => format!("**exceeds** its {kind} of {}", fmt_err(t)),
         _ => "a baseline or comparison, not gated".into(),
     };
     let mut s = format!(

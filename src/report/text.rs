@@ -71,6 +71,8 @@ pub fn summary(r: &Report) -> String {
         "\nresult: {}. Note: {GATE_MEANING}.\n",
         if r.passed && r.methods.iter().all(|m| m.threshold.is_none()) {
             "every method gave an estimate (nothing graded: no truth)"
+        } else if r.passed && r.methods.iter().any(|m| m.threshold_default) {
+            "every gate holds, some only the uncalibrated default (set [accept] from the spread over seeds)"
         } else if r.passed {
             "every regression gate holds"
         } else {
@@ -230,8 +232,13 @@ fn method_lines(m: &MethodReport) -> String {
     match (m.threshold, m.passed) {
         (Some(t), Some(ok)) => {
             s += &format!(
-                "worst error {}; regression gate {}: {}",
+                "worst error {}; {} {}: {}",
                 fmt_err(m.worst_rel_error),
+                if m.threshold_default {
+                    "default gate (not calibrated: the scenario's [accept] sets none)"
+                } else {
+                    "regression gate"
+                },
                 fmt_err(t),
                 if ok { "within" } else { "EXCEEDED" }
             )

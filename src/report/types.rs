@@ -127,6 +127,9 @@ pub struct MethodReport {
     /// The regression gate on `worst_rel_error` (mean + 4 sd over seeds, set in the
     /// scenario's `[accept]`); `None` for baselines and comparisons.
     pub threshold: Option<f64>,
+    /// Whether `threshold` is the 5 % default of a scenario without `[accept]`
+    /// `worst_rel_error`, which no spread over seeds calibrated.
+    pub threshold_default: bool,
     /// Whether the worst error is within the gate; `None` when not gated or not applicable.
     pub passed: Option<bool>,
     /// Why the method does not apply to this problem (e.g. a density grid in too many

@@ -347,6 +347,9 @@ pub struct Accept {
     pub worst_rel_error: f64,
     /// Per report method (a [`ReportMethod::gated`] name): its own threshold.
     pub methods: BTreeMap<String, f64>,
+    /// Whether `worst_rel_error` is the scenario's own (else the 5 % default, which no
+    /// spread over seeds calibrated).
+    pub calibrated: bool,
 }
 
 /// What a row of a report is: an estimator, a baseline, a comparison model, or a step or
@@ -381,7 +384,7 @@ impl ReportMethod {
     /// The methods an `[accept] methods` key may name (the section-4 ones only with
     /// `[identify.disturbance]`).
     pub fn gated(disturbance: bool) -> Vec<ReportMethod> {
-        let mut out: Vec<ReportMethod> = Method::fpk().map(ReportMethod::Estimator).collect();
+        let mut out: Vec<ReportMethod> = Method::gated().map(ReportMethod::Estimator).collect();
         if disturbance {
             out.extend([ReportMethod::IteratedForce, ReportMethod::DirectForce]);
         }
@@ -437,6 +440,11 @@ impl PartialEq<&str> for ReportMethod {
 
 impl Accept {
     /// The threshold of report method `method`.
+    /// Whether `method`'s threshold is the uncalibrated default.
+    pub fn is_default(&self, method: &ReportMethod) -> bool {
+        !self.calibrated && !self.methods.contains_key(&method.name())
+    }
+
     pub fn threshold(&self, method: &ReportMethod) -> f64 {
         self.methods
             .get(&method.name())

@@ -248,10 +248,12 @@ pub(crate) fn check_accept(loc: &Locator, raw: &RawScenario, identify: &Identify
     let mut accept = Accept {
         worst_rel_error: 0.05,
         methods: BTreeMap::new(),
+        calibrated: false,
     };
     if let Some(a) = &raw.accept {
         if let Some(w) = &a.worst_rel_error {
             accept.worst_rel_error = finite_positive(loc, w, "accept.worst_rel_error", "relative error, e.g. 0.03")?;
+            accept.calibrated = true;
         }
         let allowed: Vec<String> = ReportMethod::gated(identify.disturbance.is_some())
             .iter()
@@ -260,10 +262,14 @@ pub(crate) fn check_accept(loc: &Locator, raw: &RawScenario, identify: &Identify
         for (m, v) in a.methods.iter().flatten() {
             let key = format!("accept.methods.{m}");
             if !allowed.contains(m) {
+                let why = match m.parse::<crate::scenario::Method>() {
+                    Ok(_) => format!("{m:?} is reported for comparison, never gated"),
+                    Err(_) => format!("unknown method {m:?}"),
+                };
                 return Err(loc.at(
                     v.span(),
                     &key,
-                    format!("unknown method {m:?}: methods are {}", allowed.join(", ")),
+                    format!("{why}: the gated methods are {}", allowed.join(", ")),
                 ));
             }
             accept
