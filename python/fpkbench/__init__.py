@@ -237,8 +237,8 @@ class _Bar:
             self.close()
             self.stage = stage
             self.bar = self.tqdm(total=total, desc=stage, unit="samples", unit_scale=True, delay=1.0, leave=False)
-        self.bar.n = done
-        self.bar.refresh()
+        # `update`, not `refresh`: a refresh would show a bar before its delay.
+        self.bar.update(done - self.bar.n)
 
     def close(self) -> None:
         if self.bar is not None:
