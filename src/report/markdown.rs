@@ -179,7 +179,7 @@ fn method_section(m: &MethodReport) -> String {
     if !m.dissipativity.is_empty() && m.dissipativity.iter().all(|d| d.holds) {
         s += "- dissipativity (3.4): K(u)·u > 0 and C(w)·w > 0 hold over the observed ranges\n";
     }
-    s += &format!("- time: {:.2} s\n\n", m.seconds);
+    s += &format!("- time: {}\n\n", super::text::fmt_seconds(m.seconds));
     s
 }
 

@@ -128,33 +128,52 @@ fn header(r: &Report) -> String {
     s
 }
 
-/// Each fitted filter against the truth and its spectral fit.
+/// Each filter: the `A`, `B` used, and where they were fitted, the fit against the truth
+/// (once: a fitted filter's values are the ones used).
 fn filters(r: &Report) -> String {
     let mut s = String::new();
     for f in &r.filters {
-        let fit = if f.true_a.is_finite() {
+        let vs_truth = if f.true_a.is_finite() {
             format!(
-                "A = {:.4} ({:+.2} %), B = {:.4} ({:+.2} %) vs true {}, {}",
-                f.fitted_a,
-                100.0 * (f.fitted_a / f.true_a - 1.0),
-                f.fitted_b,
-                100.0 * (f.fitted_b / f.true_b - 1.0),
+                " ({:+.2} %, {:+.2} % against the true {}, {})",
+                100.0 * (f.a / f.true_a - 1.0),
+                100.0 * (f.b / f.true_b - 1.0),
                 f.true_a,
                 f.true_b
             )
         } else {
-            format!("A = {:.4}, B = {:.4}", f.fitted_a, f.fitted_b)
+            String::new()
+        };
+        s += &if f.used == "fitted" {
+            format!(
+                "filter {}: A = {:.4}, B = {:.4} 1/s fitted{vs_truth}",
+                f.excitation, f.a, f.b
+            )
+        } else {
+            format!(
+                "filter {}: A = {:.4}, B = {:.4} 1/s {} (the spectral fit gives A = {:.4}, B = {:.4})",
+                f.excitation, f.a, f.b, f.used, f.fitted_a, f.fitted_b
+            )
         };
         s += &format!(
-            "filter {}: A = {:.4}, B = {:.4} 1/s used ({}); spectral fit {fit}; log residual RMS {:.3} (averaging alone: \
-             {:.3}) over {} segments of {}\n",
-            f.excitation, f.a, f.b, f.used, f.rms_log_residual, f.expected_rms_log_residual, f.segments, f.segment_len
+            "; log residual RMS {:.3} (averaging alone: {:.3}) over {} segments of {}\n",
+            f.rms_log_residual, f.expected_rms_log_residual, f.segments, f.segment_len
         );
     }
     if !r.filters.is_empty() {
         s += "\n";
     }
     s
+}
+
+/// Seconds as a reader wants them: milliseconds below a tenth of a second (a method's
+/// time, "0.00 s" before).
+pub(crate) fn fmt_seconds(t: f64) -> String {
+    if t < 0.1 {
+        format!("{:.1} ms", 1e3 * t)
+    } else {
+        format!("{t:.2} s")
+    }
 }
 
 /// Per parameter and method: the estimate ± standard error and its error, with the legend.
@@ -254,7 +273,7 @@ fn method_lines(m: &MethodReport) -> String {
     if let Some(d) = &m.diagnostics {
         s += &format!("; rank {}/{}, sv ratio {:.2e}", d.rank, d.cols, d.sv_ratio);
     }
-    s += &format!("; {:.2} s\n", m.seconds);
+    s += &format!("; {}\n", fmt_seconds(m.seconds));
     if m.weakly_determined {
         s += "  WARNING: smallest/largest singular value below 1e-3: the estimates are weakly determined\n";
     }
