@@ -49,9 +49,9 @@ fn verdict(m: &MethodReport) -> String {
 }
 
 /// The estimates of one method: value, standard error, 95 % interval, error.
-fn parameter_table(m: &MethodReport) -> String {
+fn parameter_table(m: &MethodReport, motion: crate::scenario::Motion) -> String {
     let mut s = String::from(
-        "| parameter | true | estimate | std. error | 95 % interval | differs from 0 | error |\n|---|---:|---:|---:|---|---|---:|\n",
+        "| parameter | unit | true | estimate | std. error | 95 % interval | differs from 0 | error |\n|---|---|---:|---:|---:|---|---|---:|\n",
     );
     for p in &m.parameters {
         let d = decimals(p.std_error);
@@ -64,8 +64,9 @@ fn parameter_table(m: &MethodReport) -> String {
             None => "—",
         };
         s += &format!(
-            "| `{}` | {} | {} | {} | {ci} | {zero} | {} |\n",
+            "| `{}` | {} | {} | {} | {} | {ci} | {zero} | {} |\n",
             p.name,
+            crate::report::plot::iteration::parameter_unit(&p.name, motion),
             num(p.true_value, 4),
             fixed(p.estimate, d),
             fixed(p.std_error, d),
@@ -123,8 +124,9 @@ pub fn markdown(r: &Report) -> String {
           characteristic's scale over the observed range. Standard errors: delete-one jackknife over the \
           record's batches; 95 % intervals: ± Student's t(0.975) standard errors. They measure the sampling \
           noise only, not a method's bias.\n\n";
+    let motion = r.scenario_def.as_ref().map_or(Default::default(), |d| d.motion);
     for m in &r.methods {
-        s += &method_section(m);
+        s += &method_section(m, motion);
     }
     if super::plot::compare::has_comparisons(r) {
         s += "## Models compared\n\n![The scenario's model and its comparison models](compare.svg)\n\n";
@@ -139,7 +141,7 @@ pub fn markdown(r: &Report) -> String {
 }
 
 /// One method's estimates, curves and diagnostics.
-fn method_section(m: &MethodReport) -> String {
+fn method_section(m: &MethodReport, motion: crate::scenario::Motion) -> String {
     let mut s = format!("### {}\n\n", m.method);
     if let Some(why) = &m.not_applicable {
         return s + &format!("Not applicable: {why}\n\n");
@@ -147,7 +149,7 @@ fn method_section(m: &MethodReport) -> String {
     if let Some(e) = &m.error {
         return s + &format!("No estimate ({}): {e}\n\n", m.outcome.name());
     }
-    s += &parameter_table(m);
+    s += &parameter_table(m, motion);
     if !m.curves.is_empty() {
         s += "\n| characteristic | relative L2 error | observed range |\n|---|---:|---|\n";
         for c in &m.curves {

@@ -181,7 +181,9 @@ fn parameter_table(r: &Report) -> String {
     let mut s = String::new();
     let methods: Vec<_> = r.methods.iter().collect();
     // Parameter table: per method its estimate ± standard error and its error.
-    s += &format!("| {:<18} | {:>10} |", "parameter", "true");
+    let motion = r.scenario_def.as_ref().map_or(Default::default(), |d| d.motion);
+    let unit = |n: &crate::model::UnknownName| crate::report::plot::iteration::parameter_unit(n, motion);
+    s += &format!("| {:<18} | {:<10} | {:>10} |", "parameter", "unit", "true");
     let widths: Vec<usize> = methods
         .iter()
         .map(|m| EST_W.max(format!("{} ± std. error", m.method).chars().count()))
@@ -199,6 +201,8 @@ fn parameter_table(r: &Report) -> String {
     s += "|";
     s += &"-".repeat(12);
     s += "|";
+    s += &"-".repeat(12);
+    s += "|";
     for w in &widths {
         s += &"-".repeat(w + 2);
         s += "|";
@@ -206,19 +210,24 @@ fn parameter_table(r: &Report) -> String {
         s += "|";
     }
     s += "\n";
-    let names: Vec<String> = methods
+    let names: Vec<(String, String)> = methods
         .iter()
         .find(|m| !m.parameters.is_empty())
-        .map(|m| m.parameters.iter().map(|p| p.name.to_string()).collect())
+        .map(|m| {
+            m.parameters
+                .iter()
+                .map(|p| (p.name.to_string(), unit(&p.name)))
+                .collect()
+        })
         .unwrap_or_default();
-    for (k, name) in names.iter().enumerate() {
+    for (k, (name, unit)) in names.iter().enumerate() {
         let t = methods
             .iter()
             .find_map(|m| m.parameters.get(k))
             .map(|p| p.true_value)
             .unwrap_or(f64::NAN);
         let t = if t.is_finite() { format!("{t:.4}") } else { "—".into() };
-        s += &format!("| {name:<18} | {t:>10} |");
+        s += &format!("| {name:<18} | {unit:<10} | {t:>10} |");
         for (m, w) in methods.iter().zip(&widths) {
             match m.parameters.get(k) {
                 Some(p) => s += &format!(" {:<w$} | {:>9} |", fmt_estimate(p), fmt_err(p.rel_error), w = *w),
