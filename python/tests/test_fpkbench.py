@@ -206,34 +206,16 @@ def test_a_datetime_time_column_is_seconds_since_the_first_sample():
         fpkbench.identify(frame, MODEL)
 
 
-MODEL_TOML = """name = "sdof-model"
-[[mass]]
-name = "m1"
-value = 1.0
-[[link]]
-ends = ["ground", "m1"]
-[[excitation]]
-kind = "white"
-sigma = 1.0
-acts_on = ["m1"]
-[identify]
-methods = ["weak"]
-[identify.links.ground-m1]
-stiffness = [1, 3]
-damping = [1]
-[data]
-time = "t"
-record = "trajectory"
-{extra}
-[data.columns]
-x_m1 = "x_m1"
-v_m1 = "v_m1"
-"""
+def _model_toml(extra):
+    """The shipped model for these samples (models/sdof_duffing.toml), with ``extra``
+    lines added to its [data] section."""
+    text = (ROOT / "models" / "sdof_duffing.toml").read_text()
+    return text.replace('record = "trajectory"', 'record = "trajectory"\n' + extra, 1)
 
 
 def _cli_estimates(tmp_path, name, extra, csv):
     model = tmp_path / f"{name}.toml"
-    model.write_text(MODEL_TOML.format(extra=extra))
+    model.write_text(_model_toml(extra))
     out = subprocess.run(
         [_cli(), "identify", "--model", str(model), "--data", str(csv), "--no-validate", "--json",
          "--out", str(tmp_path / name)],
@@ -271,7 +253,7 @@ def test_a_spreadsheet_csv_gives_the_estimates_of_a_plain_one(tmp_path):
 
     # Without the decimal key the comma is named, with what to set.
     model = tmp_path / "nodecimal.toml"
-    model.write_text(MODEL_TOML.format(extra=""))
+    model.write_text(_model_toml(""))
     out = subprocess.run(
         [_cli(), "identify", "--model", str(model), "--data", str(sheet), "--no-validate", "--out", str(tmp_path / "x")],
         capture_output=True,

@@ -115,34 +115,26 @@ pub(super) fn check_units(m: &Mapped, masses: &[(usize, usize, usize)]) -> Resul
             )
         };
         let rate = |k: usize| format!("the rate of change of {}", m.name(k));
+        let lone = |d: usize, f: usize, g: f64| {
+            (
+                d,
+                format!(
+                    "{}, or {} is {:.4} times too large",
+                    says(d, g, &rate(f)),
+                    m.name(f),
+                    1.0 / g
+                ),
+            )
+        };
         match (xv.map(|d| d.gain), va.map(|d| d.gain)) {
             (Some(g1), Some(g2)) if off(g1) && off(g2) => return Err((v, says(v, g1, &rate(x)))),
             (Some(g1), Some(_)) if off(g1) => {
                 return Err((x, says(x, 1.0 / g1, &format!("{} (its rate of change)", m.name(v)))))
             }
             (Some(_), Some(g2)) if off(g2) => return Err((a, says(a, g2, &rate(v)))),
-            (Some(g), None) if off(g) => {
-                return Err((
-                    v,
-                    format!(
-                        "{}, or {} is {:.4} times too large",
-                        says(v, g, &rate(x)),
-                        m.name(x),
-                        1.0 / g
-                    ),
-                ))
-            }
-            (None, Some(g)) if off(g) => {
-                return Err((
-                    a,
-                    format!(
-                        "{}, or {} is {:.4} times too large",
-                        says(a, g, &rate(v)),
-                        m.name(v),
-                        1.0 / g
-                    ),
-                ))
-            }
+            // One pair only: either column may be the one off.
+            (Some(g), None) if off(g) => return Err(lone(v, x, g)),
+            (None, Some(g)) if off(g) => return Err(lone(a, v, g)),
             _ => {}
         }
     }
