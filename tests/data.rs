@@ -36,6 +36,11 @@ x_m1 = "x_m1"
 v_m1 = "v_m1"
 "#;
 
+/// The data file `path` as `model`'s `[data]` says to read it (a CSV file streamed).
+fn source(model: &Scenario, path: &Path) -> fpkbench::io::table::Source {
+    fpkbench::io::table::read_for(path, model.data.as_ref().unwrap()).unwrap()
+}
+
 fn options() -> Options {
     Options {
         validate: false,
@@ -77,8 +82,7 @@ fn a_log_exported_to_csv_and_npy_gives_the_logs_estimates() {
     for format in ["csv", "npy"] {
         let file = dir.path().join(format!("run.{format}"));
         export(&log, format, &file);
-        let table = read_table(&file, &[]).unwrap();
-        let info = Input::tables(model.clone(), measured(&model, &[table]).unwrap());
+        let info = Input::tables(model.clone(), measured(&model, vec![source(&model, &file)]).unwrap());
         let r = identify(&info, &options()).unwrap();
         // No truth for the stiffness: nothing graded, and the run counts as done.
         assert!(r.methods[0].threshold.is_none() && r.methods[0].worst_rel_error.is_nan());
@@ -157,12 +161,12 @@ fn split_gaps_makes_each_piece_between_gaps_a_record() {
     std::fs::write(&csv, text).unwrap();
     let split = MODEL.replace("[data.columns]", "split_gaps = true\n[data.columns]");
     let model = Scenario::parse(&split, "model.toml", "m").unwrap();
-    let data = measured(&model, &[read_table(&csv, &[]).unwrap()]).unwrap();
-    let lengths: Vec<usize> = data.records.iter().map(|r| r.0.len()).collect();
+    let data = measured(&model, vec![source(&model, &csv)]).unwrap();
+    let lengths = data.lengths.clone();
     assert_eq!(lengths, [200, 250, 150]);
     assert_eq!(data.sample_interval, 0.1);
     // Each piece's own samples, in order: the second starts at the row after the gap.
-    let first_x = |r: usize| data.records[r].1[fpkbench::Model::new(&model).columns().x(0)];
+    let first_x = |r: u32| data.record(r).unwrap().1[fpkbench::Model::new(&model).columns().x(0)];
     assert_eq!(first_x(1), x(0.1 * 221.0));
     assert_eq!(first_x(2), x(0.1 * 474.0));
     assert_eq!(
@@ -337,7 +341,7 @@ fn velocities_can_be_derived_from_displacements_and_coarse_sampling_is_flagged()
         common::fresh_log(&s, &log);
         let csv = dir.path().join("run.csv");
         export(&log, "csv", &csv);
-        let data = measured(&model, &[read_table(&csv, &[]).unwrap()]).unwrap();
+        let data = measured(&model, vec![source(&model, &csv)]).unwrap();
         assert!(
             data.notes.iter().any(|n| n.contains("v_m1 derived from x_m1")),
             "{:?}",
@@ -398,7 +402,7 @@ fn the_papers_bushing_from_rig_like_csv_matches_the_log_path() {
     let dir = tempfile::tempdir().unwrap();
     let (log, rig_csv) = bushing_rig(dir.path(), 4.0);
     let model = Scenario::from_file(Path::new("models/bushing.toml")).unwrap();
-    let data = measured(&model, &[read_table(&rig_csv, &[]).unwrap()]).unwrap();
+    let data = measured(&model, vec![source(&model, &rig_csv)]).unwrap();
     let r = identify(&Input::tables(model, data), &options()).unwrap();
     // Only what the model file asks for: no naive white-noise row on measured data.
     let rows: Vec<String> = r.methods.iter().map(|m| m.method.name()).collect();
@@ -428,7 +432,7 @@ fn the_validation_of_measured_data_is_as_tight_as_the_log_paths() {
     let dir = tempfile::tempdir().unwrap();
     let (_, rig_csv) = bushing_rig(dir.path(), 1.0);
     let model = Scenario::from_file(Path::new("models/bushing.toml")).unwrap();
-    let data = measured(&model, &[read_table(&rig_csv, &[]).unwrap()]).unwrap();
+    let data = measured(&model, vec![source(&model, &rig_csv)]).unwrap();
     assert!(
         (100..200).contains(&data.steps_per_sample()),
         "{}",
@@ -464,8 +468,8 @@ fn units_that_do_not_fit_together_are_refused_naming_the_column_and_factor() {
     let k = degrees.names.iter().position(|n| n == "x_m1").unwrap();
     degrees.columns[k].iter_mut().for_each(|x| *x = x.to_degrees());
     let model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
-    assert!(measured(&model, &[t]).is_ok());
-    let e = measured(&model, &[degrees]).unwrap_err().to_string();
+    assert!(measured(&model, vec![t.into()]).is_ok());
+    let e = measured(&model, vec![degrees.into()]).unwrap_err().to_string();
     assert!(
         e.contains("units do not fit") && e.contains("\"x_m1\"") && e.contains("57.3: degrees against radians"),
         "{e}"
@@ -481,10 +485,10 @@ fn the_bushing_with_its_angle_in_degrees_is_refused_at_its_coarse_sampling() {
     let (_, rig_csv) = bushing_rig(dir.path(), 8.0);
     let with_scale = std::fs::read_to_string("models/bushing.toml").unwrap();
     let model = Scenario::parse(&with_scale, "bushing.toml", "b").unwrap();
-    assert!(measured(&model, &[read_table(&rig_csv, &[]).unwrap()]).is_ok());
+    assert!(measured(&model, vec![source(&model, &rig_csv)]).is_ok());
     let no_scale = with_scale.replace("angle_deg = 0.017453292519943295", "");
     let model = Scenario::parse(&no_scale, "bushing.toml", "b").unwrap();
-    let e = measured(&model, &[read_table(&rig_csv, &[]).unwrap()])
+    let e = measured(&model, vec![source(&model, &rig_csv)])
         .unwrap_err()
         .to_string();
     assert!(
@@ -541,7 +545,7 @@ fn json_messages_of_an_mcap_file_from_another_tool_are_read_by_topic() {
     let table = fpkbench::io::table::read_for(&json, model.data.as_ref().unwrap()).unwrap();
     let from_mcap = estimates(
         &identify(
-            &Input::tables(model.clone(), measured(&model, &[table]).unwrap()),
+            &Input::tables(model.clone(), measured(&model, vec![table]).unwrap()),
             &options(),
         )
         .unwrap(),
@@ -551,7 +555,7 @@ fn json_messages_of_an_mcap_file_from_another_tool_are_read_by_topic() {
         &identify(
             &Input::tables(
                 csv_model.clone(),
-                measured(&csv_model, &[read_table(&csv, &[]).unwrap()]).unwrap(),
+                measured(&csv_model, vec![source(&csv_model, &csv)]).unwrap(),
             ),
             &options(),
         )
@@ -609,7 +613,7 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
         // The export is in radians: no factor (one on a column nothing reads is refused).
         .replace("angle_deg = 0.017453292519943295", "");
     let no_a = Scenario::parse(&text, "bushing.toml", "b").unwrap();
-    let data = measured(&no_a, &[read_table(&csv, &[]).unwrap()]).unwrap();
+    let data = measured(&no_a, vec![source(&no_a, &csv)]).unwrap();
     let e = fpkbench::pipeline::check_measured(&Input::tables(no_a, data)).unwrap_err();
     assert!(e.contains("no a_j") && e.contains("derive = true"), "{e}");
     let derived = Scenario::parse(
@@ -618,7 +622,7 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
         "b",
     )
     .unwrap();
-    let data = measured(&derived, &[read_table(&csv, &[]).unwrap()]).unwrap();
+    let data = measured(&derived, vec![source(&derived, &csv)]).unwrap();
     assert!(
         data.notes.iter().any(|n| n.contains("a_j derived from v_j")),
         "{:?}",
@@ -644,7 +648,7 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
         .filter(|&r| traj[r] == traj[0])
         .map(|r| a_true[r])
         .collect();
-    let (times, samples) = &data.records[0];
+    let (times, samples) = &data.record(0).unwrap();
     assert_eq!(times.len(), first.len());
     let derived_a: Vec<f64> = samples.chunks_exact(data.width).map(|row| row[2]).collect();
     let std = |v: &[f64]| {
@@ -678,7 +682,7 @@ fn validation_spectra_tell_a_wrong_model_from_the_right_one() {
     };
     let spectrum_of_x = |model_text: &str| {
         let model = Scenario::parse(model_text, "model.toml", "m").unwrap();
-        let info = Input::tables(model.clone(), measured(&model, std::slice::from_ref(&table)).unwrap());
+        let info = Input::tables(model.clone(), measured(&model, vec![table.clone().into()]).unwrap());
         let r = identify(&info, &with_validation).unwrap();
         let v = r.validation.expect("validated");
         let row = v.rows.iter().find(|row| row.variable == "x_m1").unwrap();
@@ -736,10 +740,7 @@ fn unequal_records_are_reported_as_they_are_not_as_a_simulation() {
     std::fs::write(&file, cut).unwrap();
     let model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
     let r = identify(
-        &Input::tables(
-            model.clone(),
-            measured(&model, &[read_table(&file, &[]).unwrap()]).unwrap(),
-        ),
+        &Input::tables(model.clone(), measured(&model, vec![source(&model, &file)]).unwrap()),
         &options(),
     )
     .unwrap();
@@ -763,8 +764,10 @@ fn unequal_records_are_reported_as_they_are_not_as_a_simulation() {
 #[test]
 fn the_order_of_independent_records_does_not_change_the_estimates() {
     // The same samples sorted by record, and interleaved as a logger writes them with the
-    // records taking turns in a shuffled order: the same estimates, bit for bit (the
-    // jackknife's groups follow the records' ids, not the rows' order).
+    // records taking turns in a shuffled order: the same estimates (the jackknife's groups
+    // follow the records' ids, not the rows' order). Not bit for bit: the file streams in
+    // its own order, so each batch's sums add the same terms in another order (a few
+    // 1e-16 apart; grouping by row order put them 0.15 standard errors apart).
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("run.mcap");
     common::fresh_log(&common::small_scenario(312.5, 32), &log);
@@ -784,8 +787,72 @@ fn the_order_of_independent_records_does_not_change_the_estimates() {
     std::fs::write(&interleaved, format!("{header}\n{}\n", lines.join("\n"))).unwrap();
     let model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
     let run = |f: &Path| {
-        let data = measured(&model, &[read_table(f, &[]).unwrap()]).unwrap();
+        let data = measured(&model, vec![source(&model, f)]).unwrap();
         estimates(&identify(&Input::tables(model.clone(), data), &options()).unwrap())
     };
-    assert_eq!(run(&file), run(&interleaved));
+    let (sorted, interleaved) = (run(&file), run(&interleaved));
+    for ((n, e, se), (_, ei, sei)) in sorted.iter().zip(&interleaved) {
+        assert!(
+            ((e - ei) / se).abs() < 1e-9 && ((se - sei) / se).abs() < 1e-9,
+            "{n}: {e} ± {se} sorted, {ei} ± {sei} interleaved"
+        );
+    }
+}
+
+/// The peak resident memory (kB) of `fpkbench identify` on `csv`: this child's own, from
+/// `wait4` (the other tests' children run in the same process).
+#[allow(clippy::zombie_processes)] // waited for by `wait4`, which gives its usage
+fn identify_peak_kb(model: &Path, csv: &Path) -> i64 {
+    let child = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args(["identify", "--no-validate", "--json", "--model"])
+        .arg(model)
+        .arg("--data")
+        .arg(csv)
+        .arg("--out")
+        .arg(csv.with_extension("out"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut status = 0;
+    // SAFETY: `usage` is a plain C struct wait4 fills in; the pid is our own child's, not
+    // yet waited for.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as libc::pid_t);
+    assert!(
+        libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        "{}",
+        csv.display()
+    );
+    usage.ru_maxrss
+}
+
+#[test]
+fn a_csv_table_streams_in_memory_that_does_not_grow_with_it() {
+    // The same model on 0.2 M and on 1.6 M rows of a logger's interleaved records. Read
+    // whole, a table took about 137 bytes a row (190 MB more for the larger); streamed,
+    // what grows is the quartiles' sample (at most 4 MB a mapped column) and nothing else.
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("model.toml");
+    std::fs::write(&model, MODEL).unwrap();
+    let mut peaks = Vec::new();
+    for record in [625.0, 5000.0] {
+        let log = dir.path().join(format!("run{record}.mcap"));
+        common::fresh_log(&common::small_scenario(record, 32), &log);
+        let csv = dir.path().join(format!("run{record}.csv"));
+        export(&log, "csv", &csv);
+        std::fs::remove_file(&log).unwrap();
+        peaks.push(identify_peak_kb(&model, &csv));
+    }
+    eprintln!(
+        "peak memory: {} kB on 0.2 M rows, {} kB on 1.6 M rows",
+        peaks[0], peaks[1]
+    );
+    assert!(
+        peaks[1] - peaks[0] < 40_000,
+        "peak memory {} kB on 0.2 M rows, {} kB on 1.6 M rows",
+        peaks[0],
+        peaks[1]
+    );
 }

@@ -126,6 +126,7 @@ impl From<PipelineError> for Failure {
     fn from(e: PipelineError) -> Failure {
         match e {
             PipelineError::Ident(e) => e.into(),
+            PipelineError::Data(e) => e.into(),
             e @ PipelineError::Sim(SimError::Diverged { .. }) => Failure::new(Kind::Simulation, e),
             e => Failure::new(Kind::Other, e),
         }
@@ -326,7 +327,7 @@ fn identify_table(
             columns,
             record_labels: None,
         };
-        let data = measured(&model, &[table])?;
+        let data = measured(&model, vec![table.into()])?;
         let input = Input::tables(model, data);
         pipeline::preflight(&input.info.scenario).map_err(|e| Failure {
             message: format!("{label}: {e}"),

@@ -236,7 +236,7 @@ fn measured_input(model: &Path, data: &[PathBuf]) -> anyhow::Result<Input> {
         .iter()
         .map(|p| fpkbench::io::table::read_for(p, mapping))
         .collect::<Result<Vec<_>, _>>()?;
-    let measured = fpkbench::io::table::measured(&scenario, &tables)?;
+    let measured = fpkbench::io::table::measured(&scenario, tables)?;
     let input = Input::tables(scenario, measured);
     fpkbench::pipeline::preflight(&input.info.scenario).map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
     fpkbench::pipeline::check_measured(&input).map_err(|e| anyhow::anyhow!("{}: {e}", data[0].display()))?;

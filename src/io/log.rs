@@ -467,7 +467,7 @@ impl LogInfo {
         sim.sample_interval = data.sample_interval;
         sim.dt = data.sample_interval / data.steps_per_sample() as f64;
         sim.record_length = data.record_length();
-        sim.trajectories = data.records.len();
+        sim.trajectories = data.lengths.len();
         sim.burn_in = 0.0;
         let m = crate::model::Model::new(&model);
         // The coefficients to identify that the model gives no value for have no truth.

@@ -7,6 +7,7 @@ pub mod decode;
 mod delimited;
 pub mod export;
 pub mod log;
+mod measured;
 pub mod output;
 pub mod reader;
 pub mod table;

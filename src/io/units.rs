@@ -5,7 +5,7 @@
 //! cross-spectrum over the band that holds the motion's power, which holds at any sampling
 //! that resolves the motion (docs/data.md, units).
 
-use crate::ident::spectrum::{CrossWelch, Derivative};
+use crate::ident::spectrum::Derivative;
 
 /// How far a derivative's column may scale from the rate of change of its quantity's
 /// column before the units count as wrong (a degree against a radian is 57.3, a
@@ -36,16 +36,16 @@ fn unit_hint(factor: f64) -> &'static str {
     }
 }
 
-/// The measured records in the log's column layout (`width` values per row, sampled every
-/// `h`), with the quantities each mapped column holds.
+/// The mapped columns of measured data, and how each relates to the rate of change of
+/// another of its mass (`Measured`'s cross-spectra, both ways round, where both are mapped
+/// and the first one's motion crosses its mean).
 pub(super) struct Mapped<'a> {
-    pub records: &'a [(Vec<f64>, Vec<f64>)],
-    pub width: usize,
-    pub h: f64,
     /// (the layout's column, the table's column name) of every mapped quantity.
     pub columns: &'a [(usize, String)],
     /// The layout's quantity names (`x_m1`, …).
     pub names: &'a [String],
+    /// ((from, to), how `to` relates to the rate of change of `from`).
+    pub derivatives: &'a [((usize, usize), Option<Derivative>)],
 }
 
 impl Mapped<'_> {
@@ -57,34 +57,9 @@ impl Mapped<'_> {
         format!("{} (column {:?})", self.names[k], self.column(k).unwrap_or("?"))
     }
 
-    /// The period of column `k`'s motion in samples, from its mean crossings (which need no
-    /// units).
-    fn period_samples(&self, k: usize) -> Option<f64> {
-        let (mut crossings, mut n) = (0usize, 0usize);
-        for (_, samples) in self.records {
-            let v: Vec<f64> = samples.chunks_exact(self.width).map(|r| r[k]).collect();
-            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
-            crossings += v.windows(2).filter(|w| (w[0] - mean) * (w[1] - mean) < 0.0).count();
-            n += v.len();
-        }
-        (crossings > 0).then(|| 2.0 * n as f64 / crossings as f64)
-    }
-
-    /// How column `d` relates to the rate of change of column `f`, when both are mapped:
-    /// Welch segments of about 32 periods of `f`'s motion, so that the derivative's
-    /// spectrum is resolved, at most half the longest record.
+    /// How column `d` relates to the rate of change of column `f`, when both are mapped.
     fn derivative(&self, f: usize, d: usize) -> Option<Derivative> {
-        self.column(f)?;
-        self.column(d)?;
-        let longest = self.records.iter().map(|r| r.0.len()).max().unwrap_or(0);
-        let len = ((32.0 * self.period_samples(f)?) as usize).clamp(16, (longest / 2).max(16));
-        let mut w = CrossWelch::new(len, self.h, self.records.len());
-        for (j, (_, samples)) in self.records.iter().enumerate() {
-            for row in samples.chunks_exact(self.width) {
-                w.push(j, row[f], row[d]);
-            }
-        }
-        w.derivative_gain()
+        self.derivatives.iter().find(|x| x.0 == (f, d)).and_then(|x| x.1)
     }
 }
 

@@ -58,7 +58,7 @@ pub(crate) fn assemble(
     };
     let identify_s = start.elapsed().as_secs_f64();
     let records = input.measured().map(|m| {
-        let lengths: Vec<f64> = m.records.iter().map(|r| r.0.len() as f64 * m.sample_interval).collect();
+        let lengths: Vec<f64> = m.lengths.iter().map(|&n| n as f64 * m.sample_interval).collect();
         Records {
             count: lengths.len(),
             total_s: lengths.iter().sum(),

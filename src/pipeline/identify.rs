@@ -62,11 +62,8 @@ pub fn check_measured(input: &Input) -> Result<(), String> {
             needed.push((layout.force(f.excitation), "the spectral fit of its filter (3.20)"));
         }
     }
-    let Some((_, first)) = m.records.first() else {
-        return Err("the data hold no samples".into());
-    };
     for (c, why) in needed {
-        if first[c].is_nan() {
+        if !m.present[c] {
             return Err(format!(
                 "the data have no {} (needed for {why}): map a column to it in the model file's [data.columns]{}",
                 info.columns[c],

@@ -50,6 +50,9 @@ pub enum PipelineError {
     /// A study item's scenario is not valid.
     #[error("{0}")]
     Study(String),
+    /// Measured data that could not be read again.
+    #[error(transparent)]
+    Data(#[from] crate::io::table::DataError),
     /// A stop was requested (`crate::interrupt`).
     #[error(transparent)]
     Interrupted(#[from] crate::interrupt::Interrupted),

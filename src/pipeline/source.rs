@@ -40,21 +40,12 @@ impl SampleSource for LogFile {
     }
 }
 
-/// Measured tables, each record an independent trajectory.
+/// Measured tables, each record an independent trajectory, read again on every pass.
 pub struct Tables(pub Arc<Measured>);
 
 impl SampleSource for Tables {
     fn for_each_sample(&self, _: &LogInfo, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError> {
-        let m = &self.0;
-        for (r, (times, rows)) in m.records.iter().enumerate() {
-            for (s, t) in times.iter().enumerate() {
-                if s % Input::LOOK_EVERY == 0 && crate::interrupt::requested() {
-                    return Ok(0);
-                }
-                f(r as u32, *t, &rows[s * m.width..(s + 1) * m.width]);
-            }
-        }
-        Ok(m.samples())
+        Ok(self.0.for_each_sample(f)?)
     }
 
     fn measured(&self) -> Option<&Measured> {
