@@ -186,6 +186,8 @@ impl Progress {
                 let pass = read.div_ceil(per_pass).max(1);
                 (format!("identify, pass {pass}"), read - (pass - 1) * per_pass, per_pass)
             }
+            // Measured data being read and checked: no count to show.
+            None if self.to_simulate == 0 => ("read data".to_string(), 0, 1),
             _ => ("simulate".to_string(), simulated, self.to_simulate),
         }
     }
@@ -327,19 +329,21 @@ fn identify_table(
             columns,
             record_labels: None,
         };
+        Ok((model, table, options))
+    })();
+    let (model, table, options) = prepared.map_err(|f| f.into_py(py))?;
+    let p = Progress::default();
+    // Reading and checking the table is a pass over it too: interruptible like the rest.
+    let input: std::sync::OnceLock<Input> = std::sync::OnceLock::new();
+    interruptible(py, progress, &|| p.now(input.get()), || {
         let data = measured(&model, vec![table.into()])?;
-        let input = Input::tables(model, data);
-        pipeline::preflight(&input.info.scenario).map_err(|e| Failure {
+        let read = Input::tables(model, data);
+        pipeline::preflight(&read.info.scenario).map_err(|e| Failure {
             message: format!("{label}: {e}"),
             ..Failure::from(e)
         })?;
-        pipeline::check_measured(&input).map_err(|e| Failure::new(Kind::Data, format!("<data>: {e}")))?;
-        Ok((input, options))
-    })();
-    let (input, options) = prepared.map_err(|f| f.into_py(py))?;
-    let p = Progress::default();
-    interruptible(py, progress, &|| p.now(Some(&input)), || {
-        let report = pipeline::identify(&input, &options)?;
+        pipeline::check_measured(&read).map_err(|e| Failure::new(Kind::Data, format!("<data>: {e}")))?;
+        let report = pipeline::identify(input.get_or_init(|| read), &options)?;
         Ok(serde_json::to_string(&report).expect("a report serializes"))
     })
 }

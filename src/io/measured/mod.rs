@@ -344,6 +344,9 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         .map(|(&(k, _), &c)| (k, (c > 0).then(|| 2.0 * rows / c as f64)))
         .collect();
     let look = data.look(&mapped, &masses, &periods)?;
+    if crate::interrupt::requested() {
+        return Err(err(&data.files[0], "stopped: an interrupt was requested"));
+    }
     data.motion_frequency = look.motion_frequency;
     for (step, r) in data.derive.iter().zip(&look.derived) {
         data.notes

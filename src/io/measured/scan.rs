@@ -119,6 +119,7 @@ pub(super) struct Scanned {
 
 /// Why a scan stopped at a row, told once the record ids' text is known.
 pub(super) enum Stop {
+    Interrupted,
     NotFinite { row: usize, at: usize, value: f64 },
     Backwards { row: usize, slot: usize, t: f64, prev: f64 },
     Uneven { row: usize, slot: usize },
@@ -214,6 +215,10 @@ pub(super) fn scan(source: &Source, c: &Columns, d: &DataMapping) -> Result<Scan
     let mut stop = None;
     let mut labels = Labels::default();
     source.for_each_row(&c.wanted, &mut labels, &mut |r, v| {
+        if r % crate::pipeline::Input::LOOK_EVERY == 0 && crate::interrupt::requested() {
+            stop = Some(Stop::Interrupted);
+            return Ok(false);
+        }
         if let Some(at) = v.iter().position(|x| !x.is_finite()) {
             stop = Some(Stop::NotFinite {
                 row: r,
@@ -292,6 +297,7 @@ pub(super) fn scan(source: &Source, c: &Columns, d: &DataMapping) -> Result<Scan
     let path = source.path();
     match stop {
         None => Ok(s),
+        Some(Stop::Interrupted) => Err(err(path, "stopped: an interrupt was requested")),
         Some(Stop::NotFinite { row, at, value }) => {
             let name = c.name(at, d);
             Err(err(
