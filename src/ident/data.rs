@@ -59,6 +59,19 @@ impl FineLayout {
     }
 }
 
+/// Powers of a link's relative displacement and velocity summed over the samples: enough
+/// for the mean square of a characteristic of degree up to 6 under their observed density.
+pub const OBSERVED_POWERS: usize = 13;
+
+/// The links' relative motion as observed: per link `[u_min, u_max, w_min, w_max]`, and the
+/// sums of `u^k` and `w^k` (`k = 0 …` [`OBSERVED_POWERS`]` − 1`), from which the mean square
+/// of a polynomial characteristic under the observed density is exact.
+#[derive(Debug, Clone, Copy)]
+pub struct Observed<'a> {
+    pub ranges: &'a [[f64; 4]],
+    pub powers: &'a [[[f64; OBSERVED_POWERS]; 2]],
+}
+
 /// Moments and ranges of the state, per time batch.
 #[derive(Debug, Clone)]
 pub struct StationaryData {
@@ -82,6 +95,9 @@ pub struct StationaryData {
     sorted_ids: Vec<u32>,
     /// Per link: `[u_min, u_max, w_min, w_max]`.
     pub link_ranges: Vec<[f64; 4]>,
+    /// Per link: the sums of `u^k` and of `w^k`, `k = 0 …` [`OBSERVED_POWERS`]` − 1` (norms
+    /// under the observed density, [`Observed`]).
+    pub link_powers: Vec<[[f64; OBSERVED_POWERS]; 2]>,
     /// The model, for its links' relative motion ([`Model::link_motion`]).
     model: Model,
 }
@@ -137,7 +153,16 @@ impl StationaryData {
                 [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
                 problem.model.links()
             ],
+            link_powers: vec![[[0.0; OBSERVED_POWERS]; 2]; problem.model.links()],
             model: problem.model.clone(),
+        }
+    }
+
+    /// The links' relative motion as the samples show it.
+    pub fn observed(&self) -> Observed<'_> {
+        Observed {
+            ranges: &self.link_ranges,
+            powers: &self.link_powers,
         }
     }
 
@@ -184,6 +209,13 @@ impl StationaryData {
             r[1] = r[1].max(u);
             r[2] = r[2].min(w);
             r[3] = r[3].max(w);
+            for (z, sums) in [u, w].into_iter().zip(self.link_powers[l].iter_mut()) {
+                let mut zk = 1.0;
+                for s in sums.iter_mut() {
+                    *s += zk;
+                    zk *= z;
+                }
+            }
         }
         if self.ids.len() >= BLOCK {
             self.finish();

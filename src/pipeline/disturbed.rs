@@ -80,7 +80,7 @@ pub(crate) fn identify_disturbed(
     // Reports: step 0, the final iterate of each sequence (gated), the bound.
     let t = Instant::now();
     let report = |method, threshold, est, problem: &Problem| {
-        method_report(method, threshold, est, &grader, problem, &sums.white.link_ranges, t)
+        method_report(method, threshold, est, &grader, problem, sums.white.observed(), t)
     };
     let bounds = sums.bound_reports(s, &st, &filters, &report)?;
     let mut reports = vec![report(ReportMethod::Step0, None, Ok(paper.step0.clone()), &problem)];

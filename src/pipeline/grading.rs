@@ -3,6 +3,7 @@
 //! assembly.
 
 use super::source::Input;
+use crate::ident::data::Observed;
 use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
 use crate::model::{Characteristic, Coefficient, Term, Truth};
@@ -109,11 +110,32 @@ pub(crate) fn fill_accuracy(
     std_error: &[f64],
     covariance: &[Vec<f64>],
     dof: usize,
-    ranges: &[[f64; 4]],
+    observed: Observed,
 ) {
     let range = |c: Coefficient| match c.kind {
-        Characteristic::Stiffness => (ranges[c.link][0], ranges[c.link][1]),
-        Characteristic::Damping => (ranges[c.link][2], ranges[c.link][3]),
+        Characteristic::Stiffness => (observed.ranges[c.link][0], observed.ranges[c.link][1]),
+        Characteristic::Damping => (observed.ranges[c.link][2], observed.ranges[c.link][3]),
+    };
+    // Per link and argument (u, w): its power means under the observed density.
+    let means: Vec<[Vec<f64>; 2]> = observed
+        .powers
+        .iter()
+        .map(|p| p.each_ref().map(|sums| sums.iter().map(|s| s / sums[0]).collect()))
+        .collect();
+    let on = |c: Coefficient| {
+        let (lo, hi) = range(c);
+        let arg = match c.kind {
+            Characteristic::Stiffness => 0,
+            Characteristic::Damping => 1,
+        };
+        stats::Observed {
+            lo,
+            hi,
+            means: means
+                .get(c.link)
+                .map(|m| m[arg].as_slice())
+                .filter(|m| m[0].is_finite()),
+        }
     };
     let s = g.scenario;
     let true_curve = |l: usize, kind| g.truth.characteristic(&s.links[l].name, kind);
@@ -124,10 +146,7 @@ pub(crate) fn fill_accuracy(
     for (k, name) in problem.names.iter().enumerate() {
         let t = true_values[k];
         let rel = match coef_of[k] {
-            Some(c) => {
-                let (lo, hi) = range(c);
-                stats::coefficient_error(values[k], t, c.term, &true_curve(c.link, c.kind), lo, hi)
-            }
+            Some(c) => stats::coefficient_error(values[k], t, c.term, &true_curve(c.link, c.kind), &on(c)),
             None => ((values[k] - t) / t).abs(),
         };
         worst = worst.max(rel);
@@ -152,13 +171,14 @@ pub(crate) fn fill_accuracy(
                 continue;
             }
             let truth = true_curve(l, kind);
-            let (lo, hi) = range(Coefficient {
+            let c = Coefficient {
                 link: l,
                 kind,
                 term: Term::Power(1),
-            });
+            };
+            let (lo, hi) = range(c);
             let e = if graded {
-                stats::rel_l2(&est, &truth, lo, hi)
+                stats::rel_l2(&est, &truth, &on(c))
             } else {
                 f64::NAN
             };
@@ -238,7 +258,7 @@ pub(crate) fn method_report(
     est: Result<ident::Estimate, IdentError>,
     g: &Grader,
     problem: &Problem,
-    ranges: &[[f64; 4]],
+    observed: Observed,
     started: Instant,
 ) -> MethodReport {
     let threshold_default = threshold.is_some() && g.scenario.accept.is_default(&method);
@@ -281,7 +301,7 @@ pub(crate) fn method_report(
                 &e.std_error,
                 &e.covariance,
                 e.dof,
-                ranges,
+                observed,
             );
             rep.warnings = e.warnings.clone();
             rep.diagnostics = Some(e.diagnostics.clone());

@@ -204,7 +204,7 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         typical: &typical,
         bilinear,
     };
-    let (mut reports, first) = estimator_reports(&estimators, &context, &reported, &grader, &data.link_ranges)?;
+    let (mut reports, first) = estimator_reports(&estimators, &context, &reported, &grader, data.observed())?;
     let naive = naive_data.as_ref().filter(|_| !filtered.is_empty());
     reports.extend(comparison_reports(&spec, &filters, naive, &data, &grader)?);
 
@@ -236,7 +236,7 @@ fn estimator_reports(
     cx: &Context,
     reported: &Problem,
     grader: &Grader,
-    ranges: &[[f64; 4]],
+    observed: crate::ident::data::Observed,
 ) -> Result<(Vec<MethodReport>, Option<(Vec<f64>, ReportMethod)>), PipelineError> {
     let s = grader.scenario;
     let mut reports = Vec::new();
@@ -251,7 +251,7 @@ fn estimator_reports(
         }
         // Baselines and known-biased comparisons are compared, never gated.
         let threshold = m.is_gated().then(|| s.accept.threshold(&method));
-        reports.push(method_report(method, threshold, est, grader, reported, ranges, t));
+        reports.push(method_report(method, threshold, est, grader, reported, observed, t));
     }
     Ok((reports, first))
 }
@@ -267,7 +267,7 @@ fn comparison_reports(
     data: &StationaryData,
     grader: &Grader,
 ) -> Result<Vec<MethodReport>, PipelineError> {
-    let ranges = &data.link_ranges;
+    let observed = data.observed();
     let mut reports = Vec::new();
     if let Some(d) = naive {
         let t = Instant::now();
@@ -279,7 +279,7 @@ fn comparison_reports(
             est,
             grader,
             &p,
-            ranges,
+            observed,
             t,
         ));
     }
@@ -293,7 +293,7 @@ fn comparison_reports(
             est,
             grader,
             &p,
-            ranges,
+            observed,
             t,
         ));
     }

@@ -121,7 +121,8 @@ pub fn markdown(r: &Report) -> String {
     s += "![Identified and true characteristics](characteristics.svg)\n\n";
     s += "## Estimates\n\n";
     s += "Errors are relative to the truth; a coefficient whose true value is 0 is measured against its \
-          characteristic's scale over the observed range. Standard errors: delete-one jackknife over the \
+          characteristic's scale, and a characteristic's L2 error is taken, under the observed density of its \
+          argument (where the samples are). Standard errors: delete-one jackknife over the \
           record's batches; 95 % intervals: ± Student's t(0.975) standard errors. They measure the sampling \
           noise only, not a method's bias.\n\n";
     let motion = r.scenario_def.as_ref().map_or(Default::default(), |d| d.motion);
@@ -151,7 +152,7 @@ fn method_section(m: &MethodReport, motion: crate::scenario::Motion) -> String {
     }
     s += &parameter_table(m, motion);
     if !m.curves.is_empty() {
-        s += "\n| characteristic | relative L2 error | observed range |\n|---|---:|---|\n";
+        s += "\n| characteristic | relative L2 error (observed density) | observed range |\n|---|---:|---|\n";
         for c in &m.curves {
             s += &format!(
                 "| {} {} | {} | [{:.4}, {:.4}] |\n",

@@ -236,8 +236,8 @@ fn parameter_table(r: &Report) -> String {
         }
         s += "\n";
     }
-    s += "\nerrors are relative to the truth (a coefficient whose true value is 0: to its characteristic's scale over the \
-          observed range); std. error: delete-one jackknife over the record's batches; 95 % interval: ± t(0.975) std. errors";
+    s += "\nerrors are relative to the truth (a coefficient whose true value is 0: to its characteristic's scale under the \
+          observed density); std. error: delete-one jackknife over the record's batches; 95 % interval: ± t(0.975) std. errors";
     if methods
         .iter()
         .any(|m| m.parameters.iter().any(|p| p.differs_from_zero == Some(false)))
@@ -291,7 +291,7 @@ fn method_lines(m: &MethodReport) -> String {
     }
     for c in &m.curves {
         s += &format!(
-            "  curve {} {}: relative L2 error {} over [{:.4}, {:.4}]\n",
+            "  curve {} {}: relative L2 error {} under the observed density over [{:.4}, {:.4}]\n",
             c.link,
             c.kind,
             fmt_err(c.rel_l2_error),

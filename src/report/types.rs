@@ -28,6 +28,8 @@ pub struct Parameter {
 pub struct Curve {
     pub link: String,
     pub kind: &'static str,
+    /// `‖K̂ − K‖ / ‖K‖` under the observed density of the relative displacement or velocity
+    /// (`stats::rel_l2`).
     pub rel_l2_error: f64,
     /// Observed range of the relative displacement or velocity.
     pub range: [f64; 2],
