@@ -517,8 +517,10 @@ pub struct Summary {
     /// is about the mean + 4 sd).
     pub worst_mean: f64,
     pub worst_sd: f64,
-    /// Fraction of all 95 % intervals (every parameter of every item) that hold the truth.
+    /// Fraction of all 95 % intervals (every parameter of every item) that hold the truth,
+    /// and its 95 % interval over the items (`stats::clustered_95`).
     pub coverage: Option<f64>,
+    pub coverage_ci: Option<[f64; 2]>,
     pub parameters: Vec<ParameterSummary>,
     /// Median seconds per item (all its methods together).
     pub item_s_median: f64,
@@ -541,8 +543,10 @@ pub struct ParameterSummary {
     pub bias: f64,
     /// Standard deviation of the same over the seeds.
     pub spread: f64,
-    /// Fraction of the 95 % intervals that hold the truth (`None` without intervals).
+    /// Fraction of the 95 % intervals that hold the truth (`None` without intervals), and
+    /// its binomial 95 % interval over the seeds (`stats::wilson_95`).
     pub coverage: Option<f64>,
+    pub coverage_ci: Option<[f64; 2]>,
 }
 
 fn quantile(sorted: &[f64], q: f64) -> f64 {
@@ -605,7 +609,9 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                     let mean = signed.iter().sum::<f64>() / n;
                     let var = signed.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
                     let cov: Vec<bool> = ps.iter().filter_map(|p| p.covered).collect();
+                    let held = cov.iter().filter(|c| **c).count();
                     ParameterSummary {
+                        coverage_ci: (!cov.is_empty()).then(|| crate::stats::wilson_95(held, cov.len())),
                         name: name.clone(),
                         bias: mean,
                         spread: var.sqrt(),
@@ -619,7 +625,16 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 .iter()
                 .flat_map(|r| r.parameters.iter().filter_map(|p| p.covered))
                 .collect();
+            let per_item: Vec<(usize, usize)> = ok
+                .iter()
+                .map(|r| {
+                    let c: Vec<bool> = r.parameters.iter().filter_map(|p| p.covered).collect();
+                    (c.iter().filter(|x| **x).count(), c.len())
+                })
+                .filter(|c| c.1 > 0)
+                .collect();
             Summary {
+                coverage_ci: crate::stats::clustered_95(&per_item),
                 record_length: t,
                 sample_interval: h,
                 method,

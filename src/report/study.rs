@@ -17,6 +17,34 @@ fn pct(x: f64) -> String {
     }
 }
 
+/// A coverage and its 95 % interval in percent, to `digits` decimals: `94.0 % [92.1, 95.7]`.
+fn coverage(c: Option<f64>, ci: Option<[f64; 2]>, digits: usize) -> String {
+    match (c, ci) {
+        (Some(c), Some([lo, hi])) => format!(
+            "{:.digits$} % [{:.digits$}, {:.digits$}]",
+            100.0 * c,
+            100.0 * lo,
+            100.0 * hi
+        ),
+        (Some(c), None) => format!("{:.digits$} %", 100.0 * c),
+        _ => "–".into(),
+    }
+}
+
+/// A vertical interval `[lo, hi]` (%) at `x`, with caps `half` wide.
+fn error_bar(p: &mut Panel, x: f64, [lo, hi]: [f64; 2], half: f64, col: Color) {
+    p.mark(Mark::Line {
+        points: vec![(x, lo), (x, hi)],
+        stroke: Stroke::solid(col, 1.2),
+    });
+    for y in [lo, hi] {
+        p.mark(Mark::Line {
+            points: vec![(x - half, y), (x + half, y)],
+            stroke: Stroke::solid(col, 1.2),
+        });
+    }
+}
+
 /// The summary as a markdown page (with the paired differences from a reference method,
 /// if the study names one).
 pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Paired]) -> String {
@@ -25,7 +53,9 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
          parameters and curves of each item, its median, quartiles and maximum over the seeds; per parameter \
          the bias and spread of the signed relative error over the seeds and the coverage of the 95 % \
          intervals; the mean and standard deviation of the worst error (a regression gate is about the \
-         mean + 4 sd) and the coverage of all 95 % intervals.\n\n![Worst error against record length and \
+         mean + 4 sd) and the coverage of all 95 % intervals. Beside a coverage, in brackets, its own 95 % \
+         interval: per parameter binomial over the seeds (Wilson), pooled over the items (the intervals of one \
+         item come from the same samples, so the spread between items sets it).\n\n![Worst error against record length and \
          sample interval, coverage](study.svg)\n\n"
     );
     s += "Every item × method has a row: estimated, refused (the data could not separate the \
@@ -51,7 +81,7 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
             pct(x.worst_max),
             pct(x.worst_mean),
             pct(x.worst_sd),
-            x.coverage.map_or("–".into(), |c| format!("{:.1} %", 100.0 * c)),
+            coverage(x.coverage, x.coverage_ci, 1),
             x.item_s_median
         );
     }
@@ -67,7 +97,7 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
                 p.name,
                 100.0 * p.bias,
                 100.0 * p.spread,
-                p.coverage.map_or("–".into(), |c| format!("{:.0} %", 100.0 * c))
+                coverage(p.coverage, p.coverage_ci, 0)
             );
         }
     }
@@ -306,7 +336,7 @@ fn coverage_panel(st: &StudyLines) -> Panel {
     let lowest = st.ok.iter().filter_map(|x| x.coverage).fold(1.0f64, f64::min);
     let y0 = if lowest > 0.8 { 75.0 } else { 0.0 };
     let mut p = Panel::new(
-        "coverage of the 95 % intervals",
+        "coverage of the 95 % intervals (bars: its 95 % interval over the items)",
         st.x_axis(by_length),
         Axis::linear(y0, 102.0, "intervals holding the truth (%)"),
     );
@@ -326,7 +356,16 @@ fn coverage_panel(st: &StudyLines) -> Panel {
             if pts.is_empty() {
                 continue;
             }
-            connected(&mut p, pts, color(k + g * st.methods.len()));
+            let col = color(k + g * st.methods.len());
+            // Each method's bars a little to the side, so that equal intervals stay visible.
+            let aside = 1.0 + 0.012 * (k as f64 - (st.methods.len() - 1) as f64 / 2.0);
+            for x in st.line_of(m, by_length, other) {
+                if let Some([lo, hi]) = x.coverage_ci {
+                    let bar = [(100.0 * lo).max(y0), (100.0 * hi).max(y0)];
+                    error_bar(&mut p, at(x, by_length) * aside, bar, 0.0, col);
+                }
+            }
+            connected(&mut p, pts, col);
         }
     }
     p.legend_at = Corner::LowerLeft;
@@ -438,7 +477,7 @@ pub fn plot_methods(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::
     fig.row(420.0, vec![Some(p)]);
     if methods.iter().any(|x| x.coverage.is_some()) {
         let mut c = Panel::new(
-            "coverage of the 95 % intervals (dashed: the nominal 95 %)",
+            "coverage of the 95 % intervals (dashed: the nominal 95 %; grey: its 95 % interval over the items)",
             Axis::categories(names.clone(), ""),
             Axis::linear(0.0, 102.0, "intervals holding the truth (%)"),
         );
@@ -458,6 +497,9 @@ pub fn plot_methods(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::
                     color: color(k),
                     radius: 4.0,
                 });
+                if let Some([lo, hi]) = s.coverage_ci {
+                    error_bar(&mut c, (k + 1) as f64, [100.0 * lo, 100.0 * hi], 0.12, GREY);
+                }
             }
         }
         fig.row(280.0, vec![Some(c)]);
