@@ -234,7 +234,7 @@ fn validation_section(r: &Report, v: &Validation) -> String {
     match &v.error {
         Some(e) => s += &format!("{e}\n\n"),
         None => {
-            s += "| response | data std | model std | difference | data kurtosis | model kurtosis | spectrum RMS ln ratio (averaging alone) | peak ω data / model (rad/s) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
+            s += "| response | data std | model std | difference ± s.e. | data kurtosis | model kurtosis | spectrum RMS ln ratio (averaging alone) | peak ω data / model (rad/s) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
             for row in &v.rows {
                 let (spec, peak) = row.spectrum.as_ref().map_or(("–".into(), "–".into()), |c| {
                     (
@@ -243,16 +243,18 @@ fn validation_section(r: &Report, v: &Validation) -> String {
                     )
                 });
                 s += &format!(
-                    "| {} | {:.5} | {:.5} | {:+.2} % | {:.3} | {:.3} | {spec} | {peak} |\n",
+                    "| {} | {:.5} | {:.5} | {} | {:.3} | {:.3} | {spec} | {peak} |\n",
                     row.variable,
                     row.data_std,
                     row.model_std,
-                    100.0 * (row.model_std / row.data_std - 1.0),
+                    row.std_difference(),
                     row.data_kurtosis,
                     row.model_kurtosis
                 );
             }
-            s += "\nThe spectra are compared over the band that holds 99 % of the data's variance.\n\n";
+            s += "\nThe difference of the stds with its standard error from the sampling of both (the spread \
+                  between trajectory groups); the spectra are compared over the band that holds 99 % of the data's \
+                  variance.\n\n";
         }
     }
     if !r.plot.marginals.is_empty() {

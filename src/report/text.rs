@@ -350,17 +350,24 @@ fn validation(v: &Validation) -> String {
         s += &format!("  {e}\n");
     } else {
         s += &format!(
-            "| {:<10} | {:>10} | {:>10} | {:>9} | {:>10} | {:>10} | {:>17} | {:>15} |\n",
-            "response", "data std", "model std", "diff", "data kurt", "model kurt", "spectrum rms ln", "peak ω d/m"
+            "| {:<10} | {:>10} | {:>10} | {:>16} | {:>10} | {:>10} | {:>17} | {:>15} |\n",
+            "response",
+            "data std",
+            "model std",
+            "diff ± s.e.",
+            "data kurt",
+            "model kurt",
+            "spectrum rms ln",
+            "peak ω d/m"
         );
-        s += "|------------|------------|------------|-----------|------------|------------|-------------------|-----------------|\n";
+        s += "|------------|------------|------------|------------------|------------|------------|-------------------|-----------------|\n";
         for row in &v.rows {
             s += &format!(
-                "| {:<10} | {:>10.5} | {:>10.5} | {:>8.2}% | {:>10.3} | {:>10.3} | {:>17} | {:>15} |\n",
+                "| {:<10} | {:>10.5} | {:>10.5} | {:>16} | {:>10.3} | {:>10.3} | {:>17} | {:>15} |\n",
                 row.variable,
                 row.data_std,
                 row.model_std,
-                100.0 * (row.model_std / row.data_std - 1.0),
+                row.std_difference(),
                 row.data_kurtosis,
                 row.model_kurtosis,
                 row.spectrum.as_ref().map_or("-".into(), |c| format!(
@@ -373,8 +380,9 @@ fn validation(v: &Validation) -> String {
                 )),
             );
         }
-        s += "  spectrum rms ln: RMS of ln(S_model/S_data) over the band holding 99 % of the data's variance, \
-              (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
+        s += "  diff: model std / data std − 1, ± its standard error from the sampling of both (the spread between \
+              trajectory groups); spectrum rms ln: RMS of ln(S_model/S_data) over the band holding 99 % of the data's \
+              variance, (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
     }
     s
 }

@@ -154,6 +154,9 @@ pub struct ValidationRow {
     pub variable: String,
     pub data_std: f64,
     pub model_std: f64,
+    /// The standard error of `model_std / data_std − 1` from the sampling of both (the
+    /// spread between trajectory groups; NaN for a single record).
+    pub std_difference_se: f64,
     pub data_kurtosis: f64,
     pub model_kurtosis: f64,
     /// The response spectra compared (absent when either has no power).
@@ -186,6 +189,18 @@ pub struct Validation {
     /// Unmeasured excitations, left out of the re-simulation: the method does not know
     /// them, so the model's responses lack their share.
     pub left_out: Vec<String>,
+}
+
+impl ValidationRow {
+    /// `model std / data std − 1` in percent with its standard error: `+0.04 ± 0.12 %`.
+    pub fn std_difference(&self) -> String {
+        let d = 100.0 * (self.model_std / self.data_std - 1.0);
+        if self.std_difference_se.is_finite() {
+            format!("{d:+.2} ± {:.2} %", 100.0 * self.std_difference_se)
+        } else {
+            format!("{d:+.2} %")
+        }
+    }
 }
 
 impl Validation {
