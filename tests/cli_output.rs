@@ -133,3 +133,26 @@ fn an_interrupted_simulation_leaves_nothing_behind() {
     assert_eq!(status.code(), Some(130));
     assert!(partials(d).is_empty() && !d.join("long.mcap").exists());
 }
+
+/// The terminal report keeps within 100 columns (report::text::WIDTH): the parameters of
+/// several methods in tables side by side only as far as they fit, the validation's compact
+/// table, prose and the list of files written wrapped. A short run of the section-4
+/// scenario has the most tables: three methods, two iterated sequences, the validation.
+#[test]
+fn the_terminal_report_fits_100_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = std::fs::read_to_string("scenarios/disturbed2dof.toml")
+        .unwrap()
+        .replace("record_length = 1500.0", "record_length = 100.0");
+    let p = dir.path().join("d.toml");
+    std::fs::write(&p, src).unwrap();
+    let out = fpkbench(dir.path(), &["run", p.to_str().unwrap()]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("validation:") && text.contains("iterative procedure"),
+        "{text}"
+    );
+    for line in text.lines() {
+        assert!(line.chars().count() <= 100, "{} columns: {line}", line.chars().count());
+    }
+}

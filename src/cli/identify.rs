@@ -160,7 +160,7 @@ pub fn finish(report: &Report, args: &IdentifyArgs, staged: Option<(FolderLock, 
         super::emit(&(serde_json::to_string(report)? + "\n"))?;
     } else {
         let mut text = report::summary(report);
-        text += &format!(
+        text += &report::fit(&format!(
             "\nwrote {} files to {}: {}\n",
             files.len(),
             files
@@ -168,12 +168,8 @@ pub fn finish(report: &Report, args: &IdentifyArgs, staged: Option<(FolderLock, 
                 .and_then(|f| f.parent())
                 .unwrap_or(Path::new("."))
                 .display(),
-            files
-                .iter()
-                .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+            files_in_short(&files)
+        ));
         super::emit(&text)?;
     }
     let undecided: Vec<&MethodReport> = report
@@ -221,6 +217,28 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     let report = identify(&input, &args.identify.options())?;
     finish(&report, &args.identify, None)
+}
+
+/// The files written, figures once with their formats: `report.html, report.json,
+/// report.md, run.mcap; figures characteristics, densities (.svg, .png, .pdf)`.
+fn files_in_short(files: &[std::path::PathBuf]) -> String {
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    let is_figure = |n: &str| [".svg", ".png", ".pdf"].iter().any(|e| n.ends_with(e));
+    let mut figures: Vec<&str> = names
+        .iter()
+        .filter(|n| is_figure(n))
+        .filter_map(|n| n.rsplit_once('.').map(|x| x.0))
+        .collect();
+    figures.dedup();
+    let others: Vec<&str> = names.iter().map(String::as_str).filter(|n| !is_figure(n)).collect();
+    let mut s = others.join(", ");
+    if !figures.is_empty() {
+        s += &format!("; figures {} (.svg, .png, .pdf)", figures.join(", "));
+    }
+    s
 }
 
 /// The model file and its measured data, checked before any identification.

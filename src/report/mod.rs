@@ -18,7 +18,7 @@ pub use plot::{
     characteristics::plot_characteristics, densities::plot_densities, iteration::plot_iteration,
     response_spectra::plot_response_spectra, spectra::plot_spectra, sweep::plot_sweep,
 };
-pub use text::{summary, sweep_summary};
+pub use text::{fit, summary, sweep_summary};
 pub use types::*;
 
 pub use crate::io::output::write_atomic;

@@ -45,8 +45,54 @@ fn fmt_estimate(p: &crate::report::Parameter) -> String {
     }
 }
 
+/// `x` to six significant digits, as a table cell (`—` when not finite).
+fn sig(x: f64) -> String {
+    if !x.is_finite() {
+        return "—".into();
+    }
+    let d = (5 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    format!("{x:.d$}")
+}
+
 /// Width of one method's estimate column.
 const EST_W: usize = 22;
+
+/// The terminal's width: tables keep within it (methods side by side only as far as they
+/// fit; the full tables are in report.md), and longer prose lines are wrapped.
+pub const WIDTH: usize = 100;
+
+/// `text` with every line over [`WIDTH`] characters that is not a table row wrapped at its
+/// spaces, the continuation indented two more than the line.
+pub fn fit(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + text.len() / 50);
+    for line in text.split_inclusive('\n') {
+        let body = line.trim_end_matches('\n');
+        if body.chars().count() <= WIDTH || body.starts_with('|') {
+            out += line;
+            continue;
+        }
+        let indent = body.len() - body.trim_start().len() + 2;
+        let mut width = 0;
+        for (k, word) in body.split(' ').enumerate() {
+            let n = word.chars().count();
+            if k > 0 && width + 1 + n > WIDTH && width > indent {
+                out += "\n";
+                out += &" ".repeat(indent);
+                width = indent;
+            } else if k > 0 {
+                out += " ";
+                width += 1;
+            }
+            out += word;
+            width += n;
+        }
+        out += "\n";
+    }
+    if !text.ends_with('\n') && out.ends_with('\n') {
+        out.pop();
+    }
+    out
+}
 
 /// What a gate is, said once per report.
 pub(crate) const GATE_MEANING: &str = "a regression gate is the mean + 4 sd of the worst error over seeds, set in the \
@@ -79,7 +125,7 @@ pub fn summary(r: &Report) -> String {
             "a regression gate is EXCEEDED or its method failed"
         }
     );
-    s
+    fit(&s)
 }
 
 /// What was identified from: the scenario or measured records, a truncated log, the
@@ -176,11 +222,10 @@ pub(crate) fn fmt_seconds(t: f64) -> String {
     }
 }
 
-/// Per parameter and method: the estimate ± standard error and its error, with the legend.
-fn parameter_table(r: &Report) -> String {
+/// One table of `methods` side by side: per parameter its unit, true value, and each
+/// method's estimate ± standard error and error.
+fn methods_table(r: &Report, methods: &[&MethodReport]) -> String {
     let mut s = String::new();
-    let methods: Vec<_> = r.methods.iter().collect();
-    // Parameter table: per method its estimate ± standard error and its error.
     let motion = r.scenario_def.as_ref().map_or(Default::default(), |d| d.motion);
     let unit = |n: &crate::model::UnknownName| crate::report::plot::iteration::parameter_unit(n, motion);
     s += &format!("| {:<18} | {:<10} | {:>10} |", "parameter", "unit", "true");
@@ -236,6 +281,29 @@ fn parameter_table(r: &Report) -> String {
         }
         s += "\n";
     }
+    s
+}
+
+/// Per parameter and method: the estimate ± standard error and its error, with the legend;
+/// the methods side by side as far as they fit in [`WIDTH`] columns, the rest in further
+/// tables below.
+fn parameter_table(r: &Report) -> String {
+    let methods: Vec<_> = r.methods.iter().collect();
+    let width = |m: &&MethodReport| EST_W.max(format!("{} ± std. error", m.method).chars().count());
+    // "| parameter | unit | true |" is 48 wide, each method `w + 14`.
+    let mut groups: Vec<Vec<&MethodReport>> = Vec::new();
+    let mut used = WIDTH;
+    for &m in &methods {
+        let w = width(&m) + 14;
+        if used + w > WIDTH {
+            groups.push(Vec::new());
+            used = 48;
+        }
+        groups.last_mut().expect("a group").push(m);
+        used += w;
+    }
+    let tables: Vec<String> = groups.iter().map(|g| methods_table(r, g)).collect();
+    let mut s = tables.join("\n");
     s += "\nerrors are relative to the truth (a coefficient whose true value is 0: to its characteristic's scale under the \
           observed density); std. error: delete-one jackknife over the record's batches; 95 % interval: ± t(0.975) std. errors";
     if methods
@@ -291,7 +359,7 @@ fn method_lines(m: &MethodReport) -> String {
     }
     for c in &m.curves {
         s += &format!(
-            "  curve {} {}: relative L2 error {} under the observed density over [{:.4}, {:.4}]\n",
+            "  curve {} {}: L2 error {} under the observed density, range [{:.4}, {:.4}]\n",
             c.link,
             c.kind,
             fmt_err(c.rel_l2_error),
@@ -349,27 +417,27 @@ fn validation(v: &Validation) -> String {
     if let Some(e) = &v.error {
         s += &format!("  {e}\n");
     } else {
+        // Compact (the full table, stds and kurtoses apart, is in report.md).
         s += &format!(
-            "| {:<10} | {:>10} | {:>10} | {:>16} | {:>10} | {:>10} | {:>17} | {:>15} |\n",
-            "response",
-            "data std",
-            "model std",
-            "diff ± s.e.",
-            "data kurt",
-            "model kurt",
-            "spectrum rms ln",
-            "peak ω d/m"
+            "| {:<10} | {:>10} | {:>16} | {:>13} | {:>13} | {:>13} |\n",
+            "response", "data std", "diff ± s.e.", "kurt d/m", "spec rms ln", "peak ω d/m"
         );
-        s += "|------------|------------|------------|------------------|------------|------------|-------------------|-----------------|\n";
+        s += &format!(
+            "|{}|{}|{}|{}|{}|{}|\n",
+            "-".repeat(12),
+            "-".repeat(12),
+            "-".repeat(18),
+            "-".repeat(15),
+            "-".repeat(15),
+            "-".repeat(15)
+        );
         for row in &v.rows {
             s += &format!(
-                "| {:<10} | {:>10.5} | {:>10.5} | {:>16} | {:>10.3} | {:>10.3} | {:>17} | {:>15} |\n",
+                "| {:<10} | {:>10.5} | {:>16} | {:>13} | {:>13} | {:>13} |\n",
                 row.variable,
                 row.data_std,
-                row.model_std,
                 row.std_difference(),
-                row.data_kurtosis,
-                row.model_kurtosis,
+                format!("{:.3}/{:.3}", row.data_kurtosis, row.model_kurtosis),
                 row.spectrum.as_ref().map_or("-".into(), |c| format!(
                     "{:.3} ({:.3})",
                     c.rms_log_difference, c.averaging_alone
@@ -381,8 +449,8 @@ fn validation(v: &Validation) -> String {
             );
         }
         s += "  diff: model std / data std − 1, ± its standard error from the sampling of both (the spread between \
-              trajectory groups); spectrum rms ln: RMS of ln(S_model/S_data) over the band holding 99 % of the data's \
-              variance, (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
+              trajectory groups); kurt: kurtosis of data / model; spec rms ln: RMS of ln(S_model/S_data) over the \
+              band holding 99 % of the data's variance, (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
     }
     s
 }
@@ -397,29 +465,39 @@ pub(crate) fn iteration_summary(r: &crate::report::IterationReport) -> String {
         it.single_mass.name(),
         r.method
     );
+    // Two tables to keep within the terminal's width: the estimates and worst error per
+    // step, then the fit of P3s and the changes.
+    let w: Vec<usize> = it.names.iter().map(|n| n.to_string().chars().count().max(9)).collect();
     s += &format!("| {:>4} |", "step");
-    for n in &it.names {
-        s += &format!(" {n:>14} |");
+    for (n, w) in it.names.iter().zip(&w) {
+        s += &format!(" {n:>w$} |");
     }
-    s += &format!(
-        " {:>9} | {:>22} | {:>28} |\n",
-        "worst", "P3s fit A, B", "change k1 / K2 / C2"
-    );
-    s += &format!("|{}|", "-".repeat(6));
-    for _ in &it.names {
-        s += &format!("{}|", "-".repeat(16));
+    s += &format!(" {:>9} |\n|{}|", "worst", "-".repeat(6));
+    for w in &w {
+        s += &format!("{}|", "-".repeat(w + 2));
     }
-    s += &format!("{}|{}|{}|\n", "-".repeat(11), "-".repeat(24), "-".repeat(30));
-    s += &format!("| {:>4} |", "true");
-    for t in &r.truth {
-        s += &format!(" {t:>14.5} |");
+    s += &format!("{}|\n| {:>4} |", "-".repeat(11), "true");
+    for (t, w) in r.truth.iter().zip(&w) {
+        s += &format!(" {:>w$} |", sig(*t));
     }
-    s += &format!(" {:>9} | {:>22} | {:>28} |\n", "", "", "");
+    s += &format!(" {:>9} |\n", "");
     for (k, st) in it.steps.iter().enumerate() {
         s += &format!("| {:>4} |", st.step);
-        for v in &st.values {
-            s += &format!(" {v:>14.5} |");
+        for (v, w) in st.values.iter().zip(&w) {
+            s += &format!(" {:>w$} |", sig(*v));
         }
+        s += &format!(" {:>9} |\n", fmt_err(r.step_worst_rel_error[k]));
+    }
+    s += &format!(
+        "\n| {:>4} | {:>22} | {:>28} |\n|{}|{}|{}|\n",
+        "step",
+        "P3s fit A, B",
+        "change k1 / K2 / C2",
+        "-".repeat(6),
+        "-".repeat(24),
+        "-".repeat(30)
+    );
+    for st in &it.steps {
         let fit = st.p3_fit.map(|f| format!("{:.3}, {:.3}", f.a, f.b)).unwrap_or_default();
         let changes = st
             .changes
@@ -427,10 +505,7 @@ pub(crate) fn iteration_summary(r: &crate::report::IterationReport) -> String {
             .map(|(_, c)| format!("{c:.1e}"))
             .collect::<Vec<_>>()
             .join(" / ");
-        s += &format!(
-            " {:>9} | {fit:>22} | {changes:>28} |\n",
-            fmt_err(r.step_worst_rel_error[k])
-        );
+        s += &format!("| {:>4} | {fit:>22} | {changes:>28} |\n", st.step);
     }
     s += &format!(
         "stopped by {} after {} steps (max {}, tolerance {:.1e} relative); successive differences {} (the paper's \
