@@ -501,35 +501,11 @@ mod tests {
     /// ends), computed here directly.
     #[test]
     fn interleaved_records_stream_with_their_derivatives() {
-        let model = crate::Scenario::parse(
-            r#"
-name = "m"
-[[mass]]
-name = "m1"
-value = 1.0
-[[link]]
-ends = ["ground", "m1"]
-[[excitation]]
-kind = "white"
-sigma = 1.0
-acts_on = ["m1"]
-[identify]
-methods = ["weak"]
-[identify.links.ground-m1]
-stiffness = [1]
-damping = [1]
-[data]
-time = "t"
-record = "r"
-derive = true
-split_gaps = true
-[data.columns]
-x_m1 = "x"
-"#,
-            "m.toml",
-            "m",
-        )
-        .unwrap();
+        // The shipped SDOF model, reading the displacement only and deriving the rest.
+        let text = include_str!("../../../models/sdof_duffing.toml")
+            .replace("[data]\n", "[data]\nderive = true\nsplit_gaps = true\n")
+            .replace("v_m1 = \"v_m1\"\n", "");
+        let model = crate::Scenario::parse(&text, "m.toml", "m").unwrap();
         let h = 0.5;
         let x = |r: f64, s: f64| (0.3 * s + r).sin() + 0.01 * s * s;
         // Record 2: 40 samples, then a gap, then 3; record 1: 25 samples (its rows after
@@ -545,7 +521,7 @@ x_m1 = "x"
         }
         let table = Table {
             path: "t".into(),
-            names: vec!["r".into(), "t".into(), "x".into()],
+            names: vec!["trajectory".into(), "t".into(), "x_m1".into()],
             columns: (0..3).map(|c| rows.iter().map(|r| r[c]).collect()).collect(),
             record_labels: None,
         };
