@@ -3,7 +3,10 @@
 //! `pulldown-cmark` (CommonMark with tables); two things are this page's own: every figure
 //! the markdown shows alone in a paragraph (`![caption](name.svg)`) is inlined as vector SVG
 //! with links to its PNG and PDF, and the block after a `<!-- fold: TITLE -->` comment is
-//! folded into a `<details>` element (the diagnostics). No script, no external resource.
+//! folded into a `<details>` element (the diagnostics). Every heading has an anchor, the
+//! page opens with a table of contents of its sections, figures are numbered, and a wide
+//! table scrolls sideways inside its own box, so that the page fits a phone's width. No
+//! script, no external resource.
 
 use pulldown_cmark::{CowStr, Event, Options, Parser, Tag, TagEnd};
 use std::path::Path;
@@ -66,7 +69,8 @@ fn figure(events: &[Event], at: usize, dir: &Path, number: usize) -> Option<(Str
     let svg = inline_svg(dir, &src, &format!("fig{number}-"));
     let stem = src.trim_end_matches(".svg");
     let html = format!(
-        "<figure>\n{svg}<figcaption>{} <span class=\"files\">(<a href=\"{s}\">SVG</a>, <a href=\"{stem}.png\">PNG</a>, \
+        "<figure id=\"figure-{number}\">\n{svg}<figcaption><a class=\"number\" href=\"#figure-{number}\">Figure \
+         {number}.</a> {} <span class=\"files\">(<a href=\"{s}\">SVG</a>, <a href=\"{stem}.png\">PNG</a>, \
          <a href=\"{stem}.pdf\">PDF</a>)</span></figcaption>\n</figure>\n",
         caption(&alt),
         s = escape(&src),
@@ -78,7 +82,8 @@ fn figure(events: &[Event], at: usize, dir: &Path, number: usize) -> Option<(Str
 /// Render the markdown `md` (as the report writes it) to a whole HTML page titled
 /// `title`, with the figures it links read from `dir`.
 pub fn page(title: &str, md: &str, dir: &Path) -> std::io::Result<String> {
-    let events: Vec<Event> = Parser::new_ext(md, Options::ENABLE_TABLES).collect();
+    let mut events: Vec<Event> = Parser::new_ext(md, Options::ENABLE_TABLES).collect();
+    let toc = anchor_headings(&mut events);
     let mut out: Vec<Event> = Vec::with_capacity(events.len());
     let mut figures = 0usize;
     // Block nesting depth, and the depth at which an open `<details>` closes.
@@ -119,7 +124,17 @@ pub fn page(title: &str, md: &str, dir: &Path) -> std::io::Result<String> {
             Event::End(t) if is_block_end(t) => depth -= 1,
             _ => {}
         }
+        if matches!(e, Event::Start(Tag::Table(_))) {
+            out.push(Event::Html(CowStr::from("<div class=\"wide\">")));
+        }
         out.push(e.clone());
+        if matches!(e, Event::End(TagEnd::Table)) {
+            out.push(Event::Html(CowStr::from("</div>\n")));
+        }
+        // The contents after the page's title.
+        if matches!(e, Event::End(TagEnd::Heading(pulldown_cmark::HeadingLevel::H1))) {
+            out.push(Event::Html(CowStr::from(toc.clone())));
+        }
         if matches!(e, Event::End(t) if is_block_end(t)) && !matches!(e, Event::End(TagEnd::HtmlBlock)) {
             close_fold(depth, &mut fold_open, &mut out);
         }
@@ -133,6 +148,57 @@ pub fn page(title: &str, md: &str, dir: &Path) -> std::io::Result<String> {
          </head>\n<body>\n<main>\n{body}</main>\n</body>\n</html>\n",
         escape(title)
     ))
+}
+
+/// Give every heading an id from its text (`estimates`, `validation-2` for a second one)
+/// and return the table of contents of the sections (level 2) as HTML.
+fn anchor_headings(events: &mut [Event]) -> String {
+    let mut used: Vec<String> = Vec::new();
+    let mut entries = Vec::new();
+    for k in 0..events.len() {
+        let Event::Start(Tag::Heading { level, .. }) = &events[k] else {
+            continue;
+        };
+        let level = *level;
+        let mut text = String::new();
+        for e in &events[k + 1..] {
+            match e {
+                Event::Text(t) | Event::Code(t) => text += t,
+                Event::End(TagEnd::Heading(_)) => break,
+                _ => {}
+            }
+        }
+        let base: String = text
+            .to_lowercase()
+            .chars()
+            .map(|c| if c.is_alphanumeric() { c } else { '-' })
+            .collect::<String>()
+            .split('-')
+            .filter(|w| !w.is_empty())
+            .collect::<Vec<_>>()
+            .join("-");
+        let base = if base.is_empty() { "section".to_string() } else { base };
+        let mut id = base.clone();
+        let mut n = 1;
+        while used.contains(&id) {
+            n += 1;
+            id = format!("{base}-{n}");
+        }
+        used.push(id.clone());
+        if let Event::Start(Tag::Heading { id: slot, .. }) = &mut events[k] {
+            *slot = Some(CowStr::from(id.clone()));
+        }
+        if level == pulldown_cmark::HeadingLevel::H2 {
+            entries.push(format!("<li><a href=\"#{}\">{}</a></li>", escape(&id), escape(&text)));
+        }
+    }
+    if entries.len() < 2 {
+        return String::new();
+    }
+    format!(
+        "<nav class=\"toc\"><strong>Contents</strong><ol>{}</ol></nav>\n",
+        entries.join("")
+    )
 }
 
 /// Close an open `<details>` once the folded block has ended (back at the top level).
@@ -176,6 +242,16 @@ h1 { font-size: 1.6em; border-bottom: 2px solid #333; padding-bottom: .3em; }
 h2 { font-size: 1.3em; margin-top: 2em; border-bottom: 1px solid #ccc; }
 h3 { font-size: 1.1em; margin-top: 1.6em; }
 table { border-collapse: collapse; margin: .8em 0; font-size: .9em; }
+.wide { overflow-x: auto; max-width: 100%; }
+p, li, td, code { overflow-wrap: anywhere; }
+.toc { background: #f6f6f6; border: 1px solid #e0e0e0; padding: .5em 1em; margin: 1em 0; font-size: .95em; }
+.toc ol { margin: .3em 0; padding-left: 1.6em; columns: 2; }
+a.number { color: inherit; font-weight: bold; text-decoration: none; }
+@media (max-width: 700px) {
+  main { padding: 1em .7em 3em; }
+  .toc ol { columns: 1; }
+  h1 { font-size: 1.3em; }
+}
 th, td { border: 1px solid #d0d0d0; padding: .25em .6em; }
 thead th { background: #f0f0f0; }
 tbody tr:nth-child(even) { background: #fafafa; }
@@ -204,7 +280,7 @@ mod tests {
             "<svg xmlns=\"http://www.w3.org/2000/svg\"><clipPath id=\"clip1\"/><g clip-path=\"url(#clip1)\"/></svg>",
         )
         .expect("write");
-        let md = "# T\n\nSome **bold** `x<y`.\n\n| a | b |\n|---|---:|\n| 1 | 2 |\n\n![The caption](a.svg)\n\n\
+        let md = "# T\n\n## Intro\n\nSome **bold** `x<y`.\n\n| a | b |\n|---|---:|\n| 1 | 2 |\n\n![The caption](a.svg)\n\n\
                   <!-- fold: diagnostics -->\n- rank 3/3\n- time 1 s\n\n## Next\n\n<!-- fold: steps -->\n```\na | b < c\n```\n\nAfter.\n";
         let html = page("t", md, dir.path()).expect("page");
         assert!(
@@ -214,13 +290,27 @@ mod tests {
         assert!(html.contains("<strong>bold</strong>") && html.contains("<code>x&lt;y</code>"));
         assert!(html.contains("id=\"fig1-clip1\"") && html.contains("url(#fig1-clip1)"));
         assert!(html.contains("<details><summary>diagnostics</summary>\n<ul>"));
-        assert!(html.contains("</ul>\n</details>\n<h2>Next</h2>"), "{html}");
+        assert!(html.contains("</ul>\n</details>\n<h2 id=\"next\">Next</h2>"), "{html}");
         assert!(
             html.contains(
                 "<details><summary>steps</summary>\n<pre><code>a | b &lt; c\n</code></pre>\n</details>\n<p>After.</p>"
             ),
             "{html}"
         );
-        assert!(html.contains("<figcaption>The caption <span"), "{html}");
+        assert!(
+            html.contains("<figure id=\"figure-1\">")
+                && html.contains("<figcaption><a class=\"number\" href=\"#figure-1\">Figure 1.</a> The caption <span"),
+            "{html}"
+        );
+        // Anchors, the contents after the title (two sections), tables in a scroll box.
+        assert!(
+            html.contains("<h1 id=\"t\">T</h1>\n<nav class=\"toc\"><strong>Contents</strong><ol>"),
+            "{html}"
+        );
+        assert!(html.contains("<li><a href=\"#next\">Next</a></li>") && html.contains("<h2 id=\"next\">"));
+        assert!(
+            html.contains("<div class=\"wide\"><table>") && html.contains("</table>\n</div>"),
+            "{html}"
+        );
     }
 }

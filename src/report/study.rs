@@ -45,6 +45,9 @@ fn error_bar(p: &mut Panel, x: f64, [lo, hi]: [f64; 2], half: f64, col: Color) {
     }
 }
 
+/// Tables longer than this are folded on the page (`<details>`), closed until opened.
+const FOLD_ROWS: usize = 30;
+
 /// The summary as a markdown page (with the paired differences from a reference method,
 /// if the study names one).
 pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Paired]) -> String {
@@ -85,7 +88,13 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
             x.item_s_median
         );
     }
-    s += "\n## Parameters\n\n| record length (s) | interval (s) | method | parameter | bias | spread | coverage of 95 % intervals |\n\
+    s += "\n## Parameters\n\n";
+    // A long table folded (report.html shows its title; report.md its comment is unseen).
+    let rows: usize = summary.iter().map(|x| x.parameters.len()).sum();
+    if rows > FOLD_ROWS {
+        s += &format!("<!-- fold: per parameter: bias, spread and coverage ({rows} rows) -->\n");
+    }
+    s += "| record length (s) | interval (s) | method | parameter | bias | spread | coverage of 95 % intervals |\n\
           |---:|---:|---|---|---:|---:|---:|\n";
     for x in summary {
         for p in &x.parameters {

@@ -4,8 +4,10 @@ Usage: check_report.py SCREENSHOT_DIR PAGE.html [PAGE.html ...]
 
 For every page: no console error and no page error; every inline figure (<svg>) has a
 laid-out size and at least one drawn path; every <table> has a header and at least one
-row; every figure caption links its PNG and PDF and those files exist beside the page.
-A full-page screenshot of each page is kept in SCREENSHOT_DIR. Chromium is Debian's
+row (folded sections opened first); every figure caption links its PNG and PDF and those
+files exist beside the page; the contents link to headings that exist. At a phone's
+420 px the page does not scroll sideways (wide tables scroll in their own box). Full-page
+screenshots at 1400 and 420 px are kept in SCREENSHOT_DIR. Chromium is Debian's
 (/usr/bin/chromium, or $CHROMIUM), driven by Playwright's Python client.
 """
 
@@ -30,11 +32,20 @@ ARGS = [
 
 def check(browser, page_path: pathlib.Path, shots: pathlib.Path) -> list[str]:
     problems = []
-    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
     page.on("console", lambda m: problems.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
     page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
     page.on("requestfailed", lambda r: problems.append(f"request failed: {r.url}"))
     page.goto(page_path.resolve().as_uri(), wait_until="load")
+    shot = shots / (page_path.parent.name + "-" + page_path.stem + "-1400.png")
+    page.screenshot(path=str(shot), full_page=True)
+    page.evaluate("() => document.querySelectorAll('details').forEach(d => d.open = true)")
+    missing = page.evaluate(
+        """() => Array.from(document.querySelectorAll('nav.toc a'))
+            .map(a => a.getAttribute('href').slice(1)).filter(id => !document.getElementById(id))"""
+    )
+    for id in missing:
+        problems.append(f"the contents link to #{id}, which the page does not have")
     figures = page.evaluate(
         """() => Array.from(document.querySelectorAll('figure')).map(f => {
             const svg = f.querySelector('svg');
@@ -44,7 +55,7 @@ def check(browser, page_path: pathlib.Path, shots: pathlib.Path) -> list[str]:
                 width: box.width, height: box.height,
                 paths: svg ? svg.querySelectorAll('path').length : 0,
                 texts: svg ? svg.querySelectorAll('text').length : 0,
-                links: Array.from(f.querySelectorAll('figcaption a')).map(a => a.getAttribute('href')),
+                links: Array.from(f.querySelectorAll('figcaption .files a')).map(a => a.getAttribute('href')),
             };
         })"""
     )
@@ -71,9 +82,13 @@ def check(browser, page_path: pathlib.Path, shots: pathlib.Path) -> list[str]:
     for k, t in enumerate(tables):
         if t["head"] < 1 or t["rows"] < 1 or t["height"] < 10:
             problems.append(f"table {k + 1}: {t['head']} header cells, {t['rows']} rows, {t['height']:.0f} px tall")
-    shot = shots / (page_path.parent.name + "-" + page_path.stem + ".png")
-    page.screenshot(path=str(shot), full_page=True)
-    print(f"{page_path}: {len(figures)} figures, {len(tables)} tables, screenshot {shot}")
+    page.set_viewport_size({"width": 420, "height": 900})
+    wide = page.evaluate("() => document.documentElement.scrollWidth")
+    if wide > 421:
+        problems.append(f"at 420 px the page is {wide} px wide: it scrolls sideways")
+    phone = shots / (page_path.parent.name + "-" + page_path.stem + "-420.png")
+    page.screenshot(path=str(phone), full_page=True)
+    print(f"{page_path}: {len(figures)} figures, {len(tables)} tables, {wide} px wide at 420, screenshots {shot}, {phone}")
     page.close()
     return problems
 
