@@ -94,7 +94,7 @@ fn silentblock_writes_the_papers_figures_in_three_formats_and_one_page() {
     assert!(!ch.contains("stroke=\"#000000\" stroke-width=\"3"), "the truth is thin");
     // The page: every table a table, every figure inline, the diagnostics folded.
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
-    assert_eq!(html.matches("<figure>").count(), 5, "five figures inline");
+    assert_eq!(html.matches("<figure id=\"figure-").count(), 5, "five figures inline");
     assert_eq!(html.matches("<svg").count(), 5);
     assert!(html.matches("<table>").count() >= 8);
     assert!(html.contains("<details><summary>diagnostics of weak</summary>"));
