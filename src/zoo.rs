@@ -6,7 +6,9 @@
 //!   (continuous Lyapunov equation `AΣ + ΣAᵀ + GGᵀ = 0`);
 //! - the exact stationary covariance of the *discrete* semi-implicit and explicit
 //!   Euler–Maruyama recursions for a linear model under white noise (discrete Lyapunov
-//!   equation `Σ = ΦΣΦᵀ + ΓΓᵀ`), which quantifies each scheme's bias.
+//!   equation `Σ = ΦΣΦᵀ + ΓΓᵀ`), which quantifies each scheme's bias;
+//! - the exact stationary marginal densities of a single mass with linear damping under
+//!   white forces ([`GibbsMarginals`]), drawn over the data in the report's densities.
 //!
 //! State order everywhere here: `x_1..x_n, v_1..v_n`, then one entry per filtered force.
 
@@ -190,9 +192,139 @@ pub fn duffing_displacement_moments(k1: f64, k3: f64, c: f64, sigma: f64, max: u
     m.iter().map(|v| v / z).collect()
 }
 
+/// The exact stationary marginals of one mass on one link to the ground with linear damping
+/// `c` and any odd power spring `K`, driven by independent white forces of total intensity
+/// `σ²`: `f(x, v) ∝ exp(−(2c/σ²)(m v²/2 + V(x)))`, `V' = K` (docs/theory.md §6, the Gibbs
+/// case). The velocity is Gaussian with variance `σ²/(2cm)`; the displacement's density is
+/// normalised by quadrature.
+#[derive(Debug, Clone)]
+pub struct GibbsMarginals {
+    /// `2c/σ²`.
+    beta: f64,
+    mass: f64,
+    /// `(p + 1, c_p / (p + 1))`: the potential's terms.
+    potential: Vec<(i32, f64)>,
+    /// `∫ exp(−β V) dx`.
+    norm: f64,
+}
+
+impl GibbsMarginals {
+    /// The exact marginals of `s`, when it is such a system (one mass, one link to the
+    /// ground, damping `c·w` only, power springs whose potential confines, white forces);
+    /// `None` otherwise.
+    pub fn of(s: &Scenario) -> Option<GibbsMarginals> {
+        use crate::model::Term;
+        use crate::scenario::End;
+        let [mass] = s.masses.as_slice() else { return None };
+        let [link] = s.links.as_slice() else { return None };
+        if !link.ends.contains(&End::Ground) || !link.ends.contains(&End::Mass(0)) {
+            return None;
+        }
+        let [(Term::Power(1), c)] = link.damping.terms.as_slice() else {
+            return None;
+        };
+        let mut sigma2 = 0.0;
+        for e in &s.excitations {
+            match e.process {
+                Process::White { sigma } if e.acts_on == [0] => sigma2 += sigma * sigma,
+                _ => return None,
+            }
+        }
+        let mut potential = Vec::new();
+        for &(t, k) in &link.stiffness.terms {
+            let p = t.power()?;
+            potential.push((p as i32 + 1, k / (p + 1) as f64));
+        }
+        // Confining: the leading power odd with a positive coefficient (3.4).
+        let &(top, lead) = potential.iter().max_by_key(|t| t.0)?;
+        if *c <= 0.0 || sigma2 <= 0.0 || top % 2 != 0 || lead <= 0.0 || mass.value <= 0.0 {
+            return None;
+        }
+        let mut g = GibbsMarginals {
+            beta: 2.0 * c / sigma2,
+            mass: mass.value,
+            potential,
+            norm: 1.0,
+        };
+        let (l, n) = (g.reach(), 100_000);
+        let h = 2.0 * l / n as f64;
+        g.norm = (0..=n)
+            .map(|i| {
+                let w = if i == 0 || i == n { 0.5 } else { 1.0 };
+                w * (-g.beta * g.potential(-l + i as f64 * h)).exp()
+            })
+            .sum::<f64>()
+            * h;
+        g.norm.is_finite().then_some(g)
+    }
+
+    fn potential(&self, x: f64) -> f64 {
+        self.potential.iter().map(|&(q, a)| a * x.powi(q)).sum()
+    }
+
+    /// How far out the displacement's weight stays above `e^−80`.
+    fn reach(&self) -> f64 {
+        let mut l = 1e-6;
+        while self.beta * self.potential(l).min(self.potential(-l)) < 80.0 && l < 1e12 {
+            l *= 1.5;
+        }
+        l
+    }
+
+    /// The displacement's density at `x`.
+    pub fn displacement(&self, x: f64) -> f64 {
+        (-self.beta * self.potential(x)).exp() / self.norm
+    }
+
+    /// The velocity's density at `v` (Gaussian, variance `σ²/(2cm)`).
+    pub fn velocity(&self, v: f64) -> f64 {
+        let var = 1.0 / (self.beta * self.mass);
+        (-v * v / (2.0 * var)).exp() / (2.0 * std::f64::consts::PI * var).sqrt()
+    }
+}
+
 /// The true value of every unknown of `problem`, from the truth of the scenario it was
 /// built from (what a log of that scenario records).
 pub fn true_values(s: &Scenario, problem: &crate::ident::Problem) -> Vec<f64> {
     let truth = crate::model::Truth::from_pairs(&s.truth()).expect("a scenario's own truth parses");
     problem.true_values(&truth)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gibbs_marginals_match_the_duffing_moments_and_the_velocity_variance() {
+        let s = crate::scenario::Scenario::from_file(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/scenarios/sdof_duffing.toml"
+        )))
+        .expect("shipped scenario");
+        let g = GibbsMarginals::of(&s).expect("a Gibbs system");
+        let exact = duffing_displacement_moments(10.0, 20.0, 0.5, 1.0, 4);
+        // Moments of the densities by a fine midpoint sum over ±10 (both weights are below
+        // e^-40 beyond).
+        let (n, l) = (200_000, 10.0);
+        let h = 2.0 * l / n as f64;
+        let m = |k: i32, f: &dyn Fn(f64) -> f64| -> f64 {
+            (0..n)
+                .map(|i| -l + (i as f64 + 0.5) * h)
+                .map(|x| x.powi(k) * f(x) * h)
+                .sum()
+        };
+        assert!((m(0, &|x| g.displacement(x)) - 1.0).abs() < 1e-9);
+        assert!((m(2, &|x| g.displacement(x)) - exact[2]).abs() < 1e-9 * exact[2].max(1.0));
+        assert!((m(4, &|x| g.displacement(x)) - exact[4]).abs() < 1e-9 * exact[4].max(1.0));
+        // σ²/(2cm) = 1.
+        let var = m(2, &|v| g.velocity(v));
+        assert!((var - 1.0).abs() < 1e-9, "{var}");
+        // A two-mass system, or nonlinear damping, has no such form here.
+        let two = crate::scenario::Scenario::from_file(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/scenarios/duffing2dof.toml"
+        )))
+        .expect("shipped scenario");
+        assert!(GibbsMarginals::of(&two).is_none());
+    }
 }

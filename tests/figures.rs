@@ -79,7 +79,15 @@ fn silentblock_writes_the_papers_figures_in_three_formats_and_one_page() {
         compare.contains("weak [linear]: K(u) = ") && compare.contains(" u³"),
         "Fig. 7 legend"
     );
-    assert!(compare.contains("equivalent-linear"), "Fig. 7 caption");
+    // Captions are text in the page, not pixels in the image.
+    assert!(
+        !compare.contains("equivalent-linear model"),
+        "Fig. 7's caption belongs to the page"
+    );
+    assert!(
+        !spectrum.contains("The paper's Fig. 6"),
+        "Fig. 6's caption belongs to the page"
+    );
     // The characteristics: the truth is the last curve drawn (on top of the estimates);
     // the naive white-noise model leaves the range and is marked; the damping is known.
     let ch = std::fs::read_to_string(dir.join("characteristics.svg")).unwrap();
@@ -91,6 +99,8 @@ fn silentblock_writes_the_papers_figures_in_three_formats_and_one_page() {
     );
     assert!(ch.contains("weak-white-naive") && ch.contains("off scale ▲▼"));
     assert!(ch.contains("known, not identified"));
+    // Under the identified stiffness, the residual of each FPK estimate with its band.
+    assert!(ch.contains("K\u{302}(u) − K(u)"), "residual panel");
     assert!(!ch.contains("stroke=\"#000000\" stroke-width=\"3"), "the truth is thin");
     // The page: every table a table, every figure inline, the diagnostics folded.
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
@@ -108,4 +118,9 @@ fn silentblock_writes_the_papers_figures_in_three_formats_and_one_page() {
         assert!(md.contains(&format!("]({f})")), "{f} not linked");
     }
     assert!(md.contains("|---|"));
+    assert!(
+        md.contains("the equivalent-linear model") && md.contains("The paper's Fig. 6"),
+        "captions in the page"
+    );
+    assert!(html.contains("<figcaption>") && html.contains("the equivalent-linear model"));
 }

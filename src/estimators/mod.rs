@@ -11,6 +11,7 @@
 mod force_regression;
 mod increments;
 mod kramers_moyal;
+mod local_linear;
 mod marginals;
 mod strong;
 mod weak;
@@ -252,6 +253,9 @@ registry! {
     Increments = "increments", Baseline, Polynomial, increments::build;
     /// Baseline (not FPK): binned conditional mean increments (Kramers–Moyal), then the drift.
     KramersMoyal = "kramers-moyal", Baseline, Polynomial, kramers_moyal::build;
+    /// Baseline (not FPK): the local-linearisation (Shoji–Ozaki) quasi-likelihood of the sample
+    /// pairs, exact in the interval for a linear system.
+    LocalLinear = "local-linear", Baseline, Polynomial, local_linear::build;
     /// Oracle bound (not FPK): the equation error with the measured excitation forces.
     ForceRegression = "force-regression", Oracle, Polynomial, force_regression::build;
 }

@@ -227,7 +227,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// The drift's parts (known force per mass, unit force per unknown and mass:
 /// [`Problem::known_force`], [`Problem::unit_force`]) compiled for per-sample evaluation.
 #[derive(Clone)]
-struct DriftParts {
+pub(super) struct DriftParts {
     /// Known forces, then the unit forces unknown-major (`unit[row * n + i]`).
     parts: Compiled,
     n: usize,
@@ -235,7 +235,7 @@ struct DriftParts {
 }
 
 impl DriftParts {
-    fn of(problem: &Problem) -> DriftParts {
+    pub(super) fn of(problem: &Problem) -> DriftParts {
         let parts = Compiled::new(problem.known_force.iter().chain(problem.unit_force.iter().flatten()));
         DriftParts {
             values: vec![0.0; parts.len()],
@@ -245,7 +245,7 @@ impl DriftParts {
     }
 
     /// The parts at state `y`: known force per mass, unit force per unknown and mass.
-    fn at(&mut self, y: &[f64], known: &mut [f64], unit: &mut [f64]) {
+    pub(super) fn at(&mut self, y: &[f64], known: &mut [f64], unit: &mut [f64]) {
         self.parts.eval(y, &mut self.values);
         let (kv, uv) = self.values.split_at(self.n);
         for (k, v) in known.iter_mut().zip(kv) {
@@ -258,19 +258,19 @@ impl DriftParts {
 }
 
 /// Consecutive samples of each trajectory, `h` apart: the previous state per trajectory.
-struct Pairs {
-    h: f64,
+pub(super) struct Pairs {
+    pub(super) h: f64,
     prev: Vec<Option<(f64, Vec<f64>)>>,
 }
 
 impl Pairs {
-    fn new(h: f64) -> Pairs {
+    pub(super) fn new(h: f64) -> Pairs {
         Pairs { h, prev: Vec::new() }
     }
 
     /// The state `y` of the sample before `(trajectory, t)` if it is exactly one interval
     /// earlier; then remember this one (`y` in problem order).
-    fn step(&mut self, trajectory: usize, t: f64, y: &[f64], mut f: impl FnMut(&[f64])) {
+    pub(super) fn step(&mut self, trajectory: usize, t: f64, y: &[f64], mut f: impl FnMut(&[f64])) {
         if self.prev.len() <= trajectory {
             self.prev.resize(trajectory + 1, None);
         }

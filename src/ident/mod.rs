@@ -30,6 +30,7 @@ pub mod baseline;
 pub mod data;
 pub mod disturbance;
 pub mod kernel;
+pub mod local_linear;
 pub mod lsq;
 pub mod moments;
 pub mod poly;

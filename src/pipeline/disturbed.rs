@@ -70,7 +70,7 @@ pub(crate) fn identify_disturbed(
     if let Some(last) = paper.steps.last().filter(|l| l.step > 0) {
         let k1 = last.p3_k1.expect("steps >= 1 have one");
         spectra.push((
-            format!("3 (step {}, k1 = {k1:.4})", last.step),
+            format!("P3 reconstructed in step {} (k1 = {k1:.4})", last.step),
             p3.spectrum_of(2.0 * k1),
             last.p3_fit.expect("spectral steps have one"),
             (f64::NAN, f64::NAN),

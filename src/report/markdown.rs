@@ -108,7 +108,18 @@ pub fn markdown(r: &Report) -> String {
     }
     s += "## Verdict\n\n";
     for m in &r.methods {
-        s += &format!("- {}\n", verdict(m));
+        let mut line = verdict(m);
+        // A sequence that converged is not a sequence that got closer to the truth.
+        if let Some(it) = r.iterations.iter().find(|it| it.method == m.method) {
+            let judged = super::text::against_step0(it);
+            if judged.contains("further from the truth") {
+                line += &format!(
+                    "; converged, but {}",
+                    judged.trim().trim_start_matches("against the truth: ")
+                );
+            }
+        }
+        s += &format!("- {line}\n");
     }
     s += &format!(
         "\n{} — {GATE_MEANING}.\n\n",
@@ -118,7 +129,11 @@ pub fn markdown(r: &Report) -> String {
             "**A regression gate is exceeded or its method failed**"
         }
     );
-    s += "![Identified and true characteristics](characteristics.svg)\n\n";
+    s += "![Identified and true characteristics over the observed range of each link's relative displacement \
+          and velocity. Top: the truth (thin black) drawn over every estimate; the FPK estimators with their 95 % \
+          pointwise bands; baselines and deliberately wrong models dashed, with a triangle where they leave the \
+          range. Middle: each FPK estimate minus the truth, with its band (with no truth, the band alone about \
+          zero). Bottom: the data's distribution of the argument.](characteristics.svg)\n\n";
     s += "## Estimates\n\n";
     s += "Errors are relative to the truth; a coefficient whose true value is 0 is measured against its \
           characteristic's scale, and a characteristic's L2 error is taken, under the observed density of its \
@@ -130,7 +145,10 @@ pub fn markdown(r: &Report) -> String {
         s += &method_section(m, motion);
     }
     if super::plot::compare::has_comparisons(r) {
-        s += "## Models compared\n\n![The scenario's model and its comparison models](compare.svg)\n\n";
+        s += &format!(
+            "## Models compared\n\n![{}](compare.svg)\n\n",
+            super::plot::compare::caption(r)
+        );
     }
     s += &filters_section(r);
     s += &iterations_section(r);
@@ -151,6 +169,9 @@ fn method_section(m: &MethodReport, motion: crate::scenario::Motion) -> String {
         return s + &format!("No estimate ({}): {e}\n\n", m.outcome.name());
     }
     s += &parameter_table(m, motion);
+    if let Some(why) = super::text::no_std_errors(m) {
+        s += &format!("\nNo standard errors: {why}.\n");
+    }
     if !m.curves.is_empty() {
         s += "\n| characteristic | relative L2 error (observed density) | observed range |\n|---|---:|---|\n";
         for c in &m.curves {
@@ -199,7 +220,7 @@ fn filters_section(r: &Report) -> String {
         }
         s += "\n";
         if !r.plot.spectra.is_empty() {
-            s += "![Force spectra and their fits](spectrum.svg)\n\n";
+            s += &format!("![{}](spectrum.svg)\n\n", super::plot::spectra::caption(r));
         }
     }
     s
@@ -258,10 +279,15 @@ fn validation_section(r: &Report, v: &Validation) -> String {
         }
     }
     if !r.plot.marginals.is_empty() {
-        s += "![Marginal densities, data and re-simulated model](densities.svg)\n\n";
+        s += "![Marginal densities of the responses: the data (grey histogram) against the re-simulated model \
+              (solid; on the log scale only where its bins hold ten samples or more), and, dashed, the exact \
+              stationary density where it is known in closed form (one mass, linear damping, white \
+              forces).](densities.svg)\n\n";
     }
     if r.plot.response_spectra.iter().any(|x| x.2.segments > 0) {
-        s += "![Response spectra, data and re-simulated model](response_spectra.svg)\n\n";
+        s += "![One-sided spectral densities G(ω) = 2 S(ω) of the responses (the area under G over ω > 0 is the \
+              variance): the data (Welch) against the re-simulated model, on the same \
+              segments.](response_spectra.svg)\n\n";
     }
     s
 }

@@ -331,11 +331,7 @@ fn error_panel(st: &StudyLines, by_length: bool) -> Panel {
             p.line(guide, Stroke::dashed(GREY, 1.2, 6.0, 4.0), Some("1/√T".into()));
         }
     }
-    p.legend_at = if by_length {
-        Corner::UpperRight
-    } else {
-        Corner::UpperLeft
-    };
+    p.legend_at = Corner::Above;
     p
 }
 
@@ -377,7 +373,7 @@ fn coverage_panel(st: &StudyLines) -> Panel {
             connected(&mut p, pts, col);
         }
     }
-    p.legend_at = Corner::LowerLeft;
+    p.legend_at = Corner::Above;
     p
 }
 
@@ -406,7 +402,7 @@ fn refusal_panel(st: &StudyLines, summary: &[Summary]) -> Panel {
             connected(&mut p, pts, color(k + g * st.methods.len()));
         }
     }
-    p.legend_at = Corner::UpperLeft;
+    p.legend_at = Corner::Above;
     p
 }
 

@@ -357,6 +357,9 @@ fn method_lines(m: &MethodReport) -> String {
     for w in &m.warnings {
         s += &format!("  WARNING: {w}\n");
     }
+    if let Some(why) = no_std_errors(m) {
+        s += &format!("  no standard errors: {why}\n");
+    }
     for c in &m.curves {
         s += &format!(
             "  curve {} {}: L2 error {} under the observed density, range [{:.4}, {:.4}]\n",
@@ -532,9 +535,25 @@ pub(crate) fn iteration_summary(r: &crate::report::IterationReport) -> String {
     s
 }
 
+/// Why a method's estimates carry no standard errors, when none of them has one.
+pub(crate) fn no_std_errors(m: &crate::report::MethodReport) -> Option<&'static str> {
+    use crate::scenario::ReportMethod;
+    if m.parameters.is_empty() || m.parameters.iter().any(|p| p.std_error.is_finite()) {
+        return None;
+    }
+    Some(match m.method {
+        ReportMethod::Iterated | ReportMethod::IteratedForce | ReportMethod::Step => {
+            "the section-4 sequence is run once on the whole record, not once per jackknife batch, so its \
+             iterates have none; step-0's row shows the sampling noise of one solve, and the sequence's \
+             error against the truth is its bias"
+        }
+        _ => "the record has fewer than two batches for the jackknife",
+    })
+}
+
 /// The sequence judged parameter by parameter against the truth: which ended further
 /// from it than step 0 (the worst error alone can fall while most parameters get worse).
-fn against_step0(r: &crate::report::IterationReport) -> String {
+pub(crate) fn against_step0(r: &crate::report::IterationReport) -> String {
     let (Some(first), Some(last)) = (r.step_rel_errors.first(), r.step_rel_errors.last()) else {
         return String::new();
     };

@@ -88,6 +88,23 @@ pub fn unit(u: &str) -> String {
     u.replace('*', "·").replace("^2", "²").replace("^3", "³")
 }
 
+/// The reciprocal of a unit, as a density's axis writes it: `1/m`, `s/m` (of `m/s`),
+/// `s²/rad` (of `rad/s^2`), `1/(N·m)`.
+pub fn per(u: &str) -> String {
+    let u = unit(u);
+    match u.split_once('/') {
+        Some((num, den)) if !den.contains('/') && !num.is_empty() => {
+            if num == "1" {
+                den.to_string()
+            } else {
+                format!("{den}/{num}")
+            }
+        }
+        _ if u.contains('·') => format!("1/({u})"),
+        _ => format!("1/{u}"),
+    }
+}
+
 /// A unit squared: `m²`, `(N·m)²`, `(m/s)²`.
 pub fn squared(u: &str) -> String {
     if u.contains(['·', '/', '*']) {
@@ -193,11 +210,16 @@ fn superscript(e: i32) -> String {
         .collect()
 }
 
-/// A value on a log axis: plain decimals between 0.001 and 10⁵, powers of ten beyond.
-fn log_label(v: f64) -> String {
+/// Whether a value on a log axis is written in plain decimals (0.001 to 10⁵).
+fn plain(v: f64) -> bool {
+    (-3..=5).contains(&(v.log10().floor() as i32))
+}
+
+/// A value on a log axis: plain decimals (when `plain`), otherwise `10ᵏ` or `m×10ᵏ`.
+fn log_label(v: f64, plain: bool) -> String {
     let e = v.log10().floor() as i32;
     let m = (v / 10f64.powi(e)).round() as i64;
-    if (-3..=5).contains(&e) {
+    if plain {
         let d = (-e).max(0) as usize;
         format!("{v:.d$}")
     } else if m == 1 {
@@ -232,7 +254,7 @@ pub fn log_ticks(lo: f64, hi: f64) -> (Vec<(f64, String)>, Vec<f64>) {
             let labelled =
                 (m == 1 && e.rem_euclid(every) == 0) || (decades < 3.5 && (m == 2 || m == 5)) || decades < 1.2;
             if labelled {
-                major.push((v, log_label(v)));
+                major.push((v, String::new()));
             } else {
                 minor.push(v);
             }
@@ -243,9 +265,14 @@ pub fn log_ticks(lo: f64, hi: f64) -> (Vec<(f64, String)>, Vec<f64>) {
         major = (e0..=e1)
             .flat_map(|e| [1.0, 2.0, 3.0, 5.0].map(|m| m * 10f64.powi(e)))
             .filter(|v| *v >= lo * (1.0 - 1e-9) && *v <= hi * (1.0 + 1e-9))
-            .map(|v| (v, log_label(v)))
+            .map(|v| (v, String::new()))
             .collect();
         minor.retain(|v| !major.iter().any(|(m, _)| (m - v).abs() < 1e-9 * v));
+    }
+    // One style per axis: plain decimals only when every label can be plain.
+    let all_plain = major.iter().all(|(v, _)| plain(*v));
+    for (v, l) in &mut major {
+        *l = log_label(*v, all_plain);
     }
     (major, minor)
 }

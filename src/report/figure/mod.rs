@@ -130,6 +130,9 @@ pub enum Corner {
     LowerRight,
     /// Centred at the bottom (a log density's tails leave the middle free there).
     LowerMiddle,
+    /// Above the plot area, between the title and the frame: never over the data. Entries
+    /// flow left to right and wrap; the plot area shrinks by the rows they need.
+    Above,
 }
 
 /// One panel: a title, two axes, marks, a legend and notes.
@@ -326,9 +329,18 @@ impl Figure {
         for row in &self.rows {
             let n = row.cells.len().max(1) as f64;
             let w = self.width / n;
+            // Legends above the plot take the same rows across the row of panels, so the
+            // plot areas line up.
+            let rows = row
+                .cells
+                .iter()
+                .flatten()
+                .map(|p| legend_rows(p, w - LEFT - RIGHT))
+                .max()
+                .unwrap_or(0);
             for (k, cell) in row.cells.iter().enumerate() {
                 if let Some(p) = cell {
-                    draw_panel(&mut out, p, (k as f64 * w, y, w, row.height), &mut clip);
+                    draw_panel(&mut out, p, (k as f64 * w, y, w, row.height), rows, &mut clip);
                 }
             }
             y += row.height;
@@ -386,12 +398,28 @@ fn path_of(points: impl Iterator<Item = Option<(f64, f64)>>) -> String {
     d.trim_start().to_string()
 }
 
-fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64), clip: &mut usize) {
+/// The rows a panel's legend takes above its plot area (0 unless [`Corner::Above`]).
+fn legend_rows(p: &Panel, width: f64) -> usize {
+    if p.legend_at != Corner::Above || p.legend_only {
+        return 0;
+    }
+    flow(&p.legend, width).iter().map(|e| e.2 + 1).max().unwrap_or(0)
+}
+
+/// One panel in its cell; `legend_rows`: the rows reserved above the plot for the legend.
+fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64), legend_rows: usize, clip: &mut usize) {
     if p.legend_only {
         draw_legend(out, &p.legend, (x0 + 20.0, y0 + 20.0), None);
         return;
     }
-    let top_margin = if p.title.is_empty() { 8.0 } else { TOP };
+    let title_margin = if p.title.is_empty() { 8.0 } else { TOP };
+    let pw = w - LEFT - RIGHT;
+    let above = if p.legend_at == Corner::Above {
+        flow(&p.legend, pw)
+    } else {
+        Vec::new()
+    };
+    let top_margin = title_margin + LEGEND_ROW * legend_rows as f64;
     let top = y0 + top_margin;
     let left = x0 + LEFT;
     let bottom_margin = match (p.x.tick_labels, p.x.label.is_empty()) {
@@ -399,7 +427,16 @@ fn draw_panel(out: &mut String, p: &Panel, (x0, y0, w, h): (f64, f64, f64, f64),
         (false, false) | (true, true) => BOTTOM - 18.0,
         (false, true) => 8.0,
     };
-    let (pw, ph) = (w - LEFT - RIGHT, h - top_margin - bottom_margin);
+    let ph = h - top_margin - bottom_margin;
+    for ((swatch, label), &(dx, _, row)) in p.legend.iter().zip(&above) {
+        legend_entry(
+            out,
+            swatch,
+            label,
+            left + dx - 8.0,
+            y0 + title_margin - 5.0 + LEGEND_ROW * row as f64,
+        );
+    }
     if !p.title.is_empty() {
         let size = if text_width(&p.title, 14.0) > w - 20.0 {
             12.0
@@ -673,20 +710,20 @@ fn draw_legend_and_notes(out: &mut String, p: &Panel, f: &Frame) {
     let lw = legend_width(&p.legend);
     let lh = 20.0 * p.legend.len() as f64 + 8.0;
     let at = match p.legend_at {
-        Corner::UpperLeft => (left + 8.0, top + 8.0),
+        Corner::Above | Corner::UpperLeft => (left + 8.0, top + 8.0),
         Corner::UpperRight => (left + pw - lw - 8.0, top + 8.0),
         Corner::LowerLeft => (left + 8.0, bottom - lh - 8.0),
         Corner::LowerRight => (left + pw - lw - 8.0, bottom - lh - 8.0),
         Corner::LowerMiddle => (left + (pw - lw) / 2.0, bottom - lh - 8.0),
     };
-    if !p.legend.is_empty() {
+    if !p.legend.is_empty() && p.legend_at != Corner::Above {
         draw_legend(out, &p.legend, at, Some((lw, lh)));
     }
     if !p.notes.is_empty() {
         let ny = if p.legend.is_empty()
             || matches!(
                 p.legend_at,
-                Corner::LowerLeft | Corner::LowerRight | Corner::LowerMiddle
+                Corner::LowerLeft | Corner::LowerRight | Corner::LowerMiddle | Corner::Above
             ) {
             top + 18.0
         } else {
@@ -723,43 +760,69 @@ fn draw_legend(out: &mut String, entries: &[(Swatch, String)], (x, y): (f64, f64
         );
     }
     for (k, (swatch, label)) in entries.iter().enumerate() {
-        let cy = y + 14.0 + 20.0 * k as f64;
-        let (sx0, sx1) = (x + 8.0, x + 38.0);
-        match swatch {
-            Swatch::Line(s) => {
-                let _ = writeln!(out, "<path d=\"M{} {} H{}\" {}/>", c(sx0), c(cy), c(sx1), s.attrs());
-            }
-            Swatch::LinePoint(s, r) => {
-                let _ = writeln!(out, "<path d=\"M{} {} H{}\" {}/>", c(sx0), c(cy), c(sx1), s.attrs());
-                let _ = writeln!(
-                    out,
-                    "<circle cx=\"{}\" cy=\"{}\" r=\"{r}\" fill=\"{}\"/>",
-                    c((sx0 + sx1) / 2.0),
-                    c(cy),
-                    s.color.hex()
-                );
-            }
-            Swatch::Point(col, r) => {
-                let _ = writeln!(
-                    out,
-                    "<circle cx=\"{}\" cy=\"{}\" r=\"{r}\" fill=\"{}\"/>",
-                    c((sx0 + sx1) / 2.0),
-                    c(cy),
-                    col.hex()
-                );
-            }
-            Swatch::Patch(col, opacity) => {
-                let _ = writeln!(
-                    out,
-                    "<rect x=\"{}\" y=\"{}\" width=\"30\" height=\"10\" fill=\"{}\" fill-opacity=\"{opacity}\"/>",
-                    c(sx0),
-                    c(cy - 5.0),
-                    col.hex()
-                );
-            }
-        }
-        text(out, sx1 + 8.0, cy + 4.0, 12.0, "start", "", label);
+        legend_entry(out, swatch, label, x, y + 20.0 * k as f64);
     }
+}
+
+/// The height of one row of a legend above the plot area.
+const LEGEND_ROW: f64 = 18.0;
+
+/// Where each entry of a legend above the plot area goes, flowing left to right within
+/// `width` pixels: (x offset, width, row).
+fn flow(entries: &[(Swatch, String)], width: f64) -> Vec<(f64, f64, usize)> {
+    let mut out = Vec::with_capacity(entries.len());
+    let (mut x, mut row) = (0.0, 0);
+    for (_, label) in entries {
+        let w = text_width(label, 12.0) + 56.0;
+        if x > 0.0 && x + w > width {
+            x = 0.0;
+            row += 1;
+        }
+        out.push((x, w, row));
+        x += w;
+    }
+    out
+}
+
+/// One legend entry whose box starts at `(x, y)`: the swatch in the curve's own style, then
+/// the label.
+fn legend_entry(out: &mut String, swatch: &Swatch, label: &str, x: f64, y: f64) {
+    let cy = y + 14.0;
+    let (sx0, sx1) = (x + 8.0, x + 38.0);
+    match swatch {
+        Swatch::Line(s) => {
+            let _ = writeln!(out, "<path d=\"M{} {} H{}\" {}/>", c(sx0), c(cy), c(sx1), s.attrs());
+        }
+        Swatch::LinePoint(s, r) => {
+            let _ = writeln!(out, "<path d=\"M{} {} H{}\" {}/>", c(sx0), c(cy), c(sx1), s.attrs());
+            let _ = writeln!(
+                out,
+                "<circle cx=\"{}\" cy=\"{}\" r=\"{r}\" fill=\"{}\"/>",
+                c((sx0 + sx1) / 2.0),
+                c(cy),
+                s.color.hex()
+            );
+        }
+        Swatch::Point(col, r) => {
+            let _ = writeln!(
+                out,
+                "<circle cx=\"{}\" cy=\"{}\" r=\"{r}\" fill=\"{}\"/>",
+                c((sx0 + sx1) / 2.0),
+                c(cy),
+                col.hex()
+            );
+        }
+        Swatch::Patch(col, opacity) => {
+            let _ = writeln!(
+                out,
+                "<rect x=\"{}\" y=\"{}\" width=\"30\" height=\"10\" fill=\"{}\" fill-opacity=\"{opacity}\"/>",
+                c(sx0),
+                c(cy - 5.0),
+                col.hex()
+            );
+        }
+    }
+    text(out, sx1 + 8.0, cy + 4.0, 12.0, "start", "", label);
 }
 
 #[cfg(test)]
@@ -785,6 +848,14 @@ mod tests {
     }
 
     #[test]
+    fn reciprocal_units_read_as_written_by_hand() {
+        assert_eq!(per("m"), "1/m");
+        assert_eq!(per("m/s"), "s/m");
+        assert_eq!(per("rad/s^2"), "s²/rad");
+        assert_eq!(per("N*m"), "1/(N·m)");
+    }
+
+    #[test]
     fn a_category_axis_names_its_positions() {
         let a = Axis::categories(vec!["weak".into(), "increments".into()], "");
         assert_eq!((a.lo, a.hi, a.log), (0.5, 2.5, false));
@@ -806,6 +877,10 @@ mod tests {
         );
         let (major, _) = log_ticks(1e-9, 1e-6);
         assert_eq!(major[0].1, "10⁻⁹");
+        // An axis reaching below 0.001 writes every label as a power of ten.
+        let (major, _) = log_ticks(5e-6, 1.0);
+        let labels: Vec<&str> = major.iter().map(|x| x.1.as_str()).collect();
+        assert_eq!(labels, ["10⁻⁵", "10⁻⁴", "10⁻³", "10⁻²", "10⁻¹", "10⁰"]);
         // Under a decade without a power of ten inside.
         let (major, _) = log_ticks(2.5, 9.0);
         assert!(major.len() >= 2);

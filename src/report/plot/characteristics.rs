@@ -4,22 +4,37 @@
 //! its coefficients, [`crate::report::Curve::half_width_95`]). The y-range is set by the
 //! truth and the FPK estimators that are meant to be right; baselines and deliberately
 //! wrong models (naive white noise, product of marginals, comparison models) are dashed
-//! and clipped, with an arrow where they leave the range.
+//! and clipped, with an arrow where they leave the range. Under each characteristic a
+//! residual panel draws what the main panel cannot show at these accuracies: each FPK
+//! estimate minus the truth with its band (on measured data, with no truth, the band alone
+//! around zero).
 
 use super::{histogram_strip, write_figure};
 use crate::model::Characteristic;
 use crate::report::figure::{color, padded, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK};
 use crate::report::text::fmt_err;
 use crate::report::{MethodReport, Report};
-use crate::scenario::{Method, ReportMethod};
+use crate::scenario::ReportMethod;
 use crate::stats;
 use crate::stats::Histogram;
 use std::path::{Path, PathBuf};
 
 /// Whether a method's curve is meant to be right, and so sets the y-range: a gated FPK
-/// estimator other than the product of marginals.
+/// estimator other than the product of marginals — gated, or one that would be on
+/// simulated data (on measured data nothing is graded, but the weak and strong forms are
+/// still the estimates the page is about).
 pub(crate) fn sets_range(m: &MethodReport) -> bool {
-    m.gated && m.method != ReportMethod::Estimator(Method::StrongMarginals)
+    match &m.method {
+        ReportMethod::Estimator(x) => x.is_gated(),
+        _ => m.gated,
+    }
+}
+
+/// The true characteristic, when the truth knows every coefficient of it (measured data
+/// leave the unknowns without values).
+pub(crate) fn truth_of(r: &Report, link: &str, kind: Characteristic) -> Option<crate::scenario::Curve> {
+    let t = r.truth.characteristic(link, kind);
+    (!t.is_empty() && t.terms.iter().all(|x| x.1.is_finite())).then_some(t)
 }
 
 /// Names for a characteristic's panel: (what it is, its function, its argument).
@@ -49,10 +64,11 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
     let s = r.scenario_def.as_ref().expect("scenario");
     let uf = unit(s.motion.units()[3]);
     let mut panels = Vec::new();
+    let mut residuals = Vec::new();
     let mut strips = Vec::new();
     for (l, link) in s.links.iter().enumerate() {
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
-            let truth = r.truth.characteristic(&link.name, kind);
+            let truth = truth_of(r, &link.name, kind).unwrap_or_default();
             let identified = r
                 .methods
                 .iter()
@@ -69,6 +85,20 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
             let mut marks = Vec::new();
             let mut lines = Vec::new();
             let mut legend = Vec::new();
+            let mut residual = Panel::new(
+                "",
+                Axis::linear(lo, hi, "").unlabelled(),
+                Axis::linear(
+                    0.0,
+                    1.0,
+                    if known {
+                        format!("{} − {func} ({uf})", func.replacen('(', "\u{302}(", 1))
+                    } else {
+                        format!("95 % band ({uf})")
+                    },
+                ),
+            );
+            let mut residual_values = vec![0.0];
             for (mi, m) in r.methods.iter().enumerate() {
                 let Some(c) = m.curves.iter().find(|c| c.link == link.name && c.kind == kind.name()) else {
                     continue;
@@ -79,8 +109,8 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
                 let right = sets_range(m);
                 if right {
                     range_values.extend(&ys);
+                    let half: Vec<f64> = xs.iter().map(|&z| c.half_width_95(z).unwrap_or(0.0)).collect();
                     if c.half_width_95(0.0).is_some() {
-                        let half: Vec<f64> = xs.iter().map(|&z| c.half_width_95(z).unwrap_or(0.0)).collect();
                         marks.push(Mark::Band {
                             xs: xs.clone(),
                             lower: ys.iter().zip(&half).map(|(y, h)| y - h).collect(),
@@ -89,22 +119,46 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
                             opacity: 0.2,
                         });
                     }
+                    // The residual: estimate − truth (or 0 with no truth) and its band.
+                    let d: Vec<f64> = if known {
+                        ys.iter().zip(&true_ys).map(|(y, t)| y - t).collect()
+                    } else {
+                        vec![0.0; xs.len()]
+                    };
+                    let lower: Vec<f64> = d.iter().zip(&half).map(|(y, h)| y - h).collect();
+                    let upper: Vec<f64> = d.iter().zip(&half).map(|(y, h)| y + h).collect();
+                    residual_values.extend(lower.iter().chain(&upper));
+                    residual.mark(Mark::Band {
+                        xs: xs.clone(),
+                        lower,
+                        upper,
+                        color: col,
+                        opacity: 0.2,
+                    });
+                    if known {
+                        residual.mark(Mark::Line {
+                            points: xs.iter().copied().zip(d).collect(),
+                            stroke: Stroke::solid(col, 2.2),
+                        });
+                    }
                 }
                 let stroke = if right {
                     Stroke::solid(col, 3.2)
                 } else {
                     Stroke::dashed(col, 1.6, 7.0, 4.0)
                 };
-                let label = format!(
-                    "{} ({} error{})",
-                    m.method,
-                    fmt_err(c.rel_l2_error),
-                    if right && !c.covariance.is_empty() {
-                        ", 95 % band"
-                    } else {
-                        ""
-                    }
-                );
+                let mut notes = Vec::new();
+                if c.rel_l2_error.is_finite() {
+                    notes.push(format!("{} error", fmt_err(c.rel_l2_error)));
+                }
+                if right && !c.covariance.is_empty() {
+                    notes.push("95 % band".into());
+                }
+                let label = if notes.is_empty() {
+                    m.method.to_string()
+                } else {
+                    format!("{} ({})", m.method, notes.join(", "))
+                };
                 lines.push((xs.iter().copied().zip(ys).collect::<Vec<_>>(), stroke, label));
             }
             if range_values.is_empty() {
@@ -140,10 +194,23 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
             );
             panel.marks = marks;
             panel.legend = legend;
-            panel.legend_at = Corner::UpperLeft;
+            panel.legend_at = Corner::Above;
             panel.notes = notes;
             panel.mark_exits = true;
             panels.push(panel);
+            let (r0, r1) = padded(residual_values, 0.08);
+            residual.y.lo = r0;
+            residual.y.hi = r1;
+            // Zero under the residuals, not over them.
+            residual.marks.insert(
+                0,
+                Mark::HLine {
+                    y: 0.0,
+                    stroke: Stroke::solid(BLACK, 1.0),
+                },
+            );
+            // A characteristic that no FPK estimator identifies has no residual to show.
+            residuals.push((residual.marks.len() > 1).then_some(residual));
             strips.push(histogram_strip(
                 hist,
                 &format!(
@@ -160,17 +227,21 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
     let mut fig = Figure::new(1200.0);
     let cols = 2;
     let mut panels = panels.into_iter();
+    let mut residuals = residuals.into_iter();
     let mut strips = strips.into_iter();
     loop {
-        let top: Vec<Option<Panel>> = panels.by_ref().take(cols).map(Some).collect();
+        let mut top: Vec<Option<Panel>> = panels.by_ref().take(cols).map(Some).collect();
         if top.is_empty() {
             break;
         }
-        let mut bottom: Vec<Option<Panel>> = strips.by_ref().take(top.len()).map(Some).collect();
-        let mut top = top;
-        top.resize_with(cols, || None);
-        bottom.resize_with(cols, || None);
-        fig.row(360.0, top);
+        let n = top.len();
+        let mut middle: Vec<Option<Panel>> = residuals.by_ref().take(n).collect();
+        let mut bottom: Vec<Option<Panel>> = strips.by_ref().take(n).map(Some).collect();
+        for row in [&mut top, &mut middle, &mut bottom] {
+            row.resize_with(cols, || None);
+        }
+        fig.row(380.0, top);
+        fig.row(150.0, middle);
         fig.row(100.0, bottom);
     }
     write_figure(path, &fig)

@@ -8,7 +8,7 @@ use super::characteristics::{observed, words};
 use super::{histogram_strip, write_figure};
 use crate::model::{Characteristic, Term};
 use crate::report::figure::{color, padded, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK};
-use crate::report::Report;
+use crate::report::{Curve, MethodReport, Report};
 use crate::scenario::ReportMethod;
 use crate::stats;
 use std::path::{Path, PathBuf};
@@ -54,32 +54,95 @@ pub fn has_comparisons(r: &Report) -> bool {
         .any(|m| matches!(m.method, ReportMethod::Compare(_)) && !m.curves.is_empty())
 }
 
+/// The method whose estimate of the scenario's own model is drawn beside the comparisons.
+fn main_method(r: &Report) -> Option<&MethodReport> {
+    r.methods
+        .iter()
+        .find(|m| super::characteristics::sets_range(m) && m.error.is_none())
+}
+
+/// The comparison models' estimates of one characteristic.
+fn compared<'a>(r: &'a Report, link: &str, kind: Characteristic) -> Vec<(&'a MethodReport, &'a Curve)> {
+    r.methods
+        .iter()
+        .filter(|m| matches!(m.method, ReportMethod::Compare(_)))
+        .filter_map(|m| {
+            m.curves
+                .iter()
+                .find(|c| c.link == link && c.kind == kind.name())
+                .map(|c| (m, c))
+        })
+        .collect()
+}
+
+/// The main method's curve of one characteristic.
+fn main_curve<'a>(r: &'a Report, link: &str, kind: Characteristic) -> Option<(&'a MethodReport, &'a Curve)> {
+    let m = main_method(r)?;
+    let c = m.curves.iter().find(|c| c.link == link && c.kind == kind.name())?;
+    Some((m, c))
+}
+
+/// The figure's caption, written in the page under it: what is compared, and every curve
+/// as a formula.
+pub fn caption(r: &Report) -> String {
+    let mut out = vec![
+        "Identified models compared on the same samples, as the paper's Fig. 7 compares the bushing's cubic \
+         K_N(φ) = k1 φ + k3 φ³ (3.27) with its equivalent-linear K_L(φ) = k φ (3.23) over the range of φ the \
+         data cover."
+            .to_string(),
+    ];
+    let Some(s) = r.scenario_def.as_ref() else {
+        return out.join(" ");
+    };
+    let uf = unit(s.motion.units()[3]);
+    for link in &s.links {
+        for kind in [Characteristic::Stiffness, Characteristic::Damping] {
+            let compared = compared(r, &link.name, kind);
+            if compared.is_empty() {
+                continue;
+            }
+            let (_, func, var) = words(kind);
+            if let Some((m, c)) = main_curve(r, &link.name, kind) {
+                out.push(format!(
+                    "{} {}: the scenario's model identified by {}, {func} = {} ({uf}).",
+                    link.name,
+                    kind.name(),
+                    m.method,
+                    formula(&c.identified, var)
+                ));
+            }
+            for (m, c) in compared {
+                let linear = c.identified.len() == 1 && c.identified[0].0 == Term::Power(1);
+                out.push(format!(
+                    "{}: {func} = {} ({uf}){}",
+                    m.method,
+                    formula(&c.identified, var),
+                    if linear {
+                        ", the equivalent-linear model: the straight line whose drift best matches the data's \
+                         stationary density. It agrees with the nonlinear characteristic where most samples lie \
+                         and misses the stiffening (or softening) at large amplitudes, which the cubic model \
+                         captures; its slope is an amplitude-weighted mean of the nonlinear characteristic's."
+                    } else {
+                        "."
+                    }
+                ));
+            }
+        }
+    }
+    out.join(" ")
+}
+
 /// The comparison figure; `Ok(empty)` without comparison models.
 pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let Some(s) = r.scenario_def.as_ref() else {
         return Ok(Vec::new());
     };
     let uf = unit(s.motion.units()[3]);
-    let main = r
-        .methods
-        .iter()
-        .find(|m| super::characteristics::sets_range(m) && m.error.is_none());
     let mut panels = Vec::new();
     let mut strips = Vec::new();
-    let mut caption = Vec::new();
     for (l, link) in s.links.iter().enumerate() {
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
-            let compared: Vec<_> = r
-                .methods
-                .iter()
-                .filter(|m| matches!(m.method, ReportMethod::Compare(_)))
-                .filter_map(|m| {
-                    m.curves
-                        .iter()
-                        .find(|c| c.link == link.name && c.kind == kind.name())
-                        .map(|c| (m, c))
-                })
-                .collect();
+            let compared = compared(r, &link.name, kind);
             if compared.is_empty() {
                 continue;
             }
@@ -102,8 +165,7 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
                 ys_all.extend(pts.iter().map(|q| q.1));
                 p.line(pts, stroke, Some(label));
             };
-            if let Some(c) = main.and_then(|m| m.curves.iter().find(|c| c.link == link.name && c.kind == kind.name())) {
-                let m = main.expect("main");
+            if let Some((m, c)) = main_curve(r, &link.name, kind) {
                 curve(
                     &mut p,
                     &c.identified,
@@ -114,13 +176,6 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
                         formula(&c.identified, var)
                     ),
                 );
-                caption.push(format!(
-                    "{} {}: the scenario's model identified by {}, {func} = {} ({uf}).",
-                    link.name,
-                    kind.name(),
-                    m.method,
-                    formula(&c.identified, var)
-                ));
             }
             for (j, (m, c)) in compared.iter().enumerate() {
                 curve(
@@ -129,23 +184,8 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
                     Stroke::dashed(color(j + 1), 2.0, 8.0, 4.0),
                     format!("{}: {func} = {}", m.method, formula(&c.identified, var)),
                 );
-                let linear = c.identified.len() == 1 && c.identified[0].0 == Term::Power(1);
-                caption.push(format!(
-                    "{}: {func} = {} ({uf}){}",
-                    m.method,
-                    formula(&c.identified, var),
-                    if linear {
-                        ", the equivalent-linear model: the straight line whose drift best matches the data's \
-                         stationary density. It agrees with the nonlinear characteristic where most samples lie \
-                         and misses the stiffening (or softening) at large amplitudes, which the cubic model \
-                         captures; its slope is an amplitude-weighted mean of the nonlinear characteristic's."
-                    } else {
-                        "."
-                    }
-                ));
             }
-            let truth = r.truth.characteristic(&link.name, kind);
-            if !truth.is_empty() {
+            if let Some(truth) = super::characteristics::truth_of(r, &link.name, kind) {
                 let stroke = Stroke::solid(BLACK, 1.3);
                 let pts: Vec<(f64, f64)> = xs.iter().map(|&z| (z, truth.eval(z))).collect();
                 ys_all.extend(pts.iter().map(|q| q.1));
@@ -155,7 +195,7 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
             let (y0, y1) = padded(ys_all, 0.06);
             p.y.lo = y0;
             p.y.hi = y1;
-            p.legend_at = Corner::UpperLeft;
+            p.legend_at = Corner::Above;
             panels.push(p);
             strips.push(histogram_strip(
                 hist,
@@ -168,15 +208,8 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     }
     let mut fig = Figure::new(900.0);
     for (p, s) in panels.into_iter().zip(strips) {
-        fig.row(420.0, vec![Some(p)]);
+        fig.row(440.0, vec![Some(p)]);
         fig.row(110.0, vec![Some(s)]);
     }
-    fig.caption.push(
-        "Identified models compared on the same samples, as the paper's Fig. 7 compares the bushing's cubic \
-         K_N(φ) = k1 φ + k3 φ³ (3.27) with its equivalent-linear K_L(φ) = k φ (3.23) over the range of φ the \
-         data cover."
-            .to_string(),
-    );
-    fig.caption.extend(caption);
     write_figure(path, &fig)
 }

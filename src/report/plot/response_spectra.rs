@@ -1,5 +1,8 @@
 //! `response_spectra.svg`: spectral densities of the data's responses against the
-//! re-simulated identified model's (the validation's spectra), log–log.
+//! re-simulated identified model's (the validation's spectra), log–log, as one-sided
+//! densities `G(ω) = 2 S(ω)` over `ω > 0` (the vibration engineer's convention: the area
+//! under `G` over `ω > 0` is the variance). The force spectra of Fig. 6 stay two-sided, as
+//! the paper's (3.20) writes them.
 
 use super::write_figure;
 use crate::ident::spectrum::Spectrum;
@@ -15,7 +18,7 @@ pub fn plot_response_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<Pat
             .iter()
             .zip(&s.density)
             .filter(|(w, d)| **w > 0.0 && **d > 0.0)
-            .map(|(&w, &d)| (w, d))
+            .map(|(&w, &d)| (w, 2.0 * d))
             .collect()
     };
     let mut panels = Vec::new();
@@ -26,9 +29,9 @@ pub fn plot_response_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<Pat
         let (w0, w1) = (dp.first().map_or(0.0, |p| p.0), dp.last().map_or(0.0, |p| p.0));
         let (y0, y1) = log_range(dp.iter().chain(&mp).map(|p| p.1), 2.0);
         let mut p = Panel::new(
-            format!("spectral density of {name}"),
+            format!("one-sided spectral density of {name}"),
             Axis::log(w0, w1, "ω (rad/s)"),
-            Axis::log(y0, y1, format!("S(ω) ({}·s/rad)", squared(&unit))),
+            Axis::log(y0, y1, format!("G(ω) = 2S(ω) ({}·s/rad)", squared(&unit))),
         );
         p.line(
             dp,
@@ -42,10 +45,10 @@ pub fn plot_response_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<Pat
                 Some(format!("re-simulated {model_name} model")),
             );
         }
-        p.legend_at = Corner::LowerLeft;
+        p.legend_at = Corner::Above;
         panels.push(p);
     }
     let mut fig = Figure::new(1100.0);
-    fig.grid(2, 340.0, panels);
+    fig.grid(2, 360.0, panels);
     write_figure(path, &fig)
 }

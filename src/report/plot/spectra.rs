@@ -9,6 +9,18 @@ use crate::report::figure::{
 use crate::report::Report;
 use std::path::{Path, PathBuf};
 
+/// The figure's caption, written in the page under it.
+pub fn caption(r: &Report) -> String {
+    format!(
+        "The paper's Fig. 6: points, the two-sided spectral density of each force (∫ S dω over all ω is its \
+         variance), estimated by Welch's method from the samples; solid, the first-order rational spectrum \
+         S(ω) = A²/(2π(B² + ω²)) (3.20) fitted to them (as sampled every {} s, with its aliasing); dashed, the \
+         true spectrum, where the scenario gives one. The fitted A and B define the filter the identifier's \
+         augmented state uses.",
+        r.sample_interval_s
+    )
+}
+
 /// Estimated force spectra with the fitted (3.20) and true curves, log–log.
 pub fn plot_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let unit = unit(r.scenario_def.as_ref().map(|s| s.motion.units()[3]).unwrap_or("N"));
@@ -19,8 +31,29 @@ pub fn plot_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
             spec.omega.last().copied().unwrap_or(0.0),
         );
         let (y0, y1) = log_range(spec.density.iter().copied(), 2.0);
+        // An excitation of the scenario, or the force the paper's section 4 reconstructs.
+        let excitation = r
+            .scenario_def
+            .as_ref()
+            .and_then(|s| s.excitations.iter().find(|e| &e.name == name).map(|e| (s, e)));
+        let title = match excitation {
+            Some((s, e)) => format!(
+                "{} {name} on {}: two-sided spectral density",
+                if e.measured {
+                    "measured excitation"
+                } else {
+                    "disturbance"
+                },
+                e.acts_on
+                    .iter()
+                    .map(|&i| s.masses[i].name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            None => format!("{name}: two-sided spectral density"),
+        };
         let mut p = Panel::new(
-            format!("spectral density of the force p_{name}"),
+            title,
             Axis::log(w0, w1, "ω (rad/s)"),
             Axis::log(y0, y1, format!("S(ω) ({}·s/rad)", squared(&unit))),
         );
@@ -54,17 +87,14 @@ pub fn plot_spectra(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
                 Some(format!("true: A = {ta}, B = {tb} 1/s")),
             );
         }
-        p.legend_at = Corner::LowerLeft;
+        if !ta.is_finite() {
+            p.notes
+                .push("reconstructed from the responses: no true spectrum to draw".into());
+        }
+        p.legend_at = Corner::Above;
         panels.push(p);
     }
     let mut fig = Figure::new(900.0);
-    fig.grid(1, 430.0, panels);
-    fig.caption.push(format!(
-        "The paper's Fig. 6: points, the spectral density of the measured excitation estimated by Welch's method; \
-         solid, the first-order rational spectrum S(ω) = A²/(2π(B² + ω²)) (3.20) fitted to them (as sampled every {} s, \
-         with its aliasing); dashed, the true spectrum. The fitted A and B define the filter the identifier's \
-         augmented state uses.",
-        r.sample_interval_s
-    ));
+    fig.grid(1, 450.0, panels);
     write_figure(path, &fig)
 }

@@ -67,7 +67,7 @@ pub fn plot_sweep(sw: &crate::report::Sweep, path: &Path) -> std::io::Result<Vec
         });
         p.entry(Swatch::LinePoint(stroke, 3.5), label);
     }
-    p.legend_at = Corner::UpperLeft;
+    p.legend_at = Corner::Above;
     let mut fig = Figure::new(900.0);
     fig.row(520.0, vec![Some(p)]);
     write_figure(path, &fig)
