@@ -122,6 +122,37 @@ fn local_linearisation_is_exact_for_a_linear_oscillator_at_any_interval() {
 }
 
 #[test]
+fn the_cramer_rao_bound_from_the_samples_matches_the_linear_oscillators_closed_form() {
+    // I = diag(1/(2kc), 1/(2cm)) per unit time: var(k̂) ≥ 2kc/T, var(ĉ) ≥ 2cm/T, T the
+    // path's total length (32 × 2000 s). The samples' second moments estimate I to about
+    // 1 % here; 3 % allows three of those.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&linear(0.1, 2000.0, 7), &log);
+    let r = identify_log(
+        &log,
+        &Options {
+            methods: vec![Method::Weak],
+            validate: false,
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let t = 32.0 * 2000.0;
+    let exact = [(2.0 * K * C / t).sqrt(), (2.0 * C * 1.0 / t).sqrt()];
+    for (p, x) in r.methods[0].parameters.iter().zip(exact) {
+        let b = p
+            .cramer_rao_std
+            .expect("white forcing, coefficients unknown: the bound applies");
+        println!(
+            "{}: bound {b:.6} (closed form {x:.6}), std. error {:.6}",
+            p.name, p.std_error
+        );
+        assert!((b / x - 1.0).abs() < 0.03, "{}: {b} vs {x}", p.name);
+    }
+}
+
+#[test]
 fn dense_sampling_makes_both_baselines_consistent() {
     // h = 0.01 s: the conditional-mean bias is (e^{Ah} − I)/h − A ≈ A²h/2, i.e. −0.2 % on k1
     // and +5 % on c1; both baselines must show exactly that, within 4 se (over seeds 1–8 both

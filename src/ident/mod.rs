@@ -29,6 +29,7 @@ mod symmetry;
 pub mod baseline;
 pub mod data;
 pub mod disturbance;
+pub mod fisher;
 pub mod kernel;
 pub mod local_linear;
 pub mod lsq;

@@ -162,6 +162,7 @@ pub(crate) fn fill_accuracy(
             ci95,
             differs_from_zero: ci95.map(|[lo, hi]| lo > 0.0 || hi < 0.0),
             rel_error: rel,
+            cramer_rao_std: None,
         });
     }
     for l in 0..s.links.len() {

@@ -161,10 +161,15 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     let mut dist = Distributions::new(s, &structure, &data);
     forces.start_welch(sim);
     let keep_dist = options.validate || options.plots;
+    // The Cramér–Rao bound beside every standard error, where it applies.
+    let mut fisher = crate::ident::fisher::FisherInformation::new(&structure).ok();
     input.for_each_sample(|traj, t, row| {
         let batch = data.batch_of(traj, t);
         for (_, e) in estimators.iter_mut() {
             e.push(traj, t, batch, row);
+        }
+        if let Some(f) = fisher.as_mut() {
+            f.push(row);
         }
         if keep_dist {
             dist.push(traj as usize, row);
@@ -205,6 +210,15 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         bilinear,
     };
     let (mut reports, first) = estimator_reports(&estimators, &context, &reported, &grader, data.observed())?;
+    if let Some(bound) = fisher.and_then(|f| f.bound(data.samples() as f64 * setup.sample_interval())) {
+        for rep in &mut reports {
+            for p in &mut rep.parameters {
+                if let Some(k) = problem.names.iter().position(|n| *n == p.name) {
+                    p.cramer_rao_std = Some(bound[k]);
+                }
+            }
+        }
+    }
     let naive = naive_data.as_ref().filter(|_| !filtered.is_empty());
     reports.extend(comparison_reports(&spec, &filters, naive, &data, &grader)?);
 

@@ -50,9 +50,14 @@ fn verdict(m: &MethodReport) -> String {
 
 /// The estimates of one method: value, standard error, 95 % interval, error.
 fn parameter_table(m: &MethodReport, motion: crate::scenario::Motion) -> String {
-    let mut s = String::from(
-        "| parameter | unit | true | estimate | std. error | 95 % interval | differs from 0 | error |\n|---|---|---:|---:|---:|---|---|---:|\n",
-    );
+    // The Cramér–Rao bound of continuous observation, where it applies, beside the
+    // standard error it bounds.
+    let bound = m.parameters.iter().any(|p| p.cramer_rao_std.is_some());
+    let mut s = String::from(if bound {
+        "| parameter | unit | true | estimate | std. error | CR bound | 95 % interval | differs from 0 | error |\n|---|---|---:|---:|---:|---:|---|---|---:|\n"
+    } else {
+        "| parameter | unit | true | estimate | std. error | 95 % interval | differs from 0 | error |\n|---|---|---:|---:|---:|---|---|---:|\n"
+    });
     for p in &m.parameters {
         let d = decimals(p.std_error);
         let ci = p
@@ -63,8 +68,13 @@ fn parameter_table(m: &MethodReport, motion: crate::scenario::Motion) -> String 
             Some(false) => "no",
             None => "—",
         };
+        let cr = if bound {
+            format!(" {} |", p.cramer_rao_std.map_or("—".into(), |b| fixed(b, d)))
+        } else {
+            String::new()
+        };
         s += &format!(
-            "| `{}` | {} | {} | {} | {} | {ci} | {zero} | {} |\n",
+            "| `{}` | {} | {} | {} | {} |{cr} {ci} | {zero} | {} |\n",
             p.name,
             crate::report::plot::iteration::parameter_unit(&p.name, motion),
             num(p.true_value, 4),
@@ -72,6 +82,9 @@ fn parameter_table(m: &MethodReport, motion: crate::scenario::Motion) -> String 
             fixed(p.std_error, d),
             fmt_err(p.rel_error)
         );
+    }
+    if let Some(e) = super::text::efficiency(m) {
+        s += &format!("\n{e}.\n");
     }
     s
 }

@@ -163,7 +163,8 @@ fn header(r: &Report) -> String {
     for n in &r.data_notes {
         s += &format!("data: {n}\n");
     }
-    s += &if r.records.is_some() {
+    // Measured data, or a log identified as it is: nothing was simulated.
+    s += &if r.records.is_some() || r.timings_s.simulate == 0.0 {
         format!("time: identify {:.2} s\n\n", r.timings_s.identify)
     } else {
         format!(
@@ -360,6 +361,9 @@ fn method_lines(m: &MethodReport) -> String {
     if let Some(why) = no_std_errors(m) {
         s += &format!("  no standard errors: {why}\n");
     }
+    if let Some(e) = efficiency(m) {
+        s += &format!("  {e}\n");
+    }
     for c in &m.curves {
         s += &format!(
             "  curve {} {}: L2 error {} under the observed density, range [{:.4}, {:.4}]\n",
@@ -533,6 +537,33 @@ pub(crate) fn iteration_summary(r: &crate::report::IterationReport) -> String {
     );
     s += &against_step0(r);
     s
+}
+
+/// How the standard errors compare with the Cramér–Rao bound of continuous observation:
+/// the range over the parameters of `(bound / std. error)²` (1: as good as the whole path
+/// allows; a sampled path can do no better, so above 1 the standard error understates).
+/// Only for the FPK estimators meant to be right (the gated ones).
+pub(crate) fn efficiency(m: &crate::report::MethodReport) -> Option<String> {
+    // A bound on unbiased estimators: not a yardstick for the known-biased rows.
+    if !matches!(m.method, crate::scenario::ReportMethod::Estimator(x) if x.is_gated()) {
+        return None;
+    }
+    let ratios: Vec<f64> = m
+        .parameters
+        .iter()
+        .filter_map(|p| Some((p.cramer_rao_std? / p.std_error).powi(2)))
+        .filter(|v| v.is_finite())
+        .collect();
+    if ratios.is_empty() {
+        return None;
+    }
+    let (lo, hi) = ratios
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(l, h), &v| (l.min(v), h.max(v)));
+    Some(format!(
+        "efficiency against the Cramér–Rao bound of continuous observation, (bound / std. error)²: {lo:.2} to \
+         {hi:.2} over the parameters (1 is the whole path's best; above 1 the standard error understates)"
+    ))
 }
 
 /// Why a method's estimates carry no standard errors, when none of them has one.

@@ -22,6 +22,10 @@ pub struct Parameter {
     /// model: whether the data ask for it); `None` without an interval.
     pub differs_from_zero: Option<bool>,
     pub rel_error: f64,
+    /// The Cramér–Rao bound of continuous observation on this parameter's standard
+    /// deviation, from the samples ([`crate::ident::fisher`]); `None` where it does not
+    /// apply (filtered forces, unknown masses or intensities, a mass without noise).
+    pub cramer_rao_std: Option<f64>,
 }
 
 #[derive(Debug, Clone, Serialize)]
