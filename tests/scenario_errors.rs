@@ -480,3 +480,32 @@ fn an_even_power_bounded_by_higher_degree_springs_in_its_loop_is_accepted() {
         + "\n[[link]]\nends = [\"ground\", \"m2\"]\nstiffness = { 1 = 8.0, 3 = 10.0 }\n";
     fpkbench::Scenario::parse(&text, "t.toml", "t").unwrap();
 }
+
+#[test]
+fn sensor_noise_level_out_of_range() {
+    run_bad(
+        "negative_noise",
+        &format!("{GOOD}[measurement]\ndisplacement = -0.1\n"),
+        30,
+        "measurement.displacement",
+        "0..=10 (0.1 = 10 %)",
+    );
+    run_bad(
+        "noise_scale",
+        &format!("{GOOD}[measurement]\nnoise = \"percent\"\nvelocity = 0.1\n"),
+        30,
+        "measurement.noise",
+        "relative",
+    );
+}
+
+#[test]
+fn given_sensor_noise_needs_a_measurement_section() {
+    run_bad(
+        "given_noise",
+        &format!("{GOOD}[identify]\nsensor_noise = \"given\"\n"),
+        30,
+        "identify.sensor_noise",
+        "add [measurement]",
+    );
+}

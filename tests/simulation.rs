@@ -282,6 +282,53 @@ fn same_seed_gives_bit_identical_samples_whatever_the_thread_count() {
     assert_eq!(t3(&one), t3(&few));
 }
 
+/// Sensors (`[measurement]`) add noise that is the same whatever the thread count, to the
+/// displacements and velocities only, leaving the motion itself sample for sample as
+/// without them; relative levels come out at their fraction of each channel's std.
+#[test]
+fn sensor_noise_is_reproducible_and_leaves_the_motion_untouched() {
+    let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
+    let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+    s.simulation.record_length = 200.0;
+    s.simulation.trajectories = fpkbench::sim::LANES + 3;
+    let clean = samples_with_threads(&s, 2);
+    s.simulation.sensors.displacement = 0.1;
+    s.simulation.sensors.velocity = 0.2;
+    let one = samples_with_threads(&s, 1);
+    let two = samples_with_threads(&s, 2);
+    let bits =
+        |v: &[(u32, f64, Vec<f64>)]| -> Vec<u64> { v.iter().flat_map(|r| r.2.iter().map(|x| x.to_bits())).collect() };
+    assert_eq!(bits(&one), bits(&two));
+    let m = Model::new(&s);
+    let c = m.columns();
+    for (col, level) in [
+        (c.x(0), 0.1),
+        (c.v(0), 0.2),
+        (c.x(1), 0.1),
+        (c.v(1), 0.2),
+        (c.a(0), 0.0),
+        (c.force(0), 0.0),
+    ] {
+        let (mut d2, mut s2) = (0.0, 0.0);
+        for (a, b) in clean.iter().zip(&one) {
+            let d = b.2[col] - a.2[col];
+            d2 += d * d;
+            s2 += a.2[col] * a.2[col];
+        }
+        let ratio = (d2 / s2).sqrt();
+        if level == 0.0 {
+            assert_eq!(d2, 0.0, "column {col} changed");
+        } else {
+            // 6.6e4 values: the ratio's sampling spread is ≈ 0.3 % of it; the level is of
+            // the first block's std, a few per cent from the whole record's.
+            assert!(
+                (ratio / level - 1.0).abs() < 0.05,
+                "column {col}: noise {ratio} of the std, not {level}"
+            );
+        }
+    }
+}
+
 /// Keeps a copy of every batch, then hands it back for refilling poisoned with NaN, so a
 /// value the simulator fails to overwrite shows.
 #[derive(Default)]

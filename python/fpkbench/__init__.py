@@ -124,11 +124,25 @@ class Result:
     """True values by parameter name where the caller knows them (``identify`` takes them
     from the data's ``"truth"`` entry, as ``simulate`` gives it)."""
 
-    COLUMNS = ("method", "parameter", "estimate", "std_error", "ci95_low", "ci95_high", "true_value", "error", "z", "rel_error")
+    COLUMNS = (
+        "method",
+        "parameter",
+        "estimate",
+        "std_error",
+        "cramer_rao_std",
+        "ci95_low",
+        "ci95_high",
+        "true_value",
+        "error",
+        "z",
+        "rel_error",
+    )
 
     def rows(self) -> list:
         """Every method's parameters, one dict per (method, parameter): ``method``,
-        ``parameter``, ``estimate``, ``std_error``, ``ci95_low``, ``ci95_high``; where the
+        ``parameter``, ``estimate``, ``std_error``, ``cramer_rao_std`` (the Cramér–Rao bound
+        of continuous observation on its standard deviation, where it applies),
+        ``ci95_low``, ``ci95_high``; where the
         truth is known (the report's, or ``truth``) ``true_value``, ``error`` (estimate −
         truth) and ``z`` (error over the standard error); ``rel_error`` the bench's graded
         error where it grades (the report's, docs/methods.md). NaN where not known."""
@@ -152,6 +166,7 @@ class Result:
                         "parameter": p["name"],
                         "estimate": p["estimate"],
                         "std_error": se,
+                        "cramer_rao_std": num(p.get("cramer_rao_std")),
                         "ci95_low": lo,
                         "ci95_high": hi,
                         "true_value": true,

@@ -54,6 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             log.display(),
             sim.bytes as f64 / 1e6
         );
+        eprint!("{}", super::simulate::clipped_line(sim.clipped, sim.samples));
     }
     let mut report = identify_log(&staged_log, &args.identify.options())?;
     report.log = log.display().to_string();

@@ -88,6 +88,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             "bytes_per_sample": s.bytes as f64 / s.samples.max(1) as f64,
             "integration_steps": s.steps,
             "seconds": s.seconds,
+            "adc_clipped": s.clipped,
         })
         .to_string()
             + "\n"
@@ -104,8 +105,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             s.steps as f64,
             s.seconds,
             s.steps as f64 / s.seconds,
-        )
+        ) + &clipped_line(s.clipped, s.samples)
     };
     super::emit(&text)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// What the sensors' ADC clipped, as a line (empty when nothing).
+pub(super) fn clipped_line(clipped: u64, samples: u64) -> String {
+    if clipped == 0 {
+        return String::new();
+    }
+    format!(
+        "  WARNING: the ADC ([measurement] adc_range) clipped {clipped} displacement and velocity values in \
+         {samples} samples: clipping biases every moment; widen adc_range\n"
+    )
 }

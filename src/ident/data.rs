@@ -100,6 +100,9 @@ pub struct StationaryData {
     pub link_powers: Vec<[[f64; OBSERVED_POWERS]; 2]>,
     /// The model, for its links' relative motion ([`Model::link_motion`]).
     model: Model,
+    /// Per coarse batch: what the jackknife's replicate without it corrects for sensor
+    /// noise beyond what every batch was corrected for ([`StationaryData::deconvolve`]).
+    noise_replicates: Vec<Option<Vec<f64>>>,
 }
 
 impl StationaryData {
@@ -155,6 +158,7 @@ impl StationaryData {
             ],
             link_powers: vec![[[0.0; OBSERVED_POWERS]; 2]; problem.model.links()],
             model: problem.model.clone(),
+            noise_replicates: Vec::new(),
         }
     }
 
@@ -266,21 +270,74 @@ impl StationaryData {
     /// The jackknife's replicates: per non-empty coarse batch, the moments of the whole
     /// record without it (summed from the others, never subtracted).
     pub fn leave_one_out(&self) -> Vec<RawMoments> {
-        let batches: Vec<RawMoments> = self.batches().into_iter().filter(|b| b.count > 0).collect();
+        let batches: Vec<(usize, RawMoments)> = self
+            .batches()
+            .into_iter()
+            .enumerate()
+            .filter(|(_, b)| b.count > 0)
+            .collect();
         if batches.len() < 2 {
             return Vec::new();
         }
-        (0..batches.len())
-            .map(|out| {
+        batches
+            .iter()
+            .map(|(out, _)| {
                 let rest: Vec<RawMoments> = batches
                     .iter()
-                    .enumerate()
-                    .filter(|&(b, _)| b != out)
+                    .filter(|(b, _)| b != out)
                     .map(|(_, m)| m.clone())
                     .collect();
-                sum_of(&rest)
+                let mut r = sum_of(&rest);
+                if let Some(Some(d)) = self.noise_replicates.get(*out) {
+                    r.deconvolve(d);
+                }
+                r
             })
             .collect()
+    }
+
+    /// Take additive sensor noise out of every batch's moments and the links' power sums:
+    /// `by_column[c]` is the noise variance of log column `c`
+    /// ([`RawMoments::deconvolve`]); `replicates[b]`, the same from every coarse batch but
+    /// `b`, for the jackknife's replicate without `b` (so the standard errors carry the
+    /// noise estimate's uncertainty). Columns of the problem's atoms (functions of the
+    /// columns) are left as they are: the caller says so.
+    pub fn deconvolve(&mut self, by_column: &[f64], replicates: &[Option<Vec<f64>>]) {
+        let by_state = |v: &[f64]| -> Vec<f64> {
+            let mut out = vec![0.0; self.columns.len() + self.atoms.len()];
+            for (s, &c) in self.columns.iter().enumerate() {
+                out[s] = v[c];
+            }
+            out
+        };
+        let total = by_state(by_column);
+        // Deconvolutions compose by adding variances: a replicate corrected with the
+        // whole record's noise is brought to its own by the difference.
+        self.noise_replicates = replicates
+            .iter()
+            .map(|r| {
+                r.as_ref().map(|r| {
+                    by_state(r)
+                        .iter()
+                        .zip(&total)
+                        .map(|(a, b)| if *b > 0.0 { a - b } else { 0.0 })
+                        .collect()
+                })
+            })
+            .collect();
+        use rayon::prelude::*;
+        self.fine.par_iter_mut().for_each(|m| m.deconvolve(&total));
+        let c = self.model.columns();
+        for (l, powers) in self.link_powers.iter_mut().enumerate() {
+            let (mut su, mut sw) = (0.0, 0.0);
+            for i in 0..self.model.masses() {
+                let s = self.model.sign(l, i);
+                su += s * s * by_column[c.x(i)];
+                sw += s * s * by_column[c.v(i)];
+            }
+            super::noise::deconvolve_powers(&mut powers[0], su);
+            super::noise::deconvolve_powers(&mut powers[1], sw);
+        }
     }
 
     pub fn samples(&self) -> u64 {

@@ -34,6 +34,7 @@ pub mod kernel;
 pub mod local_linear;
 pub mod lsq;
 pub mod moments;
+pub mod noise;
 pub mod poly;
 pub mod spectrum;
 pub mod strong;

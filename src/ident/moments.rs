@@ -70,12 +70,22 @@ impl RawMoments {
             set.insert(var(j));
             set.insert(2 * var(j));
         }
+        // And under "drop two powers of any variable": the sensor-noise correction
+        // ([`RawMoments::deconvolve`]) writes each moment through those.
         let mut frontier: Vec<Exponents> = set.iter().copied().collect();
         while let Some(e) = frontier.pop() {
             if let Some(j) = (0..vars).rev().find(|&j| exponent(e, j) > 0) {
                 let p = e - var(j);
                 if p != 0 && set.insert(p) {
                     frontier.push(p);
+                }
+            }
+            for j in 0..vars {
+                if exponent(e, j) >= 2 {
+                    let p = e - 2 * var(j);
+                    if p != 0 && set.insert(p) {
+                        frontier.push(p);
+                    }
                 }
             }
         }
@@ -215,6 +225,46 @@ impl RawMoments {
             self.max[j] = self.max[j].max(hi[j]);
         }
         self.count += samples;
+    }
+
+    /// Remove additive sensor noise: the samples are `y = x + e` with `e` Gaussian, white,
+    /// independent of `x` and between variables, of variance `noise[j]` on variable `j`
+    /// (0: exact). Each sum of `y^β` becomes the unbiased sum of `x^β`, every power
+    /// `y_j^b` replaced by the Hermite polynomial `He_b(y_j; σ_j²) = Σ_k (−1)^k b! /
+    /// (k! (b−2k)! 2^k) σ_j^{2k} y_j^{b−2k}` (`E[He_b(x + e)] = x^b`: `y² − σ²`,
+    /// `y³ − 3σ²y`, `y⁴ − 6σ²y² + 3σ⁴`, …; docs/measurement.md). Linear in the sums, so
+    /// batches corrected one by one add up to the corrected total.
+    pub fn deconvolve(&mut self, noise: &[f64]) {
+        if noise.iter().all(|&s| s == 0.0) || self.count == 0 {
+            return;
+        }
+        let n = self.count as f64;
+        let old = self.sums.clone();
+        for (k, &e) in self.shape.monomials.iter().enumerate().skip(1) {
+            // Expand the product of one Hermite polynomial per variable.
+            let mut terms: Vec<(Exponents, f64)> = vec![(e, 1.0)];
+            for (j, &s2) in noise.iter().enumerate().take(self.vars) {
+                let b = exponent(e, j);
+                if s2 == 0.0 || b < 2 {
+                    continue;
+                }
+                let mut next = Vec::with_capacity(terms.len() * (b as usize / 2 + 1));
+                for &(t, c) in &terms {
+                    let mut ck = 1.0;
+                    for kk in 0..=b / 2 {
+                        next.push((t - 2 * kk as Exponents * var(j), c * ck));
+                        // Ratio of consecutive coefficients of He_b.
+                        let m = b - 2 * kk;
+                        ck *= -s2 * (m * (m - 1)) as f64 / (2.0 * (kk + 1) as f64);
+                    }
+                }
+                terms = next;
+            }
+            self.sums[k] = terms
+                .iter()
+                .map(|&(t, c)| c * if t == 0 { n } else { old[self.shape.index[&t]] })
+                .sum();
+        }
     }
 
     /// Index of monomial `e` in [`RawMoments::sums`], if accumulated.

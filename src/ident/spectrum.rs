@@ -224,7 +224,8 @@ impl CrossWelch {
     }
 
     /// How `r` relates to the rate of change of `q` where `q` has its power, over the
-    /// frequencies that hold 99 % of `q`'s variance, below 0.7 of the Nyquist frequency:
+    /// frequencies whose coherence is at least [`DERIVATIVE_COHERENCE`] among those
+    /// that hold 99 % of `q`'s variance, below 0.7 of the Nyquist frequency:
     /// the gain `Σ ω |S_qr| / Σ ω² S_qq` and the lead `Σ ω Im S_rq / Σ ω |S_qr|`. For
     /// `r = dq/dt`, `S_rq = iω S_qq`: the gain is 1 at any sampling that resolves `q`
     /// (aliasing aside) and the lead +1 (`r` a quarter period ahead); `r` in other units
@@ -240,12 +241,32 @@ impl CrossWelch {
             return None;
         }
         let nyquist = PI / self.q.dt;
-        let (mut num, mut den, mut lead, mut seen) = (0.0, 0.0, 0.0, 0.0);
+        // Sensor noise lifts `S_qq` by its floor where the motion is weak: bins whose
+        // coherence shows them dominated by noise are left out (all kept if fewer than a
+        // few are left, so that unrelated columns still show a wrong gain).
+        let coherence = |k: usize| {
+            let c2 = self.cross[k].powi(2) + self.cross_im[k].powi(2);
+            c2 / (self.q.acc[k] * self.r.acc[k])
+        };
+        let mut band = Vec::new();
+        let mut seen = 0.0;
         for (k, (&w, &d)) in sq.omega.iter().zip(&sq.density).enumerate() {
             if seen >= 0.99 * total || w > 0.7 * nyquist {
                 break;
             }
             seen += d;
+            band.push((k, w));
+        }
+        let coherent: Vec<(usize, f64)> = band
+            .iter()
+            .copied()
+            .filter(|&(k, _)| coherence(k + 1) >= DERIVATIVE_COHERENCE)
+            .collect();
+        if coherent.len() >= 3 {
+            band = coherent;
+        }
+        let (mut num, mut den, mut lead) = (0.0, 0.0, 0.0);
+        for (k, w) in band {
             num += w * self.cross[k + 1].hypot(self.cross_im[k + 1]);
             // `cross_im` is `Im(Q R̄)`, so `Im S_rq` is its negative.
             lead -= w * self.cross_im[k + 1];
@@ -268,6 +289,11 @@ impl CrossWelch {
         s
     }
 }
+
+/// Smallest coherence `|S_qr|² / (S_qq S_rr)` of a frequency that
+/// [`CrossWelch::derivative_gain`] judges by: at 0.8, sensor noise lifts `S_qq` there by at
+/// most 25 % (docs/measurement.md).
+pub const DERIVATIVE_COHERENCE: f64 = 0.8;
 
 /// Two-sided density of an OU process `dP = −B P dt + A dW` sampled every `dt`, at `ω`.
 pub fn sampled_ou_density(a: f64, b: f64, dt: f64, omega: f64) -> f64 {

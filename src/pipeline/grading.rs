@@ -90,6 +90,7 @@ pub(crate) fn assemble(
         data_notes: input.measured().map(|m| m.notes.clone()).unwrap_or_default(),
         records,
         filters,
+        sensor_noise: None,
         methods,
         validation,
         iterations,

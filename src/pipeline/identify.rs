@@ -133,7 +133,11 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
             )
         });
     let mut forces = ForceSpectra::new(s, &filtered);
+    let mut floor = super::sensors::noise_floor(input, &structure, data.batch_count());
     input.for_each_sample(|traj, t, row| {
+        if let Some(f) = floor.as_mut() {
+            f.push(traj, t, data.batch_of(traj, t), row);
+        }
         data.push(traj, t, row);
         if let Some(d) = naive_data.as_mut() {
             d.push(traj, t, row);
@@ -144,6 +148,14 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     if let Some(d) = naive_data.as_mut() {
         d.finish();
     }
+    // Sensor noise: estimated, and taken out of the weak form's moments.
+    let (sensor_noise, taken_out) = match floor.as_ref() {
+        Some(f) => {
+            let (report, taken_out) = super::sensors::correct(f, s, &structure, &mut data, naive_data.as_mut());
+            (Some(report), taken_out)
+        }
+        None => (None, Vec::new()),
+    };
     let total = data.total();
 
     // Pass 2: every requested estimator's accumulators, the force spectra, the histograms.
@@ -225,10 +237,13 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     // Validation by re-simulation of the first identified model.
     crate::interrupt::check()?;
     let validation = match (first, options.validate) {
-        (Some((values, method)), true) => Some(dist.validate(s, &reported, &values, method)),
+        (Some((values, method)), true) => {
+            let noisy = super::sensors::for_validation(s, &taken_out);
+            Some(dist.validate(noisy.as_ref().unwrap_or(s), &reported, &values, method))
+        }
         _ => None,
     };
-    Ok(assemble(
+    let mut report = assemble(
         input,
         &grader,
         data.samples(),
@@ -238,7 +253,12 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         validation,
         Vec::new(),
         dist.into_plot(spectra),
-    ))
+    );
+    if let Some(n) = &sensor_noise {
+        super::sensors::warn_uncorrected(n, &mut report.methods);
+    }
+    report.sensor_noise = sensor_noise;
+    Ok(report)
 }
 
 /// One row per requested method, each with its own outcome (a refusal is that method's

@@ -13,12 +13,14 @@
 mod disturbed;
 mod grading;
 mod identify;
+mod sensors;
 mod source;
 mod spectra;
 pub mod study;
 mod validation;
 
 pub use identify::{check_measured, preflight};
+pub use sensors::CLIPPED;
 pub use source::{Input, LogFile, SampleSource, Simulation, Tables};
 pub use validation::identified_model;
 
@@ -112,6 +114,8 @@ pub struct Simulated {
     pub steps: u64,
     /// Wall-clock time from the start to the renamed log.
     pub seconds: f64,
+    /// Values the sensors' ADC clipped.
+    pub clipped: u64,
 }
 
 /// The bench's first half: simulate `scenario` into a log at `path` (written to a
@@ -134,6 +138,7 @@ pub fn simulate_log(
         bytes: summary.bytes,
         steps: stats.steps,
         seconds: start.elapsed().as_secs_f64(),
+        clipped: stats.clipped,
     })
 }
 

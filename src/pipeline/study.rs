@@ -14,6 +14,9 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+mod summary;
+pub use summary::{paired, summarize, Paired, ParameterSummary, Summary};
+
 /// A study file (TOML).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -111,6 +114,10 @@ pub struct RowParameter {
     pub rel_error: f64,
     /// Whether the 95 % interval holds the true value (`None` without an interval).
     pub covered: Option<bool>,
+    /// The Cramér–Rao bound of continuous observation on the parameter's standard
+    /// deviation, from this item's samples (`None` where it does not apply).
+    #[serde(default)]
+    pub cramer_rao_std: Option<f64>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -300,6 +307,7 @@ fn rows_of(study: &str, item: &Item, r: &Report, simulate_s: f64, item_s: f64) -
                     std_error: p.std_error.is_finite().then_some(p.std_error),
                     rel_error: p.rel_error,
                     covered: p.ci95.map(|[lo, hi]| lo <= p.true_value && p.true_value <= hi),
+                    cramer_rao_std: p.cramer_rao_std,
                 })
                 .collect(),
             simulate_s,
@@ -496,238 +504,6 @@ pub fn shard_from(
     Ok((i, n))
 }
 
-/// Summary of one configuration and method over its seeds.
-#[derive(Debug, Clone, Serialize)]
-pub struct Summary {
-    pub record_length: f64,
-    pub sample_interval: f64,
-    pub method: String,
-    /// Items with an estimate.
-    pub items: usize,
-    /// Items the method refused (the data could not decide), did not apply to, or where
-    /// the item could not be run.
-    pub refused: usize,
-    pub not_applicable: usize,
-    pub failed: usize,
-    pub worst_median: f64,
-    pub worst_q1: f64,
-    pub worst_q3: f64,
-    pub worst_max: f64,
-    /// Mean and standard deviation of the worst error over the seeds (a regression gate
-    /// is about the mean + 4 sd).
-    pub worst_mean: f64,
-    pub worst_sd: f64,
-    /// Fraction of all 95 % intervals (every parameter of every item) that hold the truth,
-    /// and its 95 % interval over the items (`stats::clustered_95`).
-    pub coverage: Option<f64>,
-    pub coverage_ci: Option<[f64; 2]>,
-    pub parameters: Vec<ParameterSummary>,
-    /// Median seconds per item (all its methods together).
-    pub item_s_median: f64,
-}
-
-impl Summary {
-    /// Refused / (estimated + refused): how often the data could not decide; `None` when
-    /// the method never applied.
-    pub fn refusal_rate(&self) -> Option<f64> {
-        let n = self.items + self.refused;
-        (n > 0).then(|| self.refused as f64 / n as f64)
-    }
-}
-
-#[derive(Debug, Clone, Serialize)]
-pub struct ParameterSummary {
-    pub name: String,
-    /// Mean of `(θ̂ − θ)/|θ|` over the seeds (relative to the characteristic's scale for a
-    /// zero truth: the mean signed error scaled like `rel_error`).
-    pub bias: f64,
-    /// Standard deviation of the same over the seeds.
-    pub spread: f64,
-    /// Fraction of the 95 % intervals that hold the truth (`None` without intervals), and
-    /// its binomial 95 % interval over the seeds (`stats::wilson_95`).
-    pub coverage: Option<f64>,
-    pub coverage_ci: Option<[f64; 2]>,
-}
-
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    let x = q * (sorted.len() - 1) as f64;
-    let (lo, hi) = (x.floor() as usize, x.ceil() as usize);
-    sorted[lo] + (sorted[hi] - sorted[lo]) * (x - lo as f64)
-}
-
-/// Per configuration and method, in the rows' order of first appearance.
-pub fn summarize(rows: &[Row]) -> Vec<Summary> {
-    let mut keys: Vec<(f64, f64, String)> = Vec::new();
-    for r in rows {
-        let k = (r.item.record_length, r.item.sample_interval, r.method.clone());
-        if !keys.contains(&k) {
-            keys.push(k);
-        }
-    }
-    keys.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    keys.into_iter()
-        .map(|(t, h, method)| {
-            let group: Vec<&Row> = rows
-                .iter()
-                .filter(|r| r.item.record_length == t && r.item.sample_interval == h && r.method == method)
-                .collect();
-            let ok: Vec<&Row> = group
-                .iter()
-                .copied()
-                .filter(|r| r.outcome == Outcome::Estimated)
-                .collect();
-            let count = |o: Outcome| group.iter().filter(|r| r.outcome == o).count();
-            let mut worst: Vec<f64> = ok.iter().filter_map(|r| r.worst_rel_error).collect();
-            worst.sort_by(f64::total_cmp);
-            let mut secs: Vec<f64> = group.iter().map(|r| r.item_s).collect();
-            secs.sort_by(f64::total_cmp);
-            let names: Vec<String> = ok
-                .first()
-                .map_or(Vec::new(), |r| r.parameters.iter().map(|p| p.name.clone()).collect());
-            let parameters = names
-                .iter()
-                .map(|name| {
-                    let ps: Vec<&RowParameter> = ok
-                        .iter()
-                        .filter_map(|r| r.parameters.iter().find(|p| &p.name == name))
-                        .collect();
-                    let signed: Vec<f64> = ps
-                        .iter()
-                        .map(|p| {
-                            let scale = if p.true_value != 0.0 {
-                                p.true_value.abs()
-                            } else {
-                                (p.estimate - p.true_value).abs() / p.rel_error.max(1e-300)
-                            };
-                            (p.estimate - p.true_value) / scale
-                        })
-                        .collect();
-                    let n = signed.len().max(1) as f64;
-                    let mean = signed.iter().sum::<f64>() / n;
-                    let var = signed.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-                    let cov: Vec<bool> = ps.iter().filter_map(|p| p.covered).collect();
-                    let held = cov.iter().filter(|c| **c).count();
-                    ParameterSummary {
-                        coverage_ci: (!cov.is_empty()).then(|| crate::stats::wilson_95(held, cov.len())),
-                        name: name.clone(),
-                        bias: mean,
-                        spread: var.sqrt(),
-                        coverage: (!cov.is_empty())
-                            .then(|| cov.iter().filter(|c| **c).count() as f64 / cov.len() as f64),
-                    }
-                })
-                .collect();
-            let (worst_mean, worst_sd) = mean_sd(&worst);
-            let covered: Vec<bool> = ok
-                .iter()
-                .flat_map(|r| r.parameters.iter().filter_map(|p| p.covered))
-                .collect();
-            let per_item: Vec<(usize, usize)> = ok
-                .iter()
-                .map(|r| {
-                    let c: Vec<bool> = r.parameters.iter().filter_map(|p| p.covered).collect();
-                    (c.iter().filter(|x| **x).count(), c.len())
-                })
-                .filter(|c| c.1 > 0)
-                .collect();
-            Summary {
-                coverage_ci: crate::stats::clustered_95(&per_item),
-                record_length: t,
-                sample_interval: h,
-                method,
-                items: ok.len(),
-                refused: count(Outcome::Refused),
-                not_applicable: count(Outcome::NotApplicable),
-                failed: count(Outcome::Failed),
-                worst_mean,
-                worst_sd,
-                coverage: (!covered.is_empty())
-                    .then(|| covered.iter().filter(|c| **c).count() as f64 / covered.len() as f64),
-                worst_median: quantile(&worst, 0.5),
-                worst_q1: quantile(&worst, 0.25),
-                worst_q3: quantile(&worst, 0.75),
-                worst_max: worst.last().copied().unwrap_or(f64::NAN),
-                parameters,
-                item_s_median: quantile(&secs, 0.5),
-            }
-        })
-        .collect()
-}
-
-/// How far a method's estimates sit from the reference method's on the same samples.
-#[derive(Debug, Clone, Serialize)]
-pub struct Paired {
-    pub record_length: f64,
-    pub sample_interval: f64,
-    pub method: String,
-    pub reference: String,
-    pub parameter: String,
-    /// Seed standard deviation of the reference's estimate (absolute).
-    pub reference_sd: f64,
-    /// Mean, standard deviation and largest magnitude of `(θ̂ − θ̂_reference) / reference_sd`
-    /// over the items.
-    pub mean: f64,
-    pub sd: f64,
-    pub max_abs: f64,
-}
-
-/// Per configuration, method and parameter: the paired differences from `reference`.
-pub fn paired(rows: &[Row], reference: &str) -> Vec<Paired> {
-    let mut out = Vec::new();
-    for x in summarize(rows).iter().filter(|x| x.method != reference) {
-        let same = |r: &&Row| {
-            r.item.record_length == x.record_length
-                && r.item.sample_interval == x.sample_interval
-                && r.outcome == Outcome::Estimated
-        };
-        let refs: Vec<&Row> = rows.iter().filter(same).filter(|r| r.method == reference).collect();
-        let mine: Vec<&Row> = rows.iter().filter(same).filter(|r| r.method == x.method).collect();
-        for p in &x.parameters {
-            let value = |r: &Row| r.parameters.iter().find(|q| q.name == p.name).map(|q| q.estimate);
-            let reference_values: Vec<f64> = refs.iter().filter_map(|r| value(r)).collect();
-            let (_, reference_sd) = mean_sd(&reference_values);
-            let d: Vec<f64> = mine
-                .iter()
-                .filter_map(|r| {
-                    let base = refs.iter().find(|q| q.item.index == r.item.index)?;
-                    Some((value(r)? - value(base)?) / reference_sd)
-                })
-                .collect();
-            if d.is_empty() {
-                continue;
-            }
-            let (mean, sd) = mean_sd(&d);
-            out.push(Paired {
-                record_length: x.record_length,
-                sample_interval: x.sample_interval,
-                method: x.method.clone(),
-                reference: reference.to_string(),
-                parameter: p.name.clone(),
-                reference_sd,
-                mean,
-                sd,
-                max_abs: d.iter().fold(0.0, |m, v| m.max(v.abs())),
-            });
-        }
-    }
-    out
-}
-
-fn mean_sd(v: &[f64]) -> (f64, f64) {
-    if v.is_empty() {
-        return (f64::NAN, f64::NAN);
-    }
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    (
-        mean,
-        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt(),
-    )
-}
-
 /// Rows gathered from item files: duplicates of one item and method must agree exactly
 /// (the same study run twice); a conflict or a row of another study is refused.
 pub fn gather(files: &[PathBuf]) -> Result<Vec<Row>, String> {
@@ -819,6 +595,7 @@ mod tests {
                 std_error: Some(0.1),
                 rel_error: (estimate - 2.0).abs() / 2.0,
                 covered: Some(covered),
+                cramer_rao_std: Some(0.05),
             }],
             simulate_s: 0.0,
             identify_s: 0.0,
@@ -840,6 +617,11 @@ mod tests {
         assert!((fin.worst_mean - 0.2 / 3.0).abs() < 1e-12);
         assert!((fin.worst_sd - 0.052_041_65).abs() < 1e-7, "{}", fin.worst_sd);
         assert_eq!(fin.coverage, Some(2.0 / 3.0));
+        // step-0's estimates spread by sd 0.1 over the seeds; each standard error is 0.1
+        // and each bound 0.05: the ratio 1, the efficiency 0.05²/0.1² = 0.25.
+        let reference = &s.iter().find(|x| x.method == "step-0").unwrap().parameters[0];
+        assert!((reference.std_error_ratio.unwrap() - 1.0).abs() < 1e-9, "{reference:?}");
+        assert!((reference.efficiency.unwrap() - 0.25).abs() < 1e-9, "{reference:?}");
         let p = paired(&rows, "step-0");
         assert_eq!(p.len(), 1);
         let p = &p[0];

@@ -119,6 +119,9 @@ pub fn markdown(r: &Report) -> String {
         }
         s += "\n";
     }
+    if let Some(n) = &r.sensor_noise {
+        s += &sensor_noise_section(n);
+    }
     s += "## Verdict\n\n";
     for m in &r.methods {
         let mut line = verdict(m);
@@ -217,6 +220,50 @@ fn method_section(m: &MethodReport, motion: crate::scenario::Motion) -> String {
         s += "- dissipativity (3.4): K(u)·u > 0 and C(w)·w > 0 hold over the observed ranges\n";
     }
     s += &format!("- time: {}\n\n", super::text::fmt_seconds(m.seconds));
+    s
+}
+
+/// The sensors' noise: estimate per channel, what the scenario simulated, what was taken
+/// out.
+fn sensor_noise_section(n: &super::SensorNoiseReport) -> String {
+    let mut s = format!(
+        "## Sensor noise\n\nEstimated from the samples' lagged covariances (docs/measurement.md); `sensor_noise = \"{}\"`: {}.\n\n",
+        n.handling,
+        if n.corrected {
+            "the weak form reads moments with the noise taken out"
+        } else {
+            "nothing was corrected"
+        }
+    );
+    if let Some(why) = &n.not_estimated {
+        s += &format!("Not estimated: {why}.\n\n");
+    }
+    if !n.channels.is_empty() {
+        s += "| channel | noise std | ± | of the signal's std | simulated | taken out |\n|---|---:|---:|---:|---:|---:|\n";
+        for c in &n.channels {
+            s += &format!(
+                "| {} | {:.4e} | {:.1e} | {:.2} %{} | {} | {} |\n",
+                c.column,
+                c.std,
+                c.std_se,
+                100.0 * c.std / c.signal_std,
+                if c.detected { "" } else { " (none detected)" },
+                c.simulated_std.map_or("—".to_string(), |v| format!("{v:.4e}")),
+                if c.corrected_std > 0.0 {
+                    format!("{:.4e}", c.corrected_std)
+                } else {
+                    "—".to_string()
+                }
+            );
+        }
+        s += "\n";
+    }
+    for note in &n.notes {
+        s += &format!("- {note}\n");
+    }
+    if !n.notes.is_empty() {
+        s += "\n";
+    }
     s
 }
 

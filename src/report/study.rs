@@ -58,7 +58,11 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
          intervals; the mean and standard deviation of the worst error (a regression gate is about the \
          mean + 4 sd) and the coverage of all 95 % intervals. Beside a coverage, in brackets, its own 95 % \
          interval: per parameter binomial over the seeds (Wilson), pooled over the items (the intervals of one \
-         item come from the same samples, so the spread between items sets it).\n\n![Worst error against record length and \
+         item come from the same samples, so the spread between items sets it). Per parameter also the root \
+         mean square of the standard errors over the estimates' standard deviation over the seeds (below 1 \
+         the standard errors understate), and the efficiency: the mean square Cramér–Rao bound of continuous \
+         observation over the estimates' variance over the seeds (1: the best any unbiased estimator does \
+         from the whole path).\n\n![Worst error against record length and \
          sample interval, coverage](study.svg)\n\n"
     );
     s += "Every item × method has a row: estimated, refused (the data could not separate the \
@@ -94,19 +98,25 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
     if rows > FOLD_ROWS {
         s += &format!("<!-- fold: per parameter: bias, spread and coverage ({rows} rows) -->\n");
     }
-    s += "| record length (s) | interval (s) | method | parameter | bias | spread | coverage of 95 % intervals |\n\
-          |---:|---:|---|---|---:|---:|---:|\n";
+    s += "| record length (s) | interval (s) | method | parameter | bias | spread | coverage of 95 % intervals | std. error / spread | efficiency |\n\
+          |---:|---:|---|---|---:|---:|---:|---:|---:|\n";
+    let ratio = |r: Option<f64>| r.map_or("–".to_string(), |r| format!("{r:.2}"));
     for x in summary {
         for p in &x.parameters {
             s += &format!(
-                "| {} | {} | {} | {} | {:+.2} % | {:.2} % | {} |\n",
+                "| {} | {} | {} | {} | {:+.2} % | {:.2} % | {} | {} | {} |\n",
                 x.record_length,
                 x.sample_interval,
                 x.method,
                 p.name,
                 100.0 * p.bias,
                 100.0 * p.spread,
-                coverage(p.coverage, p.coverage_ci, 0)
+                coverage(p.coverage, p.coverage_ci, 0),
+                ratio(p.std_error_ratio),
+                match (p.efficiency, p.efficiency_ci) {
+                    (Some(e), Some([lo, hi])) => format!("{e:.2} [{lo:.2}, {hi:.2}]"),
+                    (e, _) => ratio(e),
+                }
             );
         }
     }

@@ -102,6 +102,9 @@ pub(crate) const GATE_MEANING: &str = "a regression gate is the mean + 4 sd of t
 pub fn summary(r: &Report) -> String {
     let mut s = header(r);
     s += &filters(r);
+    if let Some(n) = &r.sensor_noise {
+        s += &(sensor_noise_lines(n).join("\n") + "\n");
+    }
     s += &parameter_table(r);
     for m in &r.methods {
         s += &method_lines(m);
@@ -126,6 +129,44 @@ pub fn summary(r: &Report) -> String {
         }
     );
     fit(&s)
+}
+
+/// The sensors' noise as estimated, one line per channel, and what was done about it.
+pub fn sensor_noise_lines(n: &super::SensorNoiseReport) -> Vec<String> {
+    let mut out = Vec::new();
+    let done = if n.corrected {
+        "taken out of the weak form's moments"
+    } else {
+        "not corrected"
+    };
+    out.push(format!("sensor noise ({}; {done}):", n.handling));
+    if let Some(why) = &n.not_estimated {
+        out.push(format!("  not estimated: {why}"));
+    }
+    for c in &n.channels {
+        let simulated = c
+            .simulated_std
+            .map(|v| format!(" (simulated {:.2} %)", 100.0 * v / c.signal_std))
+            .unwrap_or_default();
+        out.push(format!(
+            "  {}: {:.4e} ± {:.1e} = {:.2} % of the signal's std{simulated}{}",
+            c.column,
+            c.std,
+            c.std_se,
+            100.0 * c.std / c.signal_std,
+            if !c.detected {
+                ", not distinguishable from none"
+            } else if c.corrected_std > 0.0 {
+                ", taken out"
+            } else {
+                ""
+            },
+        ));
+    }
+    for note in &n.notes {
+        out.push(format!("  {note}"));
+    }
+    out
 }
 
 /// What was identified from: the scenario or measured records, a truncated log, the

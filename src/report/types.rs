@@ -180,6 +180,43 @@ pub struct SpectrumComparison {
     pub model_peak_rad_s: f64,
 }
 
+/// Sensor noise on the measured displacements and velocities: estimated from the
+/// samples, and what the identification did about it (docs/measurement.md).
+#[derive(Debug, Clone, Serialize)]
+pub struct SensorNoiseReport {
+    /// `estimate`, `given` or `ignore` (`[identify] sensor_noise`).
+    pub handling: String,
+    pub channels: Vec<ChannelNoiseReport>,
+    /// Why the noise could not be estimated, if it could not.
+    pub not_estimated: Option<String>,
+    /// Whether the weak form's moments were corrected for the noise.
+    pub corrected: bool,
+    /// What the correction does not reach.
+    pub notes: Vec<String>,
+}
+
+/// One sensor channel's noise.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelNoiseReport {
+    pub column: String,
+    /// Estimated noise standard deviation (channel unit).
+    pub std: f64,
+    /// Its jackknife standard error.
+    pub std_se: f64,
+    /// The noise-free signal's standard deviation.
+    pub signal_std: f64,
+    /// The estimate's variance is more than 3 standard errors above 0.
+    pub detected: bool,
+    /// The noise standard deviation taken out of the moments (0: none).
+    pub corrected_std: f64,
+    /// A simulation's sensors: the noise it was given (relative levels times the
+    /// estimated signal std), for comparison.
+    pub simulated_std: Option<f64>,
+    /// Samples that sit exactly at the channel's smallest or largest value, counted where
+    /// more than one does (a clipped sensor or ADC).
+    pub at_limits: u64,
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct Validation {
     /// The method whose model was re-simulated.
@@ -322,6 +359,10 @@ pub struct Report {
     pub records: Option<Records>,
     /// Filtered excitations: fitted and used `A`, `B`.
     pub filters: Vec<FilterReport>,
+    /// Sensor noise: estimated and corrected where the scenario declares sensors and for
+    /// measured data (`None` otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor_noise: Option<SensorNoiseReport>,
     pub methods: Vec<MethodReport>,
     pub validation: Option<Validation>,
     /// The iterative procedure for an unmeasured disturbance (paper section 4): the

@@ -167,6 +167,68 @@ pub struct Excitation {
     pub measured: bool,
 }
 
+/// How `[measurement]`'s noise levels are read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum NoiseScale {
+    /// Fractions of each channel's standard deviation (the simulator takes it over the
+    /// first block of samples, every trajectory's).
+    #[default]
+    Relative,
+    /// In the channel's unit (m, m/s, or rad, rad/s).
+    Absolute,
+}
+
+/// `[measurement]`: the sensors — white Gaussian noise, independent between channels and
+/// instants, on every mass's measured displacement and velocity (docs/measurement.md).
+/// The simulator adds it to the logged samples; a model file of measured data states what
+/// is known of its sensors.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Sensors {
+    pub scale: NoiseScale,
+    /// Noise level on every displacement (0: none).
+    pub displacement: f64,
+    /// Noise level on every velocity (0: none).
+    pub velocity: f64,
+    /// Per log column, the noise's standard deviation in its unit, when it is known
+    /// channel by channel (a validation re-simulates measured data with the noise
+    /// estimated from them); empty: the levels above.
+    pub columns: Vec<f64>,
+    /// The analogue-to-digital converter of every displacement and velocity channel:
+    /// `2^bits` levels over `±range` (in the channel's std for relative noise, else in its
+    /// unit); values beyond the range are clipped to it, and counted.
+    pub adc: Option<Adc>,
+}
+
+/// An ADC: `2^bits` levels over `±range`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Adc {
+    pub bits: u32,
+    pub range: f64,
+}
+
+impl Sensors {
+    /// Whether any channel has noise.
+    pub fn noisy(&self) -> bool {
+        self.displacement > 0.0 || self.velocity > 0.0 || self.columns.iter().any(|&s| s > 0.0) || self.adc.is_some()
+    }
+}
+
+/// `[identify] sensor_noise`: what the identification does about sensor noise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum NoiseHandling {
+    /// Estimate each displacement's and velocity's noise from the samples, report it, and
+    /// take it out of the weak form's moments (the default where `[measurement]` declares
+    /// sensor noise and for measured data).
+    #[default]
+    Estimate,
+    /// Take the noise `[measurement]` states as known (and still report the estimate).
+    Given,
+    /// Report the estimate, correct nothing.
+    Ignore,
+}
+
 /// `[simulation]`: how the response is generated and sampled.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Simulation {
@@ -186,6 +248,8 @@ pub struct Simulation {
     pub scheme: Scheme,
     /// Internal integration steps per `dt` (default 1).
     pub substeps: usize,
+    /// `[measurement]`: the noise the sensors add to the logged samples.
+    pub sensors: Sensors,
 }
 
 impl Simulation {
@@ -201,6 +265,7 @@ impl Simulation {
             seed: 1,
             scheme: Scheme::default(),
             substeps: 1,
+            sensors: Sensors::default(),
         }
     }
 
@@ -312,6 +377,8 @@ pub struct Identify {
     /// `[identify.disturbance]`: identify with the paper's iterative procedure for an
     /// unmeasured disturbance (section 4) instead of the ordinary methods.
     pub disturbance: Option<Disturbance>,
+    /// What to do about sensor noise (`sensor_noise`).
+    pub sensor_noise: NoiseHandling,
 }
 
 /// `[identify.disturbance]`: the paper's successive approximations (section 4).

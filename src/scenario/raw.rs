@@ -23,6 +23,19 @@ pub(crate) struct RawScenario {
     pub(super) identify: Option<RawIdentify>,
     pub(super) accept: Option<RawAccept>,
     pub(super) data: Option<Spanned<RawData>>,
+    pub(super) measurement: Option<RawMeasurement>,
+}
+
+/// `[measurement]`: the sensors' noise.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawMeasurement {
+    #[serde(default)]
+    pub(super) noise: super::NoiseScale,
+    pub(super) displacement: Option<Spanned<f64>>,
+    pub(super) velocity: Option<Spanned<f64>>,
+    pub(super) adc_bits: Option<Spanned<i64>>,
+    pub(super) adc_range: Option<Spanned<f64>>,
 }
 
 /// `[data]`: how measured data map onto the model (a model file for `identify --model`).
@@ -109,6 +122,7 @@ pub(crate) struct RawIdentify {
     pub(super) links: Option<BTreeMap<String, Spanned<RawIdentifyLink>>>,
     pub(super) compare: Option<BTreeMap<String, Spanned<RawCompare>>>,
     pub(super) disturbance: Option<Spanned<RawDisturbance>>,
+    pub(super) sensor_noise: Option<Spanned<super::NoiseHandling>>,
 }
 
 #[derive(Deserialize)]

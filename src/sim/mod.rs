@@ -22,6 +22,7 @@
 mod blocked;
 mod lanes;
 mod normals;
+mod sensors;
 mod shaped;
 mod sinks;
 
@@ -127,6 +128,8 @@ pub struct RunStats {
     pub samples: u64,
     /// Integration steps summed over trajectories (including burn-in and sub-steps).
     pub steps: u64,
+    /// Values the sensors' ADC clipped (`[measurement]`).
+    pub clipped: u64,
 }
 
 /// The seed of trajectory `j`'s generator: a SplitMix64 mix of the master seed and `j`.
@@ -247,6 +250,7 @@ pub(crate) fn simulate_padded<const D: usize>(
         Ok::<(), SimError>(())
     })?;
 
+    let mut sensors = sensors::SensorNoise::new(model, &sim.sensors, sim.seed);
     let block = block_samples(steps, cols * sim.trajectories, total);
     let mut done = 0usize;
     while done < total {
@@ -291,6 +295,9 @@ pub(crate) fn simulate_padded<const D: usize>(
         drop(parts);
         // The first failing group in trajectory order, whatever the thread count.
         results.into_iter().collect::<Result<Vec<()>, SimError>>()?;
+        if let Some(s) = sensors.as_mut() {
+            s.apply(&mut batch, done);
+        }
         sink.write(batch).map_err(SimError::Sink)?;
         done += b;
         progress((done * sim.trajectories) as u64);
@@ -299,6 +306,7 @@ pub(crate) fn simulate_padded<const D: usize>(
     Ok(RunStats {
         samples: (total * sim.trajectories) as u64,
         steps: steps_total,
+        clipped: sensors.map_or(0, |s| s.clipped),
     })
 }
 

@@ -103,6 +103,11 @@ impl Measured {
         }
     }
 
+    /// Whether layout column `c` is derived from another by differences (not measured).
+    pub fn derived(&self, c: usize) -> bool {
+        self.derive.iter().any(|s| s.to == c)
+    }
+
     pub fn samples(&self) -> u64 {
         self.lengths.iter().map(|&n| n as u64).sum()
     }

@@ -99,6 +99,9 @@ pub(crate) fn check_identify(
         unknown_corners,
         compare,
         disturbance,
+        sensor_noise: ident
+            .and_then(|i| i.sensor_noise.as_ref())
+            .map_or(NoiseHandling::default(), |v| *v.get_ref()),
     };
     Ok(identify)
 }

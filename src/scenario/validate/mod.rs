@@ -210,16 +210,30 @@ impl Scenario {
         check_stationary(&loc, &raw, &masses, &links)?;
         let excitations = check_excitations(&loc, &raw, &masses)?;
         let data = check_data(&loc, &raw, &masses, &excitations)?;
-        let simulation = match (&raw.simulation, &data) {
+        let mut simulation = match (&raw.simulation, &data) {
             // A model file: the simulation (for the validation) is set from the data.
             (None, Some(_)) => Simulation::placeholder(),
             _ => check_simulation(&loc, &raw, &masses, &links)?,
         };
+        simulation.sensors = check_measurement(&loc, &raw)?;
         if raw.simulation.is_some() {
             check_filters_resolved(&loc, &raw, &excitations, simulation.dt)?;
         }
         let identify = check_identify(&loc, &raw, &masses, &links, &excitations)?;
         let accept = check_accept(&loc, &raw, &identify)?;
+        if identify.sensor_noise == NoiseHandling::Given && !simulation.sensors.noisy() {
+            let span = raw
+                .identify
+                .as_ref()
+                .and_then(|i| i.sensor_noise.as_ref())
+                .map_or(0..0, |v| v.span());
+            return Err(loc.at(
+                span,
+                "identify.sensor_noise",
+                "\"given\" takes the noise [measurement] states, and there is none: add [measurement] with \
+                 displacement and velocity noise levels, or use \"estimate\" or \"ignore\"",
+            ));
+        }
 
         Ok(Scenario {
             name,
@@ -236,6 +250,81 @@ impl Scenario {
             disturbance_level: None,
         })
     }
+}
+
+/// `[measurement]`: each level finite and ≥ 0, a relative one below 10 (a sensor a
+/// thousand per cent noise measures nothing).
+fn check_measurement(loc: &Locator, raw: &RawScenario) -> Result<Sensors, ScenarioError> {
+    let Some(m) = &raw.measurement else {
+        return Ok(Sensors::default());
+    };
+    let level = |v: &Option<Spanned<f64>>, key: &str| -> Result<f64, ScenarioError> {
+        let Some(v) = v else { return Ok(0.0) };
+        let x = *v.get_ref();
+        let most = if m.noise == NoiseScale::Relative {
+            10.0
+        } else {
+            f64::MAX
+        };
+        if x.is_finite() && (0.0..=most).contains(&x) {
+            Ok(x)
+        } else {
+            Err(loc.at(
+                v.span(),
+                key,
+                match m.noise {
+                    NoiseScale::Relative => {
+                        format!("must be a fraction of the channel's standard deviation, 0..=10 (0.1 = 10 %), got {x}")
+                    }
+                    NoiseScale::Absolute => {
+                        format!("must be a finite noise standard deviation >= 0 in the channel's unit, got {x}")
+                    }
+                },
+            ))
+        }
+    };
+    let adc = match (&m.adc_bits, &m.adc_range) {
+        (None, None) => None,
+        (Some(b), Some(r)) => {
+            let bits = *b.get_ref();
+            if !(2..=32).contains(&bits) {
+                return Err(loc.at(
+                    b.span(),
+                    "measurement.adc_bits",
+                    format!("must be a whole number of bits 2..=32, got {bits}"),
+                ));
+            }
+            let unit = match m.noise {
+                NoiseScale::Relative => "the channel's standard deviations, e.g. 5",
+                NoiseScale::Absolute => "the channel's unit",
+            };
+            Some(Adc {
+                bits: bits as u32,
+                range: finite_positive(loc, r, "measurement.adc_range", unit)?,
+            })
+        }
+        (Some(b), None) => {
+            return Err(loc.at(
+                b.span(),
+                "measurement.adc_bits",
+                "an ADC needs its range too: adc_range = ± the full scale",
+            ))
+        }
+        (None, Some(r)) => {
+            return Err(loc.at(
+                r.span(),
+                "measurement.adc_range",
+                "an ADC needs its resolution too: adc_bits = 2..=32",
+            ))
+        }
+    };
+    Ok(Sensors {
+        scale: m.noise,
+        displacement: level(&m.displacement, "measurement.displacement")?,
+        velocity: level(&m.velocity, "measurement.velocity")?,
+        columns: Vec::new(),
+        adc,
+    })
 }
 
 /// A filtered excitation's corner `B` resolved by the step: `B·dt ≤ 1`. A faster filter
@@ -750,6 +839,7 @@ pub(crate) fn check_simulation(
         seed,
         scheme: s.scheme,
         substeps,
+        sensors: Sensors::default(),
     };
     if let Err(e) = simulation.check() {
         // Only the budget and a default burn-in are left to fail here: point at the

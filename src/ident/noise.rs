@@ -1,0 +1,478 @@
+//! Sensor noise on measured displacements and velocities, estimated from the samples
+//! themselves (docs/measurement.md).
+//!
+//! A sensor adds white noise `e` to what it measures: `y = x + e`. White noise is
+//! uncorrelated between different instants and between different sensors, so every
+//! covariance of the samples at a lag of one sample interval or more, and every
+//! covariance between the displacement and the velocity sensor of a mass, is the noise-free
+//! signal's. The noise-free signal is smooth where the noise is not: the displacement's
+//! autocovariance `R(τ)` is even and, with `v = ẋ`, `R_xv(τ) = R'(τ)` and
+//! `R_vv(τ) = −R''(τ)`. One expansion `R(τ) = a₀ + a₂τ² + a₃|τ|³ + … + a₆τ⁶` (the
+//! odd powers carry the kink of a velocity driven by white forces) fitted to all three
+//! families at lags `1 … LAGS` gives the noise-free variances `a₀` and `−2a₂`; what the
+//! samples' variances have beyond them is the noise. Standard errors by the delete-one
+//! jackknife over the identification's batches.
+//!
+//! The weak form then reads unbiased moments ([`super::moments::RawMoments::deconvolve`]).
+
+use nalgebra::{DMatrix, DVector};
+
+/// Lags (in sample intervals) the expansion is fitted to. On a linear oscillator's exact
+/// covariances the noise-free variances come back within 3e-6 (displacement) and 1.3e-3
+/// (velocity) of their values at ω·h = 0.5, 1.4e-2 at ω·h = 0.8 (docs/measurement.md).
+pub const LAGS: usize = 4;
+/// Terms of the expansion: `1, τ², |τ|³, τ⁴, |τ|⁵, τ⁶`.
+const POWERS: [i32; 6] = [0, 2, 3, 4, 5, 6];
+
+/// A mass whose displacement and velocity are both measured (not derived).
+#[derive(Debug, Clone)]
+pub struct Pair {
+    /// Log columns of the displacement and the velocity.
+    pub columns: [usize; 2],
+    /// State variables of the displacement and the velocity.
+    pub state: [usize; 2],
+    /// Column names, for reports.
+    pub names: [String; 2],
+}
+
+/// Lagged sums of one batch: per pair, per lag `k`: `Σ x₋ₖx`, `Σ v₋ₖv`, `Σ x₋ₖv`,
+/// `Σ v₋ₖx` and their count; lag 0 also `Σ x`, `Σ v`.
+#[derive(Debug, Clone)]
+struct Sums {
+    count: [f64; LAGS + 1],
+    products: Vec<[[f64; 4]; LAGS + 1]>,
+    first: Vec<[f64; 2]>,
+}
+
+impl Sums {
+    fn new(pairs: usize) -> Sums {
+        Sums {
+            count: [0.0; LAGS + 1],
+            products: vec![[[0.0; 4]; LAGS + 1]; pairs],
+            first: vec![[0.0; 2]; pairs],
+        }
+    }
+
+    fn add(&mut self, o: &Sums) {
+        for k in 0..=LAGS {
+            self.count[k] += o.count[k];
+        }
+        for (a, b) in self.products.iter_mut().zip(&o.products) {
+            for k in 0..=LAGS {
+                for q in 0..4 {
+                    a[k][q] += b[k][q];
+                }
+            }
+        }
+        for (a, b) in self.first.iter_mut().zip(&o.first) {
+            a[0] += b[0];
+            a[1] += b[1];
+        }
+    }
+}
+
+/// The last `LAGS` samples of one trajectory.
+#[derive(Debug, Clone, Default)]
+struct Recent {
+    t: f64,
+    /// How many of the last samples were one interval apart, up to `LAGS`.
+    run: usize,
+    /// `values[k·2p + …]`: the sample `k + 1` intervals back, `[x, v]` per pair.
+    values: Vec<f64>,
+}
+
+/// Lagged products of the measured displacement–velocity pairs, per jackknife batch,
+/// accumulated one sample at a time in constant memory (per trajectory, the last
+/// [`LAGS`] samples).
+#[derive(Debug, Clone)]
+pub struct NoiseFloor {
+    pairs: Vec<Pair>,
+    interval: f64,
+    recent: Vec<Recent>,
+    batches: Vec<Sums>,
+    /// Consecutive samples of a trajectory not one interval apart.
+    pub gaps: u64,
+    /// Per channel (displacement, velocity of each pair): the smallest and largest value
+    /// so far and how many samples hold each exactly (a clipped sensor repeats them).
+    extremes: Vec<[(f64, u64); 2]>,
+}
+
+/// One sensor's noise as estimated.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ChannelNoise {
+    /// The log column.
+    pub column: String,
+    /// State variable of the problem.
+    #[serde(skip)]
+    pub state: usize,
+    /// Noise variance (may come out negative by sampling noise when there is none).
+    pub variance: f64,
+    /// Its jackknife standard error.
+    pub variance_std_error: f64,
+    /// The noise-free signal's standard deviation.
+    pub signal_std: f64,
+    /// Samples that hold exactly the channel's smallest or largest value, where that is
+    /// more than one of each: a clipped sensor or ADC repeats its limits.
+    pub at_limits: u64,
+}
+
+impl ChannelNoise {
+    /// The noise's standard deviation (0 where the variance came out negative).
+    pub fn std(&self) -> f64 {
+        self.variance.max(0.0).sqrt()
+    }
+
+    /// Whether the data show noise: the variance is 3 standard errors above 0.
+    pub fn detected(&self) -> bool {
+        self.variance > 3.0 * self.variance_std_error
+    }
+}
+
+impl NoiseFloor {
+    /// For `pairs` sampled every `interval` seconds, standard errors over `batches`.
+    pub fn new(pairs: Vec<Pair>, interval: f64, batches: usize) -> NoiseFloor {
+        let p = pairs.len();
+        NoiseFloor {
+            pairs,
+            interval,
+            recent: Vec::new(),
+            batches: vec![Sums::new(p); batches.max(1)],
+            gaps: 0,
+            extremes: vec![[(f64::INFINITY, 0), (f64::NEG_INFINITY, 0)]; 2 * p],
+        }
+    }
+
+    /// The pairs it watches.
+    pub fn pairs(&self) -> &[Pair] {
+        &self.pairs
+    }
+
+    /// One sample (`row`: the log's columns) of `trajectory` at `t`, in jackknife batch
+    /// `batch`; a trajectory's samples come in time order.
+    pub fn push(&mut self, trajectory: u32, t: f64, batch: usize, row: &[f64]) {
+        let p = self.pairs.len();
+        if p == 0 {
+            return;
+        }
+        let j = trajectory as usize;
+        if j >= self.recent.len() {
+            self.recent.resize_with(j + 1, || Recent {
+                t: f64::NAN,
+                run: 0,
+                values: vec![0.0; 2 * p * LAGS],
+            });
+        }
+        let r = &mut self.recent[j];
+        if r.run > 0 && ((t - r.t) - self.interval).abs() > 1e-6 * self.interval {
+            self.gaps += 1;
+            r.run = 0;
+        }
+        let last = self.batches.len() - 1;
+        let s = &mut self.batches[batch.min(last)];
+        for k in 0..=r.run {
+            s.count[k] += 1.0;
+        }
+        for (q, pair) in self.pairs.iter().enumerate() {
+            let (x, v) = (row[pair.columns[0]], row[pair.columns[1]]);
+            for (e, y) in self.extremes[2 * q..2 * q + 2].iter_mut().zip([x, v]) {
+                for (side, (at, n)) in e.iter_mut().enumerate() {
+                    if y == *at {
+                        *n += 1;
+                    } else if (side == 0 && y < *at) || (side == 1 && y > *at) {
+                        (*at, *n) = (y, 1);
+                    }
+                }
+            }
+            let sums = &mut s.products[q];
+            sums[0][0] += x * x;
+            sums[0][1] += v * v;
+            sums[0][2] += x * v;
+            sums[0][3] += v * x;
+            s.first[q][0] += x;
+            s.first[q][1] += v;
+            for k in 1..=r.run {
+                let back = &r.values[(k - 1) * 2 * p + 2 * q..];
+                let (xb, vb) = (back[0], back[1]);
+                sums[k][0] += xb * x;
+                sums[k][1] += vb * v;
+                sums[k][2] += xb * v;
+                sums[k][3] += vb * x;
+            }
+        }
+        // Shift the window by one sample.
+        r.values.copy_within(0..2 * p * (LAGS - 1), 2 * p);
+        for (q, pair) in self.pairs.iter().enumerate() {
+            r.values[2 * q] = row[pair.columns[0]];
+            r.values[2 * q + 1] = row[pair.columns[1]];
+        }
+        r.run = (r.run + 1).min(LAGS);
+        r.t = t;
+    }
+
+    /// Each channel's noise, or why it cannot be estimated.
+    pub fn estimate(&self) -> Result<Vec<ChannelNoise>, String> {
+        self.estimate_with_replicates().map(|(c, _)| c)
+    }
+
+    /// [`NoiseFloor::estimate`], with the jackknife's replicates: per batch (`None`
+    /// where it holds no sample), each channel's noise variance from every other batch —
+    /// the identification corrects its own replicates with them, so that its standard
+    /// errors carry the noise estimate's uncertainty.
+    #[allow(clippy::type_complexity)]
+    pub fn estimate_with_replicates(&self) -> Result<(Vec<ChannelNoise>, Vec<Option<Vec<f64>>>), String> {
+        if self.pairs.is_empty() {
+            return Err("no mass has both its displacement and its velocity measured".into());
+        }
+        let mut total = Sums::new(self.pairs.len());
+        for b in &self.batches {
+            total.add(b);
+        }
+        if total.count[LAGS] < 100.0 {
+            return Err(format!(
+                "too few runs of {} samples one sample interval ({} s) apart ({} gaps in the records)",
+                LAGS + 1,
+                self.interval,
+                self.gaps
+            ));
+        }
+        let full = self.variances(&total);
+        // Delete-one jackknife over the batches that hold samples.
+        let by_batch: Vec<Option<Vec<f64>>> = self
+            .batches
+            .iter()
+            .enumerate()
+            .map(|(out, b)| {
+                (b.count[0] > 0.0).then(|| {
+                    let mut rest = Sums::new(self.pairs.len());
+                    for (k, s) in self.batches.iter().enumerate() {
+                        if k != out {
+                            rest.add(s);
+                        }
+                    }
+                    self.variances(&rest).iter().map(|c| c.0).collect()
+                })
+            })
+            .collect();
+        let replicates: Vec<Vec<f64>> = by_batch.iter().flatten().cloned().collect();
+        let cov = super::estimate::jackknife(&replicates, full.len());
+        let channels = full
+            .iter()
+            .enumerate()
+            .map(|(k, &(variance, signal))| {
+                let (q, w) = (k / 2, k % 2);
+                ChannelNoise {
+                    column: self.pairs[q].names[w].clone(),
+                    state: self.pairs[q].state[w],
+                    variance,
+                    variance_std_error: cov.get(k).map_or(f64::NAN, |r| r[k].sqrt()),
+                    signal_std: signal.max(0.0).sqrt(),
+                    at_limits: self.extremes[k].iter().map(|&(_, n)| n).filter(|&n| n > 1).sum(),
+                }
+            })
+            .collect();
+        Ok((channels, by_batch))
+    }
+
+    /// Per channel (displacement, velocity of each pair): the noise variance and the
+    /// noise-free signal's variance.
+    fn variances(&self, s: &Sums) -> Vec<(f64, f64)> {
+        let h = self.interval;
+        let mut out = Vec::with_capacity(2 * self.pairs.len());
+        for q in 0..self.pairs.len() {
+            let n0 = s.count[0];
+            let (mx, mv) = (s.first[q][0] / n0, s.first[q][1] / n0);
+            let cov = |k: usize, which: usize| {
+                let m = [mx * mx, mv * mv, mx * mv, mx * mv][which];
+                s.products[q][k][which] / s.count[k] - m
+            };
+            let (var_x, var_v) = (cov(0, 0), cov(0, 1));
+            let sx = var_x.max(1e-300).sqrt();
+            let sv = var_v.max(1e-300).sqrt();
+            // Rows: R(kh) / var_x, R'(kh) / (sx·sv), −R''(kh) / var_v; unknowns a_p scaled
+            // so each column is of order one: a_p = b_p · sx² / (h^p) for the
+            // displacement's terms (τ = kh, so τ^p / h^p = k^p).
+            let mut a = DMatrix::<f64>::zeros(3 * LAGS, POWERS.len());
+            let mut b = DVector::<f64>::zeros(3 * LAGS);
+            for k in 1..=LAGS {
+                let kf = k as f64;
+                let r = 3 * (k - 1);
+                b[r] = cov(k, 0) / var_x;
+                b[r + 1] = 0.5 * (cov(k, 2) - cov(k, 3)) / (sx * sv);
+                b[r + 2] = cov(k, 1) / var_v;
+                for (c, &p) in POWERS.iter().enumerate() {
+                    let pf = p as f64;
+                    // a_p τ^p = b_p sx² k^p; its derivative a_p p τ^{p−1} = b_p sx² p k^{p−1} / h.
+                    a[(r, c)] = kf.powi(p);
+                    a[(r + 1, c)] = if p >= 1 {
+                        pf * kf.powi(p - 1) * sx / (h * sv)
+                    } else {
+                        0.0
+                    };
+                    a[(r + 2, c)] = if p >= 2 {
+                        -pf * (pf - 1.0) * kf.powi(p - 2) * var_x / (h * h * var_v)
+                    } else {
+                        0.0
+                    };
+                }
+            }
+            let bcoef = a
+                .clone()
+                .svd(true, true)
+                .solve(&b, 1e-12)
+                .unwrap_or_else(|_| DVector::zeros(POWERS.len()));
+            let signal_x = bcoef[0] * var_x;
+            // −R''(0) = −2 a₂ = −2 b₂ sx² / h².
+            let signal_v = -2.0 * bcoef[1] * var_x / (h * h);
+            out.push((var_x - signal_x, signal_x));
+            out.push((var_v - signal_v, signal_v));
+        }
+        out
+    }
+}
+
+/// Add the noise variances of `channels` to `noise` (indexed by state variable).
+pub fn variances_by_state(channels: &[ChannelNoise], dim: usize) -> Vec<f64> {
+    let mut v = vec![0.0; dim];
+    for c in channels {
+        if c.state < dim {
+            v[c.state] = c.variance.max(0.0);
+        }
+    }
+    v
+}
+
+/// Remove additive Gaussian noise of variance `s2` from power sums `Σ z^k`
+/// (`k = 0 …`): each becomes the sum of [`super::moments::RawMoments::deconvolve`]'s
+/// Hermite polynomial.
+pub fn deconvolve_powers(sums: &mut [f64], s2: f64) {
+    if s2 == 0.0 {
+        return;
+    }
+    let old = sums.to_vec();
+    for (b, out) in sums.iter_mut().enumerate() {
+        let mut c = 1.0;
+        let mut acc = 0.0;
+        for k in 0..=b / 2 {
+            acc += c * old[b - 2 * k];
+            let m = (b - 2 * k) as f64;
+            c *= -s2 * m * (m - 1.0) / (2.0 * (k + 1) as f64);
+        }
+        *out = acc;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::moments::RawMoments;
+    use super::super::poly::var;
+    use super::*;
+
+    /// Gaussian moments: `E[z^b]` for `z ~ N(μ, s²)`, by the recursion
+    /// `E[z^b] = μ E[z^{b−1}] + (b−1) s² E[z^{b−2}]`.
+    fn gauss(mu: f64, s2: f64, b: u32) -> f64 {
+        let (mut m0, mut m1) = (1.0, mu);
+        if b == 0 {
+            return 1.0;
+        }
+        for k in 2..=b {
+            let m2 = mu * m1 + (k - 1) as f64 * s2 * m0;
+            (m0, m1) = (m1, m2);
+        }
+        m1
+    }
+
+    /// The expansion's bias on a linear oscillator's exact covariances (`m ẍ + c ẋ + k x`
+    /// under white force of intensity `q`: `R(τ) = q/(2ck) e^{−ζω|τ|}(cos ω_d τ +
+    /// ζω/ω_d sin ω_d|τ|)`, `R_vv(0) = q/(2cm)`), with known noise added at lag 0: the
+    /// noise comes back to within a small fraction of the signal's variance, where the
+    /// sampling is as coarse as the shipped scenarios' (ω·h up to 0.5).
+    #[test]
+    fn the_noise_of_a_linear_oscillator_comes_back_from_its_exact_covariances() {
+        let (m, c, k, q) = (1.0f64, 0.4f64, 10.0f64, 1.0f64);
+        let w0 = (k / m).sqrt();
+        let zeta = c / (2.0 * (k * m).sqrt());
+        let wd = w0 * (1.0 - zeta * zeta).sqrt();
+        let r0 = q / (2.0 * c * k);
+        let rv0 = q / (2.0 * c * m);
+        let r = |t: f64| {
+            let a = t.abs();
+            r0 * (-zeta * w0 * a).exp() * ((wd * a).cos() + zeta * w0 / wd * (wd * a).sin())
+        };
+        // R'(τ) and −R''(τ) by the closed form's derivatives (central differences of the
+        // exact function at a tiny step are exact enough here).
+        let d = 1e-5;
+        let r1 = |t: f64| (r(t + d) - r(t - d)) / (2.0 * d);
+        let r2 = |t: f64| -(r(t + d) - 2.0 * r(t) + r(t - d)) / (d * d);
+        for h in [0.02, 0.05, 0.1, 0.16] {
+            let (nx, nv) = (0.01 * r0, 0.09 * rv0);
+            let mut floor = NoiseFloor::new(
+                vec![Pair {
+                    columns: [0, 1],
+                    state: [0, 1],
+                    names: ["x".into(), "v".into()],
+                }],
+                h,
+                1,
+            );
+            let s = &mut floor.batches[0];
+            s.count = [1.0; LAGS + 1];
+            s.products[0][0] = [r0 + nx, rv0 + nv, 0.0, 0.0];
+            for kk in 1..=LAGS {
+                let t = kk as f64 * h;
+                s.products[0][kk] = [r(t), r2(t), r1(t), -r1(t)];
+            }
+            let got = floor.variances(&floor.batches[0]);
+            let (ex, ev) = ((got[0].0 - nx) / r0, (got[1].0 - nv) / rv0);
+            assert!(
+                ex.abs() < 1e-5 && ev.abs() < 2e-3,
+                "ω·h = {:.2}: noise variance off by {ex:e} of the displacement's variance, {ev:e} of the \
+                 velocity's",
+                w0 * h
+            );
+        }
+    }
+
+    /// The noisy moments of independent Gaussian variables, deconvolved, are the clean
+    /// ones exactly: `x_j ~ N(μ_j, s_j²)`, `y_j = x_j + e_j`, `e_j ~ N(0, σ_j²)`.
+    #[test]
+    fn deconvolved_moments_are_the_noise_free_gaussian_moments() {
+        let mu = [0.3, -1.1, 0.0];
+        let s2 = [0.8, 2.0, 0.5];
+        let noise = [0.2, 0.0, 0.7];
+        let moment = |e: u128, add: bool| -> f64 {
+            (0..3)
+                .map(|j| {
+                    let b = super::super::poly::exponent(e, j);
+                    gauss(mu[j], s2[j] + if add { noise[j] } else { 0.0 }, b)
+                })
+                .product()
+        };
+        let mut m = RawMoments::exact(3, 6, |e| moment(e, true));
+        m.deconvolve(&noise);
+        let mut worst = 0.0f64;
+        for &e in m.monomials() {
+            let (got, want) = (m.moment(e), moment(e, false));
+            worst = worst.max((got - want).abs() / want.abs().max(1.0));
+        }
+        assert!(worst < 1e-12, "largest relative difference {worst:e}");
+        // A sparse set of wanted monomials still reaches every term it needs.
+        let wanted = [4 * var(0) + 3 * var(2), 2 * var(1) + 5 * var(2)];
+        let mut m = RawMoments::with_monomials(3, 7, &wanted);
+        m.sums = m.monomials().iter().map(|&e| moment(e, true)).collect();
+        m.count = 1;
+        m.deconvolve(&noise);
+        for e in wanted {
+            assert!((m.moment(e) - moment(e, false)).abs() < 1e-12 * moment(e, false).abs().max(1.0));
+        }
+        // The one-variable power sums the same way.
+        let mut p: Vec<f64> = (0..8).map(|b| gauss(0.4, 1.3 + 0.25, b)).collect();
+        deconvolve_powers(&mut p, 0.25);
+        for (b, got) in p.iter().enumerate() {
+            let want = gauss(0.4, 1.3, b as u32);
+            assert!(
+                (got - want).abs() < 1e-12 * want.abs().max(1.0),
+                "power {b}: {got} against {want}"
+            );
+        }
+    }
+}

@@ -1,0 +1,243 @@
+//! Sensor noise in the identification (docs/measurement.md): which displacement–velocity
+//! pairs the samples measure, their noise estimated in the first pass, and the weak
+//! form's moments corrected as `[identify] sensor_noise` asks.
+
+use super::source::Input;
+use crate::estimators::Method;
+use crate::ident::data::StationaryData;
+use crate::ident::noise::{ChannelNoise, NoiseFloor, Pair};
+use crate::ident::Problem;
+use crate::report::{ChannelNoiseReport, MethodReport, SensorNoiseReport};
+use crate::scenario::ReportMethod;
+use crate::scenario::{NoiseHandling, NoiseScale, Scenario};
+
+/// The noise estimator for `input`, if its samples may carry sensor noise: a scenario
+/// with `[measurement]` noise, or measured data. Every mass whose displacement and
+/// velocity are both in the problem's state and measured (not derived) is a pair.
+pub(crate) fn noise_floor(input: &Input, structure: &Problem, batches: usize) -> Option<NoiseFloor> {
+    let s = &input.info.scenario;
+    if !s.simulation.sensors.noisy() && input.measured().is_none() {
+        return None;
+    }
+    let layout = structure.model.columns();
+    let state_of = |c: usize| structure.columns.iter().position(|&k| k == c);
+    let pairs = (0..structure.model.masses())
+        .filter_map(|i| {
+            let (cx, cv) = (layout.x(i), layout.v(i));
+            if let Some(m) = input.measured() {
+                if !m.present[cx] || !m.present[cv] || m.derived(cx) || m.derived(cv) {
+                    return None;
+                }
+            }
+            Some(Pair {
+                columns: [cx, cv],
+                state: [state_of(cx)?, state_of(cv)?],
+                names: [input.info.columns[cx].clone(), input.info.columns[cv].clone()],
+            })
+        })
+        .collect();
+    Some(NoiseFloor::new(pairs, s.simulation.sample_interval, batches))
+}
+
+/// The log column of a channel.
+fn column_of(floor: &NoiseFloor, ch: &ChannelNoise) -> usize {
+    floor
+        .pairs()
+        .iter()
+        .find_map(|p| (0..2).find(|&w| p.state[w] == ch.state).map(|w| p.columns[w]))
+        .expect("a channel of a pair")
+}
+
+/// Estimate the noise, correct `data` (and `also`, the naive white-noise row's) as the
+/// scenario asks, and say what was done; the noise variance taken out of each log column.
+pub(crate) fn correct(
+    floor: &NoiseFloor,
+    s: &Scenario,
+    structure: &Problem,
+    data: &mut StationaryData,
+    also: Option<&mut StationaryData>,
+) -> (SensorNoiseReport, Vec<f64>) {
+    let handling = s.identify.sensor_noise;
+    let (channels, replicates, not_estimated) = match floor.estimate_with_replicates() {
+        Ok((c, r)) => (c, r, None),
+        Err(why) => (Vec::new(), Vec::new(), Some(why)),
+    };
+    let sensors = &s.simulation.sensors;
+    let layout = structure.model.columns();
+    let level = |c: usize| {
+        let (q, _) = layout.at(c);
+        match q {
+            crate::model::Quantity::Displacement => sensors.displacement,
+            crate::model::Quantity::Velocity => sensors.velocity,
+            _ => 0.0,
+        }
+    };
+    // The scenario's sensors in the channel's unit: relative levels times the estimated
+    // signal std (else the samples' std, which holds the noise: σ² = r² s²/(1 + r²)).
+    // An ADC adds its rounding, of variance q²/12 for a step q.
+    let stated = |ch: &ChannelNoise, c: usize| -> f64 {
+        let unit = match sensors.scale {
+            NoiseScale::Absolute => 1.0,
+            NoiseScale::Relative => ch.signal_std,
+        };
+        let rounding = sensors.adc.map_or(0.0, |a| {
+            let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
+            q * q / 12.0
+        });
+        ((level(c) * unit).powi(2) + rounding).sqrt()
+    };
+    let mut by_column = vec![0.0; structure.model.columns().len()];
+    let mut rows = Vec::new();
+    for ch in &channels {
+        let c = column_of(floor, ch);
+        let used = match handling {
+            // Only noise the data show: clean data are identified exactly as without the
+            // estimate (a channel without noise would otherwise take out its sampling
+            // noise).
+            NoiseHandling::Estimate if ch.detected() => ch.std(),
+            NoiseHandling::Estimate => 0.0,
+            NoiseHandling::Given => stated(ch, c),
+            NoiseHandling::Ignore => 0.0,
+        };
+        by_column[c] = used * used;
+        let std = ch.std();
+        rows.push(ChannelNoiseReport {
+            column: ch.column.clone(),
+            std,
+            std_se: ch.variance_std_error / (2.0 * std.max(ch.variance_std_error.sqrt())),
+            signal_std: ch.signal_std,
+            detected: ch.detected(),
+            corrected_std: used,
+            simulated_std: (sensors.noisy() && s.data.is_none()).then(|| stated(ch, c)),
+            at_limits: ch.at_limits,
+        });
+    }
+    let corrected = by_column.iter().any(|&v| v > 0.0) && structure.atoms.is_empty();
+    // Estimated noise: each jackknife replicate is corrected with its own estimate.
+    let replicates: Vec<Option<Vec<f64>>> = if handling == NoiseHandling::Estimate {
+        replicates
+            .iter()
+            .map(|r| {
+                r.as_ref().map(|r| {
+                    let mut v = vec![0.0; by_column.len()];
+                    for (ch, &var) in channels.iter().zip(r) {
+                        let c = column_of(floor, ch);
+                        if by_column[c] > 0.0 {
+                            v[c] = var.max(0.0);
+                        }
+                    }
+                    v
+                })
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let mut notes = Vec::new();
+    if corrected {
+        data.deconvolve(&by_column, &replicates);
+        // The naive row's problem batches its samples its own way: its replicates keep
+        // the whole record's correction.
+        if let Some(d) = also {
+            d.deconvolve(&by_column, &[]);
+        }
+        notes.push(
+            "the weak form reads moments with the noise taken out; the strong forms and the baselines read the \
+             noisy samples as they are; the validation adds the same noise to the model's response"
+                .to_string(),
+        );
+    } else if handling == NoiseHandling::Estimate && !channels.is_empty() && !channels.iter().any(|c| c.detected()) {
+        notes.push("no channel shows noise beyond 3 standard errors: nothing taken out".to_string());
+    } else if by_column.iter().any(|&v| v > 0.0) {
+        notes.push(
+            "not corrected: the model has terms without a polynomial form, whose moments the correction does not reach"
+                .to_string(),
+        );
+    }
+    let masses = structure.model.masses();
+    if floor.pairs().len() < masses {
+        notes.push(format!(
+            "{} of {masses} masses have no measured displacement–velocity pair: their sensors' noise is neither \
+             estimated nor corrected",
+            masses - floor.pairs().len(),
+        ));
+    }
+    let report = SensorNoiseReport {
+        handling: match handling {
+            NoiseHandling::Estimate => "estimate",
+            NoiseHandling::Given => "given",
+            NoiseHandling::Ignore => "ignore",
+        }
+        .to_string(),
+        channels: rows,
+        not_estimated,
+        corrected,
+        notes,
+    };
+    (report, if corrected { by_column } else { Vec::new() })
+}
+
+/// The scenario the validation re-simulates: with the data's noise, so that its
+/// statistics compare like with like — a simulation's own sensors, or for measured data
+/// the noise taken out of each column.
+pub(crate) fn for_validation(s: &Scenario, taken_out: &[f64]) -> Option<Scenario> {
+    if s.simulation.sensors.noisy() || taken_out.iter().all(|&v| v == 0.0) {
+        return None;
+    }
+    let mut v = s.clone();
+    v.simulation.sensors.columns = taken_out.iter().map(|v| v.sqrt()).collect();
+    Some(v)
+}
+
+/// Samples at a channel's limits, more than this many: every row warns of clipping (a
+/// continuous signal reaches each extreme once, a quantised one a few times: test
+/// `an_adc_is_noise_and_its_clipping_is_flagged`).
+pub const CLIPPED: u64 = 10;
+
+/// Every row, where a channel looks clipped: a warning naming it; and every row that
+/// reads the noisy samples as they are, where the data show noise: a warning naming the
+/// largest noise (the weak form's rows read corrected moments when `n.corrected`).
+pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodReport]) {
+    let clipped: Vec<String> = n
+        .channels
+        .iter()
+        .filter(|c| c.at_limits > CLIPPED)
+        .map(|c| format!("{} ({} samples)", c.column, c.at_limits))
+        .collect();
+    if !clipped.is_empty() {
+        for m in methods.iter_mut() {
+            m.warnings.push(format!(
+                "samples sit exactly at their channel's smallest or largest value: {} — a clipped sensor or ADC, \
+                 which biases every moment (docs/measurement.md)",
+                clipped.join(", ")
+            ));
+        }
+    }
+    let Some(worst) = n
+        .channels
+        .iter()
+        .filter(|c| c.detected)
+        .max_by(|a, b| (a.std / a.signal_std).total_cmp(&(b.std / b.signal_std)))
+    else {
+        return;
+    };
+    for m in methods {
+        let weak = matches!(
+            m.method,
+            ReportMethod::Estimator(Method::Weak) | ReportMethod::WeakWhiteNaive | ReportMethod::Compare(_)
+        );
+        if weak && n.corrected {
+            continue;
+        }
+        m.warnings.push(format!(
+            "reads the samples with their sensor noise (up to {:.1} % of the signal's std, on {}): {} (docs/measurement.md)",
+            100.0 * worst.std / worst.signal_std,
+            worst.column,
+            if weak {
+                "the correction is off, so the estimates carry the noise's bias"
+            } else {
+                "this method is not corrected for it, so its estimates carry the noise's bias"
+            }
+        ));
+    }
+}
