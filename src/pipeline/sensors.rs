@@ -73,8 +73,7 @@ pub(crate) fn correct(
         }
     };
     // The scenario's sensors in the channel's unit: relative levels times the estimated
-    // signal std (else the samples' std, which holds the noise: σ² = r² s²/(1 + r²)).
-    // An ADC adds its rounding, of variance q²/12 for a step q.
+    // signal std. An ADC adds its rounding, of variance q²/12 for a step q.
     let stated = |ch: &ChannelNoise, c: usize| -> f64 {
         let unit = match sensors.scale {
             NoiseScale::Absolute => 1.0,
