@@ -209,12 +209,8 @@ impl NoiseFloor {
         r.t = t;
     }
 
-    /// Each channel's noise, or why it cannot be estimated.
-    pub fn estimate(&self) -> Result<Vec<ChannelNoise>, String> {
-        self.estimate_with_replicates().map(|(c, _)| c)
-    }
-
-    /// [`NoiseFloor::estimate`], with the jackknife's replicates: per batch (`None`
+    /// Each channel's noise, or why it cannot be estimated, with the jackknife's
+    /// replicates: per batch (`None`
     /// where it holds no sample), each channel's noise variance from every other batch —
     /// the identification corrects its own replicates with them, so that its standard
     /// errors carry the noise estimate's uncertainty.
@@ -328,17 +324,6 @@ impl NoiseFloor {
         }
         out
     }
-}
-
-/// Add the noise variances of `channels` to `noise` (indexed by state variable).
-pub fn variances_by_state(channels: &[ChannelNoise], dim: usize) -> Vec<f64> {
-    let mut v = vec![0.0; dim];
-    for c in channels {
-        if c.state < dim {
-            v[c.state] = c.variance.max(0.0);
-        }
-    }
-    v
 }
 
 /// Remove additive Gaussian noise of variance `s2` from power sums `Σ z^k`
