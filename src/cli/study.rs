@@ -16,8 +16,8 @@ use std::process::ExitCode;
 pub struct Args {
     #[command(subcommand)]
     pub merge: Option<Merge>,
-    /// Study file (TOML): scenario, seeds, record_lengths, sample_intervals, methods, set
-    /// (docs/studies.md).
+    /// Study file (TOML): scenario, seeds, record_lengths, sample_intervals, noise_levels,
+    /// methods, set (docs/studies.md).
     pub study: Option<PathBuf>,
     /// This shard, INDEX/COUNT (0-based), e.g. 3/16: items whose number ≡ INDEX mod
     /// COUNT (to run or resubmit one piece by hand) [default: from the scheduler's index,
@@ -56,6 +56,11 @@ pub struct Args {
     /// A sample interval, s (repeatable; with --scenario) [default: the scenario's].
     #[arg(long = "sample-interval", requires = "scenario")]
     pub sample_intervals: Vec<f64>,
+    /// A sensor noise level: noise of this fraction of each channel's std on every
+    /// displacement and velocity, the same motion at every level (repeatable; with
+    /// --scenario) [default: the scenario's [measurement]].
+    #[arg(long = "noise-level", requires = "scenario")]
+    pub noise_levels: Vec<f64>,
     /// A method (repeatable; with --scenario) [default: the scenario's].
     #[arg(long = "method", value_parser = crate::cli::identify::method_parser(), requires = "scenario")]
     pub methods: Vec<fpkbench::scenario::Method>,
@@ -83,6 +88,9 @@ fn study_text(args: &Args, scenario: &Path) -> String {
     }
     if !args.sample_intervals.is_empty() {
         t.insert("sample_intervals".into(), floats(&args.sample_intervals));
+    }
+    if !args.noise_levels.is_empty() {
+        t.insert("noise_levels".into(), floats(&args.noise_levels));
     }
     if !args.methods.is_empty() {
         let names: Vec<String> = args.methods.iter().map(|m| m.name().to_string()).collect();
@@ -321,6 +329,7 @@ fn study_of(args: &Args) -> anyhow::Result<Option<Study>> {
                 ("--seed", args.seed.is_some()),
                 ("--record-length", !args.record_lengths.is_empty()),
                 ("--sample-interval", !args.sample_intervals.is_empty()),
+                ("--noise-level", !args.noise_levels.is_empty()),
                 ("--method", !args.methods.is_empty()),
                 ("--set", !args.set.is_empty()),
                 ("--reference", args.reference.is_some()),
@@ -330,7 +339,7 @@ fn study_of(args: &Args) -> anyhow::Result<Option<Study>> {
             if !given.is_empty() {
                 anyhow::bail!(
                     "{}: {} describe a study made with --scenario; a study file has its own keys \
-                     (seeds, seed, record_lengths, sample_intervals, methods, set, reference): edit the file, \
+                     (seeds, seed, record_lengths, sample_intervals, noise_levels, methods, set, reference): edit the file, \
                      or run fpkbench study --scenario SCENARIO with the flags",
                     file.display(),
                     given.join(", ")

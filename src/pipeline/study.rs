@@ -1,6 +1,6 @@
-//! Studies: one scenario over a grid of record lengths × sample intervals × seeds, every
-//! method on the same samples of each item, one row of results per item and method
-//! (docs/studies.md). Items are independent and their seeds derive from the study's seed
+//! Studies: one scenario over a grid of record lengths × sample intervals × sensor noise
+//! levels × seeds, every method on the same samples of each item, one row of results per
+//! item and method (docs/studies.md). Items are independent and their seeds derive from the study's seed
 //! and the item alone, so any split into shards gives the same rows; each item's rows are
 //! written atomically into its own file, so a re-run skips what is done and `merge` can
 //! gather the files of any set of shards.
@@ -34,6 +34,12 @@ pub struct StudyFile {
     /// Sample intervals (s); default the scenario's.
     #[serde(default)]
     pub sample_intervals: Vec<f64>,
+    /// Sensor noise levels: the noise's std as a fraction of each channel's std, added to
+    /// every displacement and velocity the log holds (`[measurement]` with relative noise,
+    /// docs/measurement.md); every level of an item has the same motion, so the levels
+    /// compare on the same samples. Default: the scenario's own measurement.
+    #[serde(default)]
+    pub noise_levels: Vec<f64>,
     /// Methods run on every item's samples; default the scenario's.
     #[serde(default)]
     pub methods: Vec<Method>,
@@ -73,6 +79,9 @@ pub struct Item {
     pub index: usize,
     pub record_length: f64,
     pub sample_interval: f64,
+    /// The sensor noise level of a study over noise levels (`noise_levels`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_noise: Option<f64>,
     pub seed_index: usize,
     pub seed: u64,
 }
@@ -80,7 +89,41 @@ pub struct Item {
 impl Item {
     /// The item's file name: its configuration, never its shard.
     pub fn key(&self) -> String {
-        format!("T{}-h{}-s{}", self.record_length, self.sample_interval, self.seed_index)
+        let noise = self.sensor_noise.map_or(String::new(), |n| format!("-n{n}"));
+        format!(
+            "T{}-h{}{noise}-s{}",
+            self.record_length, self.sample_interval, self.seed_index
+        )
+    }
+
+    /// Its configuration: record length, sample interval and sensor noise level.
+    pub fn configuration(&self) -> Configuration {
+        Configuration {
+            record_length: self.record_length,
+            sample_interval: self.sample_interval,
+            sensor_noise: self.sensor_noise,
+        }
+    }
+}
+
+/// What a study varies besides the seed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Configuration {
+    pub record_length: f64,
+    pub sample_interval: f64,
+    /// The sensor noise's std as a fraction of each channel's std (a study over noise levels).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor_noise: Option<f64>,
+}
+
+impl Configuration {
+    /// The order of a study's tables: by record length, interval, then noise level.
+    pub fn cmp(&self, other: &Configuration) -> std::cmp::Ordering {
+        let noise = |c: &Configuration| c.sensor_noise.unwrap_or(-1.0);
+        self.record_length
+            .total_cmp(&other.record_length)
+            .then(self.sample_interval.total_cmp(&other.sample_interval))
+            .then(noise(self).total_cmp(&noise(other)))
     }
 }
 
@@ -174,6 +217,15 @@ impl Study {
                 return Err(fail(format!("`{key}`: {x} is not a positive number of seconds")));
             }
         }
+        if let Some(x) = file
+            .noise_levels
+            .iter()
+            .find(|x| !(x.is_finite() && (0.0..=10.0).contains(*x)))
+        {
+            return Err(fail(format!(
+                "`noise_levels`: {x} is not a noise level in 0..=10 (the noise's std over the channel's: 0.1 = 10 %)"
+            )));
+        }
         let scenario_path = base.join(&file.scenario);
         let scenario = Scenario::from_file_with(&scenario_path, &file.set)?;
         let methods = if file.methods.is_empty() {
@@ -219,19 +271,28 @@ impl Study {
         } else {
             self.file.sample_intervals.clone()
         };
+        let levels: Vec<Option<f64>> = if self.file.noise_levels.is_empty() {
+            vec![None]
+        } else {
+            self.file.noise_levels.iter().copied().map(Some).collect()
+        };
         let mut out = Vec::new();
         for &t in &lengths {
             for &h in &intervals {
-                for s in 0..self.file.seeds {
-                    // 63 bits: a scenario's seed is a TOML integer.
-                    let seed = mix(mix(mix(self.file.seed ^ t.to_bits()) ^ h.to_bits()) ^ s as u64) >> 1;
-                    out.push(Item {
-                        index: out.len(),
-                        record_length: t,
-                        sample_interval: h,
-                        seed_index: s,
-                        seed,
-                    });
+                for &sensor_noise in &levels {
+                    for s in 0..self.file.seeds {
+                        // 63 bits: a scenario's seed is a TOML integer. Not of the noise
+                        // level: every level measures the same motion.
+                        let seed = mix(mix(mix(self.file.seed ^ t.to_bits()) ^ h.to_bits()) ^ s as u64) >> 1;
+                        out.push(Item {
+                            index: out.len(),
+                            record_length: t,
+                            sample_interval: h,
+                            sensor_noise,
+                            seed_index: s,
+                            seed,
+                        });
+                    }
                 }
             }
         }
@@ -243,15 +304,19 @@ impl Study {
         // Applied as overrides: the same checks as the file's (the interval a whole number of
         // steps, …), and the log records them.
         let name = &self.scenario.name;
-        let text = crate::scenario::overrides::apply(
-            name,
-            &self.scenario.source,
-            &[
-                format!("simulation.record_length={}", item.record_length),
-                format!("simulation.sample_interval={}", item.sample_interval),
-                format!("simulation.seed={}", item.seed),
-            ],
-        )?;
+        let mut sets = vec![
+            format!("simulation.record_length={}", item.record_length),
+            format!("simulation.sample_interval={}", item.sample_interval),
+            format!("simulation.seed={}", item.seed),
+        ];
+        if let Some(level) = item.sensor_noise {
+            sets.extend([
+                "measurement.noise=\"relative\"".to_string(),
+                format!("measurement.displacement={level:?}"),
+                format!("measurement.velocity={level:?}"),
+            ]);
+        }
+        let text = crate::scenario::overrides::apply(name, &self.scenario.source, &sets)?;
         let s = Scenario::parse(&text, &format!("{name} (item {})", item.key()), name)?;
         Ok(match self.file.disturbance_level {
             Some(level) => s.with_disturbance_level(level),
@@ -580,6 +645,7 @@ mod tests {
                 index,
                 record_length: 10.0,
                 sample_interval: 0.1,
+                sensor_noise: None,
                 seed_index: index,
                 seed: index as u64,
             },

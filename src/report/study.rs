@@ -1,12 +1,13 @@
 //! A study's summary: `summary.json`, `summary.md`, `study.html` and `study.svg` (worst
-//! error against record length with a `1/√T` guide, against the sample interval, and the
-//! coverage of the 95 % intervals, and the share of items each method refused; for a study
+//! error against record length with a `1/√T` guide, against the sample interval, against
+//! the sensor noise level, and the coverage of the 95 % intervals, and the share of items
+//! each method refused; for a study
 //! of one configuration, every seed's worst error, the coverage and the refusals per
 //! method; PNG and PDF beside it).
 
 use super::figure::{color, log_range, Axis, Color, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
 use super::plot::write_figure;
-use crate::pipeline::study::{Paired, Row, Summary};
+use crate::pipeline::study::{Configuration, Paired, Row, Summary};
 use std::path::{Path, PathBuf};
 
 fn pct(x: f64) -> String {
@@ -48,6 +49,29 @@ fn error_bar(p: &mut Panel, x: f64, [lo, hi]: [f64; 2], half: f64, col: Color) {
 /// Tables longer than this are folded on the page (`<details>`), closed until opened.
 const FOLD_ROWS: usize = 30;
 
+/// The configuration's cells of a table row, the sensor noise level's only in a study over
+/// noise levels (`noisy`).
+fn configuration_cells(c: &Configuration, noisy: bool) -> String {
+    let noise = match (noisy, c.sensor_noise) {
+        (true, Some(n)) => format!(" {} % |", 100.0 * n),
+        (true, None) => " – |".into(),
+        (false, _) => String::new(),
+    };
+    format!("| {} | {} |{noise}", c.record_length, c.sample_interval)
+}
+
+/// The configuration's header cells and their alignment row.
+fn configuration_header(noisy: bool) -> (&'static str, &'static str) {
+    if noisy {
+        (
+            "| record length (s) | interval (s) | sensor noise (of std) |",
+            "|---:|---:|---:|",
+        )
+    } else {
+        ("| record length (s) | interval (s) |", "|---:|---:|")
+    }
+}
+
 /// The summary as a markdown page (with the paired differences from a reference method,
 /// if the study names one).
 pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Paired]) -> String {
@@ -69,13 +93,16 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
           unknowns, or too few samples: no estimates), not applicable (the method does not apply to this \
           problem) or failed (the item could not be run). The error statistics are over the estimated \
           items; the refusal rate is refused / (estimated + refused).\n\n";
-    s += "| record length (s) | interval (s) | method | estimated | refused | refusal rate | n/a | failed | median | q1 | q3 | max | mean | sd | coverage | s per item |\n\
-          |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    let noisy = summary.iter().any(|x| x.configuration.sensor_noise.is_some());
+    let (head, align) = configuration_header(noisy);
+    s += &format!(
+        "{head} method | estimated | refused | refusal rate | n/a | failed | median | q1 | q3 | max | mean | sd | coverage | s per item |\n\
+         {align}---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+    );
     for x in summary {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
-            x.record_length,
-            x.sample_interval,
+            "{} {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
+            configuration_cells(&x.configuration, noisy),
             x.method,
             x.items,
             x.refused,
@@ -98,15 +125,16 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
     if rows > FOLD_ROWS {
         s += &format!("<!-- fold: per parameter: bias, spread and coverage ({rows} rows) -->\n");
     }
-    s += "| record length (s) | interval (s) | method | parameter | bias | spread | coverage of 95 % intervals | std. error / spread | efficiency |\n\
-          |---:|---:|---|---|---:|---:|---:|---:|---:|\n";
+    s += &format!(
+        "{head} method | parameter | bias | spread | coverage of 95 % intervals | std. error / spread | efficiency |\n\
+         {align}---|---|---:|---:|---:|---:|---:|\n"
+    );
     let ratio = |r: Option<f64>| r.map_or("–".to_string(), |r| format!("{r:.2}"));
     for x in summary {
         for p in &x.parameters {
             s += &format!(
-                "| {} | {} | {} | {} | {:+.2} % | {:.2} % | {} | {} | {} |\n",
-                x.record_length,
-                x.sample_interval,
+                "{} {} | {} | {:+.2} % | {:.2} % | {} | {} | {} |\n",
+                configuration_cells(&x.configuration, noisy),
                 x.method,
                 p.name,
                 100.0 * p.bias,
@@ -124,35 +152,43 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
         s += &format!(
             "\n## Paired differences from `{}`\n\nOn the same samples: `(θ̂ − θ̂_{0}) / sd`, with `sd` the seed \
              standard deviation of `{0}`'s estimate; mean, standard deviation and largest magnitude over the \
-             items.\n\n| record length (s) | interval (s) | method | parameter | sd of {0} | mean | sd | max abs |\n\
-             |---:|---:|---|---|---:|---:|---:|---:|\n",
+             items.\n\n{head} method | parameter | sd of {0} | mean | sd | max abs |\n\
+             {align}---|---|---:|---:|---:|---:|\n",
             first.reference
         );
         for p in paired {
             s += &format!(
-                "| {} | {} | {} | {} | {:.5} | {:+.2} | {:.2} | {:.2} |\n",
-                p.record_length, p.sample_interval, p.method, p.parameter, p.reference_sd, p.mean, p.sd, p.max_abs
+                "{} {} | {} | {:.5} | {:+.2} | {:.2} | {:.2} |\n",
+                configuration_cells(&p.configuration, noisy),
+                p.method,
+                p.parameter,
+                p.reference_sd,
+                p.mean,
+                p.sd,
+                p.max_abs
             );
         }
     }
     s
 }
 
-/// `study.svg` (with PNG and PDF): median worst error (quartiles as bars) against record
-/// length per method and interval, with a `1/√T` guide; against the sample interval at the
-/// longest record; and the coverage of the 95 % intervals against the first varied axis.
-/// A study of one configuration (one record length, one interval) has no axis to vary:
-/// its figure is [`plot_methods`]'.
+/// `study.svg` (with PNG and PDF): median worst error (quartiles as bars) against each
+/// varied axis — record length per method and interval with a `1/√T` guide, the sample
+/// interval at the longest record, the sensor noise level — and the coverage of the 95 %
+/// intervals and the refused items against the first. A study of one configuration has no
+/// axis to vary: its figure is [`plot_methods`]'.
 pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Result<Vec<PathBuf>> {
-    let configurations = summary
-        .iter()
-        .map(|x| (x.record_length.to_bits(), x.sample_interval.to_bits()))
-        .collect::<std::collections::BTreeSet<_>>();
+    let mut configurations: Vec<Configuration> = Vec::new();
+    for x in summary {
+        if !configurations.contains(&x.configuration) {
+            configurations.push(x.configuration);
+        }
+    }
     if configurations.len() == 1 {
         return plot_methods(summary, rows, path);
     }
     let st = StudyLines::new(summary);
-    let mut panels: Vec<Panel> = st.axes.iter().map(|&by_length| error_panel(&st, by_length)).collect();
+    let mut panels: Vec<Panel> = st.axes.iter().map(|&axis| error_panel(&st, axis)).collect();
     if st.ok.iter().any(|x| x.coverage.is_some()) {
         panels.push(coverage_panel(&st));
     }
@@ -164,19 +200,33 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
     write_figure(path, &fig)
 }
 
+/// An axis a study varies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Varied {
+    RecordLength,
+    SampleInterval,
+    SensorNoise,
+}
+
 /// What the panels of [`plot_study`] share: the methods in order, the configurations with
-/// a positive median worst error, the record lengths and intervals they span, the error
-/// axis's range and the axes the study varies (record length, sample interval, or both).
+/// a positive median worst error, the record lengths, intervals and noise levels they span,
+/// the error axis's range and the axes the study varies.
 struct StudyLines<'a> {
     methods: Vec<&'a str>,
     ok: Vec<&'a Summary>,
     lengths: Vec<f64>,
     intervals: Vec<f64>,
+    /// The noise levels (`-1` for a configuration without one).
+    noises: Vec<f64>,
     ylo: f64,
     yhi: f64,
-    /// One entry per panel of errors: `true` against record length, `false` against the
-    /// sample interval (the interval's when it varies neither).
-    axes: Vec<bool>,
+    /// One entry per panel of errors.
+    axes: Vec<Varied>,
+}
+
+/// The sensor noise level of a configuration, `-1` without one.
+fn noise_of(x: &Summary) -> f64 {
+    x.configuration.sensor_noise.unwrap_or(-1.0)
 }
 
 impl<'a> StudyLines<'a> {
@@ -197,13 +247,21 @@ impl<'a> StudyLines<'a> {
             v.dedup();
             v
         };
-        let lengths = sorted(|x| x.record_length);
-        let intervals = sorted(|x| x.sample_interval);
-        let axes = match (lengths.len() > 1, intervals.len() > 1) {
-            (true, true) => vec![true, false],
-            (true, false) => vec![true],
-            _ => vec![false],
-        };
+        let lengths = sorted(|x| x.configuration.record_length);
+        let intervals = sorted(|x| x.configuration.sample_interval);
+        let noises = sorted(noise_of);
+        let mut axes: Vec<Varied> = [
+            (lengths.len(), Varied::RecordLength),
+            (intervals.len(), Varied::SampleInterval),
+            (noises.len(), Varied::SensorNoise),
+        ]
+        .into_iter()
+        .filter(|(n, _)| *n > 1)
+        .map(|(_, a)| a)
+        .collect();
+        if axes.is_empty() {
+            axes.push(Varied::SampleInterval);
+        }
         let (ylo, yhi) = log_range(
             ok.iter()
                 .flat_map(|x| [x.worst_q1.max(x.worst_median * 0.1), x.worst_q3, x.worst_max]),
@@ -214,79 +272,91 @@ impl<'a> StudyLines<'a> {
             ok,
             lengths,
             intervals,
+            noises,
             ylo,
             yhi,
             axes,
         }
     }
 
-    /// The values of the axis not plotted that make one line each: every interval against
-    /// record length; the longest record against the interval.
-    fn groups(&self, by_length: bool) -> Vec<f64> {
-        if by_length {
-            self.intervals.clone()
-        } else {
-            self.lengths.last().copied().into_iter().collect()
+    /// The values that make one line each: every interval against record length and
+    /// against the noise level; one line (the longest record) against the interval.
+    fn groups(&self, axis: Varied) -> Vec<f64> {
+        match axis {
+            Varied::RecordLength | Varied::SensorNoise => self.intervals.clone(),
+            Varied::SampleInterval => self.lengths.last().copied().into_iter().collect(),
         }
+    }
+
+    /// Whether `x` is on the line of method `m` at `other` (the group's value) against
+    /// `axis`: the axes neither plotted nor grouped at their reference, the longest record
+    /// and the lowest noise level.
+    fn on_line(&self, x: &Summary, m: &str, axis: Varied, other: f64) -> bool {
+        let c = &x.configuration;
+        let longest = self.lengths.last().copied();
+        let lowest = self.noises.first().copied();
+        x.method == m
+            && match axis {
+                Varied::RecordLength => c.sample_interval == other && Some(noise_of(x)) == lowest,
+                Varied::SampleInterval => c.record_length == other && Some(noise_of(x)) == lowest,
+                Varied::SensorNoise => c.sample_interval == other && Some(c.record_length) == longest,
+            }
     }
 
     /// The configurations on the line of method `m` at `other`.
-    fn line_of(&self, m: &str, by_length: bool, other: f64) -> Vec<&'a Summary> {
+    fn line_of(&self, m: &str, axis: Varied, other: f64) -> Vec<&'a Summary> {
         self.ok
             .iter()
             .copied()
-            .filter(|x| on_line(x, m, by_length, other))
+            .filter(|x| self.on_line(x, m, axis, other))
             .collect()
     }
 
-    /// The logarithmic x axis over the record lengths or the intervals.
-    fn x_axis(&self, by_length: bool) -> Axis {
-        let values = if by_length { &self.lengths } else { &self.intervals };
-        let (lo, hi) = (
-            values.first().copied().unwrap_or(1.0),
-            values.last().copied().unwrap_or(1.0),
-        );
-        Axis::log(
-            lo / 1.5,
-            hi * 1.5,
-            if by_length {
-                "record length per trajectory T (s)"
-            } else {
-                "sample interval h (s)"
-            },
-        )
-    }
-}
-
-/// Whether `x` is on the line of method `m` at `other` on the axis not plotted.
-fn on_line(x: &Summary, m: &str, by_length: bool, other: f64) -> bool {
-    x.method == m
-        && if by_length {
-            x.sample_interval == other
-        } else {
-            x.record_length == other
+    /// The x axis: logarithmic over the record lengths or the intervals, linear over the
+    /// noise levels in percent.
+    fn x_axis(&self, axis: Varied) -> Axis {
+        let span = |values: &[f64]| {
+            (
+                values.first().copied().unwrap_or(1.0),
+                values.last().copied().unwrap_or(1.0),
+            )
+        };
+        match axis {
+            Varied::RecordLength => {
+                let (lo, hi) = span(&self.lengths);
+                Axis::log(lo / 1.5, hi * 1.5, "record length per trajectory T (s)")
+            }
+            Varied::SampleInterval => {
+                let (lo, hi) = span(&self.intervals);
+                Axis::log(lo / 1.5, hi * 1.5, "sample interval h (s)")
+            }
+            Varied::SensorNoise => {
+                let (_, hi) = span(&self.noises);
+                Axis::linear(0.0, 100.0 * hi.max(0.01) * 1.08, "sensor noise std / response std (%)")
+            }
         }
-}
-
-/// Where `x` sits on the plotted axis.
-fn at(x: &Summary, by_length: bool) -> f64 {
-    if by_length {
-        x.record_length
-    } else {
-        x.sample_interval
     }
 }
 
-/// Median worst error (quartiles as bars) per method against record length or interval,
-/// with the `1/√T` guide against record length.
-fn error_panel(st: &StudyLines, by_length: bool) -> Panel {
+/// Where `x` sits on the plotted axis (a noise level in percent).
+fn at(x: &Summary, axis: Varied) -> f64 {
+    match axis {
+        Varied::RecordLength => x.configuration.record_length,
+        Varied::SampleInterval => x.configuration.sample_interval,
+        Varied::SensorNoise => 100.0 * noise_of(x).max(0.0),
+    }
+}
+
+/// Median worst error (quartiles as bars) per method against the varied axis, with the
+/// `1/√T` guide against record length.
+fn error_panel(st: &StudyLines, axis: Varied) -> Panel {
     let mut p = Panel::new(
-        if by_length {
-            "worst error against record length"
-        } else {
-            "worst error against sample interval"
+        match axis {
+            Varied::RecordLength => "worst error against record length",
+            Varied::SampleInterval => "worst error against sample interval",
+            Varied::SensorNoise => "worst error against sensor noise (the same motion at every level)",
         },
-        st.x_axis(by_length),
+        st.x_axis(axis),
         Axis::log(
             100.0 * st.ylo,
             100.0 * st.yhi * 2.5,
@@ -294,18 +364,18 @@ fn error_panel(st: &StudyLines, by_length: bool) -> Panel {
         ),
     );
     for (k, m) in st.methods.iter().enumerate() {
-        for (g, &other) in st.groups(by_length).iter().enumerate() {
-            let pts = st.line_of(m, by_length, other);
+        for (g, &other) in st.groups(axis).iter().enumerate() {
+            let pts = st.line_of(m, axis, other);
             if pts.is_empty() {
                 continue;
             }
             let col = color(k + g * st.methods.len());
             let stroke = Stroke::solid(col, 2.0);
-            let line: Vec<(f64, f64)> = pts.iter().map(|x| (at(x, by_length), 100.0 * x.worst_median)).collect();
+            let line: Vec<(f64, f64)> = pts.iter().map(|x| (at(x, axis), 100.0 * x.worst_median)).collect();
             p.mark(Mark::Bars {
                 bars: pts
                     .iter()
-                    .map(|x| (at(x, by_length), 100.0 * x.worst_q1, 100.0 * x.worst_q3))
+                    .map(|x| (at(x, axis), 100.0 * x.worst_q1, 100.0 * x.worst_q3))
                     .collect(),
                 stroke: Stroke::solid(col, 1.5),
             });
@@ -318,7 +388,7 @@ fn error_panel(st: &StudyLines, by_length: bool) -> Panel {
                 color: col,
                 radius: 3.0,
             });
-            let label = if by_length && st.intervals.len() > 1 {
+            let label = if axis != Varied::SampleInterval && st.intervals.len() > 1 {
                 format!("{m}, h = {other} s")
             } else {
                 m.to_string()
@@ -326,13 +396,13 @@ fn error_panel(st: &StudyLines, by_length: bool) -> Panel {
             p.entry(Swatch::LinePoint(stroke, 3.0), label);
         }
     }
-    if by_length && st.lengths.len() > 1 {
+    if axis == Varied::RecordLength && st.lengths.len() > 1 {
         // The 1/√T guide through the first method's first point.
-        if let Some(first) = st
-            .ok
-            .iter()
-            .find(|x| x.method == st.methods[0] && x.record_length == st.lengths[0])
-        {
+        if let Some(first) = st.ok.iter().find(|x| {
+            x.method == st.methods[0]
+                && x.configuration.record_length == st.lengths[0]
+                && Some(noise_of(x)) == st.noises.first().copied()
+        }) {
             let guide = st
                 .lengths
                 .iter()
@@ -347,12 +417,12 @@ fn error_panel(st: &StudyLines, by_length: bool) -> Panel {
 
 /// The coverage of the 95 % intervals against the first varied axis.
 fn coverage_panel(st: &StudyLines) -> Panel {
-    let by_length = st.axes[0];
+    let axis = st.axes[0];
     let lowest = st.ok.iter().filter_map(|x| x.coverage).fold(1.0f64, f64::min);
     let y0 = if lowest > 0.8 { 75.0 } else { 0.0 };
     let mut p = Panel::new(
         "coverage of the 95 % intervals (bars: its 95 % interval over the items)",
-        st.x_axis(by_length),
+        st.x_axis(axis),
         Axis::linear(y0, 102.0, "intervals holding the truth (%)"),
     );
     let nominal = Stroke::dashed(GREY, 1.2, 6.0, 4.0);
@@ -361,23 +431,29 @@ fn coverage_panel(st: &StudyLines) -> Panel {
         stroke: nominal,
     });
     p.entry(Swatch::Line(nominal), "nominal 95 %");
+    // Each method's bars a little to the side, so that equal intervals stay visible: by a
+    // factor on a log axis, by a share of the span on the linear one.
+    let span = st.noises.last().copied().unwrap_or(0.0).max(0.01) * 100.0;
     for (k, m) in st.methods.iter().enumerate() {
-        for (g, &other) in st.groups(by_length).iter().enumerate() {
+        for (g, &other) in st.groups(axis).iter().enumerate() {
             let pts: Vec<(f64, f64)> = st
-                .line_of(m, by_length, other)
+                .line_of(m, axis, other)
                 .iter()
-                .filter_map(|x| x.coverage.map(|c| (at(x, by_length), (100.0 * c).max(y0))))
+                .filter_map(|x| x.coverage.map(|c| (at(x, axis), (100.0 * c).max(y0))))
                 .collect();
             if pts.is_empty() {
                 continue;
             }
             let col = color(k + g * st.methods.len());
-            // Each method's bars a little to the side, so that equal intervals stay visible.
-            let aside = 1.0 + 0.012 * (k as f64 - (st.methods.len() - 1) as f64 / 2.0);
-            for x in st.line_of(m, by_length, other) {
+            let offset = 0.012 * (k as f64 - (st.methods.len() - 1) as f64 / 2.0);
+            for x in st.line_of(m, axis, other) {
                 if let Some([lo, hi]) = x.coverage_ci {
                     let bar = [(100.0 * lo).max(y0), (100.0 * hi).max(y0)];
-                    error_bar(&mut p, at(x, by_length) * aside, bar, 0.0, col);
+                    let place = match axis {
+                        Varied::SensorNoise => at(x, axis) + offset * span,
+                        _ => at(x, axis) * (1.0 + offset),
+                    };
+                    error_bar(&mut p, place, bar, 0.0, col);
                 }
             }
             connected(&mut p, pts, col);
@@ -390,20 +466,20 @@ fn coverage_panel(st: &StudyLines) -> Panel {
 /// How often each method could not decide (or the item could not be run), against the
 /// first varied axis: a refusal is a result of the study.
 fn refusal_panel(st: &StudyLines, summary: &[Summary]) -> Panel {
-    let by_length = st.axes[0];
+    let axis = st.axes[0];
     let mut p = Panel::new(
         "refused or failed items",
-        st.x_axis(by_length),
+        st.x_axis(axis),
         Axis::linear(0.0, 102.0, "items refused or failed (%)"),
     );
     for (k, m) in st.methods.iter().enumerate() {
-        for (g, &other) in st.groups(by_length).iter().enumerate() {
+        for (g, &other) in st.groups(axis).iter().enumerate() {
             let pts: Vec<(f64, f64)> = summary
                 .iter()
-                .filter(|x| on_line(x, m, by_length, other))
+                .filter(|x| st.on_line(x, m, axis, other))
                 .filter_map(|x| {
                     let n = x.items + x.refused + x.failed;
-                    (n > 0).then(|| (at(x, by_length), 100.0 * (x.refused + x.failed) as f64 / n as f64))
+                    (n > 0).then(|| (at(x, axis), 100.0 * (x.refused + x.failed) as f64 / n as f64))
                 })
                 .collect();
             if pts.is_empty() {
@@ -450,7 +526,11 @@ pub fn plot_methods(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::
         (1e-3, 1.0)
     };
     let config = methods.first().map_or(String::new(), |x| {
-        format!(", T = {} s, h = {} s", x.record_length, x.sample_interval)
+        let c = &x.configuration;
+        let noise = c
+            .sensor_noise
+            .map_or(String::new(), |n| format!(", sensor noise {} %", 100.0 * n));
+        format!(", T = {} s, h = {} s{noise}", c.record_length, c.sample_interval)
     });
     let mut p = Panel::new(
         format!("worst error over the seeds{config}"),

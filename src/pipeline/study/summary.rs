@@ -3,15 +3,15 @@
 //! coverage and how the standard errors and the Cramér–Rao bound compare with the spread
 //! over the seeds; the paired differences from a reference method on the same samples.
 
-use super::{Row, RowParameter};
+use super::{Configuration, Row, RowParameter};
 use crate::report::Outcome;
 use serde::Serialize;
 
 /// Summary of one configuration and method over its seeds.
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
-    pub record_length: f64,
-    pub sample_interval: f64,
+    #[serde(flatten)]
+    pub configuration: Configuration,
     pub method: String,
     /// Items with an estimate.
     pub items: usize,
@@ -80,19 +80,19 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
 
 /// Per configuration and method, in the rows' order of first appearance.
 pub fn summarize(rows: &[Row]) -> Vec<Summary> {
-    let mut keys: Vec<(f64, f64, String)> = Vec::new();
+    let mut keys: Vec<(Configuration, String)> = Vec::new();
     for r in rows {
-        let k = (r.item.record_length, r.item.sample_interval, r.method.clone());
+        let k = (r.item.configuration(), r.method.clone());
         if !keys.contains(&k) {
             keys.push(k);
         }
     }
-    keys.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    keys.sort_by(|a, b| a.0.cmp(&b.0));
     keys.into_iter()
-        .map(|(t, h, method)| {
+        .map(|(configuration, method)| {
             let group: Vec<&Row> = rows
                 .iter()
-                .filter(|r| r.item.record_length == t && r.item.sample_interval == h && r.method == method)
+                .filter(|r| r.item.configuration() == configuration && r.method == method)
                 .collect();
             let ok: Vec<&Row> = group
                 .iter()
@@ -169,8 +169,7 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 .collect();
             Summary {
                 coverage_ci: crate::stats::clustered_95(&per_item),
-                record_length: t,
-                sample_interval: h,
+                configuration,
                 method,
                 items: ok.len(),
                 refused: count(Outcome::Refused),
@@ -194,8 +193,8 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
 /// How far a method's estimates sit from the reference method's on the same samples.
 #[derive(Debug, Clone, Serialize)]
 pub struct Paired {
-    pub record_length: f64,
-    pub sample_interval: f64,
+    #[serde(flatten)]
+    pub configuration: Configuration,
     pub method: String,
     pub reference: String,
     pub parameter: String,
@@ -212,11 +211,7 @@ pub struct Paired {
 pub fn paired(rows: &[Row], reference: &str) -> Vec<Paired> {
     let mut out = Vec::new();
     for x in summarize(rows).iter().filter(|x| x.method != reference) {
-        let same = |r: &&Row| {
-            r.item.record_length == x.record_length
-                && r.item.sample_interval == x.sample_interval
-                && r.outcome == Outcome::Estimated
-        };
+        let same = |r: &&Row| r.item.configuration() == x.configuration && r.outcome == Outcome::Estimated;
         let refs: Vec<&Row> = rows.iter().filter(same).filter(|r| r.method == reference).collect();
         let mine: Vec<&Row> = rows.iter().filter(same).filter(|r| r.method == x.method).collect();
         for p in &x.parameters {
@@ -235,8 +230,7 @@ pub fn paired(rows: &[Row], reference: &str) -> Vec<Paired> {
             }
             let (mean, sd) = mean_sd(&d);
             out.push(Paired {
-                record_length: x.record_length,
-                sample_interval: x.sample_interval,
+                configuration: x.configuration,
                 method: x.method.clone(),
                 reference: reference.to_string(),
                 parameter: p.name.clone(),
