@@ -118,7 +118,7 @@ pub struct Configuration {
 
 impl Configuration {
     /// The order of a study's tables: by record length, interval, then noise level.
-    pub fn cmp(&self, other: &Configuration) -> std::cmp::Ordering {
+    pub fn order(&self, other: &Configuration) -> std::cmp::Ordering {
         let noise = |c: &Configuration| c.sensor_noise.unwrap_or(-1.0);
         self.record_length
             .total_cmp(&other.record_length)

@@ -87,7 +87,7 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
             keys.push(k);
         }
     }
-    keys.sort_by(|a, b| a.0.cmp(&b.0));
+    keys.sort_by(|a, b| a.0.order(&b.0));
     keys.into_iter()
         .map(|(configuration, method)| {
             let group: Vec<&Row> = rows
