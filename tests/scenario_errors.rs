@@ -491,6 +491,13 @@ fn sensor_noise_level_out_of_range() {
         "0..=10 (0.1 = 10 %)",
     );
     run_bad(
+        "accelerometer_noise",
+        &format!("{GOOD}[measurement]\nacceleration = 12.0\n"),
+        30,
+        "measurement.acceleration",
+        "0..=10 (0.1 = 10 %)",
+    );
+    run_bad(
         "noise_scale",
         &format!("{GOOD}[measurement]\nnoise = \"percent\"\nvelocity = 0.1\n"),
         30,

@@ -327,6 +327,30 @@ fn sensor_noise_is_reproducible_and_leaves_the_motion_untouched() {
             );
         }
     }
+    // Accelerometers and force cells: their channels get their own noise, the others
+    // keep theirs bit for bit (each value's noise is keyed by its column).
+    s.simulation.sensors.acceleration = Some(0.05);
+    s.simulation.sensors.force = Some(0.02);
+    let rig = samples_with_threads(&s, 2);
+    for (col, level) in [(c.a(0), 0.05), (c.a(1), 0.05), (c.force(0), 0.02), (c.force(1), 0.02)] {
+        let (mut d2, mut s2) = (0.0, 0.0);
+        for (a, b) in clean.iter().zip(&rig) {
+            let d = b.2[col] - a.2[col];
+            d2 += d * d;
+            s2 += a.2[col] * a.2[col];
+        }
+        let ratio = (d2 / s2).sqrt();
+        assert!(
+            (ratio / level - 1.0).abs() < 0.05,
+            "column {col}: noise {ratio} of the std, not {level}"
+        );
+    }
+    for col in [c.x(0), c.v(0), c.x(1), c.v(1)] {
+        assert!(one
+            .iter()
+            .zip(&rig)
+            .all(|(a, b)| a.2[col].to_bits() == b.2[col].to_bits()));
+    }
 }
 
 /// Keeps a copy of every batch, then hands it back for refilling poisoned with NaN, so a

@@ -151,7 +151,8 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     // Sensor noise: estimated, and taken out of the weak form's moments.
     let (sensor_noise, taken_out) = match floor.as_ref() {
         Some(f) => {
-            let (report, taken_out) = super::sensors::correct(f, s, &structure, &mut data, naive_data.as_mut());
+            let (report, taken_out) =
+                super::sensors::correct(f, s, input.measured(), &structure, &mut data, naive_data.as_mut());
             (Some(report), taken_out)
         }
         None => (None, Vec::new()),

@@ -7,6 +7,7 @@ use crate::estimators::Method;
 use crate::ident::data::StationaryData;
 use crate::ident::noise::{ChannelNoise, NoiseFloor, Pair};
 use crate::ident::Problem;
+use crate::io::table::Measured;
 use crate::report::{ChannelNoiseReport, MethodReport, SensorNoiseReport};
 use crate::scenario::ReportMethod;
 use crate::scenario::{NoiseHandling, NoiseScale, Scenario};
@@ -53,6 +54,7 @@ fn column_of(floor: &NoiseFloor, ch: &ChannelNoise) -> usize {
 pub(crate) fn correct(
     floor: &NoiseFloor,
     s: &Scenario,
+    measured: Option<&Measured>,
     structure: &Problem,
     data: &mut StationaryData,
     also: Option<&mut StationaryData>,
@@ -111,6 +113,41 @@ pub(crate) fn correct(
             at_limits: ch.at_limits,
         });
     }
+    let mut notes = Vec::new();
+    let integrated = measured.map_or(&[][..], |m| &m.integrated_noise[..]);
+    let names = structure.model.column_names();
+    match (handling, sensors.acceleration) {
+        _ if integrated.is_empty() => {}
+        (NoiseHandling::Given, Some(level)) => {
+            // The stated accelerometer noise (and ADC rounding) through the integration.
+            let mut parts = Vec::new();
+            for n in integrated {
+                let unit = match sensors.scale {
+                    NoiseScale::Absolute => 1.0,
+                    NoiseScale::Relative => n.acceleration_std,
+                };
+                let rounding = sensors.adc.map_or(0.0, |a| {
+                    let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
+                    q * q / 12.0
+                });
+                by_column[n.column] = n.gain * ((level * unit).powi(2) + rounding);
+                parts.push(format!("{} {:.4}", names[n.column], by_column[n.column].sqrt()));
+            }
+            notes.push(format!(
+                "noise of the columns integrated from accelerations, from the stated accelerometer noise through the \
+                 integration: std {} (docs/measurement.md)",
+                parts.join(", ")
+            ));
+        }
+        (NoiseHandling::Ignore, _) => {}
+        _ => notes.push(
+            "WARNING: the accelerometers' noise is not estimated, and the integration turns it into slow noise on \
+             the velocities and displacements that biases the estimates (1 % of the acceleration's std: k3 by \
+             −31 % on duffing2dof): state it in [measurement] acceleration with [identify] sensor_noise = \
+             \"given\" (docs/measurement.md)"
+                .to_string(),
+        ),
+    }
     let corrected = by_column.iter().any(|&v| v > 0.0) && structure.atoms.is_empty();
     // Estimated noise: each jackknife replicate is corrected with its own estimate.
     let replicates: Vec<Option<Vec<f64>>> = if handling == NoiseHandling::Estimate {
@@ -132,7 +169,6 @@ pub(crate) fn correct(
     } else {
         Vec::new()
     };
-    let mut notes = Vec::new();
     if corrected {
         data.deconvolve(&by_column, &replicates);
         // The naive row's problem batches its samples its own way: its replicates keep
@@ -154,11 +190,12 @@ pub(crate) fn correct(
         );
     }
     let masses = structure.model.masses();
-    if floor.pairs().len() < masses {
+    let accelerometers = integrated.len() / 2;
+    if floor.pairs().len() + accelerometers < masses {
         notes.push(format!(
             "{} of {masses} masses have no measured displacement–velocity pair: their sensors' noise is neither \
              estimated nor corrected",
-            masses - floor.pairs().len(),
+            masses - floor.pairs().len() - accelerometers,
         ));
     }
     let report = SensorNoiseReport {
@@ -180,10 +217,13 @@ pub(crate) fn correct(
 /// statistics compare like with like — a simulation's own sensors, or for measured data
 /// the noise taken out of each column.
 pub(crate) fn for_validation(s: &Scenario, taken_out: &[f64]) -> Option<Scenario> {
-    if s.simulation.sensors.noisy() || taken_out.iter().all(|&v| v == 0.0) {
+    if (s.simulation.sensors.noisy() && s.data.is_none()) || taken_out.iter().all(|&v| v == 0.0) {
         return None;
     }
     let mut v = s.clone();
+    // Measured data: the noise taken out, on the columns it was taken out of (a model
+    // file's stated sensors are in it).
+    v.simulation.sensors = Default::default();
     v.simulation.sensors.columns = taken_out.iter().map(|v| v.sqrt()).collect();
     Some(v)
 }

@@ -190,11 +190,17 @@ pub struct Sensors {
     pub displacement: f64,
     /// Noise level on every velocity (0: none).
     pub velocity: f64,
+    /// Noise level on every acceleration, if the accelerations are sensors of the rig
+    /// (then the ADC converts them too).
+    pub acceleration: Option<f64>,
+    /// Noise level on every excitation force (force cells), likewise.
+    pub force: Option<f64>,
     /// Per log column, the noise's standard deviation in its unit, when it is known
     /// channel by channel (a validation re-simulates measured data with the noise
     /// estimated from them); empty: the levels above.
     pub columns: Vec<f64>,
-    /// The analogue-to-digital converter of every displacement and velocity channel:
+    /// The analogue-to-digital converter of every displacement and velocity channel (and
+    /// acceleration and force channel with a level above):
     /// `2^bits` levels over `±range` (in the channel's std for relative noise, else in its
     /// unit); values beyond the range are clipped to it, and counted.
     pub adc: Option<Adc>,
@@ -210,7 +216,12 @@ pub struct Adc {
 impl Sensors {
     /// Whether any channel has noise.
     pub fn noisy(&self) -> bool {
-        self.displacement > 0.0 || self.velocity > 0.0 || self.columns.iter().any(|&s| s > 0.0) || self.adc.is_some()
+        self.displacement > 0.0
+            || self.velocity > 0.0
+            || self.acceleration.is_some_and(|a| a > 0.0)
+            || self.force.is_some_and(|f| f > 0.0)
+            || self.columns.iter().any(|&s| s > 0.0)
+            || self.adc.is_some()
     }
 }
 
@@ -542,6 +553,10 @@ pub struct DataMapping {
     /// Derivatives the table lacks are derived (central differences): velocities from
     /// displacements, accelerations from velocities.
     pub derive: bool,
+    /// With `derive`, velocities and displacements integrated from accelerations: the
+    /// period (s) below which the drift removal takes the integrals' content out
+    /// (docs/data.md); `None`: chosen from the data.
+    pub drift_period: Option<f64>,
     /// A record's time gaps (a step of 1.5 sample intervals or more) split it into
     /// pieces, each an independent record, instead of being refused.
     pub split_gaps: bool,

@@ -34,6 +34,8 @@ pub(crate) struct RawMeasurement {
     pub(super) noise: super::NoiseScale,
     pub(super) displacement: Option<Spanned<f64>>,
     pub(super) velocity: Option<Spanned<f64>>,
+    pub(super) acceleration: Option<Spanned<f64>>,
+    pub(super) force: Option<Spanned<f64>>,
     pub(super) adc_bits: Option<Spanned<i64>>,
     pub(super) adc_range: Option<Spanned<f64>>,
 }
@@ -50,6 +52,7 @@ pub(crate) struct RawData {
     pub(super) npy_columns: Option<Vec<Spanned<String>>>,
     pub(super) topic: Option<Spanned<String>>,
     pub(super) derive: Option<bool>,
+    pub(super) drift_period: Option<Spanned<f64>>,
     pub(super) split_gaps: Option<Spanned<bool>>,
     pub(super) delimiter: Option<Spanned<String>>,
     pub(super) decimal: Option<Spanned<String>>,

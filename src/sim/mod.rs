@@ -22,7 +22,7 @@
 mod blocked;
 mod lanes;
 mod normals;
-mod sensors;
+pub(crate) mod sensors;
 mod shaped;
 mod sinks;
 

@@ -1,5 +1,6 @@
 //! The sensors between the simulated motion and the log: white Gaussian noise added to
-//! every mass's displacement and velocity as `[measurement]` states (docs/measurement.md).
+//! every mass's displacement and velocity, and to the accelerations and forces where the
+//! rig measures them, as `[measurement]` states (docs/measurement.md).
 //!
 //! Each noise value comes from a counter-based generator keyed by the run's seed, the
 //! trajectory, the sample's index in it and the column, so it does not depend on the thread
@@ -35,12 +36,21 @@ impl SensorNoise {
         let c = model.columns();
         let mut level = vec![0.0; c.len()];
         let mut range = vec![0.0; c.len()];
+        let adc = sensors.adc.map_or(0.0, |a| a.range);
         for i in 0..model.masses() {
             level[c.x(i)] = sensors.displacement;
             level[c.v(i)] = sensors.velocity;
-            if let Some(adc) = sensors.adc {
-                range[c.x(i)] = adc.range;
-                range[c.v(i)] = adc.range;
+            range[c.x(i)] = adc;
+            range[c.v(i)] = adc;
+            if let Some(a) = sensors.acceleration {
+                level[c.a(i)] = a;
+                range[c.a(i)] = adc;
+            }
+        }
+        if let Some(f) = sensors.force {
+            for e in 0..model.excitations.len() {
+                level[c.force(e)] = f;
+                range[c.force(e)] = adc;
             }
         }
         if !sensors.columns.is_empty() {

@@ -7,9 +7,12 @@
 //! the places where its time step changes. Every later pass reads the rows again (a CSV
 //! file from disk) in the file's order — a logger's interleaved records stay interleaved,
 //! each sample handed over with its record and its time in the record — and derives the
-//! missing velocities and accelerations through a window of four rows per record. The
-//! memory of each method is in docs/data.md ("Memory").
+//! missing velocities and accelerations through a window of four rows per record, or
+//! integrates velocities and displacements from accelerations through a window of the
+//! drift removal's length (`integrate`). The memory of each method is in docs/data.md
+//! ("Memory").
 
+mod integrate;
 mod scan;
 
 use super::table::{err, DataError, Labels, Source};
@@ -57,6 +60,41 @@ pub struct Measured {
     pub motion_frequency: f64,
     plans: Vec<(Source, Plan)>,
     derive: Vec<Step>,
+    /// Velocities and displacements integrated from accelerations (a rig with
+    /// accelerometers only), if the model file asks to derive them.
+    integrate: Option<Integration>,
+    /// Per column integrated from an acceleration: how an accelerometer's noise reaches it.
+    pub integrated_noise: Vec<IntegratedNoise>,
+}
+
+/// How the white noise of an accelerometer reaches a velocity or displacement integrated
+/// from it: as noise of `gain` times its variance, Gaussian and independent of the motion
+/// (`integrate::noise_gains`).
+#[derive(Debug, Clone, Copy)]
+pub struct IntegratedNoise {
+    /// The integrated column and the acceleration's (layout columns).
+    pub column: usize,
+    pub acceleration: usize,
+    pub gain: f64,
+    /// The acceleration's standard deviation over the data (relative noise levels).
+    pub acceleration_std: f64,
+}
+
+/// Which masses' velocities and displacements come from their accelerations, and the
+/// drift window ([`integrate`]).
+#[derive(Debug, Clone)]
+struct Integration {
+    /// Per such mass: its (x, v, a) layout columns.
+    masses: Vec<(usize, usize, usize)>,
+    /// Half the width of each running mean, in samples.
+    half: usize,
+}
+
+impl Integration {
+    /// Samples not handed over at each end of a record.
+    fn margin(&self) -> usize {
+        4 * self.half
+    }
 }
 
 /// How one source's rows become samples.
@@ -103,9 +141,14 @@ impl Measured {
         }
     }
 
-    /// Whether layout column `c` is derived from another by differences (not measured).
+    /// Whether layout column `c` is derived from another (by differences, or integrated
+    /// from accelerations), not measured.
     pub fn derived(&self, c: usize) -> bool {
         self.derive.iter().any(|s| s.to == c)
+            || self
+                .integrate
+                .iter()
+                .any(|i| i.masses.iter().any(|&(x, v, _)| x == c || v == c))
     }
 
     pub fn samples(&self) -> u64 {
@@ -128,11 +171,19 @@ impl Measured {
     pub fn for_each_sample(&self, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, DataError> {
         let (w, h) = (self.width, self.sample_interval);
         let lag = self.derive.iter().map(|s| s.lag).max().unwrap_or(0);
-        // Rows kept per record: back to the oldest one a lagged difference reads.
-        let ring = lag + 2;
+        // Rows kept per record: back to the oldest one a lagged difference, or the
+        // integration's displacement, reads.
+        let ring = match &self.integrate {
+            Some(i) => i.margin() + 1,
+            None => lag + 2,
+        };
         let mut handed = 0u64;
         for (source, plan) in &self.plans {
             let slots = plan.pieces.len();
+            let mut chains: Vec<Vec<integrate::Chain>> = match &self.integrate {
+                Some(i) => vec![vec![integrate::Chain::new(h, i.half); i.masses.len()]; slots],
+                None => Vec::new(),
+            };
             // Per slot: rows so far, the current piece and the rows before it.
             let mut seen = vec![0usize; slots];
             let mut piece = vec![(0usize, 0usize); slots];
@@ -168,6 +219,34 @@ impl Measured {
                     row[k] = x * scale;
                 }
                 let trajectory = first + *p as u32;
+                if let Some(i) = &self.integrate {
+                    let chains = &mut chains[slot];
+                    let m = i.margin();
+                    for (chain, &(x, v, a)) in chains.iter_mut().zip(&i.masses) {
+                        if pos == 0 {
+                            chain.reset();
+                        }
+                        let (vv, xx) = chain.push(rows[(pos % ring) * w + a]);
+                        if let Some(vv) = vv {
+                            rows[((pos - m / 2) % ring) * w + v] = vv;
+                        }
+                        if let Some(xx) = xx {
+                            rows[((pos - m) % ring) * w + x] = xx;
+                        }
+                    }
+                    // Row `pos − m`, its velocity and displacement ready, once it is `m`
+                    // rows from the record's start; its time counted from the first such.
+                    if pos >= 2 * m {
+                        let s = pos - m;
+                        f(
+                            trajectory,
+                            (s - m + 1) as f64 * h,
+                            &rows[(s % ring) * w..(s % ring + 1) * w],
+                        );
+                        handed += 1;
+                    }
+                    return Ok(true);
+                }
                 let mut emit = |s: usize, rows: &[f64]| {
                     f(
                         trajectory,
@@ -314,6 +393,15 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         present[k] = true;
     }
     let mut derive = Vec::new();
+    // A mass measured by its acceleration alone: velocity and displacement integrated.
+    let integrated: Vec<(usize, usize, usize)> = (0..m.masses())
+        .map(|i| (layout.x(i), layout.v(i), layout.a(i)))
+        .filter(|&(x, v, a)| d.derive && present[a] && !present[x] && !present[v])
+        .collect();
+    for &(x, v, _) in &integrated {
+        present[x] = true;
+        present[v] = true;
+    }
     if d.derive {
         let mut lag = vec![0usize; width];
         for i in 0..m.masses() {
@@ -327,6 +415,7 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
             }
         }
     }
+    let raw_lengths = lengths.clone();
     let mut data = Measured {
         files: plans.iter().map(|p| p.0.path().to_path_buf()).collect(),
         width,
@@ -337,7 +426,23 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         motion_frequency: f64::NAN,
         plans,
         derive,
+        integrate: None,
+        integrated_noise: Vec::new(),
     };
+    if !integrated.is_empty() {
+        if let Some(step) = data.derive.first() {
+            return Err(err(
+                &data.files[0],
+                format!(
+                    "{} would be differenced from {} while other masses' motion is integrated from their \
+                     accelerations: one model file does one or the other (map every mass's acceleration alone, or \
+                     its displacement)",
+                    names[step.to], names[step.from]
+                ),
+            ));
+        }
+        data.integrate_from_accelerations(integrated, d.drift_period, &raw_lengths, &names)?;
+    }
     let masses: Vec<_> = (0..m.masses())
         .map(|i| (layout.x(i), layout.v(i), layout.a(i)))
         .collect();
@@ -369,6 +474,122 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
     })?;
     Ok(data)
 }
+
+impl Measured {
+    /// Set the integration of `masses`' accelerations up: the drift window from
+    /// `drift_period` or, without it, from the data (a first integration with a window of
+    /// [`PROVISIONAL_DRIFT`] sample intervals gives each mass's `σ_v/σ_x`, its motion's
+    /// frequency; the window then spans [`DRIFT_PERIODS`] periods of the slowest), and the
+    /// records' lengths shortened by the window at both ends.
+    fn integrate_from_accelerations(
+        &mut self,
+        masses: Vec<(usize, usize, usize)>,
+        drift_period: Option<f64>,
+        raw_lengths: &[usize],
+        names: &[String],
+    ) -> Result<(), DataError> {
+        let h = self.sample_interval;
+        let set = |data: &mut Measured, half: usize| -> Result<(), DataError> {
+            let i = Integration {
+                masses: masses.clone(),
+                half,
+            };
+            let drop = 2 * i.margin();
+            if let Some(j) = raw_lengths.iter().position(|&n| n <= drop + 1) {
+                return Err(err(
+                    &data.files[0],
+                    format!(
+                        "record {} has {} samples: integrating accelerations drops {} at each end (the drift \
+                         window, {} s; docs/data.md): give a shorter [data] drift_period or longer records",
+                        j + 1,
+                        raw_lengths[j],
+                        drop / 2,
+                        drop as f64 / 2.0 * h
+                    ),
+                ));
+            }
+            data.lengths = raw_lengths.iter().map(|&n| n - drop).collect();
+            data.integrate = Some(i);
+            Ok(())
+        };
+        let (period, how) = match drift_period {
+            Some(p) => (p, "as [data] drift_period gives".to_string()),
+            None => {
+                set(self, integrate::half_for(PROVISIONAL_DRIFT * h, h))?;
+                let k = masses.len();
+                let mut sums = vec![[0.0f64; 4]; k];
+                self.for_each_sample(&mut |_, _, row| {
+                    for (s, &(x, v, _)) in sums.iter_mut().zip(&masses) {
+                        s[0] += row[x];
+                        s[1] += row[x] * row[x];
+                        s[2] += row[v];
+                        s[3] += row[v] * row[v];
+                    }
+                })?;
+                let n = self.samples() as f64;
+                let slowest = sums
+                    .iter()
+                    .map(|s| {
+                        let var = |m: f64, q: f64| (q / n - (m / n).powi(2)).max(0.0);
+                        (var(s[2], s[3]) / var(s[0], s[1])).sqrt()
+                    })
+                    .filter(|w| w.is_finite() && *w > 0.0)
+                    .fold(f64::INFINITY, f64::min);
+                if !slowest.is_finite() {
+                    return Err(err(
+                        &self.files[0],
+                        "the integrated accelerations do not move: no motion to identify",
+                    ));
+                }
+                (
+                    DRIFT_PERIODS * 2.0 * std::f64::consts::PI / slowest,
+                    format!("{DRIFT_PERIODS} periods of the slowest motion, ω = σ_v/σ_x = {slowest:.3} rad/s"),
+                )
+            }
+        };
+        let half = integrate::half_for(period, h);
+        set(self, half)?;
+        // Each acceleration's std, for noise levels relative to it.
+        let (mut sum, mut squares, mut n) = (vec![0.0; masses.len()], vec![0.0; masses.len()], 0.0);
+        self.for_each_sample(&mut |_, _, row| {
+            for (k, &(_, _, a)) in masses.iter().enumerate() {
+                sum[k] += row[a];
+                squares[k] += row[a] * row[a];
+            }
+            n += 1.0;
+        })?;
+        let (gain_v, gain_x) = integrate::noise_gains(h, half);
+        for (k, &(x, v, a)) in masses.iter().enumerate() {
+            let std = (squares[k] / n - (sum[k] / n).powi(2)).max(0.0).sqrt();
+            for (column, gain) in [(v, gain_v), (x, gain_x)] {
+                self.integrated_noise.push(IntegratedNoise {
+                    column,
+                    acceleration: a,
+                    gain,
+                    acceleration_std: std,
+                });
+            }
+        }
+        let list: Vec<String> = masses.iter().map(|&(_, _, a)| names[a].clone()).collect();
+        self.notes.push(format!(
+            "velocity and displacement integrated from {} (trapezoid rule), their drift taken out by a centred \
+             triangular mean over {:.1} s ({how}; zero phase, corner about {:.3} rad/s); the first and last {:.1} s \
+             of every record are not used (docs/data.md)",
+            list.join(", "),
+            (4 * half + 1) as f64 * h,
+            2.0 * std::f64::consts::PI / period,
+            (4 * half) as f64 * h
+        ));
+        Ok(())
+    }
+}
+
+/// The drift window, in sample intervals, of the first integration that finds the
+/// motion's frequency.
+const PROVISIONAL_DRIFT: f64 = 2000.0;
+
+/// Periods of the slowest motion the drift window spans when the data choose it.
+const DRIFT_PERIODS: f64 = 10.0;
 
 /// What a first pass over the samples tells about them.
 struct Look {

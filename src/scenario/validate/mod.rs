@@ -322,6 +322,16 @@ fn check_measurement(loc: &Locator, raw: &RawScenario) -> Result<Sensors, Scenar
         scale: m.noise,
         displacement: level(&m.displacement, "measurement.displacement")?,
         velocity: level(&m.velocity, "measurement.velocity")?,
+        acceleration: m
+            .acceleration
+            .is_some()
+            .then(|| level(&m.acceleration, "measurement.acceleration"))
+            .transpose()?,
+        force: m
+            .force
+            .is_some()
+            .then(|| level(&m.force, "measurement.force"))
+            .transpose()?,
         columns: Vec::new(),
         adc,
     })
@@ -473,7 +483,12 @@ pub(crate) fn check_data(
             }
         },
     };
+    let drift_period = match &d.drift_period {
+        Some(v) => Some(finite_positive(loc, v, "data.drift_period", "s")?),
+        None => None,
+    };
     Ok(Some(DataMapping {
+        drift_period,
         time: d.time.as_ref().map(|t| t.get_ref().clone()),
         sample_interval,
         record: d.record.as_ref().map(|t| t.get_ref().clone()),
