@@ -307,6 +307,34 @@ pub fn ou_density(a: f64, b: f64, omega: f64) -> f64 {
     a * a / (2.0 * PI * (b * b + omega * omega))
 }
 
+/// `s` with a white noise floor of density `floor` taken out, where the force stands out
+/// of it: the bins at least twice the floor (a force cell's noise, stated, adds `floor`
+/// to every bin; what is left is the force's own spectrum, which (3.20) is fitted to).
+pub fn without_floor(s: &Spectrum, floor: f64) -> Spectrum {
+    let (omega, density) = s
+        .omega
+        .iter()
+        .zip(&s.density)
+        .filter(|(_, &d)| d >= 2.0 * floor)
+        .map(|(&w, &d)| (w, d - floor))
+        .unzip();
+    Spectrum {
+        omega,
+        density,
+        ..s.clone()
+    }
+}
+
+/// The variance under a spectrum (`∫ S dω` over both signs of `ω`).
+pub fn variance(s: &Spectrum) -> f64 {
+    let dw = if s.omega.len() > 1 {
+        s.omega[1] - s.omega[0]
+    } else {
+        0.0
+    };
+    2.0 * s.density.iter().sum::<f64>() * dw
+}
+
 /// Lowest frequency bins left out of the fit.
 const SKIP_LOW_BINS: usize = 3;
 

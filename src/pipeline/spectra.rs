@@ -1,10 +1,11 @@
 //! Spectra of the measured filtered forces: lag-1 correlation in pass 1, Welch estimates in
-//! pass 2, and the rational-spectrum fit (3.20) that gives each filter's `A` and `B`.
+//! pass 2, and the rational-spectrum fit (3.20) that gives each filter's `A` and `B`, with
+//! a force cell's stated noise floor taken out first (docs/measurement.md).
 
 use crate::ident::{spectrum, spectrum::Welch, Filter};
 use crate::model::Columns;
 use crate::report::FilterReport;
-use crate::scenario::{Process, Scenario};
+use crate::scenario::{NoiseHandling, NoiseScale, Process, Scenario};
 
 /// The measured forces whose spectra are fitted: lag-1 sums in pass 1 (an AR(1) guess of
 /// the corner sets the Welch segment length), Welch estimates in pass 2.
@@ -79,7 +80,11 @@ impl ForceSpectra {
         let mut spectra = Vec::new();
         for (&e, w) in self.excitations.iter().zip(&self.welch) {
             let spec = w.spectrum();
-            let fit = spectrum::fit_ou(&spec);
+            let floor = force_floor(s, &spec);
+            let fit = match floor {
+                Some(n) => spectrum::fit_ou(&spectrum::without_floor(&spec, n)),
+                None => spectrum::fit_ou(&spec),
+            };
             let Process::Filtered { a: ta, b: tb } = s.excitations[e].process else {
                 unreachable!("only filtered forces are fitted")
             };
@@ -109,9 +114,31 @@ impl ForceSpectra {
                 expected_rms_log_residual: fit.expected_rms,
                 segments: spec.segments,
                 segment_len: spec.segment_len,
+                noise_floor: floor,
             });
             spectra.push((s.excitations[e].name.clone(), spec, fit, (ta, tb)));
         }
         (filters, reports, spectra)
     }
+}
+
+/// The noise floor of a measured force's spectrum where the force cells' noise is stated
+/// (`[measurement] force` with `sensor_noise = "given"`, and the ADC's rounding): the
+/// two-sided density `σ²·h/(2π)` of a white noise of variance `σ²`. A relative level is
+/// of the force's own std, the spectrum's variance without the noise's.
+fn force_floor(s: &Scenario, spec: &spectrum::Spectrum) -> Option<f64> {
+    let sensors = &s.simulation.sensors;
+    let level = sensors
+        .force
+        .filter(|_| s.identify.sensor_noise == NoiseHandling::Given)?;
+    let unit = match sensors.scale {
+        NoiseScale::Absolute => 1.0,
+        NoiseScale::Relative => (spectrum::variance(spec) / (1.0 + level * level)).sqrt(),
+    };
+    let rounding = sensors.adc.map_or(0.0, |a| {
+        let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
+        q * q / 12.0
+    });
+    let variance = (level * unit).powi(2) + rounding;
+    (variance > 0.0).then(|| variance * spec.sample_interval / (2.0 * std::f64::consts::PI))
 }

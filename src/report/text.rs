@@ -244,9 +244,13 @@ fn filters(r: &Report) -> String {
             )
         };
         s += &format!(
-            "; log residual RMS {:.3} (averaging alone: {:.3}) over {} segments of {}\n",
+            "; log residual RMS {:.3} (averaging alone: {:.3}) over {} segments of {}",
             f.rms_log_residual, f.expected_rms_log_residual, f.segments, f.segment_len
         );
+        if let Some(n) = f.noise_floor {
+            s += &format!("; the force cell's stated noise floor {n:.3e} taken out first");
+        }
+        s += "\n";
     }
     if !r.filters.is_empty() {
         s += "\n";

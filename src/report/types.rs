@@ -77,6 +77,10 @@ pub struct FilterReport {
     pub expected_rms_log_residual: f64,
     pub segments: usize,
     pub segment_len: usize,
+    /// The force cells' stated noise floor (two-sided density) taken out of the spectrum
+    /// before the fit, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_floor: Option<f64>,
 }
 
 /// What a method made of the data: each method's outcome is its own (docs/methods.md,
