@@ -10,7 +10,7 @@ use crate::ident::Problem;
 use crate::io::table::Measured;
 use crate::report::{ChannelNoiseReport, MethodReport, SensorNoiseReport};
 use crate::scenario::ReportMethod;
-use crate::scenario::{NoiseHandling, NoiseScale, Scenario};
+use crate::scenario::{NoiseHandling, Scenario};
 
 /// The noise estimator for `input`, if its samples may carry sensor noise: a scenario
 /// with `[measurement]` noise, or measured data. Every mass whose displacement and
@@ -76,17 +76,7 @@ pub(crate) fn correct(
     };
     // The scenario's sensors in the channel's unit: relative levels times the estimated
     // signal std. An ADC adds its rounding, of variance q²/12 for a step q.
-    let stated = |ch: &ChannelNoise, c: usize| -> f64 {
-        let unit = match sensors.scale {
-            NoiseScale::Absolute => 1.0,
-            NoiseScale::Relative => ch.signal_std,
-        };
-        let rounding = sensors.adc.map_or(0.0, |a| {
-            let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
-            q * q / 12.0
-        });
-        ((level(c) * unit).powi(2) + rounding).sqrt()
-    };
+    let stated = |ch: &ChannelNoise, c: usize| -> f64 { sensors.noise_variance(level(c), ch.signal_std).sqrt() };
     let mut by_column = vec![0.0; structure.model.columns().len()];
     let mut rows = Vec::new();
     for ch in &channels {
@@ -122,15 +112,7 @@ pub(crate) fn correct(
             // The stated accelerometer noise (and ADC rounding) through the integration.
             let mut parts = Vec::new();
             for n in integrated {
-                let unit = match sensors.scale {
-                    NoiseScale::Absolute => 1.0,
-                    NoiseScale::Relative => n.acceleration_std,
-                };
-                let rounding = sensors.adc.map_or(0.0, |a| {
-                    let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
-                    q * q / 12.0
-                });
-                by_column[n.column] = n.gain * ((level * unit).powi(2) + rounding);
+                by_column[n.column] = n.gain * sensors.noise_variance(level, n.acceleration_std);
                 parts.push(format!("{} {:.4}", names[n.column], by_column[n.column].sqrt()));
             }
             notes.push(format!(

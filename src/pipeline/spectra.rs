@@ -5,7 +5,7 @@
 use crate::ident::{spectrum, spectrum::Welch, Filter};
 use crate::model::Columns;
 use crate::report::FilterReport;
-use crate::scenario::{NoiseHandling, NoiseScale, Process, Scenario};
+use crate::scenario::{NoiseHandling, Process, Scenario};
 
 /// The measured forces whose spectra are fitted: lag-1 sums in pass 1 (an AR(1) guess of
 /// the corner sets the Welch segment length), Welch estimates in pass 2.
@@ -131,14 +131,7 @@ fn force_floor(s: &Scenario, spec: &spectrum::Spectrum) -> Option<f64> {
     let level = sensors
         .force
         .filter(|_| s.identify.sensor_noise == NoiseHandling::Given)?;
-    let unit = match sensors.scale {
-        NoiseScale::Absolute => 1.0,
-        NoiseScale::Relative => (spectrum::variance(spec) / (1.0 + level * level)).sqrt(),
-    };
-    let rounding = sensors.adc.map_or(0.0, |a| {
-        let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
-        q * q / 12.0
-    });
-    let variance = (level * unit).powi(2) + rounding;
+    let std = (spectrum::variance(spec) / (1.0 + level * level)).sqrt();
+    let variance = sensors.noise_variance(level, std);
     (variance > 0.0).then(|| variance * spec.sample_interval / (2.0 * std::f64::consts::PI))
 }

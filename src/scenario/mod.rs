@@ -214,6 +214,21 @@ pub struct Adc {
 }
 
 impl Sensors {
+    /// The noise variance a channel gets from these sensors at `level`: `(level·unit)²`
+    /// plus the ADC's rounding `q²/12` for its step `q = 2·range·unit/2^bits`, where
+    /// `unit` is the channel's own std `std` for relative levels and 1 for absolute ones.
+    pub fn noise_variance(&self, level: f64, std: f64) -> f64 {
+        let unit = match self.scale {
+            NoiseScale::Absolute => 1.0,
+            NoiseScale::Relative => std,
+        };
+        let rounding = self.adc.map_or(0.0, |a| {
+            let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
+            q * q / 12.0
+        });
+        (level * unit).powi(2) + rounding
+    }
+
     /// Whether any channel has noise.
     pub fn noisy(&self) -> bool {
         self.displacement > 0.0
