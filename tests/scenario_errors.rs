@@ -506,6 +506,50 @@ fn sensor_noise_level_out_of_range() {
     );
 }
 
+/// The sensors' filters: a corner beyond the sampling rate, an order out of range or
+/// without its filter, a bandwidth the simulation cannot resolve, and steps too coarse
+/// to carry the filters at all.
+#[test]
+fn sensor_filters_out_of_range() {
+    run_bad(
+        "anti_alias_corner",
+        &format!("{GOOD}[measurement]\nanti_alias = 1.5\n"),
+        30,
+        "measurement.anti_alias",
+        "0 < corner <= 1",
+    );
+    run_bad(
+        "anti_alias_order",
+        &format!("{GOOD}[measurement]\nanti_alias = 0.4\nanti_alias_order = 12\n"),
+        31,
+        "measurement.anti_alias_order",
+        "1..=8",
+    );
+    run_bad(
+        "order_alone",
+        &format!("{GOOD}[measurement]\nanti_alias_order = 2\n"),
+        30,
+        "measurement.anti_alias_order",
+        "anti_alias = 0.4",
+    );
+    run_bad(
+        "bandwidth_unresolved",
+        &format!("{GOOD}[measurement]\nbandwidth = 500.0\n"),
+        30,
+        "measurement.bandwidth",
+        "leave `bandwidth` out",
+    );
+    let coarse = GOOD.replace("dt = 1e-3", "dt = 0.05");
+    assert_ne!(coarse, GOOD);
+    run_bad(
+        "too_few_steps",
+        &format!("{coarse}[measurement]\nanti_alias = 0.4\n"),
+        30,
+        "measurement.anti_alias",
+        "dt at most sample_interval / 8",
+    );
+}
+
 #[test]
 fn given_sensor_noise_needs_a_measurement_section() {
     run_bad(

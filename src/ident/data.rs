@@ -320,7 +320,7 @@ impl StationaryData {
                     by_state(r)
                         .iter()
                         .zip(&total)
-                        .map(|(a, b)| if *b > 0.0 { a - b } else { 0.0 })
+                        .map(|(a, b)| if *b != 0.0 { a - b } else { 0.0 })
                         .collect()
                 })
             })

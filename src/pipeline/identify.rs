@@ -149,13 +149,31 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         d.finish();
     }
     // Sensor noise: estimated, and taken out of the weak form's moments.
-    let (sensor_noise, taken_out) = match floor.as_ref() {
-        Some(f) => {
-            let (report, taken_out) =
-                super::sensors::correct(f, s, input.measured(), &structure, &mut data, naive_data.as_mut());
+    // The sensors' filters: the velocities' tail they took out, put back.
+    let loss = super::sensors::filter_loss(s, &structure);
+    let (sensor_noise, taken_out) = match (floor.as_ref(), &loss) {
+        (Some(f), _) => {
+            let (report, taken_out) = super::sensors::correct(
+                f,
+                s,
+                input.measured(),
+                &structure,
+                &mut data,
+                naive_data.as_mut(),
+                loss.as_ref(),
+            );
             (Some(report), taken_out)
         }
-        None => (None, Vec::new()),
+        (None, Some(l)) => (
+            Some(super::sensors::put_back_filter_loss(
+                l,
+                s,
+                &mut data,
+                naive_data.as_mut(),
+            )),
+            Vec::new(),
+        ),
+        (None, None) => (None, Vec::new()),
     };
     let total = data.total();
 

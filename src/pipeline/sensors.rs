@@ -8,7 +8,7 @@ use crate::ident::data::StationaryData;
 use crate::ident::noise::{ChannelNoise, NoiseFloor, Pair};
 use crate::ident::Problem;
 use crate::io::table::Measured;
-use crate::report::{ChannelNoiseReport, MethodReport, SensorNoiseReport};
+use crate::report::{ChannelNoiseReport, FilterLossReport, MethodReport, SensorNoiseReport};
 use crate::scenario::ReportMethod;
 use crate::scenario::{NoiseHandling, Scenario};
 
@@ -58,6 +58,7 @@ pub(crate) fn correct(
     structure: &Problem,
     data: &mut StationaryData,
     also: Option<&mut StationaryData>,
+    loss: Option<&FilterLoss>,
 ) -> (SensorNoiseReport, Vec<f64>) {
     let handling = s.identify.sensor_noise;
     let (channels, replicates, not_estimated) = match floor.estimate_with_replicates() {
@@ -130,9 +131,16 @@ pub(crate) fn correct(
                 .to_string(),
         ),
     }
-    let corrected = by_column.iter().any(|&v| v > 0.0) && structure.atoms.is_empty();
+    let noise_only = by_column.clone();
+    // The filters' loss goes back in as noise of negative variance (a convolution).
+    if let Some(l) = loss.filter(|l| l.put_back) {
+        for (b, v) in by_column.iter_mut().zip(&l.by_column) {
+            *b -= v;
+        }
+    }
+    let corrected = by_column.iter().any(|&v| v != 0.0) && structure.atoms.is_empty();
     // Estimated noise: each jackknife replicate is corrected with its own estimate.
-    let replicates: Vec<Option<Vec<f64>>> = if handling == NoiseHandling::Estimate {
+    let mut replicates: Vec<Option<Vec<f64>>> = if handling == NoiseHandling::Estimate {
         replicates
             .iter()
             .map(|r| {
@@ -151,6 +159,16 @@ pub(crate) fn correct(
     } else {
         Vec::new()
     };
+    if let Some(l) = loss.filter(|l| l.put_back) {
+        for r in replicates.iter_mut().flatten() {
+            for (b, v) in r.iter_mut().zip(&l.by_column) {
+                *b -= v;
+            }
+        }
+    }
+    if let Some(l) = loss {
+        notes.push(l.note.clone());
+    }
     if corrected {
         data.deconvolve(&by_column, &replicates);
         // The naive row's problem batches its samples its own way: its replicates keep
@@ -191,8 +209,135 @@ pub(crate) fn correct(
         not_estimated,
         corrected,
         notes,
+        filter_loss: loss.map_or_else(Vec::new, |l| l.rows.clone()),
     };
-    (report, if corrected { by_column } else { Vec::new() })
+    let noise_taken_out = corrected && noise_only.iter().any(|&v| v > 0.0);
+    (report, if noise_taken_out { noise_only } else { Vec::new() })
+}
+
+/// What the sensors' filters (`[measurement] anti_alias`, `bandwidth`) take out of a
+/// simulated rig's samples: per log column the variance lost, the report's rows and note,
+/// and whether the weak form can have it put back.
+pub(crate) struct FilterLoss {
+    pub by_column: Vec<f64>,
+    pub rows: Vec<FilterLossReport>,
+    pub note: String,
+    pub put_back: bool,
+}
+
+/// The velocity tail the sensors' filters take from masses under white forces (module
+/// `sim::filters`, `white_velocity_loss`), computed from the stated filters, intensities
+/// and masses; `None` without filters. It is put back only where every white force on the
+/// mass is measured, of known intensity, and acts on that mass alone (a force on two masses
+/// gives their tails a covariance the per-channel correction does not carry), and the mass
+/// is known.
+pub(crate) fn filter_loss(s: &Scenario, structure: &Problem) -> Option<FilterLoss> {
+    use crate::scenario::Process;
+    let sim = &s.simulation;
+    if s.data.is_some() {
+        return None;
+    }
+    let filter = crate::sim::filters::SensorFilter::new(
+        &sim.sensors,
+        sim.sample_interval,
+        sim.steps_per_sample() * sim.substeps,
+    )
+    .ok()??;
+    let unit = filter.white_velocity_loss(sim.sample_interval);
+    let layout = structure.model.columns();
+    let names = structure.model.column_names();
+    let mut by_column = vec![0.0; layout.len()];
+    let mut rows = Vec::new();
+    let mut blocked = Vec::new();
+    for i in 0..structure.model.masses() {
+        let mut intensity = 0.0;
+        for (e, x) in s.excitations.iter().enumerate() {
+            let Process::White { sigma } = x.process else { continue };
+            if !x.acts_on.contains(&i) {
+                continue;
+            }
+            intensity += sigma * sigma;
+            if !x.measured || s.identify.unknown_intensities.contains(&e) {
+                blocked.push(format!("{} is not known to the identifier", x.name));
+            } else if x.acts_on.len() > 1 {
+                blocked.push(format!("{} acts on more than one mass", x.name));
+            }
+        }
+        if intensity == 0.0 {
+            continue;
+        }
+        if s.identify.unknown_masses.contains(&i) {
+            blocked.push(format!("the mass {} is unknown", s.masses[i].name));
+        }
+        let m = structure.model.mass[i];
+        let c = layout.v(i);
+        by_column[c] = intensity / (m * m) * unit;
+        rows.push(FilterLossReport {
+            column: names[c].clone(),
+            std: by_column[c].sqrt(),
+        });
+    }
+    if rows.is_empty() {
+        return None;
+    }
+    blocked.sort();
+    blocked.dedup();
+    if s.identify.sensor_noise == NoiseHandling::Ignore {
+        blocked.insert(0, "[identify] sensor_noise = \"ignore\"".to_string());
+    }
+    let put_back = blocked.is_empty() && structure.atoms.is_empty();
+    let list = rows
+        .iter()
+        .map(|r| format!("{} {:.4e}", r.column, r.std))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let note = format!(
+        "the sensors' filters take the white-forced velocities' tail above their corner out of the samples (std {list}); {}",
+        if put_back {
+            "the weak form's moments have it put back (docs/measurement.md)".to_string()
+        } else if !structure.atoms.is_empty() {
+            "NOT put back: the model has terms without a polynomial form, whose moments the correction does not reach"
+                .to_string()
+        } else {
+            format!("NOT put back: {} (docs/measurement.md)", blocked.join("; "))
+        }
+    );
+    Some(FilterLoss {
+        by_column,
+        rows,
+        note,
+        put_back,
+    })
+}
+
+/// Without sensor noise to estimate: put the filters' loss back into `data` (and `also`)
+/// and say so.
+pub(crate) fn put_back_filter_loss(
+    loss: &FilterLoss,
+    s: &Scenario,
+    data: &mut StationaryData,
+    also: Option<&mut StationaryData>,
+) -> SensorNoiseReport {
+    if loss.put_back {
+        let negative: Vec<f64> = loss.by_column.iter().map(|v| -v).collect();
+        data.deconvolve(&negative, &[]);
+        if let Some(d) = also {
+            d.deconvolve(&negative, &[]);
+        }
+    }
+    SensorNoiseReport {
+        handling: match s.identify.sensor_noise {
+            NoiseHandling::Estimate => "estimate",
+            NoiseHandling::Given => "given",
+            NoiseHandling::Ignore => "ignore",
+        }
+        .to_string(),
+        channels: Vec::new(),
+        not_estimated: Some("the sensors add no noise".to_string()),
+        corrected: loss.put_back,
+        notes: vec![loss.note.clone()],
+        filter_loss: loss.rows.clone(),
+    }
 }
 
 /// The scenario the validation re-simulates: with the data's noise, so that its
@@ -231,6 +376,23 @@ pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodRepor
                 "samples sit exactly at their channel's smallest or largest value: {} — a clipped sensor or ADC, \
                  which biases every moment (docs/measurement.md)",
                 clipped.join(", ")
+            ));
+        }
+    }
+    if let Some(most) = n.filter_loss.iter().max_by(|a, b| a.std.total_cmp(&b.std)) {
+        for m in methods.iter_mut() {
+            let weak = matches!(
+                m.method,
+                ReportMethod::Estimator(Method::Weak) | ReportMethod::WeakWhiteNaive | ReportMethod::Compare(_)
+            );
+            if weak && n.corrected {
+                continue;
+            }
+            m.warnings.push(format!(
+                "reads the filtered samples as they are: the sensors' filters took the white-forced velocities' \
+                 tail out (std up to {:.3e}, on {}), which biases the damping and the nonlinear terms \
+                 (docs/measurement.md)",
+                most.std, most.column
             ));
         }
     }

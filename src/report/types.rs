@@ -197,6 +197,18 @@ pub struct SensorNoiseReport {
     pub corrected: bool,
     /// What the correction does not reach.
     pub notes: Vec<String>,
+    /// Per velocity column, the tail the sensors' filters took out of it (`[measurement]
+    /// anti_alias`, `bandwidth`; docs/measurement.md).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub filter_loss: Vec<FilterLossReport>,
+}
+
+/// The variance the sensors' filters take out of one velocity column.
+#[derive(Debug, Clone, Serialize)]
+pub struct FilterLossReport {
+    pub column: String,
+    /// The standard deviation of what was taken out (the column's unit).
+    pub std: f64,
 }
 
 /// One sensor channel's noise.

@@ -204,6 +204,18 @@ pub struct Sensors {
     /// `2^bits` levels over `±range` (in the channel's std for relative noise, else in its
     /// unit); values beyond the range are clipped to it, and counted.
     pub adc: Option<Adc>,
+    /// The anti-alias low-pass before the ADC, on every logged channel.
+    pub anti_alias: Option<AntiAlias>,
+    /// Every sensor's bandwidth, Hz: a second-order Butterworth low-pass at it.
+    pub bandwidth: Option<f64>,
+}
+
+/// An anti-alias filter: a Butterworth low-pass of `order` with its −3 dB corner at
+/// `corner` × the sampling rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AntiAlias {
+    pub corner: f64,
+    pub order: u32,
 }
 
 /// An ADC: `2^bits` levels over `±range`.

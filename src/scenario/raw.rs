@@ -38,6 +38,9 @@ pub(crate) struct RawMeasurement {
     pub(super) force: Option<Spanned<f64>>,
     pub(super) adc_bits: Option<Spanned<i64>>,
     pub(super) adc_range: Option<Spanned<f64>>,
+    pub(super) anti_alias: Option<Spanned<f64>>,
+    pub(super) anti_alias_order: Option<Spanned<i64>>,
+    pub(super) bandwidth: Option<Spanned<f64>>,
 }
 
 /// `[data]`: how measured data map onto the model (a model file for `identify --model`).

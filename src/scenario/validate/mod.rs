@@ -219,6 +219,7 @@ impl Scenario {
         if raw.simulation.is_some() {
             check_filters_resolved(&loc, &raw, &excitations, simulation.dt)?;
         }
+        check_sensor_filters(&loc, &raw, &simulation, data.is_some())?;
         let identify = check_identify(&loc, &raw, &masses, &links, &excitations)?;
         let accept = check_accept(&loc, &raw, &identify)?;
         if identify.sensor_noise == NoiseHandling::Given && !simulation.sensors.noisy() {
@@ -334,7 +335,81 @@ fn check_measurement(loc: &Locator, raw: &RawScenario) -> Result<Sensors, Scenar
             .transpose()?,
         columns: Vec::new(),
         adc,
+        anti_alias: check_anti_alias(loc, m)?,
+        bandwidth: m
+            .bandwidth
+            .as_ref()
+            .map(|b| finite_positive(loc, b, "measurement.bandwidth", "the sensors' −3 dB corner, Hz"))
+            .transpose()?,
     })
+}
+
+/// `anti_alias` (the corner, a fraction of the sampling rate, 0 < · ≤ 1) and its
+/// `anti_alias_order` (1..=8, default 4).
+fn check_anti_alias(loc: &Locator, m: &RawMeasurement) -> Result<Option<AntiAlias>, ScenarioError> {
+    let Some(c) = &m.anti_alias else {
+        if let Some(o) = &m.anti_alias_order {
+            return Err(loc.at(
+                o.span(),
+                "measurement.anti_alias_order",
+                "an order without a filter: give its corner too, `anti_alias = 0.4` (× the sampling rate)",
+            ));
+        }
+        return Ok(None);
+    };
+    let corner = *c.get_ref();
+    if !(corner.is_finite() && corner > 0.0 && corner <= 1.0) {
+        return Err(loc.at(
+            c.span(),
+            "measurement.anti_alias",
+            format!(
+                "must be the filter's corner as a fraction of the sampling rate, 0 < corner <= 1 (0.4 is usual: \
+                 below the Nyquist frequency at 0.5), got {corner}"
+            ),
+        ));
+    }
+    let order = match &m.anti_alias_order {
+        None => 4,
+        Some(o) => {
+            let n = *o.get_ref();
+            if !(1..=8).contains(&n) {
+                return Err(loc.at(
+                    o.span(),
+                    "measurement.anti_alias_order",
+                    format!("must be the Butterworth filter's order, 1..=8, got {n}"),
+                ));
+            }
+            n as u32
+        }
+    };
+    Ok(Some(AntiAlias { corner, order }))
+}
+
+/// The sensors' filters are a simulated rig's (measured data carry theirs already), and
+/// the simulation's steps must carry them (`sim::filters::SensorFilter::new`).
+fn check_sensor_filters(
+    loc: &Locator,
+    raw: &RawScenario,
+    sim: &Simulation,
+    measured: bool,
+) -> Result<(), ScenarioError> {
+    let Some(m) = &raw.measurement else { return Ok(()) };
+    let (key, span) = match (&m.anti_alias, &m.bandwidth) {
+        (Some(a), _) => ("measurement.anti_alias", a.span()),
+        (None, Some(b)) => ("measurement.bandwidth", b.span()),
+        (None, None) => return Ok(()),
+    };
+    if measured {
+        return Err(loc.at(
+            span,
+            key,
+            "the sensors' filters shape a simulated rig's samples; measured data went through their rig's \
+             filters already: leave anti_alias and bandwidth out of a model file",
+        ));
+    }
+    crate::sim::filters::SensorFilter::new(&sim.sensors, sim.sample_interval, sim.steps_per_sample() * sim.substeps)
+        .map(|_| ())
+        .map_err(|e| loc.at(span, key, e))
 }
 
 /// A filtered excitation's corner `B` resolved by the step: `B·dt ≤ 1`. A faster filter
