@@ -9,7 +9,8 @@
 //! are held in memory (8 bytes per value).
 
 pub use super::delimited::{CsvFile, CsvOptions, Labels, RowFn};
-pub use super::measured::{measured, Measured, DERIVE_LIMIT, GAP, OUTLIER, STEP_OMEGA};
+pub use super::measured::differentiate;
+pub use super::measured::{measured, DifferencedNoise, Measured, DERIVE_LIMIT, GAP, OUTLIER, STEP_OMEGA};
 use crate::scenario::DataMapping;
 use std::path::{Path, PathBuf};
 

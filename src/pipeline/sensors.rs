@@ -7,7 +7,7 @@ use crate::estimators::Method;
 use crate::ident::data::StationaryData;
 use crate::ident::noise::{ChannelNoise, NoiseFloor, Pair};
 use crate::ident::Problem;
-use crate::io::table::Measured;
+use crate::io::table::{differentiate, Measured};
 use crate::report::{ChannelNoiseReport, FilterLossReport, MethodReport, SensorNoiseReport};
 use crate::scenario::ReportMethod;
 use crate::scenario::{NoiseHandling, Scenario};
@@ -104,7 +104,81 @@ pub(crate) fn correct(
             at_limits: ch.at_limits,
         });
     }
+    // Velocities differenced from noisy displacements: the displacement's noise, and what
+    // the differences make of it on the velocity (io::measured::differentiate).
+    let differenced = measured.map_or(&[][..], |m| &m.differenced[..]);
+    for d in differenced {
+        let f = &d.found;
+        let h = s.simulation.sample_interval;
+        let gain = differentiate::noise_gain(&differentiate::weights(f.half), h);
+        let used = match handling {
+            NoiseHandling::Estimate if f.detected() => f.noise,
+            NoiseHandling::Given => sensors.noise_variance(sensors.displacement, f.signal.sqrt()),
+            _ => 0.0,
+        };
+        by_column[d.displacement] = used;
+        by_column[d.velocity] = used * gain;
+        let std = f.noise.max(0.0).sqrt();
+        let std_se = f.noise_std_error / (2.0 * std.max(f.noise_std_error.sqrt()));
+        for (column, scale, signal) in [(d.displacement, 1.0, f.signal), (d.velocity, gain.sqrt(), f.velocity)] {
+            rows.push(ChannelNoiseReport {
+                column: structure.model.column_names()[column].clone(),
+                std: scale * std,
+                std_se: scale * std_se,
+                signal_std: signal.max(0.0).sqrt(),
+                detected: f.detected(),
+                corrected_std: (by_column[column]).sqrt(),
+                simulated_std: None,
+                at_limits: 0,
+            });
+        }
+    }
     let mut notes = Vec::new();
+    // Variance put back per column (taken out as noise of negative variance, below).
+    let mut put_back = vec![0.0; by_column.len()];
+    // The differences' loss of a white-forced velocity's tail (differentiate::white_tail_loss),
+    // put back as noise of negative variance.
+    for d in differenced {
+        let Some(i) = (0..structure.model.masses()).find(|&i| layout.v(i) == d.velocity) else {
+            continue;
+        };
+        let mut blocked = Vec::new();
+        let intensity = white_intensity(s, i, &mut blocked);
+        if intensity == 0.0 {
+            continue;
+        }
+        let m = structure.model.mass[i];
+        let h = s.simulation.sample_interval;
+        let tail = intensity / (m * m) * differentiate::white_tail_loss(&differentiate::weights(d.found.half), h);
+        let name = &structure.model.column_names()[d.velocity];
+        if handling == NoiseHandling::Ignore {
+            blocked.insert(0, "[identify] sensor_noise = \"ignore\"".to_string());
+        }
+        if blocked.is_empty() {
+            put_back[d.velocity] += tail;
+            notes.push(format!(
+                "the differences take the white-forced tail of {name} out ({:.3} % of its variance, std {:.3e}); the \
+                 weak form's moments have it put back (docs/data.md)",
+                100.0 * tail / d.found.velocity,
+                tail.sqrt()
+            ));
+        } else {
+            blocked.sort();
+            blocked.dedup();
+            notes.push(format!(
+                "the differences take the white-forced tail of {name} out ({:.3} % of its variance), NOT put back: {}",
+                100.0 * tail / d.found.velocity,
+                blocked.join("; ")
+            ));
+        }
+    }
+    if !differenced.is_empty() {
+        notes.push(
+            "a differenced velocity's noise is its displacement's through the differences: noise of variance σ² \
+             becomes σ²·2Σw²/h² over the stencil's weights w, independent of the displacement's own (docs/data.md)"
+                .to_string(),
+        );
+    }
     let integrated = measured.map_or(&[][..], |m| &m.integrated_noise[..]);
     let names = structure.model.column_names();
     match (handling, sensors.acceleration) {
@@ -132,11 +206,15 @@ pub(crate) fn correct(
         ),
     }
     let noise_only = by_column.clone();
-    // The filters' loss goes back in as noise of negative variance (a convolution).
+    // What the filters and the differences took goes back in as noise of negative variance
+    // (a convolution).
     if let Some(l) = loss.filter(|l| l.put_back) {
-        for (b, v) in by_column.iter_mut().zip(&l.by_column) {
-            *b -= v;
+        for (b, v) in put_back.iter_mut().zip(&l.by_column) {
+            *b += v;
         }
+    }
+    for (b, v) in by_column.iter_mut().zip(&put_back) {
+        *b -= v;
     }
     let corrected = by_column.iter().any(|&v| v != 0.0) && structure.atoms.is_empty();
     // Estimated noise: each jackknife replicate is corrected with its own estimate.
@@ -145,10 +223,11 @@ pub(crate) fn correct(
             .iter()
             .map(|r| {
                 r.as_ref().map(|r| {
-                    let mut v = vec![0.0; by_column.len()];
+                    // Columns the pairs do not estimate keep the whole record's correction.
+                    let mut v = noise_only.clone();
                     for (ch, &var) in channels.iter().zip(r) {
                         let c = column_of(floor, ch);
-                        if by_column[c] > 0.0 {
+                        if noise_only[c] > 0.0 {
                             v[c] = var.max(0.0);
                         }
                     }
@@ -159,11 +238,9 @@ pub(crate) fn correct(
     } else {
         Vec::new()
     };
-    if let Some(l) = loss.filter(|l| l.put_back) {
-        for r in replicates.iter_mut().flatten() {
-            for (b, v) in r.iter_mut().zip(&l.by_column) {
-                *b -= v;
-            }
+    for r in replicates.iter_mut().flatten() {
+        for (b, v) in r.iter_mut().zip(&put_back) {
+            *b -= v;
         }
     }
     if let Some(l) = loss {
@@ -190,12 +267,12 @@ pub(crate) fn correct(
         );
     }
     let masses = structure.model.masses();
-    let accelerometers = integrated.len() / 2;
-    if floor.pairs().len() + accelerometers < masses {
+    let covered = floor.pairs().len() + integrated.len() / 2 + differenced.len();
+    if covered < masses {
         notes.push(format!(
             "{} of {masses} masses have no measured displacement–velocity pair: their sensors' noise is neither \
              estimated nor corrected",
-            masses - floor.pairs().len() - accelerometers,
+            masses - covered,
         ));
     }
     let report = SensorNoiseReport {
@@ -232,7 +309,6 @@ pub(crate) struct FilterLoss {
 /// gives their tails a covariance the per-channel correction does not carry), and the mass
 /// is known.
 pub(crate) fn filter_loss(s: &Scenario, structure: &Problem) -> Option<FilterLoss> {
-    use crate::scenario::Process;
     let sim = &s.simulation;
     if s.data.is_some() {
         return None;
@@ -250,24 +326,9 @@ pub(crate) fn filter_loss(s: &Scenario, structure: &Problem) -> Option<FilterLos
     let mut rows = Vec::new();
     let mut blocked = Vec::new();
     for i in 0..structure.model.masses() {
-        let mut intensity = 0.0;
-        for (e, x) in s.excitations.iter().enumerate() {
-            let Process::White { sigma } = x.process else { continue };
-            if !x.acts_on.contains(&i) {
-                continue;
-            }
-            intensity += sigma * sigma;
-            if !x.measured || s.identify.unknown_intensities.contains(&e) {
-                blocked.push(format!("{} is not known to the identifier", x.name));
-            } else if x.acts_on.len() > 1 {
-                blocked.push(format!("{} acts on more than one mass", x.name));
-            }
-        }
+        let intensity = white_intensity(s, i, &mut blocked);
         if intensity == 0.0 {
             continue;
-        }
-        if s.identify.unknown_masses.contains(&i) {
-            blocked.push(format!("the mass {} is unknown", s.masses[i].name));
         }
         let m = structure.model.mass[i];
         let c = layout.v(i);
@@ -308,6 +369,30 @@ pub(crate) fn filter_loss(s: &Scenario, structure: &Problem) -> Option<FilterLos
         note,
         put_back,
     })
+}
+
+/// `Σσ_e²` of the white forces on mass `i`, and in `blocked` why a tail computed from it
+/// cannot be put back: a force the identifier is not told of, or of unknown intensity, or
+/// acting on more than one mass (their tails then covary), or the mass unknown.
+fn white_intensity(s: &Scenario, i: usize, blocked: &mut Vec<String>) -> f64 {
+    use crate::scenario::Process;
+    let mut intensity = 0.0;
+    for (e, x) in s.excitations.iter().enumerate() {
+        let Process::White { sigma } = x.process else { continue };
+        if !x.acts_on.contains(&i) {
+            continue;
+        }
+        intensity += sigma * sigma;
+        if !x.measured || s.identify.unknown_intensities.contains(&e) {
+            blocked.push(format!("{} is not known to the identifier", x.name));
+        } else if x.acts_on.len() > 1 {
+            blocked.push(format!("{} acts on more than one mass", x.name));
+        }
+    }
+    if intensity > 0.0 && s.identify.unknown_masses.contains(&i) {
+        blocked.push(format!("the mass {} is unknown", s.masses[i].name));
+    }
+    intensity
 }
 
 /// Without sensor noise to estimate: put the filters' loss back into `data` (and `also`)

@@ -166,6 +166,56 @@ pub(super) fn noise_gains(h: f64, half: usize) -> (f64, f64) {
     (h / std::f64::consts::PI * v * du, h / std::f64::consts::PI * x * du)
 }
 
+/// The drift removal's power gain at `ω` on the velocity, `G(ω)² = (1 − sinc²(ωW/2))²`
+/// with `W = (2·half + 1)·h` (the displacement, high-passed twice, gets `G⁴`).
+pub(super) fn drift_gain(omega: f64, h: f64, half: usize) -> f64 {
+    let x = 0.5 * omega * (2 * half + 1) as f64 * h;
+    let sinc = if x.abs() < 1e-8 { 1.0 } else { x.sin() / x };
+    (1.0 - sinc * sinc).powi(2)
+}
+
+/// The share of a displacement's variance the drift removal takes out, from the
+/// integrated displacement's spectrum `s` (two-sided density) and variance `var`. Above 1.5
+/// times the corner (`2π/W`, past the mean's first null, where `G⁴ ≥ 0.8`) the true
+/// density is the integrated one over `G⁴`, so the sidelobes' loss there is
+/// `S·(1/G⁴ − 1)`; below, a displacement's spectrum is flat at its static level, which the
+/// bins between 1.5 and 3 times the corner show, and the removal takes that level times
+/// `∫(1 − G⁴) dω`. `None` without such bins.
+pub(super) fn drift_loss(s: &crate::ident::spectrum::Spectrum, var: f64, h: f64, half: usize) -> Option<f64> {
+    let corner = 2.0 * std::f64::consts::PI / ((2 * half + 1) as f64 * h);
+    let dw = if s.omega.len() > 1 {
+        s.omega[1] - s.omega[0]
+    } else {
+        return None;
+    };
+    let g4 = |w: f64| drift_gain(w, h, half).powi(2);
+    let level: Vec<f64> = s
+        .omega
+        .iter()
+        .zip(&s.density)
+        .filter(|(w, _)| (1.5 * corner..=3.0 * corner).contains(*w))
+        .map(|(&w, &d)| d / g4(w))
+        .collect();
+    if level.is_empty() || var <= 0.0 {
+        return None;
+    }
+    let plateau = level.iter().sum::<f64>() / level.len() as f64;
+    // ∫₀^{1.5 corner} (1 − G⁴) dω.
+    let n = 20_000;
+    let step = 1.5 * corner / n as f64;
+    let below: f64 = (0..n).map(|k| 1.0 - g4((k as f64 + 0.5) * step)).sum::<f64>() * step;
+    let above: f64 = s
+        .omega
+        .iter()
+        .zip(&s.density)
+        .filter(|(w, _)| **w >= 1.5 * corner)
+        .map(|(&w, &d)| d * (1.0 / g4(w) - 1.0))
+        .sum::<f64>()
+        * dw;
+    // Both signs of ω.
+    Some(2.0 * (plateau * below + above) / var)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -12,6 +12,7 @@
 //! drift removal's length (`integrate`). The memory of each method is in docs/data.md
 //! ("Memory").
 
+pub mod differentiate;
 mod integrate;
 mod scan;
 
@@ -19,6 +20,7 @@ use super::table::{err, DataError, Labels, Source};
 use super::units;
 use crate::ident::spectrum::{CrossWelch, Derivative, Welch};
 use crate::scenario::{DataMapping, Scenario};
+use differentiate::{derive_notes, Resolution};
 use scan::{check_values, interval_of, pieces, scan, Columns};
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -65,6 +67,18 @@ pub struct Measured {
     integrate: Option<Integration>,
     /// Per column integrated from an acceleration: how an accelerometer's noise reaches it.
     pub integrated_noise: Vec<IntegratedNoise>,
+    /// Per velocity differenced from a measured displacement: the displacement's noise
+    /// and the differences chosen against it.
+    pub differenced: Vec<DifferencedNoise>,
+}
+
+/// A velocity differenced from a measured displacement ([`differentiate`]): the layout
+/// columns, and what the displacement's autocovariance showed.
+#[derive(Debug, Clone, Copy)]
+pub struct DifferencedNoise {
+    pub displacement: usize,
+    pub velocity: usize,
+    pub found: differentiate::Differencing,
 }
 
 /// How the white noise of an accelerometer reaches a velocity or displacement integrated
@@ -113,13 +127,14 @@ struct Plan {
     pieces: Vec<(u32, Vec<usize>)>,
 }
 
-/// A column derived by central differences from another, final `lag` rows after the
-/// measured ones.
+/// A column derived by central differences over `±half` rows from another, final `lag`
+/// rows after the measured ones.
 #[derive(Debug, Clone, Copy)]
 struct Step {
     from: usize,
     to: usize,
     lag: usize,
+    half: usize,
 }
 
 /// A record id as a map key (text ids are numbered by [`Labels`]).
@@ -175,8 +190,9 @@ impl Measured {
         // integration's displacement, reads.
         let ring = match &self.integrate {
             Some(i) => i.margin() + 1,
-            None => lag + 2,
+            None => self.derive.iter().map(|s| s.lag + s.half).max().unwrap_or(0).max(lag) + 1,
         };
+        let stencils: Vec<Vec<f64>> = self.derive.iter().map(|s| differentiate::weights(s.half)).collect();
         let mut handed = 0u64;
         for (source, plan) in &self.plans {
             let slots = plan.pieces.len();
@@ -259,9 +275,9 @@ impl Measured {
                     emit(pos, rows);
                     return Ok(true);
                 }
-                for s in &self.derive {
+                for (s, stencil) in self.derive.iter().zip(&stencils) {
                     if pos >= s.lag {
-                        difference(rows, ring, w, h, *s, pos - s.lag, len);
+                        difference(rows, ring, w, h, *s, stencil, pos - s.lag, len);
                     }
                 }
                 if pos + 1 < len {
@@ -271,9 +287,9 @@ impl Measured {
                     return Ok(true);
                 }
                 // The record's (or piece's) last row: the lagged differences one-sided.
-                for s in &self.derive {
+                for (s, stencil) in self.derive.iter().zip(&stencils) {
                     for q in (pos + 1).saturating_sub(s.lag)..=pos {
-                        difference(rows, ring, w, h, *s, q, len);
+                        difference(rows, ring, w, h, *s, stencil, q, len);
                     }
                 }
                 for q in pos.saturating_sub(lag)..=pos {
@@ -314,11 +330,22 @@ impl Measured {
     }
 }
 
-/// Row `s` of a record's ring of rows gets column `step.to` as the central difference of
-/// `step.from` (one-sided at the record's ends; `len` its rows).
-fn difference(rows: &mut [f64], ring: usize, w: usize, h: f64, step: Step, s: usize, len: usize) {
-    let (a, b) = (s.saturating_sub(1), (s + 1).min(len - 1));
+/// Row `s` of a record's ring of rows gets column `step.to` as the derivative of
+/// `step.from` by `stencil` (`differentiate::weights` of `step.half`), or the central
+/// difference where the stencil would reach past the record's ends (one-sided at the ends;
+/// `len` its rows).
+#[allow(clippy::too_many_arguments)]
+fn difference(rows: &mut [f64], ring: usize, w: usize, h: f64, step: Step, stencil: &[f64], s: usize, len: usize) {
     let at = |q: usize, k: usize| (q % ring) * w + k;
+    if s >= step.half && s + step.half < len {
+        let mut v = 0.0;
+        for (k, wk) in stencil.iter().enumerate() {
+            v += wk * (rows[at(s + k + 1, step.from)] - rows[at(s - k - 1, step.from)]);
+        }
+        rows[at(s, step.to)] = v / h;
+        return;
+    }
+    let (a, b) = (s.saturating_sub(1), (s + 1).min(len - 1));
     rows[at(s, step.to)] = (rows[at(b, step.from)] - rows[at(a, step.from)]) / ((b - a) as f64 * h);
 }
 
@@ -410,7 +437,12 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
                     continue;
                 }
                 lag[to] = lag[from] + 1;
-                derive.push(Step { from, to, lag: lag[to] });
+                derive.push(Step {
+                    from,
+                    to,
+                    lag: lag[to],
+                    half: 1,
+                });
                 present[to] = true;
             }
         }
@@ -428,6 +460,7 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         derive,
         integrate: None,
         integrated_noise: Vec::new(),
+        differenced: Vec::new(),
     };
     if !integrated.is_empty() {
         if let Some(step) = data.derive.first() {
@@ -458,9 +491,35 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         return Err(err(&data.files[0], "stopped: an interrupt was requested"));
     }
     data.motion_frequency = look.motion_frequency;
-    for (step, r) in data.derive.iter().zip(&look.derived) {
-        data.notes
-            .extend(derive_notes(&names[step.from], &names[step.to], sample_interval, *r));
+    // Velocities from displacements: differences as wide as the displacement's noise
+    // asks (`differentiate`), and every later derivative's lag after them.
+    let mut lags = vec![0usize; width];
+    for (k, step) in data.derive.iter_mut().enumerate() {
+        if let Some(d) = look.differencing[k] {
+            step.half = d.half;
+            data.differenced.push(DifferencedNoise {
+                displacement: step.from,
+                velocity: step.to,
+                found: d,
+            });
+        }
+        lags[step.to] = lags[step.from] + step.half;
+        step.lag = lags[step.to];
+    }
+    for (k, (step, r)) in data.derive.iter().zip(&look.derived).enumerate() {
+        let noisy_source = data
+            .differenced
+            .iter()
+            .any(|d| d.velocity == step.from && d.found.detected());
+        let notes = derive_notes(
+            &names[step.from],
+            &names[step.to],
+            sample_interval,
+            *r,
+            look.differencing[k],
+            noisy_source,
+        );
+        data.notes.extend(notes);
     }
     let check = units::Mapped {
         columns: &mapped,
@@ -549,15 +608,37 @@ impl Measured {
         };
         let half = integrate::half_for(period, h);
         set(self, half)?;
-        // Each acceleration's std, for noise levels relative to it.
+        // Each acceleration's std, for noise levels relative to it; each integrated
+        // displacement's variance and spectrum, for what the drift removal took.
         let (mut sum, mut squares, mut n) = (vec![0.0; masses.len()], vec![0.0; masses.len()], 0.0);
-        self.for_each_sample(&mut |_, _, row| {
-            for (k, &(_, _, a)) in masses.iter().enumerate() {
+        let (mut xs, mut xsquares) = (vec![0.0; masses.len()], vec![0.0; masses.len()]);
+        let shortest = self.lengths.iter().copied().min().unwrap_or(0);
+        let segment = ((8 * (2 * half + 1)).next_power_of_two())
+            .min((shortest / 2).next_power_of_two() / 2)
+            .max(16);
+        let mut welch: Vec<Welch> = masses
+            .iter()
+            .map(|_| Welch::new(segment, h, self.lengths.len()))
+            .collect();
+        self.for_each_sample(&mut |j, _, row| {
+            for (k, &(x, _, a)) in masses.iter().enumerate() {
                 sum[k] += row[a];
                 squares[k] += row[a] * row[a];
+                xs[k] += row[x];
+                xsquares[k] += row[x] * row[x];
+                welch[k].push(j as usize, row[x]);
             }
             n += 1.0;
         })?;
+        let lost: Vec<String> = masses
+            .iter()
+            .enumerate()
+            .filter_map(|(k, &(x, _, _))| {
+                let var = xsquares[k] / n - (xs[k] / n).powi(2);
+                integrate::drift_loss(&welch[k].spectrum(), var, h, half)
+                    .map(|l| format!("{} {:.2} %", names[x], 100.0 * l))
+            })
+            .collect();
         let (gain_v, gain_x) = integrate::noise_gains(h, half);
         for (k, &(x, v, a)) in masses.iter().enumerate() {
             let std = (squares[k] / n - (sum[k] / n).powi(2)).max(0.0).sqrt();
@@ -580,6 +661,14 @@ impl Measured {
             2.0 * std::f64::consts::PI / period,
             (4 * half) as f64 * h
         ));
+        if !lost.is_empty() {
+            self.notes.push(format!(
+                "the drift removal takes about {} of the displacements' variance (their static level below its \
+                 corner, read from the spectrum above it), which the stiffnesses read as about as much too stiff \
+                 (docs/data.md)",
+                lost.join(", ")
+            ));
+        }
         Ok(())
     }
 }
@@ -597,6 +686,9 @@ struct Look {
     /// Per derived column, how well the differences resolve the column it comes from (in
     /// the first record).
     derived: Vec<Resolution>,
+    /// Per derived column that is a velocity from a displacement: the displacement's noise
+    /// and the differences chosen against it.
+    differencing: Vec<Option<differentiate::Differencing>>,
     /// ((from, to), how `to` relates to the rate of change of `from`) for the units check.
     derivatives: Vec<((usize, usize), Option<Derivative>)>,
 }
@@ -629,6 +721,16 @@ impl Measured {
             .map(|_| welch_for(self.lengths[longest as usize]))
             .collect();
         let mut derived_welch: Vec<Welch> = self.derive.iter().map(|_| welch_for(self.lengths[0])).collect();
+        let mut autocovariances: Vec<Option<differentiate::Autocovariance>> = self
+            .derive
+            .iter()
+            .map(|s| {
+                masses
+                    .iter()
+                    .any(|&(x, v, _)| (s.from, s.to) == (x, v))
+                    .then(|| differentiate::Autocovariance::new(&self.lengths))
+            })
+            .collect();
         let has = |k: usize| mapped.iter().any(|m| m.0 == k);
         let most = self.lengths.iter().copied().max().unwrap_or(0);
         let mut pairs: Vec<((usize, usize), CrossWelch)> = Vec::new();
@@ -652,6 +754,11 @@ impl Measured {
                     w.push(0, row[s.from]);
                 }
             }
+            for (a, s) in autocovariances.iter_mut().zip(&self.derive) {
+                if let Some(a) = a {
+                    a.push(j as usize, row[s.from]);
+                }
+            }
             for ((f, d), w) in pairs.iter_mut() {
                 w.push(j as usize, row[*f], row[*d]);
             }
@@ -662,58 +769,13 @@ impl Measured {
                 .map(|w| Resolution::of(w, h).wh / h)
                 .fold(f64::NAN, f64::max),
             derived: derived_welch.iter().map(|w| Resolution::of(w, h)).collect(),
+            differencing: autocovariances
+                .iter()
+                .map(|a| a.as_ref().and_then(|a| a.differencing(h)))
+                .collect(),
             derivatives: pairs.into_iter().map(|(p, w)| (p, w.derivative_gain())).collect(),
         })
     }
-}
-
-/// How well central differences at the sampling `h` resolve a signal, from the signal's own
-/// spectrum (Welch, up to the Nyquist frequency): its RMS frequency `ω = √(∫ω²S / ∫S)`
-/// (what the derivative's std over the signal's would be), and the share of the
-/// derivative's amplitude the differences lose (they pass `sin(ωh)/(ωh)` at each `ω`).
-#[derive(Debug, Clone, Copy)]
-struct Resolution {
-    /// `ω·h`.
-    wh: f64,
-    /// `1 − std(central difference) / std(derivative)`.
-    loss: f64,
-}
-
-impl Resolution {
-    fn of(welch: &Welch, h: f64) -> Resolution {
-        let sp = welch.spectrum();
-        let (mut m0, mut m2, mut kept) = (0.0, 0.0, 0.0);
-        for (&w, &s) in sp.omega.iter().zip(&sp.density) {
-            let sinc = (w * h).sin() / (w * h);
-            m0 += s;
-            m2 += w * w * s;
-            kept += w * w * s * sinc * sinc;
-        }
-        Resolution {
-            wh: (m2 / m0).sqrt() * h,
-            loss: 1.0 - (kept / m2).sqrt(),
-        }
-    }
-}
-
-/// What the report says of a derived column: the rule, and a warning where the sampling is
-/// too coarse for it.
-fn derive_notes(from: &str, derived: &str, h: f64, r: Resolution) -> Vec<String> {
-    let mut notes = vec![format!(
-        "{derived} derived from {from} by central differences over 2 × {h} s (docs/data.md)"
-    )];
-    if r.wh > DERIVE_LIMIT {
-        notes.push(format!(
-            "WARNING: the sampling is too coarse to differentiate {from}: ω·h = {:.2} (ω the RMS frequency of \
-             {from}'s spectrum), so the derived {derived} lacks about {:.0} % of the motion's derivative (central \
-             differences pass sin(ωh)/(ωh)) and the estimates are biased (on sdof_duffing at ω·h = 0.33, k3 by \
-             −24 %); sample at least {:.0}× faster or measure it",
-            r.wh,
-            100.0 * r.loss,
-            (r.wh / DERIVE_LIMIT).ceil()
-        ));
-    }
-    notes
 }
 
 #[cfg(test)]
