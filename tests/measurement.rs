@@ -177,6 +177,42 @@ fn without_sensors_nothing_is_estimated() {
     assert!(r.sensor_noise.is_none());
 }
 
+/// The model file of a rig on the SDOF Duffing oscillator whose table has the columns
+/// `run`, `time` and the one `column` maps, with `measurement` (a `[measurement]` section,
+/// or nothing) and the weak form's `sensor_noise = handling`.
+fn rig_model(measurement: &str, handling: &str, column: &str) -> Scenario {
+    let model = format!(
+        r#"
+name = "rig"
+[[mass]]
+name = "m1"
+value = 1.0
+[[link]]
+ends = ["ground", "m1"]
+stiffness = {{ 1 = 10.0, 3 = 20.0 }}
+damping = {{ 1 = 0.5 }}
+[[excitation]]
+kind = "white"
+sigma = 1.0
+acts_on = ["m1"]
+{measurement}
+[identify]
+methods = ["weak"]
+sensor_noise = "{handling}"
+[identify.links.ground-m1]
+stiffness = [1, 3]
+damping = [1]
+[data]
+time = "time"
+record = "run"
+derive = true
+[data.columns]
+{column}
+"#
+    );
+    Scenario::parse(&model, "rig.toml", "rig").unwrap()
+}
+
 /// The SDOF Duffing oscillator sampled every 0.01 s (32 × 625 s) as an accelerometer rig
 /// would log it: a CSV of the run, the time and the acceleration only, with the
 /// scenario's `[measurement] acceleration` noise (`level`, of the acceleration's std) on
@@ -208,38 +244,11 @@ fn accelerometer_rig(level: f64, handling: &str) -> (Report, [f64; 2]) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("rig.csv");
     std::fs::write(&path, csv).unwrap();
-    let model = format!(
-        r#"
-name = "rig"
-[[mass]]
-name = "m1"
-value = 1.0
-[[link]]
-ends = ["ground", "m1"]
-stiffness = {{ 1 = 10.0, 3 = 20.0 }}
-damping = {{ 1 = 0.5 }}
-[[excitation]]
-kind = "white"
-sigma = 1.0
-acts_on = ["m1"]
-[measurement]
-noise = "relative"
-acceleration = {level}
-[identify]
-methods = ["weak"]
-sensor_noise = "{handling}"
-[identify.links.ground-m1]
-stiffness = [1, 3]
-damping = [1]
-[data]
-time = "time"
-record = "run"
-derive = true
-[data.columns]
-a_m1 = "acc"
-"#
+    let model = rig_model(
+        &format!("[measurement]\nnoise = \"relative\"\nacceleration = {level}\n"),
+        handling,
+        "a_m1 = \"acc\"",
     );
-    let model = Scenario::parse(&model, "rig.toml", "rig").unwrap();
     let data = measured(&model, vec![read_for(&path, model.data.as_ref().unwrap()).unwrap()]).unwrap();
     assert!(
         data.notes.iter().any(|n| n.contains("integrated from a_m1")),
@@ -493,35 +502,7 @@ fn displacement_rig(level: f64, handling: &str) -> (Report, f64) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("rig.csv");
     std::fs::write(&path, csv).unwrap();
-    let model = format!(
-        r#"
-name = "rig"
-[[mass]]
-name = "m1"
-value = 1.0
-[[link]]
-ends = ["ground", "m1"]
-stiffness = {{ 1 = 10.0, 3 = 20.0 }}
-damping = {{ 1 = 0.5 }}
-[[excitation]]
-kind = "white"
-sigma = 1.0
-acts_on = ["m1"]
-[identify]
-methods = ["weak"]
-sensor_noise = "{handling}"
-[identify.links.ground-m1]
-stiffness = [1, 3]
-damping = [1]
-[data]
-time = "time"
-record = "run"
-derive = true
-[data.columns]
-x_m1 = "pos"
-"#
-    );
-    let model = Scenario::parse(&model, "rig.toml", "rig").unwrap();
+    let model = rig_model("", handling, "x_m1 = \"pos\"");
     let data = measured(&model, vec![read_for(&path, model.data.as_ref().unwrap()).unwrap()]).unwrap();
     let half = data.differenced[0].found.half;
     let options = Options {

@@ -464,13 +464,16 @@ pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodRepor
             ));
         }
     }
+    // The weak form's rows read corrected moments when `n.corrected`.
+    let weak = |m: &MethodReport| {
+        matches!(
+            m.method,
+            ReportMethod::Estimator(Method::Weak) | ReportMethod::WeakWhiteNaive | ReportMethod::Compare(_)
+        )
+    };
     if let Some(most) = n.filter_loss.iter().max_by(|a, b| a.std.total_cmp(&b.std)) {
         for m in methods.iter_mut() {
-            let weak = matches!(
-                m.method,
-                ReportMethod::Estimator(Method::Weak) | ReportMethod::WeakWhiteNaive | ReportMethod::Compare(_)
-            );
-            if weak && n.corrected {
+            if weak(m) && n.corrected {
                 continue;
             }
             m.warnings.push(format!(
@@ -490,10 +493,7 @@ pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodRepor
         return;
     };
     for m in methods {
-        let weak = matches!(
-            m.method,
-            ReportMethod::Estimator(Method::Weak) | ReportMethod::WeakWhiteNaive | ReportMethod::Compare(_)
-        );
+        let weak = weak(m);
         if weak && n.corrected {
             continue;
         }
