@@ -66,7 +66,7 @@ pub enum SimError {
     #[error("writing samples failed")]
     Sink(#[source] Box<dyn std::error::Error + Send + Sync>),
     /// The sensors' filters cannot run on this simulation's steps
-    /// ([`filters::SensorFilter::new`]).
+    /// (`filters::SensorFilter::new`).
     #[error("[measurement]: {0}")]
     Sensors(String),
     /// A stop was requested (`crate::interrupt`).

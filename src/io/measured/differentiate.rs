@@ -18,7 +18,7 @@
 //!
 //! What a stencil does lose is the tail of a velocity driven by white forces, whose
 //! spectrum falls only as `σ²/(2πm²ω²)` above the modes: [`white_tail_loss`] computes
-//! it, and the identification puts it back where the forces are known. [`derive_notes`]
+//! it, and the identification puts it back where the forces are known. `derive_notes`
 //! says what was done, and warns where the sampling is too coarse for any stencil.
 
 use super::DERIVE_LIMIT;
