@@ -191,6 +191,11 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     let mut estimators: Vec<(Method, Box<dyn Estimator>)> = methods.iter().map(|&m| (m, m.estimator(&setup))).collect();
     let mut dist = Distributions::new(s, &structure, &data);
     forces.start_welch(sim);
+    if s.identify.sensor_noise == crate::scenario::NoiseHandling::Estimate
+        && (s.simulation.sensors.noisy() || input.measured().is_some())
+    {
+        forces.estimate_floors(sim.trajectories);
+    }
     let keep_dist = options.validate || options.plots;
     // The Cramér–Rao bound beside every standard error, where it applies.
     let mut fisher = crate::ident::fisher::FisherInformation::new(&structure).ok();

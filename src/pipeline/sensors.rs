@@ -181,29 +181,84 @@ pub(crate) fn correct(
     }
     let integrated = measured.map_or(&[][..], |m| &m.integrated_noise[..]);
     let names = structure.model.column_names();
-    match (handling, sensors.acceleration) {
-        _ if integrated.is_empty() => {}
-        (NoiseHandling::Given, Some(level)) => {
-            // The stated accelerometer noise (and ADC rounding) through the integration.
-            let mut parts = Vec::new();
-            for n in integrated {
-                by_column[n.column] = n.gain * sensors.noise_variance(level, n.acceleration_std);
-                parts.push(format!("{} {:.4}", names[n.column], by_column[n.column].sqrt()));
-            }
-            notes.push(format!(
-                "noise of the columns integrated from accelerations, from the stated accelerometer noise through the \
-                 integration: std {} (docs/measurement.md)",
-                parts.join(", ")
-            ));
+    // Accelerometers: their noise estimated below the modes (io::measured, module
+    // `integrate`) or stated, through the integration onto velocity and displacement.
+    let (mut parts, mut unknown) = (Vec::new(), Vec::new());
+    for n in integrated {
+        let stated = sensors
+            .acceleration
+            .map(|l| sensors.noise_variance(l, n.acceleration_std));
+        let found = n.estimated.as_ref().ok();
+        let var = match handling {
+            NoiseHandling::Estimate => found.filter(|e| e.detected()).map_or(0.0, |e| e.variance),
+            NoiseHandling::Given => stated.unwrap_or(0.0),
+            NoiseHandling::Ignore => 0.0,
+        };
+        by_column[n.column] = n.gain * var;
+        parts.push(format!("{} {:.4}", names[n.column], by_column[n.column].sqrt()));
+        if rows.iter().any(|r| r.column == names[n.acceleration]) {
+            continue;
         }
-        (NoiseHandling::Ignore, _) => {}
-        _ => notes.push(
-            "WARNING: the accelerometers' noise is not estimated, and the integration turns it into slow noise on \
-             the velocities and displacements that biases the estimates (1 % of the acceleration's std: k3 by \
-             −31 % on duffing2dof): state it in [measurement] acceleration with [identify] sensor_noise = \
-             \"given\" (docs/measurement.md)"
+        match &n.estimated {
+            Ok(e) => {
+                let std = e.variance.max(0.0).sqrt();
+                rows.push(ChannelNoiseReport {
+                    column: names[n.acceleration].clone(),
+                    std,
+                    std_se: e.std_error / (2.0 * std.max(e.std_error.sqrt())),
+                    signal_std: (n.acceleration_std.powi(2) - e.variance.max(0.0)).max(0.0).sqrt(),
+                    detected: e.detected(),
+                    corrected_std: var.sqrt(),
+                    simulated_std: None,
+                    at_limits: 0,
+                });
+            }
+            Err(why) => unknown.push(format!("{}: {why}", names[n.acceleration])),
+        }
+    }
+    // Noise that is much of a column's variance leaves the corrected moments resting on the
+    // noise estimate: a few per cent off in it is tens of per cent in them.
+    let swamped: Vec<String> = integrated
+        .iter()
+        .filter(|n| by_column[n.column] > NOISE_SHARE_WARNING * n.variance)
+        .map(|n| format!("{} {:.0} %", names[n.column], 100.0 * by_column[n.column] / n.variance))
+        .collect();
+    if !swamped.is_empty() {
+        notes.push(format!(
+            "WARNING: the integrated accelerometer noise is much of the motion's variance ({}): the estimates rest \
+             on the noise taken out, and an error of a few per cent in it moves them far beyond their standard \
+             errors; a quieter accelerometer, or a shorter [data] drift_period (less slow noise), helps \
+             (docs/measurement.md)",
+            swamped.join(", ")
+        ));
+    }
+    let estimating = handling == NoiseHandling::Estimate;
+    if !integrated.is_empty() && (estimating || handling == NoiseHandling::Given && sensors.acceleration.is_some()) {
+        notes.push(format!(
+            "noise of the columns integrated from accelerations, from the accelerometers' noise {} through the \
+             integration: std {} (docs/measurement.md)",
+            if estimating {
+                "estimated below the modes (the displacement's spectrum near the drift removal's corner)"
+            } else {
+                "as stated"
+            },
+            parts.join(", ")
+        ));
+    }
+    if estimating && !unknown.is_empty() {
+        notes.push(format!(
+            "WARNING: an accelerometer's noise is not estimated ({}), and the integration turns it into slow noise \
+             that biases the estimates (1 % of the acceleration's std: k3 by −31 % on duffing2dof): state it in \
+             [measurement] acceleration with [identify] sensor_noise = \"given\" (docs/measurement.md)",
+            unknown.join("; ")
+        ));
+    }
+    if handling == NoiseHandling::Given && sensors.acceleration.is_none() && !integrated.is_empty() {
+        notes.push(
+            "WARNING: [identify] sensor_noise = \"given\" but [measurement] states no accelerometer noise: the \
+             integration's slow noise is not taken out (docs/measurement.md)"
                 .to_string(),
-        ),
+        );
     }
     let noise_only = by_column.clone();
     // What the filters and the differences took goes back in as noise of negative variance
@@ -301,6 +356,11 @@ pub(crate) struct FilterLoss {
     pub note: String,
     pub put_back: bool,
 }
+
+/// The share of an integrated column's variance its noise may be before the report warns
+/// that the corrected moments rest on the noise estimate (at 25 %, 1 % off in the noise is
+/// 0.25 % off in the motion's variance, about a standard error of duffing2dof's k1).
+const NOISE_SHARE_WARNING: f64 = 0.25;
 
 /// The velocity tail the sensors' filters take from masses under white forces (module
 /// `sim::filters`, `white_velocity_loss`), computed from the stated filters, intensities

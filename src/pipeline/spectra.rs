@@ -1,6 +1,6 @@
 //! Spectra of the measured filtered forces: lag-1 correlation in pass 1, Welch estimates in
 //! pass 2, and the rational-spectrum fit (3.20) that gives each filter's `A` and `B`, with
-//! a force cell's stated noise floor taken out first (docs/measurement.md).
+//! a force cell's noise floor, stated or estimated, taken out first (docs/measurement.md).
 
 use crate::ident::{spectrum, spectrum::Welch, Filter};
 use crate::model::Columns;
@@ -15,7 +15,14 @@ pub(crate) struct ForceSpectra {
     /// Per force: `Σ p²`, `Σ p·p_prev`, the last value per trajectory.
     lag: Vec<(f64, f64, Vec<f64>)>,
     welch: Vec<Welch>,
+    /// Per force, where its cell's noise floor is estimated: Welch estimates of the
+    /// trajectories in [`FLOOR_PARTS`] parts (trajectory `j` in part `j % parts`), for the
+    /// estimate's jackknife.
+    parts: Vec<Vec<Welch>>,
 }
+
+/// Parts of the trajectories a force cell's noise-floor estimate leaves out in turn.
+const FLOOR_PARTS: usize = 8;
 
 impl ForceSpectra {
     pub(crate) fn new(s: &Scenario, excitations: &[usize]) -> ForceSpectra {
@@ -25,6 +32,7 @@ impl ForceSpectra {
             columns: excitations.iter().map(|&e| log.force(e)).collect(),
             lag: vec![(0.0, 0.0, vec![f64::NAN; s.simulation.trajectories]); excitations.len()],
             welch: Vec::new(),
+            parts: Vec::new(),
         }
     }
 
@@ -58,9 +66,20 @@ impl ForceSpectra {
             .collect();
     }
 
+    /// Estimate each force cell's noise floor too (`sensor_noise = "estimate"` on data that
+    /// may carry sensor noise): Welch estimates per part of the trajectories.
+    pub(crate) fn estimate_floors(&mut self, trajectories: usize) {
+        let parts = trajectories.min(FLOOR_PARTS);
+        self.parts = self.welch.iter().map(|w| vec![w.fresh(trajectories); parts]).collect();
+    }
+
     pub(crate) fn push(&mut self, traj: u32, row: &[f64]) {
         for (w, &c) in self.welch.iter_mut().zip(&self.columns) {
             w.push(traj as usize, row[c]);
+        }
+        for (parts, &c) in self.parts.iter_mut().zip(&self.columns) {
+            let n = parts.len();
+            parts[traj as usize % n].push(traj as usize, row[c]);
         }
     }
 
@@ -78,9 +97,17 @@ impl ForceSpectra {
         let mut filters = Vec::new();
         let mut reports = Vec::new();
         let mut spectra = Vec::new();
-        for (&e, w) in self.excitations.iter().zip(&self.welch) {
+        for (k, (&e, w)) in self.excitations.iter().zip(&self.welch).enumerate() {
             let spec = w.spectrum();
-            let floor = force_floor(s, &spec);
+            let mut floor_se = None;
+            let floor = force_floor(s, &spec).or_else(|| {
+                // Estimated: taken out where it stands 3 standard errors above 0.
+                let mut all = vec![spec.clone()];
+                all.extend(self.parts.get(k)?.iter().map(|p| p.spectrum()));
+                let (n, se) = spectrum::ou_noise_floor(&all).filter(|(_, se)| se.is_finite())?;
+                floor_se = Some(se);
+                (n > 3.0 * se).then_some(n)
+            });
             let fit = match floor {
                 Some(n) => spectrum::fit_ou(&spectrum::without_floor(&spec, n)),
                 None => spectrum::fit_ou(&spec),
@@ -115,6 +142,7 @@ impl ForceSpectra {
                 segments: spec.segments,
                 segment_len: spec.segment_len,
                 noise_floor: floor,
+                noise_floor_se: floor_se,
             });
             spectra.push((s.excitations[e].name.clone(), spec, fit, (ta, tb)));
         }

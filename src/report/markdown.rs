@@ -227,10 +227,10 @@ fn method_section(m: &MethodReport, motion: crate::scenario::Motion) -> String {
 /// out.
 fn sensor_noise_section(n: &super::SensorNoiseReport) -> String {
     let mut s = format!(
-        "## Sensor noise\n\nEstimated from the samples' lagged covariances (docs/measurement.md); `sensor_noise = \"{}\"`: {}.\n\n",
+        "## Sensor noise\n\nEstimated from the samples themselves (docs/measurement.md); `sensor_noise = \"{}\"`: {}.\n\n",
         n.handling,
         if n.corrected {
-            "the weak form reads moments with the noise taken out"
+            "the weak form reads moments corrected for the sensors (the notes say for what)"
         } else {
             "nothing was corrected"
         }

@@ -247,8 +247,13 @@ fn filters(r: &Report) -> String {
             "; log residual RMS {:.3} (averaging alone: {:.3}) over {} segments of {}",
             f.rms_log_residual, f.expected_rms_log_residual, f.segments, f.segment_len
         );
-        if let Some(n) = f.noise_floor {
-            s += &format!("; the force cell's stated noise floor {n:.3e} taken out first");
+        match (f.noise_floor, f.noise_floor_se) {
+            (Some(n), Some(se)) => {
+                s += &format!("; the force cell's noise floor, estimated at {n:.3e} ± {se:.1e}, taken out first")
+            }
+            (Some(n), None) => s += &format!("; the force cell's stated noise floor {n:.3e} taken out first"),
+            (None, Some(se)) => s += &format!("; no force-cell noise floor beyond 3 standard errors ({se:.1e})"),
+            (None, None) => {}
         }
         s += "\n";
     }

@@ -77,10 +77,14 @@ pub struct FilterReport {
     pub expected_rms_log_residual: f64,
     pub segments: usize,
     pub segment_len: usize,
-    /// The force cells' stated noise floor (two-sided density) taken out of the spectrum
-    /// before the fit, if any.
+    /// The force cells' noise floor (two-sided density) taken out of the spectrum before
+    /// the fit, if any: stated, or estimated.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub noise_floor: Option<f64>,
+    /// Where the floor was estimated: the estimate's standard error (taken out only
+    /// beyond 3 of them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_floor_se: Option<f64>,
 }
 
 /// What a method made of the data: each method's outcome is its own (docs/methods.md,
@@ -184,8 +188,9 @@ pub struct SpectrumComparison {
     pub model_peak_rad_s: f64,
 }
 
-/// Sensor noise on the measured displacements and velocities: estimated from the
-/// samples, and what the identification did about it (docs/measurement.md).
+/// Sensor noise on the measured channels (displacements, velocities, accelerations):
+/// estimated from the samples, and what the identification did about it, with the
+/// sensors' filters (docs/measurement.md).
 #[derive(Debug, Clone, Serialize)]
 pub struct SensorNoiseReport {
     /// `estimate`, `given` or `ignore` (`[identify] sensor_noise`).

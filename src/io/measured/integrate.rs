@@ -216,6 +216,212 @@ pub(super) fn drift_loss(s: &crate::ident::spectrum::Spectrum, var: f64, h: f64,
     Some(2.0 * (plateau * below + above) / var)
 }
 
+/// Spectra of parts of the data (one segment length) pooled: each weighs by its segments.
+pub(super) fn pooled(parts: &[crate::ident::spectrum::Spectrum]) -> crate::ident::spectrum::Spectrum {
+    let mut out = parts[0].clone();
+    let total: usize = parts.iter().map(|s| s.segments).sum();
+    for (k, d) in out.density.iter_mut().enumerate() {
+        *d = parts.iter().map(|s| s.density[k] * s.segments as f64).sum::<f64>() / total.max(1) as f64;
+    }
+    out.segments = total;
+    out
+}
+
+/// Parts of the data the accelerometer-noise estimate's jackknife leaves out in turn: the
+/// records in turn when there are at least as many, else equal stretches of each record.
+pub(super) const NOISE_PARTS: usize = 8;
+
+/// The part of the jackknife sample `n` of record `record` (of `len` samples) is in.
+pub(super) fn noise_part(records: usize, record: usize, n: usize, len: usize) -> usize {
+    if records >= NOISE_PARTS {
+        record % NOISE_PARTS
+    } else {
+        (n * NOISE_PARTS / len.max(1)).min(NOISE_PARTS - 1)
+    }
+}
+
+/// An accelerometer's white noise, estimated from the displacement integrated from it
+/// (docs/measurement.md, "The accelerometers' noise from the data"): its variance as white
+/// noise of the samples and that variance's standard error.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AccelerometerNoise {
+    pub variance: f64,
+    pub std_error: f64,
+    /// The band fitted, rad/s.
+    pub band: (f64, f64),
+}
+
+impl AccelerometerNoise {
+    /// Beyond three standard errors.
+    pub fn detected(&self) -> bool {
+        self.variance > 3.0 * self.std_error
+    }
+}
+
+/// The accelerometer's noise from the spectra of the integrated displacement in the
+/// jackknife's parts (Welch, one segment length). Below the modes a displacement's spectrum
+/// is its static compliance's, smooth and even in `ω`: `S_x(ω) = c₀ + c₂ω² + c₄ω⁴`. White
+/// noise of density `N` on the acceleration reaches the integrated displacement as
+/// `N·|I(ω)|⁴`, `I` the trapezoid rule's gain (`≈ 1/ω`), the motion as `|I|⁴ω⁴·S_x`, and the
+/// drift removal's power gain on the displacement ([`drift_gain`] squared) multiplies both
+/// alike. So that gain and `|I|⁴` divided out, `z(ω) = N + ω⁴·S_x(ω)`: the noise is the
+/// constant under a rise as `ω⁴`, and it stands out near the drift removal's corner
+/// (for a mass of natural frequency `ω₀`, a noise of 1 % of the acceleration's std is as
+/// large as the motion where `ω ≈ ω₀/10`). The fit: `1, ω⁴, ω⁶, ω⁸`, each times both
+/// gains and smoothed by the Welch window's kernel (near the corner the gains change within
+/// a few bins), to the estimated spectrum by least squares, each bin weighed by `1/Ŝ²` (its
+/// relative scatter is the same, `1/√K`), over the
+/// bins where the drift removal keeps at least [`NOISE_MIN_GAIN`] of the power and up to
+/// [`NOISE_TOP`] of the mass's motion frequency `motion` (`σ_v/σ_x`). The variance is
+/// `2πN/h`; the jackknife over the parts gives its standard error. A gain error of the
+/// accelerometer scales motion and noise alike and does not bias the estimate relative to
+/// the motion (which a comparison with a force cell could not say; docs/measurement.md).
+pub(super) fn accelerometer_noise(
+    parts: &[crate::ident::spectrum::Spectrum],
+    h: f64,
+    half: usize,
+    motion: f64,
+) -> Result<AccelerometerNoise, String> {
+    let parts: Vec<_> = parts.iter().filter(|s| s.segments > 0).collect();
+    let first = parts
+        .first()
+        .ok_or("no record is long enough for the displacement's spectrum")?;
+    let combine = |leave: Option<usize>| -> Vec<f64> {
+        let mut d = vec![0.0; first.density.len()];
+        let mut k = 0.0;
+        for (p, s) in parts.iter().enumerate() {
+            if Some(p) == leave {
+                continue;
+            }
+            for (a, b) in d.iter_mut().zip(&s.density) {
+                *a += b * s.segments as f64;
+            }
+            k += s.segments as f64;
+        }
+        d.iter().map(|a| a / k.max(1.0)).collect()
+    };
+    let trapezoid4 = |w: f64| (0.5 * h / (0.5 * w * h).tan()).powi(4);
+    let dw = first.omega[1] - first.omega[0];
+    let response = |w: f64| {
+        if w < 1e-12 * dw {
+            0.0
+        } else {
+            drift_gain(w, h, half).powi(2) * trapezoid4(w)
+        }
+    };
+    let corner = 2.0 * std::f64::consts::PI / ((2 * half + 1) as f64 * h);
+    let band = |top: f64| -> Vec<usize> {
+        (crate::ident::spectrum::SKIP_LOW_BINS..first.omega.len())
+            .filter(|&k| {
+                let w = first.omega[k];
+                w <= top && drift_gain(w, h, half).powi(2) >= NOISE_MIN_GAIN
+            })
+            .collect()
+    };
+    let mut top = NOISE_TOP * motion;
+    let mut bins = band(top);
+    if bins.len() < 8 {
+        // Strong noise swells the integrated displacement with slow noise, and `σ_v/σ_x`
+        // reads the motion's frequency low: take the acceleration spectrum's peak above
+        // twice the corner instead (the noise is flat there, the motion is not).
+        let whole = combine(None);
+        let accel = |k: usize| whole[k] / response(first.omega[k]).max(1e-300);
+        let peak = (0..first.omega.len())
+            .filter(|&k| (2.0 * corner..=0.5 * std::f64::consts::PI / h).contains(&first.omega[k]))
+            .max_by(|&a, &b| accel(a).total_cmp(&accel(b)))
+            .map(|k| first.omega[k]);
+        if let Some(p) = peak.filter(|&p| p > motion) {
+            top = NOISE_TOP * p;
+            bins = band(top);
+        }
+    }
+    if bins.len() < 8 || parts.len() < 3 {
+        return Err(format!(
+            "{} frequencies between the drift removal's corner ({corner:.4} rad/s) and {NOISE_TOP} of the motion's \
+             frequency ({top:.4} rad/s) in {} parts: a longer drift window or longer records",
+            bins.len(),
+            parts.len()
+        ));
+    }
+    // The model's terms as the Welch estimate sees them: through the drift removal's and
+    // the trapezoid's gains, then smoothed by the Hann window's kernel (near the corner
+    // these gains change within a few bins, and the smoothing would read as noise).
+    let terms: Vec<[f64; 4]> = bins
+        .iter()
+        .map(|&k| {
+            let mut out = [0.0; 4];
+            for (j, o) in out.iter_mut().enumerate() {
+                *o = hann_smoothed(
+                    |w| {
+                        let t = w / top;
+                        response(w) * [1.0, t.powi(4), t.powi(6), t.powi(8)][j]
+                    },
+                    first.omega[k],
+                    dw,
+                    first.segment_len,
+                );
+            }
+            out
+        })
+        .collect();
+    let whole = combine(None);
+    let fit = |density: &[f64]| -> Option<f64> {
+        let mut normal = nalgebra::Matrix4::<f64>::zeros();
+        let mut rhs = nalgebra::Vector4::<f64>::zeros();
+        for (&k, x) in bins.iter().zip(&terms) {
+            let x = nalgebra::Vector4::from_row_slice(x);
+            let w = 1.0 / whole[k].powi(2).max(1e-300);
+            normal += w * x * x.transpose();
+            rhs += w * density[k] * x;
+        }
+        normal.lu().solve(&rhs).map(|b| b[0] * 2.0 * std::f64::consts::PI / h)
+    };
+    let variance = fit(&whole).ok_or("the fit is singular")?;
+    let replicates: Vec<f64> = (0..parts.len())
+        .map(|p| fit(&combine(Some(p))).ok_or("the fit is singular"))
+        .collect::<Result<_, _>>()?;
+    let g = replicates.len() as f64;
+    let mean = replicates.iter().sum::<f64>() / g;
+    let std_error = ((g - 1.0) / g * replicates.iter().map(|r| (r - mean).powi(2)).sum::<f64>()).sqrt();
+    Ok(AccelerometerNoise {
+        variance,
+        std_error,
+        band: (first.omega[bins[0]], first.omega[*bins.last().expect("bins")]),
+    })
+}
+
+/// The expectation of a Welch estimate (Hann window of `len` samples, bins `dw` apart) at
+/// `omega` of an even spectrum `f`: `f` smoothed by the window's kernel `|W|²` over ±8
+/// bins, normalised to keep a flat spectrum flat. `W` is the sum of three Dirichlet kernels
+/// (`½D(θ) + ¼D(θ − 2π/L) + ¼D(θ + 2π/L)` for a long window).
+fn hann_smoothed(f: impl Fn(f64) -> f64, omega: f64, dw: f64, len: usize) -> f64 {
+    const SUB: i32 = 16;
+    const SPAN: i32 = 8;
+    let l = len as f64;
+    let dirichlet = |bins: f64| {
+        let half_theta = std::f64::consts::PI * bins / l;
+        if half_theta.sin().abs() < 1e-12 {
+            l
+        } else {
+            (l * half_theta).sin() / half_theta.sin()
+        }
+    };
+    let (mut num, mut den) = (0.0, 0.0);
+    for j in -SPAN * SUB..=SPAN * SUB {
+        let d = j as f64 / SUB as f64;
+        let k = (0.5 * dirichlet(d) + 0.25 * dirichlet(d - 1.0) + 0.25 * dirichlet(d + 1.0)).powi(2);
+        num += k * f((omega + d * dw).abs());
+        den += k;
+    }
+    num / den
+}
+
+/// The smallest power the drift removal keeps on the displacement (`D⁴`) at a frequency the
+/// noise estimate uses.
+const NOISE_MIN_GAIN: f64 = 0.05;
+/// The noise estimate's band ends at this fraction of the motion's frequency.
+const NOISE_TOP: f64 = 0.4;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -243,6 +449,62 @@ mod tests {
         let (var_v, var_x) = (sv / nv, sx / nx);
         assert!((var_v / gv - 1.0).abs() < 0.03, "velocity: {var_v} against {gv}");
         assert!((var_x / gx - 1.0).abs() < 0.06, "displacement: {var_x} against {gx}");
+    }
+
+    /// A linear oscillator `m·a = p − k·x − c·v` under a white force, stepped 10 times per
+    /// sample, its acceleration logged as the simulator logs a white-forced mass's (the
+    /// velocity's change over the interval) with white noise of `noise` times its std, then
+    /// integrated with the drift window of ten periods: the noise estimate.
+    fn oscillator_noise(noise: f64) -> (AccelerometerNoise, f64) {
+        let (m, k, c, h, steps): (f64, f64, f64, f64, usize) = (2.0, 8.0, 0.4, 0.01, 10);
+        let dt = h / steps as f64;
+        let (records, len) = (16, 400_000);
+        let omega = (k / m).sqrt();
+        let half = half_for(10.0 * 2.0 * std::f64::consts::PI / omega, h);
+        let segment = (8 * (2 * half + 1)).next_power_of_two();
+        let mut parts = vec![crate::ident::spectrum::Welch::new(segment, h, records); NOISE_PARTS];
+        // The acceleration's std: the white force's `σ²/h` over `m²`, σ = 1.
+        let std_a = (1.0 / h).sqrt() / m;
+        for r in 0..records {
+            let mut chain = Chain::new(h, half);
+            let (mut x, mut v) = (0.0, 0.0);
+            let mut n_x = 0;
+            for n in 0..len {
+                let v0 = v;
+                for s in 0..steps {
+                    let dw = dt.sqrt() * crate::sim::sensors::normal(5, r as u64, (n * steps + s) as u64, 9);
+                    v += (-(k * x + c * v) * dt + dw) / m;
+                    x += v * dt;
+                }
+                let a = (v - v0) / h + noise * std_a * crate::sim::sensors::normal(6, r as u64, n as u64, 1);
+                if let (_, Some(xi)) = chain.push(a) {
+                    parts[noise_part(records, r, n_x, len)].push(r, xi);
+                    n_x += 1;
+                }
+            }
+        }
+        let spectra: Vec<_> = parts.iter().map(|w| w.spectrum()).collect();
+        (
+            accelerometer_noise(&spectra, h, half, omega).expect("an estimate"),
+            std_a,
+        )
+    }
+
+    /// Noise of 1 % of the acceleration's std comes back within 10 % of its std and three
+    /// standard errors; without noise, none is detected.
+    #[test]
+    fn an_accelerometers_noise_is_found_below_the_modes() {
+        let (clean, _) = oscillator_noise(0.0);
+        assert!(!clean.detected(), "{clean:?}");
+        let (noisy, std_a) = oscillator_noise(0.01);
+        let truth = (0.01 * std_a).powi(2);
+        let (s, t) = (noisy.variance.max(0.0).sqrt(), truth.sqrt());
+        assert!(noisy.detected(), "{noisy:?}");
+        assert!((s / t - 1.0).abs() < 0.1, "std {s} against {t}: {noisy:?}");
+        assert!(
+            (noisy.variance - truth).abs() < 3.0 * noisy.std_error,
+            "{noisy:?} against {truth}"
+        );
     }
 
     /// A sum of tones well above the corner, its acceleration integrated back: velocity

@@ -84,7 +84,7 @@ pub struct DifferencedNoise {
 /// How the white noise of an accelerometer reaches a velocity or displacement integrated
 /// from it: as noise of `gain` times its variance, Gaussian and independent of the motion
 /// (`integrate::noise_gains`).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct IntegratedNoise {
     /// The integrated column and the acceleration's (layout columns).
     pub column: usize,
@@ -92,6 +92,10 @@ pub struct IntegratedNoise {
     pub gain: f64,
     /// The acceleration's standard deviation over the data (relative noise levels).
     pub acceleration_std: f64,
+    /// The integrated column's variance, noise included.
+    pub variance: f64,
+    /// The accelerometer's noise as the integrated displacement shows it, or why not.
+    pub estimated: Result<integrate::AccelerometerNoise, String>,
 }
 
 /// Which masses' velocities and displacements come from their accelerations, and the
@@ -609,45 +613,65 @@ impl Measured {
         let half = integrate::half_for(period, h);
         set(self, half)?;
         // Each acceleration's std, for noise levels relative to it; each integrated
-        // displacement's variance and spectrum, for what the drift removal took.
-        let (mut sum, mut squares, mut n) = (vec![0.0; masses.len()], vec![0.0; masses.len()], 0.0);
-        let (mut xs, mut xsquares) = (vec![0.0; masses.len()], vec![0.0; masses.len()]);
+        // displacement's variance and spectrum in the jackknife's parts, for what the drift
+        // removal took and for the accelerometer's noise; each velocity's variance, for
+        // the motion's frequency.
+        let mut sums = vec![[0.0f64; 6]; masses.len()];
+        let mut n = 0.0;
         let shortest = self.lengths.iter().copied().min().unwrap_or(0);
+        let records = self.lengths.len();
+        let stretch = if records >= integrate::NOISE_PARTS {
+            shortest
+        } else {
+            shortest / integrate::NOISE_PARTS
+        };
         let segment = ((8 * (2 * half + 1)).next_power_of_two())
-            .min((shortest / 2).next_power_of_two() / 2)
+            .min((stretch / 2).next_power_of_two() / 2)
             .max(16);
-        let mut welch: Vec<Welch> = masses
-            .iter()
-            .map(|_| Welch::new(segment, h, self.lengths.len()))
-            .collect();
-        self.for_each_sample(&mut |j, _, row| {
-            for (k, &(x, _, a)) in masses.iter().enumerate() {
-                sum[k] += row[a];
-                squares[k] += row[a] * row[a];
-                xs[k] += row[x];
-                xsquares[k] += row[x] * row[x];
-                welch[k].push(j as usize, row[x]);
+        let mut welch = vec![vec![Welch::new(segment, h, records); integrate::NOISE_PARTS]; masses.len()];
+        let lengths = self.lengths.clone();
+        self.for_each_sample(&mut |j, t, row| {
+            let (j, len) = (j as usize, lengths[j as usize]);
+            let part = integrate::noise_part(records, j, (t / h).round() as usize, len);
+            for (k, &(x, v, a)) in masses.iter().enumerate() {
+                for (q, c) in [a, x, v].into_iter().enumerate() {
+                    sums[k][2 * q] += row[c];
+                    sums[k][2 * q + 1] += row[c] * row[c];
+                }
+                welch[k][part].push(j, row[x]);
             }
             n += 1.0;
         })?;
+        let var = |s: &[f64; 6], q: usize| (s[2 * q + 1] / n - (s[2 * q] / n).powi(2)).max(0.0);
+        let spectra: Vec<Vec<_>> = welch.iter().map(|w| w.iter().map(|p| p.spectrum()).collect()).collect();
         let lost: Vec<String> = masses
             .iter()
             .enumerate()
             .filter_map(|(k, &(x, _, _))| {
-                let var = xsquares[k] / n - (xs[k] / n).powi(2);
-                integrate::drift_loss(&welch[k].spectrum(), var, h, half)
+                integrate::drift_loss(&integrate::pooled(&spectra[k]), var(&sums[k], 1), h, half)
                     .map(|l| format!("{} {:.2} %", names[x], 100.0 * l))
             })
             .collect();
         let (gain_v, gain_x) = integrate::noise_gains(h, half);
         for (k, &(x, v, a)) in masses.iter().enumerate() {
-            let std = (squares[k] / n - (sum[k] / n).powi(2)).max(0.0).sqrt();
-            for (column, gain) in [(v, gain_v), (x, gain_x)] {
+            let motion = (var(&sums[k], 2) / var(&sums[k], 1)).sqrt();
+            let mut estimated = integrate::accelerometer_noise(&spectra[k], h, half, motion);
+            // The noise found, the motion's frequency from the variances without it.
+            if let Some(e) = estimated.as_ref().ok().filter(|e| e.detected()) {
+                let clean =
+                    ((var(&sums[k], 2) - gain_v * e.variance) / (var(&sums[k], 1) - gain_x * e.variance)).sqrt();
+                if clean.is_finite() && (clean / motion - 1.0).abs() > 0.05 {
+                    estimated = integrate::accelerometer_noise(&spectra[k], h, half, clean);
+                }
+            }
+            for (column, gain, q) in [(v, gain_v, 2), (x, gain_x, 1)] {
                 self.integrated_noise.push(IntegratedNoise {
                     column,
                     acceleration: a,
                     gain,
-                    acceleration_std: std,
+                    acceleration_std: var(&sums[k], 0).sqrt(),
+                    variance: var(&sums[k], q),
+                    estimated: estimated.clone(),
                 });
             }
         }
