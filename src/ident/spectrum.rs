@@ -365,13 +365,28 @@ pub fn fit_ou(s: &Spectrum) -> OuFit {
         let ss = logs.iter().zip(&shape).map(|(l, h)| (l - h - la2).powi(2)).sum::<f64>();
         (ss, la2)
     };
-    let (mut lo, mut hi) = ((s.omega[0] / 100.0).ln(), (100.0 * s.omega[s.omega.len() - 1]).ln());
-    // Coarse scan, then golden section around the best point.
+    let b = best_corner(s.omega[0], s.omega[s.omega.len() - 1], |b| cost(b).0);
+    let (ss, la2) = cost(b);
+    // E[ln] of an average of K periodograms is ln S − 1/(2K) − …: undo that bias.
+    let k = s.segments.max(1) as f64;
+    let la2 = la2 + 1.0 / (2.0 * k) + 1.0 / (12.0 * k * k);
+    OuFit {
+        a: (la2 / 2.0).exp(),
+        b,
+        rms_log_residual: (ss / logs.len() as f64).sqrt(),
+        expected_rms: 1.0 / (s.segments.max(1) as f64).sqrt(),
+    }
+}
+
+/// The corner `B` that minimises `cost` between `ω_lo/100` and `100·ω_hi`: a scan of
+/// `ln B` in 200 steps, then a golden section around the best point.
+fn best_corner(omega_lo: f64, omega_hi: f64, cost: impl Fn(f64) -> f64) -> f64 {
+    let (mut lo, mut hi) = ((omega_lo / 100.0).ln(), (100.0 * omega_hi).ln());
     let mut best = lo;
     let mut best_cost = f64::INFINITY;
     for k in 0..=200 {
         let lb = lo + (hi - lo) * k as f64 / 200.0;
-        let c = cost(lb.exp()).0;
+        let c = cost(lb.exp());
         if c < best_cost {
             best_cost = c;
             best = lb;
@@ -383,23 +398,13 @@ pub fn fit_ou(s: &Spectrum) -> OuFit {
     let g = (5f64.sqrt() - 1.0) / 2.0;
     for _ in 0..100 {
         let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        if cost(m1.exp()).0 < cost(m2.exp()).0 {
+        if cost(m1.exp()) < cost(m2.exp()) {
             hi = m2;
         } else {
             lo = m1;
         }
     }
-    let b = (0.5 * (lo + hi)).exp();
-    let (ss, la2) = cost(b);
-    // E[ln] of an average of K periodograms is ln S − 1/(2K) − …: undo that bias.
-    let k = s.segments.max(1) as f64;
-    let la2 = la2 + 1.0 / (2.0 * k) + 1.0 / (12.0 * k * k);
-    OuFit {
-        a: (la2 / 2.0).exp(),
-        b,
-        rms_log_residual: (ss / logs.len() as f64).sqrt(),
-        expected_rms: 1.0 / (s.segments.max(1) as f64).sqrt(),
-    }
+    (0.5 * (lo + hi)).exp()
 }
 
 /// A white noise floor under a force's spectrum (a force cell's noise), estimated with
@@ -446,30 +451,12 @@ pub fn ou_noise_floor(parts: &[Spectrum]) -> Option<(f64, f64)> {
                 .sum::<f64>();
             (cost, n)
         };
-        let (mut lo, mut hi) = (
-            (whole.omega[skip] / 100.0).ln(),
-            (100.0 * whole.omega[whole.omega.len() - 1]).ln(),
-        );
-        let mut best = (f64::INFINITY, lo);
-        for k in 0..=200 {
-            let lb = lo + (hi - lo) * k as f64 / 200.0;
-            let c = solve(lb.exp()).0;
-            if c < best.0 {
-                best = (c, lb);
-            }
-        }
-        let step = (hi - lo) / 200.0;
-        (lo, hi) = (best.1 - step, best.1 + step);
-        let g = (5f64.sqrt() - 1.0) / 2.0;
-        for _ in 0..60 {
-            let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-            if solve(m1.exp()).0 < solve(m2.exp()).0 {
-                hi = m2;
-            } else {
-                lo = m1;
-            }
-        }
-        solve((0.5 * (lo + hi)).exp()).1
+        solve(best_corner(
+            whole.omega[skip],
+            whole.omega[whole.omega.len() - 1],
+            |b| solve(b).0,
+        ))
+        .1
     };
     let n = floor_of(&whole.density);
     // Leave-one-out densities from the parts (after the whole), by their segments.
