@@ -338,7 +338,9 @@ pub(crate) fn correct(
         }
         .to_string(),
         channels: rows,
-        not_estimated,
+        // Without pairs, the differenced or integrated channels' own estimates stand.
+        not_estimated: not_estimated
+            .filter(|_| !floor.pairs().is_empty() || (integrated.is_empty() && differenced.is_empty())),
         corrected,
         notes,
         filter_loss: loss.map_or_else(Vec::new, |l| l.rows.clone()),
