@@ -378,6 +378,20 @@ pub fn fit_ou(s: &Spectrum) -> OuFit {
     }
 }
 
+/// The density of spectra of parts of the data (one segment length) pooled, each part
+/// weighing by its segments.
+pub fn pooled_density<'a>(parts: impl IntoIterator<Item = &'a Spectrum>) -> Vec<f64> {
+    let (mut d, mut k) = (Vec::new(), 0.0);
+    for s in parts {
+        d.resize(s.density.len(), 0.0);
+        for (a, b) in d.iter_mut().zip(&s.density) {
+            *a += b * s.segments as f64;
+        }
+        k += s.segments as f64;
+    }
+    d.iter().map(|a| a / f64::max(k, 1.0)).collect()
+}
+
 /// The corner `B` that minimises `cost` between `ω_lo/100` and `100·ω_hi`: a scan of
 /// `ln B` in 200 steps, then a golden section around the best point.
 fn best_corner(omega_lo: f64, omega_hi: f64, cost: impl Fn(f64) -> f64) -> f64 {
@@ -466,22 +480,7 @@ pub fn ou_noise_floor(parts: &[Spectrum]) -> Option<(f64, f64)> {
     }
     let reps: Vec<f64> = (0..rest.len())
         .map(|leave| {
-            let k: f64 = rest
-                .iter()
-                .enumerate()
-                .filter(|&(p, _)| p != leave)
-                .map(|(_, s)| s.segments as f64)
-                .sum();
-            let d: Vec<f64> = (0..whole.density.len())
-                .map(|i| {
-                    rest.iter()
-                        .enumerate()
-                        .filter(|&(p, _)| p != leave)
-                        .map(|(_, s)| s.density[i] * s.segments as f64)
-                        .sum::<f64>()
-                        / k.max(1.0)
-                })
-                .collect();
+            let d = pooled_density(rest.iter().enumerate().filter(|&(p, _)| p != leave).map(|(_, s)| s));
             floor_of(&d)
         })
         .collect();

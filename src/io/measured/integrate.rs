@@ -218,13 +218,11 @@ pub(super) fn drift_loss(s: &crate::ident::spectrum::Spectrum, var: f64, h: f64,
 
 /// Spectra of parts of the data (one segment length) pooled: each weighs by its segments.
 pub(super) fn pooled(parts: &[crate::ident::spectrum::Spectrum]) -> crate::ident::spectrum::Spectrum {
-    let mut out = parts[0].clone();
-    let total: usize = parts.iter().map(|s| s.segments).sum();
-    for (k, d) in out.density.iter_mut().enumerate() {
-        *d = parts.iter().map(|s| s.density[k] * s.segments as f64).sum::<f64>() / total.max(1) as f64;
+    crate::ident::spectrum::Spectrum {
+        density: crate::ident::spectrum::pooled_density(parts),
+        segments: parts.iter().map(|s| s.segments).sum(),
+        ..parts[0].clone()
     }
-    out.segments = total;
-    out
 }
 
 /// Parts of the data the accelerometer-noise estimate's jackknife leaves out in turn: the
@@ -241,7 +239,7 @@ pub(super) fn noise_part(records: usize, record: usize, n: usize, len: usize) ->
 }
 
 /// An accelerometer's white noise, estimated from the displacement integrated from it
-/// (docs/measurement.md, "The accelerometers' noise from the data"): its variance as white
+/// (docs/measurement.md, "An accelerometer's noise"): its variance as white
 /// noise of the samples and that variance's standard error.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AccelerometerNoise {
@@ -286,19 +284,14 @@ pub(super) fn accelerometer_noise(
     let first = parts
         .first()
         .ok_or("no record is long enough for the displacement's spectrum")?;
-    let combine = |leave: Option<usize>| -> Vec<f64> {
-        let mut d = vec![0.0; first.density.len()];
-        let mut k = 0.0;
-        for (p, s) in parts.iter().enumerate() {
-            if Some(p) == leave {
-                continue;
-            }
-            for (a, b) in d.iter_mut().zip(&s.density) {
-                *a += b * s.segments as f64;
-            }
-            k += s.segments as f64;
-        }
-        d.iter().map(|a| a / k.max(1.0)).collect()
+    let combine = |leave: Option<usize>| {
+        crate::ident::spectrum::pooled_density(
+            parts
+                .iter()
+                .enumerate()
+                .filter(|&(p, _)| Some(p) != leave)
+                .map(|(_, s)| *s),
+        )
     };
     let trapezoid4 = |w: f64| (0.5 * h / (0.5 * w * h).tan()).powi(4);
     let dw = first.omega[1] - first.omega[0];
