@@ -70,6 +70,14 @@ const GATES: &[Gate] = &[
         record_length: 3125.0,
         thresholds: &[("weak", 0.24)],
     },
+    // 64 × 625 s with structure selection (candidate powers 1 and 3, and the candidate link
+    // m1–m3), 20 seeds: the selected model's weak worst error mean 0.0288, sd 0.0111, max
+    // 0.065; exact structure on 18 (docs/selection.md).
+    Gate {
+        scenario: "chain3",
+        record_length: 625.0,
+        thresholds: &[("weak", 0.073)],
+    },
     // 64 × 1000 s, the weighted weak form with 1000 equations, 42 seeds (the 12 of
     // studies/chain5.toml and `fpkbench study --scenario scenarios/chain5.toml
     // --record-length 1000 --seeds 30 --seed 7`): weak mean 0.0371, sd 0.0170, median

@@ -2,10 +2,11 @@
 
 use clap::builder::TypedValueParser;
 use fpkbench::io::output::{refuse_same_file, FolderLock, Staging};
+use fpkbench::model::Term;
 use fpkbench::pipeline::{identify, GridSettings, Input, Options, Settings, StrongDensity};
 use fpkbench::report;
 use fpkbench::report::{MethodReport, Outcome, Report};
-use fpkbench::scenario::Method;
+use fpkbench::scenario::{Method, Select};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -61,6 +62,16 @@ pub struct IdentifyArgs {
     /// Iterative procedure: stop when every coefficient changes by less than this fraction.
     #[arg(long, value_parser = positive)]
     pub tolerance: Option<f64>,
+    /// Structure selection (docs/selection.md): take the unknown terms as candidates
+    /// (`[identify.select]`'s, else each link's `[identify.links]`) and identify only those
+    /// the data need, chosen by GMM-BIC over the weak form's equations; the report shows
+    /// the evidence.
+    #[arg(long)]
+    pub select: bool,
+    /// Structure selection with the candidates powers 1..=N on every link's stiffness and
+    /// damping (implies --select).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=15))]
+    pub select_powers: Option<u32>,
     /// Skip the validation by re-simulating the identified model.
     #[arg(long)]
     pub no_validate: bool,
@@ -95,8 +106,20 @@ impl IdentifyArgs {
             validate: !self.no_validate,
             max_steps: self.max_steps.map(|m| m as usize),
             tolerance: self.tolerance,
+            select: self.selection(),
             ..Options::default()
         }
+    }
+}
+
+impl IdentifyArgs {
+    /// `--select`, `--select-powers`: the selection asked for on the command line.
+    pub fn selection(&self) -> Option<Select> {
+        let powers = self.select_powers.map(|n| (1..=n).map(Term::Power).collect::<Vec<_>>());
+        (self.select || powers.is_some()).then(|| Select {
+            stiffness: powers.clone(),
+            damping: powers,
+        })
     }
 }
 
@@ -206,7 +229,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             info.accept_truncated = args.allow_truncated;
             (Input::log(info), vec![log.clone()])
         }
-        (None, Some(model)) => (measured_input(model, &args.data)?, args.data.clone()),
+        (None, Some(model)) => (
+            measured_input(model, &args.data, args.identify.selection().as_ref())?,
+            args.data.clone(),
+        ),
         (None, None) => unreachable!("clap requires one"),
     };
     let dir = report_dir(&args.identify, &input.info.scenario.name);
@@ -242,7 +268,7 @@ fn files_in_short(files: &[std::path::PathBuf]) -> String {
 }
 
 /// The model file and its measured data, checked before any identification.
-fn measured_input(model: &Path, data: &[PathBuf]) -> anyhow::Result<Input> {
+fn measured_input(model: &Path, data: &[PathBuf], select: Option<&Select>) -> anyhow::Result<Input> {
     let scenario = fpkbench::Scenario::from_file(model)?;
     let Some(mapping) = &scenario.data else {
         anyhow::bail!(
@@ -256,7 +282,8 @@ fn measured_input(model: &Path, data: &[PathBuf]) -> anyhow::Result<Input> {
         .collect::<Result<Vec<_>, _>>()?;
     let measured = fpkbench::io::table::measured(&scenario, tables)?;
     let input = Input::tables(scenario, measured);
-    fpkbench::pipeline::preflight(&input.info.scenario).map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
+    fpkbench::pipeline::preflight(&input.info.scenario, select)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
     fpkbench::pipeline::check_measured(&input).map_err(|e| anyhow::anyhow!("{}: {e}", data[0].display()))?;
     Ok(input)
 }

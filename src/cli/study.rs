@@ -67,6 +67,14 @@ pub struct Args {
     /// An override KEY=VALUE applied first, as for `run` (repeatable; with --scenario).
     #[arg(long = "set", requires = "scenario")]
     pub set: Vec<String>,
+    /// Structure selection on every item (with --scenario; docs/selection.md): the
+    /// scenario's unknown terms are candidates, as `run --select`.
+    #[arg(long, requires = "scenario")]
+    pub select: bool,
+    /// Structure selection with the candidate powers 1..=N on every link's stiffness and
+    /// damping (with --scenario; implies --select).
+    #[arg(long, value_name = "N", requires = "scenario", value_parser = clap::value_parser!(u32).range(1..=15))]
+    pub select_powers: Option<u32>,
     /// Compare every method with this one on the same samples (with --scenario).
     #[arg(long, requires = "scenario")]
     pub reference: Option<String>,
@@ -96,8 +104,17 @@ fn study_text(args: &Args, scenario: &Path) -> String {
         let names: Vec<String> = args.methods.iter().map(|m| m.name().to_string()).collect();
         t.insert("methods".into(), strings(&names));
     }
-    if !args.set.is_empty() {
-        t.insert("set".into(), strings(&args.set));
+    let mut set = args.set.clone();
+    if let Some(n) = args.select_powers {
+        let powers: Vec<String> = (1..=n).map(|p| p.to_string()).collect();
+        for kind in ["stiffness", "damping"] {
+            set.push(format!("identify.select.{kind}=[{}]", powers.join(", ")));
+        }
+    } else if args.select {
+        set.push("identify.select={}".into());
+    }
+    if !set.is_empty() {
+        t.insert("set".into(), strings(&set));
     }
     if let Some(r) = &args.reference {
         t.insert("reference".into(), r.clone().into());

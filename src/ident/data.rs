@@ -126,6 +126,33 @@ impl StationaryData {
         StationaryData::from_accumulator(problem, accumulator(problem, degree), layout, record_length, batches)
     }
 
+    /// The moments the weak forms of `problem` and of every one of `also` read (problems
+    /// over the same state, e.g. a structure selection's candidate and declared models),
+    /// with the fine batches `problem`'s equations need.
+    pub fn for_weak_forms(
+        problem: &Problem,
+        also: &[&Problem],
+        record_length: f64,
+        trajectories: usize,
+        batches: usize,
+    ) -> StationaryData {
+        let mut wanted = super::weak::required_moments(problem);
+        let mut degree = super::weak::moment_degree(problem);
+        for p in also {
+            debug_assert_eq!(p.dim(), problem.dim());
+            wanted.extend(super::weak::required_moments(p));
+            degree = degree.max(super::weak::moment_degree(p));
+        }
+        wanted.sort_unstable();
+        wanted.dedup();
+        let layout = FineLayout::for_batches(
+            super::weak::BATCHES_PER_EQUATION * super::weak::test_functions(problem).len(),
+            trajectories,
+        );
+        let first = RawMoments::with_monomials(problem.dim(), degree, &wanted);
+        StationaryData::from_accumulator(problem, first, layout, record_length, batches)
+    }
+
     /// Every raw moment up to `degree` (for several problems over the same state).
     pub fn with_all_moments(problem: &Problem, degree: u32, record_length: f64, batches: usize) -> StationaryData {
         let d = problem.dim();

@@ -183,25 +183,7 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
     let map = weak::PiecesMap::new(problem, &total);
     let pc = map.apply(&total);
     let replicates: Vec<Pieces> = data.leave_one_out().iter().map(|b| map.apply(b)).collect();
-    // The equations' covariance from the fine batches' residuals at a first estimate.
-    // Two-step: the covariance at the unweighted estimate (iterating it changed nothing
-    // measurable on silentblock). Each batch's moments go straight to its residual through
-    // one sparse map, in parallel: a thousand equations' pieces for thousands of batches
-    // would not fit in memory.
-    let fine: Vec<&moments::RawMoments> = data.fine.iter().filter(|b| b.count > 0).collect();
-    let counts: Vec<u64> = fine.iter().map(|b| b.count).collect();
-    let (first, _) = problem.solve(&pc, &typical, None);
-    let rmap = map.residual_map(problem, first.as_slice());
-    let residuals = {
-        use rayon::prelude::*;
-        let rows = rmap.rows();
-        let mut flat = vec![0.0; rows * fine.len()];
-        flat.par_chunks_mut(rows.max(1))
-            .zip(fine.par_iter())
-            .for_each(|(out, b)| rmap.apply_into(b, out));
-        DMatrix::from_vec(rows, fine.len(), flat)
-    };
-    let weight = weak::weighting(residuals, &counts);
+    let (weight, fine) = efficient_weight(problem, data, &map, &pc, &typical);
     let replicates = solve_replicates(problem, "weak", replicates, &typical, weight.as_ref())?;
     let mut facts = vec![
         (
@@ -229,17 +211,43 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
         match weight {
             Some(_) => format!(
                 "inverse covariance of the equations from {} batches (shrinkage {:.3})",
-                fine.len(),
-                pc.rows as f64 / fine.len() as f64
+                fine,
+                pc.rows as f64 / fine as f64
             ),
             None => format!(
                 "none (natural scales): {} batches are too few for {} equations",
-                fine.len(),
-                pc.rows
+                fine, pc.rows
             ),
         },
     ));
     estimate(problem, "weak", &pc, &replicates, &typical, facts, weight.as_ref())
+}
+
+/// The weak form's equation weighting (the efficient generalised method of moments,
+/// [`weak::weighting`]) from the spread of the fine batches' residuals at the unweighted
+/// estimate of `pc`, the whole record's pieces through `map`; with the number of fine
+/// batches it used. Two-step: the covariance at the unweighted estimate (iterating it
+/// changed nothing measurable on silentblock). Each batch's moments go straight to its
+/// residual through one sparse map, in parallel: a thousand equations' pieces for
+/// thousands of batches would not fit in memory.
+pub(crate) fn efficient_weight(
+    problem: &Problem,
+    data: &data::StationaryData,
+    map: &weak::PiecesMap,
+    pc: &Pieces,
+    typical: &[f64],
+) -> (Option<DMatrix<f64>>, usize) {
+    let fine: Vec<&moments::RawMoments> = data.fine.iter().filter(|b| b.count > 0).collect();
+    let counts: Vec<u64> = fine.iter().map(|b| b.count).collect();
+    let (first, _) = problem.solve(pc, typical, None);
+    let rmap = map.residual_map(problem, first.as_slice());
+    let rows = rmap.rows();
+    let mut flat = vec![0.0; rows * fine.len()];
+    flat.par_chunks_mut(rows.max(1))
+        .zip(fine.par_iter())
+        .for_each(|(out, b)| rmap.apply_into(b, out));
+    let residuals = DMatrix::from_vec(rows, fine.len(), flat);
+    (weak::weighting(residuals, &counts), fine.len())
 }
 
 /// The strong-form estimate (the paper's procedure) from a filled density grid; with

@@ -36,6 +36,7 @@ pub mod lsq;
 pub mod moments;
 pub mod noise;
 pub mod poly;
+pub mod select;
 pub mod spectrum;
 pub mod strong;
 pub mod weak;

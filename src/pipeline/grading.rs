@@ -91,6 +91,7 @@ pub(crate) fn assemble(
         records,
         filters,
         sensor_noise: None,
+        selection: None,
         methods,
         validation,
         iterations,
@@ -282,6 +283,7 @@ pub(crate) fn method_report(
         dissipativity: Vec::new(),
         error: None,
         seconds: 0.0,
+        selected: None,
     };
     match est {
         Err(IdentError::NotApplicable(why)) => {

@@ -14,8 +14,15 @@ use crate::ident::Specification;
 use crate::ident::{self, weak, Filter, IdentError, Problem, Unknown};
 use crate::model::Quantity;
 use crate::report::{MethodReport, Report};
-use crate::scenario::{Process, ReportMethod, Scenario};
+use crate::scenario::{Process, ReportMethod, Scenario, Select};
 use std::time::Instant;
+
+/// The comparison row of a selection: the weak form with the terms `[identify.links]`
+/// declares.
+pub const DECLARED: &str = "declared terms";
+
+/// The comparison row of the baseline selection (STLSQ on the same equations).
+pub const THRESHOLDED: &str = "STLSQ selection";
 
 /// The measured filtered excitations at placeholder `A`, `B`: the problem's structure
 /// (state, columns, moments needed, symmetries) does not depend on them.
@@ -33,12 +40,42 @@ fn placeholder_filters(s: &Scenario) -> Vec<Filter> {
 /// What can be refused from the scenario alone, before any simulation or reading: unknowns
 /// no data can separate (parallel links, exact symmetries of the stationary density) and
 /// problems the identifier does not support.
-pub fn preflight(s: &Scenario) -> Result<(), IdentError> {
+pub fn preflight(s: &Scenario, select: Option<&Select>) -> Result<(), IdentError> {
     s.check_separable().map_err(IdentError::Inseparable)?;
+    let select = selection(s, select)?;
     if s.identify.disturbance.is_none() {
-        Problem::from_spec(&Specification::from_scenario(s), &placeholder_filters(s))?;
+        Problem::from_spec(&accumulated(s, select.as_ref()), &placeholder_filters(s))?;
     }
     Ok(())
+}
+
+/// The structure selection asked for: the CLI's `--select` over the scenario's
+/// `[identify.select]` (candidate lists given on the command line replace the file's);
+/// refused where selection does not apply.
+pub(crate) fn selection(s: &Scenario, cli: Option<&Select>) -> Result<Option<Select>, IdentError> {
+    let select = match (cli, &s.identify.select) {
+        (Some(c), Some(f)) => Some(Select {
+            stiffness: c.stiffness.clone().or_else(|| f.stiffness.clone()),
+            damping: c.damping.clone().or_else(|| f.damping.clone()),
+        }),
+        (Some(c), None) => Some(c.clone()),
+        (None, f) => f.clone(),
+    };
+    if select.is_some() {
+        if let Some(why) = s.identify.select_unsupported(&s.excitations) {
+            return Err(IdentError::NotApplicable(why));
+        }
+    }
+    Ok(select)
+}
+
+/// What the first pass accumulates for: the scenario's unknowns, or with a selection the
+/// candidate model (every candidate term unknown).
+fn accumulated(s: &Scenario, select: Option<&Select>) -> Specification {
+    match select {
+        Some(sel) => Specification::with_links(s, &sel.candidates(&s.links, &s.identify.links)),
+        None => Specification::from_scenario(s),
+    }
 }
 
 /// Measured data: every quantity the identification reads is in the data (mapped, or
@@ -104,20 +141,34 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     // Measured filtered excitations: their A, B come from the force spectrum unless known.
     let placeholder = placeholder_filters(s);
     let filtered: Vec<usize> = placeholder.iter().map(|f| f.excitation).collect();
-    let spec = Specification::from_scenario(s);
-    let structure = Problem::from_spec(&spec, &placeholder)?;
+    let select = selection(s, options.select.as_ref())?;
+    let mut spec = accumulated(s, select.as_ref());
+    let mut structure = Problem::from_spec(&spec, &placeholder)?;
     let naive_structure = (!filtered.is_empty())
         .then(|| Problem::from_spec(&spec.whitened(&placeholder), &[]))
         .transpose()?;
 
     // Pass 1: moments per batch, link ranges, lag-1 correlation of each filtered force.
-    let mut data = StationaryData::new(
-        &structure,
-        weak::moment_degree(&structure),
-        sim.record_length,
-        sim.trajectories,
-        options.batches,
-    );
+    // With a selection, also those of the declared model it is compared with.
+    let declared = (select.is_some())
+        .then(|| Problem::from_spec(&Specification::from_scenario(s), &placeholder))
+        .transpose()?;
+    let mut data = match &declared {
+        Some(declared) => StationaryData::for_weak_forms(
+            &structure,
+            &[declared],
+            sim.record_length,
+            sim.trajectories,
+            options.batches,
+        ),
+        None => StationaryData::new(
+            &structure,
+            weak::moment_degree(&structure),
+            sim.record_length,
+            sim.trajectories,
+            options.batches,
+        ),
+    };
     // The naive white-noise row shows what ignoring the filters costs against the truth;
     // measured data have none to show it against, and nobody asked for it there.
     let mut naive_data = naive_structure
@@ -174,6 +225,24 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
             Vec::new(),
         ),
         (None, None) => (None, Vec::new()),
+    };
+    // Structure selection: the candidate model's moments choose the terms, and the
+    // selected model is what every method then identifies.
+    let selection = match &select {
+        Some(_) => {
+            crate::interrupt::check()?;
+            let t = Instant::now();
+            let chosen = ident::select::select(&structure, &data)?;
+            // The baseline's (STLSQ's) model, identified beside it.
+            let baseline = Specification::with_links(
+                s,
+                &ident::select::model_links(&chosen.thresholded.selected, &structure, &spec.links),
+            );
+            spec = Specification::with_links(s, &chosen.links(&structure, &spec.links));
+            structure = Problem::from_spec(&spec, &placeholder)?;
+            Some((chosen, baseline, t.elapsed().as_secs_f64()))
+        }
+        None => None,
     };
     let total = data.total();
 
@@ -257,6 +326,30 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     }
     let naive = naive_data.as_ref().filter(|_| !filtered.is_empty());
     reports.extend(comparison_reports(&spec, &filters, naive, &data, &grader)?);
+    if let Some((chosen, baseline, _)) = &selection {
+        // The model as declared, on the same samples: what the selection is measured
+        // against (for a simulation, the true structure unless [identify.links] says
+        // otherwise); and the baseline selection's model.
+        for (name, spec, selected) in [
+            (DECLARED, Specification::from_scenario(s), None),
+            (THRESHOLDED, baseline.clone(), Some(chosen.thresholded_names())),
+        ] {
+            let t = Instant::now();
+            let p = Problem::from_spec(&spec, &filters)?;
+            let est = ident::identify_weak(&p, &data);
+            let mut row = method_report(
+                ReportMethod::Compare(name.into()),
+                None,
+                est,
+                &grader,
+                &p,
+                data.observed(),
+                t,
+            );
+            row.selected = selected.map(|names| names.iter().map(|n| n.to_string()).collect());
+            reports.push(row);
+        }
+    }
 
     // Validation by re-simulation of the first identified model.
     crate::interrupt::check()?;
@@ -282,6 +375,18 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         super::sensors::warn_uncorrected(n, &mut report.methods);
     }
     report.sensor_noise = sensor_noise;
+    if let Some((chosen, _, seconds)) = selection {
+        let names: Vec<String> = chosen.selected_names().iter().map(|n| n.to_string()).collect();
+        for m in &mut report.methods {
+            if !matches!(m.method, ReportMethod::WeakWhiteNaive | ReportMethod::Compare(_)) {
+                m.selected = Some(names.clone());
+            }
+        }
+        report.selection = Some(crate::report::SelectionReport {
+            selection: chosen,
+            seconds,
+        });
+    }
     Ok(report)
 }
 

@@ -81,6 +81,10 @@ pub struct Options {
     pub max_steps: Option<usize>,
     /// Override `[identify.disturbance] tolerance` of the iterative procedure.
     pub tolerance: Option<f64>,
+    /// `--select`: choose the model's terms from candidates (docs/selection.md), over or
+    /// instead of the scenario's `[identify.select]`; candidate lists given here replace
+    /// the scenario's.
+    pub select: Option<crate::scenario::Select>,
     /// Large tables kept from one identification for the next (a study passes every item
     /// the same).
     pub arenas: Arc<Arenas>,
@@ -96,6 +100,7 @@ impl Default for Options {
             plots: true,
             max_steps: None,
             tolerance: None,
+            select: None,
             arenas: Arc::default(),
         }
     }

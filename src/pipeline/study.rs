@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 mod summary;
-pub use summary::{paired, summarize, Paired, ParameterSummary, Summary};
+pub use summary::{paired, summarize, Paired, ParameterSummary, SelectionSummary, Summary};
 
 /// A study file (TOML).
 #[derive(Debug, Clone, Deserialize)]
@@ -146,6 +146,52 @@ pub struct Row {
     pub identify_s: f64,
     /// The whole item (simulation, passes over the samples, every method).
     pub item_s: f64,
+    /// With structure selection: what the method's model kept and lost against the truth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub selection: Option<RowSelection>,
+}
+
+/// A selected model against the truth (docs/selection.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RowSelection {
+    pub candidates: usize,
+    pub selected: Vec<String>,
+    /// Candidates with a non-zero true coefficient that the selection dropped.
+    pub true_dropped: Vec<String>,
+    /// Candidates with a zero true coefficient that the selection kept.
+    pub false_kept: Vec<String>,
+}
+
+impl RowSelection {
+    /// The terms a method's model kept (`selected`) from the report's candidates, against
+    /// the truth.
+    fn of(r: &Report, selected: &[String]) -> Option<RowSelection> {
+        let s = &r.selection.as_ref()?.selection;
+        let mut out = RowSelection {
+            candidates: s.candidates.len(),
+            selected: Vec::new(),
+            true_dropped: Vec::new(),
+            false_kept: Vec::new(),
+        };
+        for name in &s.candidates {
+            let kept = selected.contains(&name.to_string());
+            let truth = r.truth.of(name).unwrap_or(0.0) != 0.0;
+            match (kept, truth) {
+                (true, false) => out.false_kept.push(name.to_string()),
+                (false, true) => out.true_dropped.push(name.to_string()),
+                _ => {}
+            }
+            if kept {
+                out.selected.push(name.to_string());
+            }
+        }
+        Some(out)
+    }
+
+    /// Whether the selection is the true structure among the candidates.
+    pub fn exact(&self) -> bool {
+        self.true_dropped.is_empty() && self.false_kept.is_empty()
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -378,6 +424,7 @@ fn rows_of(study: &str, item: &Item, r: &Report, simulate_s: f64, item_s: f64) -
             simulate_s,
             identify_s: m.seconds,
             item_s,
+            selection: m.selected.as_ref().and_then(|names| RowSelection::of(r, names)),
         })
         .collect()
 }
@@ -401,6 +448,7 @@ impl Study {
                 simulate_s: 0.0,
                 identify_s: 0.0,
                 item_s: 0.0,
+                selection: None,
             })
             .collect()
     }
@@ -666,6 +714,7 @@ mod tests {
             simulate_s: 0.0,
             identify_s: 0.0,
             item_s: 1.0,
+            selection: None,
         }
     }
 

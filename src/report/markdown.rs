@@ -122,6 +122,9 @@ pub fn markdown(r: &Report) -> String {
     if let Some(n) = &r.sensor_noise {
         s += &sensor_noise_section(n);
     }
+    if let Some(sel) = &r.selection {
+        s += &super::selection::selection_section(sel);
+    }
     s += "## Verdict\n\n";
     for m in &r.methods {
         let mut line = verdict(m);

@@ -9,6 +9,7 @@ mod markdown;
 pub mod plot;
 #[cfg(feature = "raster")]
 pub mod raster;
+mod selection;
 pub mod study;
 pub mod text;
 pub mod types;
@@ -24,8 +25,9 @@ pub use types::*;
 pub use crate::io::output::write_atomic;
 
 /// The figures [`write_all`] may write, each as `.svg`, `.png` and `.pdf`.
-pub const FIGURES: [&str; 6] = [
+pub const FIGURES: [&str; 7] = [
     "characteristics",
+    "selection",
     "compare",
     "iteration",
     "spectrum",
@@ -79,6 +81,7 @@ pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     write_atomic(&p, json.as_bytes())?;
     files.push(p);
     files.extend(plot_characteristics(r, &dir.join("characteristics.svg"))?);
+    files.extend(plot::selection::plot_selection(r, &dir.join("selection.svg"))?);
     if plot::compare::has_comparisons(r) {
         files.extend(plot::compare::plot_compare(r, &dir.join("compare.svg"))?);
     }

@@ -119,6 +119,36 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
             x.item_s_median
         );
     }
+    if summary.iter().any(|x| x.selection.is_some()) {
+        s += "\n## Structure selection\n\nPer configuration and method, over the items with a selection \
+              (docs/selection.md): how often the selected model was exactly the true structure among the \
+              candidates, how often a true term was dropped (items, and share of all true terms), how often \
+              a term the truth lacks was kept (items, and terms per item), and the terms most often wrong.\n\n";
+        s += &format!(
+            "{head} method | items | exact structure | true term dropped (items) | true terms dropped | false term kept (items) | false terms per item | wrong most often |\n\
+             {align}---|---:|---:|---:|---:|---:|---:|---|\n"
+        );
+        for x in summary {
+            let Some(sel) = &x.selection else { continue };
+            let wrong: Vec<String> = sel.mistakes.iter().take(4).map(|(n, k)| format!("{n} ({k})")).collect();
+            s += &format!(
+                "{} {} | {} | {:.0} % | {:.0} % | {:.1} % | {:.0} % | {:.2} | {} |\n",
+                configuration_cells(&x.configuration, noisy),
+                x.method,
+                sel.items,
+                100.0 * sel.exact,
+                100.0 * sel.true_dropped_items,
+                100.0 * sel.true_dropped_terms,
+                100.0 * sel.false_kept_items,
+                sel.false_kept_per_item,
+                if wrong.is_empty() {
+                    "–".to_string()
+                } else {
+                    wrong.join(", ")
+                }
+            );
+        }
+    }
     s += "\n## Parameters\n\n";
     // A long table folded (report.html shows its title; report.md its comment is unseen).
     let rows: usize = summary.iter().map(|x| x.parameters.len()).sum();

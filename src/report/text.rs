@@ -105,6 +105,9 @@ pub fn summary(r: &Report) -> String {
     if let Some(n) = &r.sensor_noise {
         s += &(sensor_noise_lines(n).join("\n") + "\n");
     }
+    if let Some(sel) = &r.selection {
+        s += &(super::selection::selection_lines(sel).join("\n") + "\n");
+    }
     s += &parameter_table(r);
     for m in &r.methods {
         s += &method_lines(m);

@@ -159,6 +159,19 @@ pub struct MethodReport {
     /// false).
     pub error: Option<String>,
     pub seconds: f64,
+    /// With structure selection: the terms selected, which this method identified
+    /// (docs/selection.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub selected: Option<Vec<String>>,
+}
+
+/// Structure selection: what was chosen from the candidates and the evidence.
+#[derive(Debug, Clone, Serialize)]
+pub struct SelectionReport {
+    #[serde(flatten)]
+    pub selection: crate::ident::select::Selection,
+    /// The selection's own time (the candidate model's moments are shared).
+    pub seconds: f64,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -384,6 +397,9 @@ pub struct Report {
     /// measured data (`None` otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensor_noise: Option<SensorNoiseReport>,
+    /// Structure selection (`[identify.select]`, `--select`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub selection: Option<SelectionReport>,
     pub methods: Vec<MethodReport>,
     pub validation: Option<Validation>,
     /// The iterative procedure for an unmeasured disturbance (paper section 4): the

@@ -417,6 +417,67 @@ pub struct Identify {
     pub disturbance: Option<Disturbance>,
     /// What to do about sensor noise (`sensor_noise`).
     pub sensor_noise: NoiseHandling,
+    /// `[identify.select]`: choose the model's terms from candidates (docs/selection.md).
+    pub select: Option<Select>,
+}
+
+impl Identify {
+    /// Why structure selection cannot run on this `[identify]` section, if it cannot.
+    pub fn select_unsupported(&self, excitations: &[Excitation]) -> Option<String> {
+        let filtered_fitted = (0..excitations.len()).any(|e| {
+            excitations[e].measured
+                && matches!(excitations[e].process, Process::Filtered { .. })
+                && !self.known_filters.contains(&e)
+        });
+        let why = if self.disturbance.is_some() {
+            "the iterative procedure of [identify.disturbance]"
+        } else if !self.unknown_masses.is_empty() {
+            "unknown masses"
+        } else if !self.unknown_intensities.is_empty() {
+            "unknown intensities"
+        } else if !self.unknown_corners.is_empty() || filtered_fitted {
+            "filters fitted to the force spectra (list them in known_filters)"
+        } else {
+            return None;
+        };
+        Some(format!(
+            "structure selection chooses among spring and damper terms with everything else known; \
+             it does not combine with {why}"
+        ))
+    }
+}
+
+/// `[identify.select]` (or `--select`): the unknown terms are candidates, and the
+/// identification keeps those the data need (docs/selection.md).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Select {
+    /// Candidate terms of every link's stiffness; `None`: each link's `[identify.links]`
+    /// stiffness terms.
+    pub stiffness: Option<Vec<Term>>,
+    /// Candidate terms of every link's damping; `None`: as for the stiffness.
+    pub damping: Option<Vec<Term>>,
+}
+
+impl Select {
+    /// The candidate model over `links`: `identify`'s unknown terms, every link's
+    /// stiffness or damping replaced by the candidates given for all links.
+    pub fn candidates(&self, links: &[Link], identify: &[IdentifyLink]) -> Vec<IdentifyLink> {
+        (0..links.len())
+            .filter_map(|l| {
+                let own = identify.iter().find(|il| il.link == l);
+                let stiffness = self
+                    .stiffness
+                    .clone()
+                    .or_else(|| own.and_then(|il| il.stiffness.clone()));
+                let damping = self.damping.clone().or_else(|| own.and_then(|il| il.damping.clone()));
+                (stiffness.is_some() || damping.is_some()).then_some(IdentifyLink {
+                    link: l,
+                    stiffness,
+                    damping,
+                })
+            })
+            .collect()
+    }
 }
 
 /// `[identify.disturbance]`: the paper's successive approximations (section 4).

@@ -129,6 +129,14 @@ pub(crate) struct RawIdentify {
     pub(super) compare: Option<BTreeMap<String, Spanned<RawCompare>>>,
     pub(super) disturbance: Option<Spanned<RawDisturbance>>,
     pub(super) sensor_noise: Option<Spanned<super::NoiseHandling>>,
+    pub(super) select: Option<Spanned<RawSelect>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawSelect {
+    pub(super) stiffness: Option<Vec<Spanned<i64>>>,
+    pub(super) damping: Option<Vec<Spanned<i64>>>,
 }
 
 #[derive(Deserialize)]

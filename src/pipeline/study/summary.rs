@@ -35,6 +35,59 @@ pub struct Summary {
     pub parameters: Vec<ParameterSummary>,
     /// Median seconds per item (all its methods together).
     pub item_s_median: f64,
+    /// With structure selection: how often the selected model was the true structure.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub selection: Option<SelectionSummary>,
+}
+
+/// Structure selection over the seeds (docs/selection.md).
+#[derive(Debug, Clone, Serialize)]
+pub struct SelectionSummary {
+    /// Items with a selection.
+    pub items: usize,
+    /// Fraction of items whose selection is exactly the true structure.
+    pub exact: f64,
+    /// Fraction of items that dropped a true term, and of all true terms dropped.
+    pub true_dropped_items: f64,
+    pub true_dropped_terms: f64,
+    /// Fraction of items that kept a false term, and false terms kept per item.
+    pub false_kept_items: f64,
+    pub false_kept_per_item: f64,
+    /// Each term dropped or kept wrongly, with the number of items that did so.
+    pub mistakes: Vec<(String, usize)>,
+}
+
+impl SelectionSummary {
+    fn of(rows: &[&Row]) -> Option<SelectionSummary> {
+        let sel: Vec<&super::RowSelection> = rows.iter().filter_map(|r| r.selection.as_ref()).collect();
+        if sel.is_empty() {
+            return None;
+        }
+        let n = sel.len() as f64;
+        let share = |f: &dyn Fn(&super::RowSelection) -> bool| sel.iter().filter(|s| f(s)).count() as f64 / n;
+        let true_terms: usize = sel
+            .iter()
+            .map(|s| s.selected.len() - s.false_kept.len() + s.true_dropped.len())
+            .sum();
+        let dropped: usize = sel.iter().map(|s| s.true_dropped.len()).sum();
+        let mut mistakes: Vec<(String, usize)> = Vec::new();
+        for name in sel.iter().flat_map(|s| s.true_dropped.iter().chain(&s.false_kept)) {
+            match mistakes.iter_mut().find(|m| &m.0 == name) {
+                Some(m) => m.1 += 1,
+                None => mistakes.push((name.clone(), 1)),
+            }
+        }
+        mistakes.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        Some(SelectionSummary {
+            items: sel.len(),
+            exact: share(&|s| s.exact()),
+            true_dropped_items: share(&|s| !s.true_dropped.is_empty()),
+            true_dropped_terms: dropped as f64 / true_terms.max(1) as f64,
+            false_kept_items: share(&|s| !s.false_kept.is_empty()),
+            false_kept_per_item: sel.iter().map(|s| s.false_kept.len()).sum::<usize>() as f64 / n,
+            mistakes,
+        })
+    }
 }
 
 impl Summary {
@@ -168,6 +221,7 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 .filter(|c| c.1 > 0)
                 .collect();
             Summary {
+                selection: SelectionSummary::of(&ok),
                 coverage_ci: crate::stats::clustered_95(&per_item),
                 configuration,
                 method,

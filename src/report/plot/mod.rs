@@ -7,6 +7,7 @@ pub mod compare;
 pub mod densities;
 pub mod iteration;
 pub mod response_spectra;
+pub mod selection;
 pub mod spectra;
 pub mod sweep;
 

@@ -102,8 +102,39 @@ pub(crate) fn check_identify(
         sensor_noise: ident
             .and_then(|i| i.sensor_noise.as_ref())
             .map_or(NoiseHandling::default(), |v| *v.get_ref()),
+        select: None,
     };
+    let mut identify = identify;
+    if let Some(sel) = ident.and_then(|i| i.select.as_ref()) {
+        identify.select = Some(check_select(loc, sel, links, excitations, &identify)?);
+    }
     Ok(identify)
+}
+
+/// `[identify.select]`: the candidate terms given for every link; selection chooses among
+/// spring and damper terms of a white-noise or known-filter problem only.
+fn check_select(
+    loc: &Locator,
+    sel: &Spanned<RawSelect>,
+    links: &[Link],
+    excitations: &[Excitation],
+    identify: &Identify,
+) -> Result<Select, ScenarioError> {
+    let raw = sel.get_ref();
+    let select = Select {
+        stiffness: terms(loc, &raw.stiffness, "identify.select.stiffness")?,
+        damping: terms(loc, &raw.damping, "identify.select.damping")?,
+    };
+    if let Some(why) = identify.select_unsupported(excitations) {
+        return Err(loc.at(sel.span(), "identify.select", why));
+    }
+    let candidates = select.candidates(links, &identify.links);
+    for (i, a) in candidates.iter().enumerate() {
+        if let Some(why) = candidates[..i].iter().find_map(|b| inseparable(links, b, a)) {
+            return Err(loc.at(sel.span(), "identify.select", why));
+        }
+    }
+    Ok(select)
 }
 
 /// `[identify] methods`: weak when left out; not empty, no method twice.

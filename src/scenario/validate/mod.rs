@@ -534,12 +534,19 @@ pub(crate) fn check_links(loc: &Locator, raw: &RawScenario, masses: &[Mass]) -> 
         let stiffness = curve(loc, &l.stiffness, &format!("{key}.stiffness"))?;
         let damping = curve(loc, &l.damping, &format!("{key}.damping"))?;
         let (k_unknown, c_unknown) = unknown_in_model_file(raw, &n);
-        if stiffness.is_empty() && damping.is_empty() && !k_unknown && !c_unknown {
+        // A link with neither is a candidate link when [identify.select] gives candidate
+        // terms for every link: the selection decides whether the data need it.
+        let candidate = raw
+            .identify
+            .as_ref()
+            .and_then(|i| i.select.as_ref())
+            .is_some_and(|s| s.get_ref().stiffness.is_some() || s.get_ref().damping.is_some());
+        if stiffness.is_empty() && damping.is_empty() && !k_unknown && !c_unknown && !candidate {
             return Err(loc.at(
                 l.ends.span(),
                 &key,
-                "a link needs `stiffness` or `damping` (or both; in a model file with [data], or unknown \
-                 powers in [identify.links])",
+                "a link needs `stiffness` or `damping` (or both; in a model file with [data], unknown \
+                 powers in [identify.links], or candidate terms in [identify.select])",
             ));
         }
         links.push(Link {

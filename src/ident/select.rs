@@ -1,0 +1,711 @@
+//! Structure selection (docs/selection.md): which of a set of candidate terms the data
+//! need. The weak form of the candidate model — every candidate term unknown — is one set
+//! of moment equations `r(θ) = r₀ + J θ` for all the models it contains: a model is a
+//! subset `S` of the candidates, the others held at zero. Whitened by the efficient
+//! weighting `T` ([`super::weak::weighting`], the inverse square root of the equations'
+//! covariance per sample), `N·‖T r(θ)‖²` at its minimum over `θ_S` is the GMM `J`
+//! statistic of `S`, χ²-distributed with (equations − |S|) degrees of freedom when `S`
+//! holds the truth; dropping a term the truth has raises it by about the square of that
+//! term's t-statistic, dropping one it lacks by a χ²₁ variable. The criterion is the GMM
+//! analogue of the BIC (Andrews 1999): `J(S) + |S|·ln N`, `N` the sample count.
+//!
+//! The search: backward elimination from the candidate model (each step drops the term
+//! whose loss raises `J` least, among the drops that leave an admissible model), the path's
+//! best point, then single additions and removals while they improve the criterion. Only
+//! admissible models are chosen: the system keeps a stationary density (3.4) — every
+//! characteristic's leading term odd with a positive coefficient, springs to ground, some
+//! damping — checked at the model's own estimates. The same search on every jackknife
+//! replicate (all batches but one) gives each candidate's inclusion frequency.
+//!
+//! Every model is fitted from the candidate model's moments and weighting: no pass over
+//! the samples, one Cholesky factorisation of at most `K × K` per model tried.
+
+use super::data::StationaryData;
+use super::estimate::efficient_weight;
+use super::{weak, IdentError, Pieces, Problem, Unknown};
+use crate::model::{admissible, Characteristic, Coefficient, Term, UnknownName, GROUND};
+use crate::scenario::{Curve, End, IdentifyLink, Link, Mass};
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+
+/// How many runner-up models a selection keeps.
+pub const RUNNERS_UP: usize = 4;
+
+/// One point of the backward-elimination path.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Step {
+    /// The term dropped to reach this model (`None` for the candidate model).
+    pub dropped: Option<UnknownName>,
+    /// Terms in the model.
+    pub terms: usize,
+    /// The GMM `J` statistic.
+    pub j: f64,
+    /// `J + terms·ln N`; infinite for a model without a stationary density.
+    pub criterion: f64,
+    pub admissible: bool,
+}
+
+/// A model next to the selected one.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct RunnerUp {
+    /// What differs from the selected model: `+ c2[m1-m2]`, `− k3[ground-m2]`.
+    pub change: String,
+    pub terms: usize,
+    pub criterion: f64,
+}
+
+/// What the selection chose and the evidence for it.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Selection {
+    pub criterion_name: &'static str,
+    /// The candidate terms, in the candidate problem's order.
+    pub candidates: Vec<UnknownName>,
+    /// Per candidate: whether the selected model has it.
+    pub selected: Vec<bool>,
+    /// The selected model's `J` and criterion.
+    pub j: f64,
+    pub criterion: f64,
+    /// The penalty per term, `ln N`.
+    pub penalty: f64,
+    /// The candidate model's `J` per degree of freedom (equations − candidates), at
+    /// least 1: how far the equations' misfit exceeds their sampling noise; `J` is divided
+    /// by it, so that a term must explain more than the misfit every equation has.
+    pub dispersion: f64,
+    /// The weak-form equations the criterion sums over.
+    pub equations: usize,
+    pub samples: u64,
+    pub path: Vec<Step>,
+    /// The best admissible models one addition or removal away, best first.
+    pub runners_up: Vec<RunnerUp>,
+    /// Per candidate: the fraction of jackknife replicates whose selection has it.
+    pub inclusion: Vec<f64>,
+    pub replicates: usize,
+    /// The baseline on the same equations: sequentially thresholded least squares.
+    pub thresholded: Thresholded,
+}
+
+/// The baseline selection: sequentially thresholded least squares (STLSQ, PySINDy's
+/// default) on the same whitened equations. A term is dropped while its force at the
+/// data's typical amplitude is below `threshold` times its characteristic's; the
+/// threshold is chosen by leave-one-batch-out cross-validation of the equations' fit.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Thresholded {
+    pub threshold: f64,
+    /// Per candidate: whether the thresholded model has it.
+    pub selected: Vec<bool>,
+    /// Whether that model has a stationary density at its own estimates.
+    pub admissible: bool,
+    /// `(threshold, cross-validated J)` over the grid of thresholds tried.
+    pub curve: Vec<(f64, f64)>,
+}
+
+/// Thresholds STLSQ's cross-validation tries: log-spaced over `[1e-4, 0.5]`.
+const THRESHOLDS: usize = 28;
+
+impl Selection {
+    /// The names of the selected terms.
+    pub fn selected_names(&self) -> Vec<UnknownName> {
+        self.candidates
+            .iter()
+            .zip(&self.selected)
+            .filter(|(_, &s)| s)
+            .map(|(n, _)| n.clone())
+            .collect()
+    }
+
+    /// The selected model as `[identify.links]` entries over `links` (the candidates'):
+    /// each characteristic keeps its selected terms; one with none left is absent.
+    pub fn links(&self, problem: &Problem, links: &[IdentifyLink]) -> Vec<IdentifyLink> {
+        model_links(&self.selected, problem, links)
+    }
+
+    /// The names the baseline (STLSQ) kept.
+    pub fn thresholded_names(&self) -> Vec<UnknownName> {
+        (self.candidates.iter().zip(&self.thresholded.selected))
+            .filter(|(_, &s)| s)
+            .map(|(n, _)| n.clone())
+            .collect()
+    }
+}
+
+/// The model of the candidates `selected` as `[identify.links]` entries over `links`.
+pub fn model_links(selected: &[bool], problem: &Problem, links: &[IdentifyLink]) -> Vec<IdentifyLink> {
+    let kept: Vec<Coefficient> = problem
+        .unknowns
+        .iter()
+        .zip(selected)
+        .filter_map(|(u, &s)| match (u, s) {
+            (Unknown::Coefficient(c), true) => Some(*c),
+            _ => None,
+        })
+        .collect();
+    let terms = |l: usize, kind: Characteristic, candidates: &Option<Vec<crate::model::Term>>| {
+        candidates.as_ref().map(|ts| {
+            ts.iter()
+                .copied()
+                .filter(|&term| kept.contains(&Coefficient { link: l, kind, term }))
+                .collect::<Vec<_>>()
+        })
+    };
+    links
+        .iter()
+        .map(|il| IdentifyLink {
+            link: il.link,
+            stiffness: terms(il.link, Characteristic::Stiffness, &il.stiffness),
+            damping: terms(il.link, Characteristic::Damping, &il.damping),
+        })
+        .collect()
+}
+
+/// The whitened candidate equations as normal equations: for `θ`, `J(θ) = c + 2 hᵀθ + θᵀGθ`
+/// with `G = N·AᵀA`, `h = N·Aᵀb`, `c = N·bᵀb`, `A = T·∂r/∂θ`, `b = T·r(0)`.
+struct Equations {
+    g: DMatrix<f64>,
+    h: DVector<f64>,
+    c: f64,
+}
+
+impl Equations {
+    fn new(problem: &Problem, pc: &Pieces, weight: &DMatrix<f64>, n: f64) -> Equations {
+        let (r0, jac) = problem.residual(pc, &vec![0.0; problem.unknowns.len()]);
+        let a = weight * jac;
+        let b = weight * r0;
+        Equations {
+            g: a.tr_mul(&a) * n,
+            h: a.tr_mul(&b) * n,
+            c: b.norm_squared() * n,
+        }
+    }
+
+    /// `J` at the coefficients `theta`.
+    fn value(&self, theta: &[f64]) -> f64 {
+        let t = DVector::from_column_slice(theta);
+        self.c + 2.0 * self.h.dot(&t) + t.dot(&(&self.g * &t))
+    }
+
+    /// The least-squares fit of the model of the terms `set`: the coefficients (zero
+    /// outside `set`) and `J`. `None` when the model's columns are dependent.
+    fn fit(&self, set: &[usize]) -> Option<(Vec<f64>, f64)> {
+        let k = set.len();
+        let mut theta = vec![0.0; self.h.len()];
+        if k == 0 {
+            return Some((theta, self.c));
+        }
+        // Columns equilibrated to unit diagonal before the factorisation.
+        let d: Vec<f64> = set.iter().map(|&i| 1.0 / self.g[(i, i)].sqrt()).collect();
+        if d.iter().any(|x| !x.is_finite()) {
+            return None;
+        }
+        let m = DMatrix::from_fn(k, k, |r, c| d[r] * self.g[(set[r], set[c])] * d[c]);
+        let rhs = DVector::from_fn(k, |r, _| -d[r] * self.h[set[r]]);
+        let y = m.cholesky()?.solve(&rhs);
+        for (r, &i) in set.iter().enumerate() {
+            theta[i] = d[r] * y[r];
+        }
+        let mut j = self.c;
+        for &i in set {
+            j += 2.0 * self.h[i] * theta[i];
+            for &l in set {
+                j += theta[i] * self.g[(i, l)] * theta[l];
+            }
+        }
+        Some((theta, j.max(0.0)))
+    }
+}
+
+/// Whether the model of the candidates' coefficients `theta` (zero: absent) has a
+/// stationary density (3.4).
+struct Admissibility {
+    masses: Vec<Mass>,
+    /// The known system's links: the candidates' characteristics zero.
+    links: Vec<Link>,
+    coefficients: Vec<Coefficient>,
+}
+
+impl Admissibility {
+    fn new(problem: &Problem) -> Admissibility {
+        let m = &problem.model;
+        let end = |i: usize| if i == GROUND { End::Ground } else { End::Mass(i) };
+        let curve = |l: usize, kind| Curve {
+            terms: m.terms(l, kind).filter(|&(_, c)| c != 0.0).collect(),
+        };
+        Admissibility {
+            masses: (m.mass_names.iter().zip(&m.mass))
+                .map(|(name, &value)| Mass {
+                    name: name.clone(),
+                    value,
+                })
+                .collect(),
+            links: (0..m.link_names.len())
+                .map(|l| Link {
+                    name: m.link_names[l].clone(),
+                    ends: [end(m.link_a[l]), end(m.link_b[l])],
+                    stiffness: curve(l, Characteristic::Stiffness),
+                    damping: curve(l, Characteristic::Damping),
+                })
+                .collect(),
+            coefficients: problem
+                .unknowns
+                .iter()
+                .map(|u| match u {
+                    Unknown::Coefficient(c) => *c,
+                    _ => unreachable!("checked by select"),
+                })
+                .collect(),
+        }
+    }
+
+    /// Whether every characteristic's highest term is odd (whatever the coefficients): the
+    /// models the elimination path passes through.
+    fn odd_leading(&self, set: &[usize]) -> bool {
+        let mut highest: Vec<[Option<Term>; 2]> = (self.links.iter())
+            .map(|l| [&l.stiffness, &l.damping].map(|c| c.terms.iter().map(|t| t.0).max_by_key(|t| t.degree())))
+            .collect();
+        for &i in set {
+            let c = self.coefficients[i];
+            let slot = &mut highest[c.link][(c.kind == Characteristic::Damping) as usize];
+            if slot.is_none_or(|t| t.degree() < c.term.degree()) {
+                *slot = Some(c.term);
+            }
+        }
+        highest.iter().flatten().flatten().all(|t| t.is_odd())
+    }
+
+    fn admits(&self, set: &[usize], theta: &[f64]) -> bool {
+        let mut links = self.links.clone();
+        for &i in set {
+            let c = self.coefficients[i];
+            let curve = match c.kind {
+                Characteristic::Stiffness => &mut links[c.link].stiffness,
+                Characteristic::Damping => &mut links[c.link].damping,
+            };
+            curve.terms.push((c.term, theta[i]));
+        }
+        // Every characteristic's highest term odd with a positive coefficient (3.4), each on
+        // its own: where links could bound each other's potential the structural check
+        // accepts an even leading term, which a selected model must not have.
+        for l in &mut links {
+            for curve in [&mut l.stiffness, &mut l.damping] {
+                curve.terms.sort_by_key(|t| t.0.degree());
+                if let Some(&(term, c)) = curve.terms.last() {
+                    if !term.is_odd() || c <= 0.0 {
+                        return false;
+                    }
+                }
+            }
+        }
+        admissible::stationary(&self.masses, &links, |_| (false, false)).is_ok()
+    }
+}
+
+/// A model the search tried.
+#[derive(Debug, Clone)]
+struct Tried {
+    set: Vec<usize>,
+    j: f64,
+    criterion: f64,
+    admissible: bool,
+}
+
+/// The elimination path: each model with the candidate dropped to reach it.
+type Path = Vec<(Option<usize>, Tried)>;
+
+/// The search over one set of equations.
+struct Search<'a> {
+    eq: Equations,
+    admissibility: &'a Admissibility,
+    penalty: f64,
+    /// `J` of the candidate model per degree of freedom, at least 1 (see [`select`]).
+    dispersion: f64,
+}
+
+impl<'a> Search<'a> {
+    /// The search over `eq` (`rows` equations, `n` samples).
+    fn new(eq: Equations, admissibility: &'a Admissibility, rows: usize, n: f64) -> Option<Search<'a>> {
+        let k = eq.h.len();
+        let (_, j) = eq.fit(&(0..k).collect::<Vec<_>>())?;
+        Some(Search {
+            eq,
+            admissibility,
+            penalty: n.ln(),
+            dispersion: (j / rows.saturating_sub(k).max(1) as f64).max(1.0),
+        })
+    }
+
+    fn try_set(&self, set: Vec<usize>) -> Option<Tried> {
+        let (theta, j) = self.eq.fit(&set)?;
+        let admissible = self.admissibility.admits(&set, &theta);
+        let criterion = if admissible {
+            j / self.dispersion + set.len() as f64 * self.penalty
+        } else {
+            f64::INFINITY
+        };
+        Some(Tried {
+            set,
+            j,
+            criterion,
+            admissible,
+        })
+    }
+
+    /// Backward elimination from all `k` candidates: the path, each step with the term it
+    /// dropped.
+    fn path(&self, k: usize) -> Path {
+        let Some(mut at) = self.try_set((0..k).collect()) else {
+            return Vec::new();
+        };
+        let mut path = vec![(None, at.clone())];
+        while !at.set.is_empty() {
+            // The drop that raises J least among those that keep every leading term odd
+            // (a negative leading coefficient may still be passed through: the model is
+            // then recorded as not admissible, and never chosen).
+            let next = at
+                .set
+                .par_iter()
+                .filter_map(|&drop| {
+                    let set: Vec<usize> = at.set.iter().copied().filter(|&i| i != drop).collect();
+                    self.admissibility.odd_leading(&set).then_some(())?;
+                    self.try_set(set).map(|t| (drop, t))
+                })
+                .min_by(|a, b| a.1.j.total_cmp(&b.1.j));
+            let Some((drop, t)) = next else { break };
+            at = t.clone();
+            path.push((Some(drop), t));
+        }
+        path
+    }
+
+    /// The admissible models one addition or removal from `set` among `k` candidates.
+    fn neighbours(&self, set: &[usize], k: usize) -> Vec<(String, usize, Tried)> {
+        (0..k)
+            .into_par_iter()
+            .filter_map(|i| {
+                let (sign, next) = if set.contains(&i) {
+                    ("−", set.iter().copied().filter(|&x| x != i).collect::<Vec<_>>())
+                } else {
+                    let mut s = set.to_vec();
+                    s.push(i);
+                    s.sort_unstable();
+                    ("+", s)
+                };
+                self.try_set(next)
+                    .filter(|t| t.admissible)
+                    .map(|t| (sign.to_string(), i, t))
+            })
+            .collect()
+    }
+
+    /// The selected model: the path's best, then single changes while they improve it.
+    fn choose(&self, k: usize) -> Option<(Tried, Path)> {
+        let path = self.path(k);
+        let mut best = path
+            .iter()
+            .map(|(_, t)| t)
+            .filter(|t| t.admissible)
+            .min_by(|a, b| a.criterion.total_cmp(&b.criterion))?
+            .clone();
+        for _ in 0..k * k {
+            let better = self
+                .neighbours(&best.set, k)
+                .into_iter()
+                .map(|(_, _, t)| t)
+                .filter(|t| t.criterion < best.criterion)
+                .min_by(|a, b| a.criterion.total_cmp(&b.criterion));
+            match better {
+                Some(t) => best = t,
+                None => break,
+            }
+        }
+        Some((best, path))
+    }
+}
+
+/// Sequentially thresholded least squares on `eq`: from all candidates, drop every term
+/// whose force at the typical amplitude (`|θ_i| / typical_i`) is below `threshold` times
+/// the sum over its characteristic, refit, until nothing changes.
+fn stlsq(
+    eq: &Equations,
+    chars: &[(usize, Characteristic)],
+    typical: &[f64],
+    threshold: f64,
+) -> Option<(Vec<usize>, Vec<f64>)> {
+    let k = typical.len();
+    let mut set: Vec<usize> = (0..k).collect();
+    for _ in 0..=k {
+        let (theta, _) = eq.fit(&set)?;
+        let force = |i: usize| (theta[i] / typical[i]).abs();
+        let keep: Vec<usize> = set
+            .iter()
+            .copied()
+            .filter(|&i| {
+                let total: f64 = set.iter().filter(|&&j| chars[j] == chars[i]).map(|&j| force(j)).sum();
+                force(i) >= threshold * total
+            })
+            .collect();
+        if keep.len() == set.len() {
+            return Some((set, theta));
+        }
+        set = keep;
+    }
+    None
+}
+
+/// The baseline: STLSQ with its threshold chosen by leave-one-batch-out cross-validation
+/// (fitted on all batches but one — `held_in` — and judged by `J` on the one left out).
+fn thresholded(
+    full: &Equations,
+    held_in: &[Equations],
+    held_out: &[Equations],
+    chars: &[(usize, Characteristic)],
+    typical: &[f64],
+    admissibility: &Admissibility,
+) -> Thresholded {
+    let grid: Vec<f64> = (0..THRESHOLDS)
+        .map(|i| 1e-4 * (0.5f64 / 1e-4).powf(i as f64 / (THRESHOLDS - 1) as f64))
+        .collect();
+    let curve: Vec<(f64, f64)> = grid
+        .par_iter()
+        .map(|&t| {
+            let cv: f64 = held_in
+                .iter()
+                .zip(held_out)
+                .map(|(fit, test)| match stlsq(fit, chars, typical, t) {
+                    Some((_, theta)) => test.value(&theta),
+                    None => f64::INFINITY,
+                })
+                .sum();
+            (t, cv)
+        })
+        .collect();
+    let threshold = curve.iter().min_by(|a, b| a.1.total_cmp(&b.1)).map_or(grid[0], |c| c.0);
+    let (set, theta) = stlsq(full, chars, typical, threshold).unwrap_or_default();
+    Thresholded {
+        threshold,
+        selected: (0..typical.len()).map(|i| set.contains(&i)).collect(),
+        admissible: !set.is_empty() && admissibility.admits(&set, &theta),
+        curve,
+    }
+}
+
+/// Select among the coefficients of `problem` (the candidate model: every candidate term
+/// unknown, nothing else) from the weak form of `data`.
+pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, IdentError> {
+    if let Some(u) = (problem.unknowns.iter().zip(&problem.names)).find(|(u, _)| !matches!(u, Unknown::Coefficient(_)))
+    {
+        return Err(IdentError::NotApplicable(format!(
+            "structure selection chooses among spring and damper terms only: {} is unknown too \
+             (give the masses, intensities and filters as known)",
+            u.1
+        )));
+    }
+    let k = problem.unknowns.len();
+    let total = data.total();
+    if total.count < 100 * k as u64 {
+        return Err(IdentError::TooLittleData(format!(
+            "{} samples for {k} candidate terms: selection needs at least 100 per candidate",
+            total.count
+        )));
+    }
+    let typical = problem.typical(&total);
+    let map = weak::PiecesMap::new(problem, &total);
+    let pc = map.apply(&total);
+    pc.check_finite("selection")?;
+    let (weight, fine) = efficient_weight(problem, data, &map, &pc, &typical);
+    let Some(weight) = weight else {
+        return Err(IdentError::TooLittleData(format!(
+            "{fine} fine batches are too few to weigh {} weak-form equations ({} per equation \
+             are needed): the selection criterion needs the equations' covariance; use longer \
+             records or fewer candidate terms",
+            pc.rows,
+            weak::BATCHES_PER_EQUATION
+        )));
+    };
+    let n = total.count as f64;
+    let admissibility = Admissibility::new(problem);
+    let search = |pieces: &Pieces, n: f64| {
+        let s = Search::new(Equations::new(problem, pieces, &weight, n), &admissibility, pc.rows, n)?;
+        s.choose(k).map(|(best, path)| {
+            let neighbours = s.neighbours(&best.set, k);
+            (best, path, neighbours, s.dispersion)
+        })
+    };
+    let Some((best, path, neighbours, dispersion)) = search(&pc, n) else {
+        return Err(IdentError::NotApplicable(
+            "no model among the candidates has a stationary density at its own estimates \
+             (every characteristic's highest term odd with a positive coefficient, springs to \
+             ground, some damping): give other candidate terms"
+                .into(),
+        ));
+    };
+    // The same search on every jackknife replicate.
+    let replicates = data.leave_one_out();
+    let nb = replicates.len() as f64;
+    let chosen: Vec<Option<Vec<usize>>> = replicates
+        .par_iter()
+        .map(|b| {
+            let pieces = map.apply(b);
+            search(&pieces, b.count as f64).map(|(t, ..)| t.set)
+        })
+        .collect();
+    let inclusion = (0..k)
+        .map(|i| {
+            chosen
+                .iter()
+                .filter(|s| s.as_ref().is_some_and(|s| s.contains(&i)))
+                .count() as f64
+                / nb.max(1.0)
+        })
+        .collect();
+    // The baseline on the same equations, cross-validated over the coarse batches.
+    let batches = data.batches();
+    let eqs = |ms: &[super::moments::RawMoments]| -> Vec<Equations> {
+        ms.par_iter()
+            .map(|b| Equations::new(problem, &map.apply(b), &weight, b.count as f64))
+            .collect()
+    };
+    let chars: Vec<(usize, Characteristic)> = admissibility.coefficients.iter().map(|c| (c.link, c.kind)).collect();
+    let thresholded = thresholded(
+        &Equations::new(problem, &pc, &weight, n),
+        &eqs(&replicates),
+        &eqs(&batches),
+        &chars,
+        &typical,
+        &admissibility,
+    );
+    let names = &problem.names;
+    let mut runners_up: Vec<RunnerUp> = neighbours
+        .into_iter()
+        .map(|(sign, i, t)| RunnerUp {
+            change: format!("{sign} {}", names[i]),
+            terms: t.set.len(),
+            criterion: t.criterion,
+        })
+        .collect();
+    runners_up.sort_by(|a, b| a.criterion.total_cmp(&b.criterion));
+    runners_up.truncate(RUNNERS_UP);
+    Ok(Selection {
+        criterion_name: "GMM-BIC: J/dispersion + (terms)·ln N",
+        dispersion,
+        candidates: names.clone(),
+        selected: (0..k).map(|i| best.set.contains(&i)).collect(),
+        j: best.j,
+        criterion: best.criterion,
+        penalty: n.ln(),
+        equations: pc.rows,
+        samples: total.count,
+        path: path
+            .into_iter()
+            .map(|(drop, t)| Step {
+                dropped: drop.map(|i| names[i].clone()),
+                terms: t.set.len(),
+                j: t.j,
+                criterion: t.criterion,
+                admissible: t.admissible,
+            })
+            .collect(),
+        runners_up,
+        inclusion,
+        replicates: chosen.len(),
+        thresholded,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Term;
+
+    /// One mass on one link to ground with candidates u, u², u³ and w, w², w³.
+    fn one_link() -> Admissibility {
+        let mut coefficients = Vec::new();
+        for kind in [Characteristic::Stiffness, Characteristic::Damping] {
+            for p in 1..=3 {
+                coefficients.push(Coefficient {
+                    link: 0,
+                    kind,
+                    term: Term::Power(p),
+                });
+            }
+        }
+        Admissibility {
+            masses: vec![Mass {
+                name: "m1".into(),
+                value: 1.0,
+            }],
+            links: vec![Link {
+                name: "ground-m1".into(),
+                ends: [End::Mass(0), End::Ground],
+                stiffness: Curve { terms: Vec::new() },
+                damping: Curve { terms: Vec::new() },
+            }],
+            coefficients,
+        }
+    }
+
+    /// Consistent equations `A θ + b = 0` at a known `θ`, with `rows` rows of a fixed
+    /// pseudo-random `A`, as from a million samples.
+    fn exact(theta: &[f64], rows: usize) -> Equations {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let a = DMatrix::from_fn(rows, theta.len(), |_, _| next());
+        let b = -(&a * DVector::from_column_slice(theta));
+        let n = 1e6;
+        Equations {
+            g: a.tr_mul(&a) * n,
+            h: a.tr_mul(&b) * n,
+            c: b.norm_squared() * n,
+        }
+    }
+
+    #[test]
+    fn exact_equations_select_exactly_the_true_terms() {
+        let theta = [10.0, 0.0, 20.0, 0.5, 0.0, 0.0];
+        let adm = one_link();
+        let s = Search::new(exact(&theta, 40), &adm, 40, 1e6).unwrap();
+        // The candidate model fits exactly: no misfit to divide out.
+        assert_eq!(s.dispersion, 1.0);
+        let (best, path) = s.choose(6).unwrap();
+        assert_eq!(best.set, vec![0, 2, 3]);
+        assert!(best.j < 1e-12 * s.eq.c, "J = {}", best.j);
+        // The path ran down from all six; dropping a true term costs far more than the
+        // penalty, and the selected fit is the truth.
+        assert_eq!(path[0].1.set.len(), 6);
+        let (fitted, _) = s.eq.fit(&best.set).unwrap();
+        for (f, t) in fitted.iter().zip(theta) {
+            assert!((f - t).abs() < 1e-9 * t.abs().max(1.0), "{fitted:?}");
+        }
+        for drop in [0, 2, 3] {
+            let rest: Vec<usize> = best.set.iter().copied().filter(|&i| i != drop).collect();
+            if let Some(t) = s.try_set(rest) {
+                assert!(t.criterion > best.criterion + 1e3 * s.penalty, "dropping {drop}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_even_leading_term_or_a_negative_one_is_never_selected() {
+        let adm = one_link();
+        // k2 leading (k3 absent): not odd.
+        assert!(!adm.odd_leading(&[0, 1, 3]));
+        assert!(adm.odd_leading(&[0, 1, 2, 3]));
+        // A negative leading cubic: no stationary density.
+        let theta = [10.0, 0.0, -20.0, 0.5, 0.0, 0.0];
+        assert!(!adm.admits(&[0, 2, 3], &theta));
+        assert!(adm.admits(&[0, 3], &theta));
+        // No damping at all: not admissible either.
+        assert!(!adm.admits(&[0], &theta));
+        // A truth with a negative cubic: the selection keeps k1 and c1 only, or nothing
+        // admissible at all — never the negative cubic.
+        let s = Search::new(exact(&theta, 40), &adm, 40, 1e6).unwrap();
+        if let Some((best, _)) = s.choose(6) {
+            let (fitted, _) = s.eq.fit(&best.set).unwrap();
+            assert!(adm.admits(&best.set, &fitted));
+            assert!(!best.set.contains(&2), "{:?}", best.set);
+        }
+    }
+}

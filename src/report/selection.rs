@@ -1,0 +1,169 @@
+//! Structure selection in the reports (docs/selection.md): the terminal's lines and
+//! report.md's section — what was selected from which candidates, the runners-up, the
+//! inclusion over jackknife replicates and the elimination path.
+
+use super::SelectionReport;
+
+/// The candidates with an inclusion frequency strictly between 0 and 1, or at odds with
+/// the selection: where the replicates disagree.
+fn unsettled(r: &SelectionReport) -> Vec<(String, f64)> {
+    let s = &r.selection;
+    (s.candidates.iter().zip(&s.selected).zip(&s.inclusion))
+        .filter(|((_, &sel), &f)| (f > 0.0 && f < 1.0) || (f == 1.0) != sel)
+        .map(|((n, _), &f)| (n.to_string(), f))
+        .collect()
+}
+
+fn how(r: &SelectionReport) -> String {
+    let s = &r.selection;
+    format!(
+        "{} of {} candidates by {} over {} weak-form equations (penalty ln N = {:.2} per term, \
+         dispersion {:.1}); {:.2} s",
+        s.selected.iter().filter(|&&x| x).count(),
+        s.candidates.len(),
+        s.criterion_name,
+        s.equations,
+        s.penalty,
+        s.dispersion,
+        r.seconds
+    )
+}
+
+/// The baseline's outcome in one sentence.
+fn baseline(r: &SelectionReport) -> String {
+    let s = &r.selection;
+    let t = &s.thresholded;
+    let kept: Vec<String> = (s.candidates.iter().zip(&t.selected))
+        .filter(|(_, &k)| k)
+        .map(|(n, _)| n.to_string())
+        .collect();
+    let differs = t.selected != s.selected;
+    format!(
+        "baseline STLSQ (threshold {:.2e} by leave-one-batch-out cross-validation): {} terms{}{}",
+        t.threshold,
+        kept.len(),
+        if differs {
+            format!(": {}", kept.join(" "))
+        } else {
+            ", the same as selected".to_string()
+        },
+        if t.admissible {
+            ""
+        } else {
+            " (no stationary density at its estimates)"
+        }
+    )
+}
+
+/// The terminal's lines.
+pub fn selection_lines(r: &SelectionReport) -> Vec<String> {
+    let s = &r.selection;
+    let names = |want: bool| -> Vec<String> {
+        (s.candidates.iter().zip(&s.selected))
+            .filter(|(_, &x)| x == want)
+            .map(|(n, _)| n.to_string())
+            .collect()
+    };
+    let mut out = vec![format!("structure selection: {}", how(r))];
+    out.push(format!("  selected: {}", names(true).join(" ")));
+    let dropped = names(false);
+    if !dropped.is_empty() {
+        out.push(format!("  dropped:  {}", dropped.join(" ")));
+    }
+    if !s.runners_up.is_empty() {
+        let ru: Vec<String> = s
+            .runners_up
+            .iter()
+            .map(|x| format!("{} ({:+.1})", x.change, x.criterion - s.criterion))
+            .collect();
+        out.push(format!(
+            "  runners-up (criterion against the selected): {}",
+            ru.join(", ")
+        ));
+    }
+    out.push(format!("  {}", baseline(r)));
+    let u = unsettled(r);
+    out.push(if u.is_empty() {
+        format!(
+            "  every one of {} jackknife replicates selects the same terms",
+            s.replicates
+        )
+    } else {
+        let list: Vec<String> = u.iter().map(|(n, f)| format!("{n} {:.0} %", 100.0 * f)).collect();
+        format!(
+            "  replicates that disagree (share of {} selecting the term): {}",
+            s.replicates,
+            list.join(", ")
+        )
+    });
+    out
+}
+
+/// report.md's section.
+pub fn selection_section(r: &SelectionReport) -> String {
+    let s = &r.selection;
+    let mut out = format!(
+        "## Structure selection\n\n{}. Every method below identified the selected model; the row \
+         `weak [declared terms]` is the model as `[identify.links]` declares it, on the same \
+         samples (docs/selection.md). Figure: `selection.svg`.\n\n",
+        how(r)
+    );
+    out += &format!(
+        "The {}; its model is the row `weak [STLSQ selection]`.\n\n",
+        baseline(r)
+    );
+    out += &format!(
+        "| candidate | selected | selected by the {} jackknife replicates | STLSQ |\n|---|:---:|---:|:---:|\n",
+        s.replicates
+    );
+    for (((n, &sel), &f), &t) in s
+        .candidates
+        .iter()
+        .zip(&s.selected)
+        .zip(&s.inclusion)
+        .zip(&s.thresholded.selected)
+    {
+        out += &format!(
+            "| {n} | {} | {:.0} % | {} |\n",
+            if sel { "yes" } else { "—" },
+            100.0 * f,
+            if t { "yes" } else { "—" }
+        );
+    }
+    if !s.runners_up.is_empty() {
+        out += "\n| runner-up | terms | criterion | against the selected |\n|---|---:|---:|---:|\n";
+        out += &format!(
+            "| (selected) | {} | {:.1} | 0 |\n",
+            s.selected.iter().filter(|&&x| x).count(),
+            s.criterion
+        );
+        for x in &s.runners_up {
+            out += &format!(
+                "| {} | {} | {:.1} | {:+.1} |\n",
+                x.change,
+                x.terms,
+                x.criterion,
+                x.criterion - s.criterion
+            );
+        }
+    }
+    out += "\nBackward elimination (each step drops the term whose loss raises J least while \
+            every leading term stays odd; a model whose leading coefficient is not positive, or \
+            that has no stationary density, cannot be selected):\n\n| terms | dropped | J | criterion |\n|---:|---|---:|---:|\n";
+    for st in &s.path {
+        out += &format!(
+            "| {} | {} | {:.1} | {} |\n",
+            st.terms,
+            st.dropped
+                .as_ref()
+                .map_or("(all candidates)".to_string(), |d| d.to_string()),
+            st.j,
+            if st.admissible {
+                format!("{:.1}", st.criterion)
+            } else {
+                "not admissible".to_string()
+            }
+        );
+    }
+    out + "\n"
+}
