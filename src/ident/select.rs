@@ -7,11 +7,16 @@
 //! statistic of `S`, χ²-distributed with (equations − |S|) degrees of freedom when `S`
 //! holds the truth; dropping a term the truth has raises it by about the square of that
 //! term's t-statistic, dropping one it lacks by a χ²₁ variable. The criterion is the GMM
-//! analogue of the BIC (Andrews 1999): `J(S) + |S|·ln N`, `N` the sample count.
+//! analogue of the BIC (Andrews 1999), `J(S)/dispersion + |S|·ln N`, `N` the sample count
+//! and the dispersion the candidate model's `J` per degree of freedom (at least 1): the
+//! equations' systematic misfit (the integrator's and the sampling's bias) is measured in
+//! units of their sampling noise, and on long simulated records it is ~10³ times that
+//! noise; a term must explain more than the misfit every equation has (docs/selection.md).
 //!
 //! The search: backward elimination from the candidate model (each step drops the term
-//! whose loss raises `J` least, among the drops that leave an admissible model), the path's
-//! best point, then single additions and removals while they improve the criterion. Only
+//! whose loss raises `J` least, among the drops that keep every leading term odd), the
+//! path's best admissible point, then single additions and removals while they improve
+//! the criterion. Only
 //! admissible models are chosen: the system keeps a stationary density (3.4) — every
 //! characteristic's leading term odd with a positive coefficient, springs to ground, some
 //! damping — checked at the model's own estimates. The same search on every jackknife
@@ -40,7 +45,7 @@ pub struct Step {
     pub terms: usize,
     /// The GMM `J` statistic.
     pub j: f64,
-    /// `J + terms·ln N`; infinite for a model without a stationary density.
+    /// `J/dispersion + terms·ln N`; infinite for a model without a stationary density.
     pub criterion: f64,
     pub admissible: bool,
 }

@@ -105,7 +105,9 @@ pub fn selection_section(r: &SelectionReport) -> String {
     let mut out = format!(
         "## Structure selection\n\n{}. Every method below identified the selected model; the row \
          `weak [declared terms]` is the model as `[identify.links]` declares it, on the same \
-         samples (docs/selection.md). Figure: `selection.svg`.\n\n",
+         samples (docs/selection.md).\n\n![The criterion along the elimination path against the \
+         number of terms, the selected model marked; each candidate's share of the jackknife \
+         replicates that select it](selection.svg)\n\n",
         how(r)
     );
     out += &format!(
