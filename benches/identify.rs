@@ -2,7 +2,10 @@
 //! accumulation (4-D samples per second per core, 9 unknowns, target ≥ 3e7), the strong
 //! form's 20⁴ grid (seconds per 1e7 samples, target ≤ 0.3) and the kernel lattice's flux
 //! spreading; the drift's parts (what the pair regressions and the kernel strong form
-//! evaluate per sample) one state at a time against 64 states at once, as a ratio.
+//! evaluate per sample) one state at a time against 64 states at once, as a ratio; and
+//! structure selection among 30 candidates (powers 1..5 on every stiffness and damping)
+//! against the weak form's estimate of the 30-term candidate model from the same moments
+//! (target: selection ≤ 2× that estimate, docs/selection.md).
 //! Run: `cargo bench --bench identify` (add `-- --quick` for a cheap pass).
 
 use criterion::{Criterion, Throughput};
@@ -118,6 +121,35 @@ fn main() {
             black_box(acc)
         })
     });
+    // Structure selection: the candidate model's moments, then the search against the
+    // weak estimate of the candidate model itself.
+    let powers: Vec<fpkbench::model::Term> = (1..=5).map(fpkbench::model::Term::Power).collect();
+    let select = fpkbench::scenario::Select {
+        stiffness: Some(powers.clone()),
+        damping: Some(powers),
+    };
+    let candidates = Problem::from_spec(
+        &fpkbench::ident::Specification::with_links(&s, &select.candidates(&s.links, &s.identify.links)),
+        &[],
+    )
+    .unwrap();
+    let mut cdata = StationaryData::for_weak_forms(
+        &candidates,
+        &[&p],
+        s.simulation.record_length,
+        s.simulation.trajectories,
+        32,
+    );
+    for (tr, tt, r) in &full_rows {
+        cdata.push(*tr, *tt, r);
+    }
+    cdata.finish();
+    g.bench_function("selection among 30 candidates", |b| {
+        b.iter(|| black_box(fpkbench::ident::select::select(&candidates, &cdata).unwrap().criterion))
+    });
+    g.bench_function("weak estimate of the 30-term candidate model", |b| {
+        b.iter(|| black_box(fpkbench::ident::identify_weak(&candidates, &cdata).unwrap().values[0]))
+    });
     g.finish();
     cr.final_summary();
 
@@ -160,6 +192,12 @@ fn main() {
         black_box(out[0]);
     }
     let blocked = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let chosen = black_box(fpkbench::ident::select::select(&candidates, &cdata).unwrap());
+    let selection = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    black_box(fpkbench::ident::identify_weak(&candidates, &cdata).unwrap());
+    let candidate_estimate = t.elapsed().as_secs_f64();
     println!(
         "\n== identification figures measured in this run (duffing2dof, 4-D state, {} unknowns, {n} samples) ==",
         est.values.len()
@@ -185,5 +223,12 @@ fn main() {
         "drift parts ({width} polynomials), 64 at once  {:>10.2}x the rate one state at a time ({:.3e} states/s)",
         one_by_one / blocked,
         (block_rows.len() / 4) as f64 / blocked
+    );
+    println!(
+        "selection among {} candidates              {:>10.2}x the candidate model's weak estimate ({:.3} s against {:.3} s; target <= 2)",
+        chosen.candidates.len(),
+        selection / candidate_estimate,
+        selection,
+        candidate_estimate
     );
 }

@@ -168,6 +168,8 @@ struct Equations {
     g: DMatrix<f64>,
     h: DVector<f64>,
     c: f64,
+    /// The samples they are from.
+    n: f64,
 }
 
 impl Equations {
@@ -179,6 +181,7 @@ impl Equations {
             g: a.tr_mul(&a) * n,
             h: a.tr_mul(&b) * n,
             c: b.norm_squared() * n,
+            n,
         }
     }
 
@@ -317,7 +320,7 @@ type Path = Vec<(Option<usize>, Tried)>;
 
 /// The search over one set of equations.
 struct Search<'a> {
-    eq: Equations,
+    eq: &'a Equations,
     admissibility: &'a Admissibility,
     penalty: f64,
     /// `J` of the candidate model per degree of freedom, at least 1 (see [`select`]).
@@ -325,14 +328,14 @@ struct Search<'a> {
 }
 
 impl<'a> Search<'a> {
-    /// The search over `eq` (`rows` equations, `n` samples).
-    fn new(eq: Equations, admissibility: &'a Admissibility, rows: usize, n: f64) -> Option<Search<'a>> {
+    /// The search over `eq` (`rows` equations).
+    fn new(eq: &'a Equations, admissibility: &'a Admissibility, rows: usize) -> Option<Search<'a>> {
         let k = eq.h.len();
         let (_, j) = eq.fit(&(0..k).collect::<Vec<_>>())?;
         Some(Search {
             eq,
             admissibility,
-            penalty: n.ln(),
+            penalty: eq.n.ln(),
             dispersion: (j / rows.saturating_sub(k).max(1) as f64).max(1.0),
         })
     }
@@ -527,14 +530,24 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
     };
     let n = total.count as f64;
     let admissibility = Admissibility::new(problem);
-    let search = |pieces: &Pieces, n: f64| {
-        let s = Search::new(Equations::new(problem, pieces, &weight, n), &admissibility, pc.rows, n)?;
+    // The equations of the whole record, of every jackknife replicate (all coarse batches
+    // but one) and of every coarse batch, each built once.
+    let eqs = |ms: &[super::moments::RawMoments]| -> Vec<Equations> {
+        ms.par_iter()
+            .map(|b| Equations::new(problem, &map.apply(b), &weight, b.count as f64))
+            .collect()
+    };
+    let whole = Equations::new(problem, &pc, &weight, n);
+    let replicates = eqs(&data.leave_one_out());
+    let batches = eqs(&data.batches());
+    let search = |eq: &Equations| {
+        let s = Search::new(eq, &admissibility, pc.rows)?;
         s.choose(k).map(|(best, path)| {
             let neighbours = s.neighbours(&best.set, k);
             (best, path, neighbours, s.dispersion)
         })
     };
-    let Some((best, path, neighbours, dispersion)) = search(&pc, n) else {
+    let Some((best, path, neighbours, dispersion)) = search(&whole) else {
         return Err(IdentError::NotApplicable(
             "no model among the candidates has a stationary density at its own estimates \
              (every characteristic's highest term odd with a positive coefficient, springs to \
@@ -543,14 +556,10 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
         ));
     };
     // The same search on every jackknife replicate.
-    let replicates = data.leave_one_out();
     let nb = replicates.len() as f64;
     let chosen: Vec<Option<Vec<usize>>> = replicates
         .par_iter()
-        .map(|b| {
-            let pieces = map.apply(b);
-            search(&pieces, b.count as f64).map(|(t, ..)| t.set)
-        })
+        .map(|eq| search(eq).map(|(t, ..)| t.set))
         .collect();
     let inclusion = (0..k)
         .map(|i| {
@@ -562,21 +571,8 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
         })
         .collect();
     // The baseline on the same equations, cross-validated over the coarse batches.
-    let batches = data.batches();
-    let eqs = |ms: &[super::moments::RawMoments]| -> Vec<Equations> {
-        ms.par_iter()
-            .map(|b| Equations::new(problem, &map.apply(b), &weight, b.count as f64))
-            .collect()
-    };
     let chars: Vec<(usize, Characteristic)> = admissibility.coefficients.iter().map(|c| (c.link, c.kind)).collect();
-    let thresholded = thresholded(
-        &Equations::new(problem, &pc, &weight, n),
-        &eqs(&replicates),
-        &eqs(&batches),
-        &chars,
-        &typical,
-        &admissibility,
-    );
+    let thresholded = thresholded(&whole, &replicates, &batches, &chars, &typical, &admissibility);
     let names = &problem.names;
     let mut runners_up: Vec<RunnerUp> = neighbours
         .into_iter()
@@ -664,6 +660,7 @@ mod tests {
             g: a.tr_mul(&a) * n,
             h: a.tr_mul(&b) * n,
             c: b.norm_squared() * n,
+            n,
         }
     }
 
@@ -671,7 +668,8 @@ mod tests {
     fn exact_equations_select_exactly_the_true_terms() {
         let theta = [10.0, 0.0, 20.0, 0.5, 0.0, 0.0];
         let adm = one_link();
-        let s = Search::new(exact(&theta, 40), &adm, 40, 1e6).unwrap();
+        let eq = exact(&theta, 40);
+        let s = Search::new(&eq, &adm, 40).unwrap();
         // The candidate model fits exactly: no misfit to divide out.
         assert_eq!(s.dispersion, 1.0);
         let (best, path) = s.choose(6).unwrap();
@@ -706,7 +704,8 @@ mod tests {
         assert!(!adm.admits(&[0], &theta));
         // A truth with a negative cubic: the selection keeps k1 and c1 only, or nothing
         // admissible at all — never the negative cubic.
-        let s = Search::new(exact(&theta, 40), &adm, 40, 1e6).unwrap();
+        let eq = exact(&theta, 40);
+        let s = Search::new(&eq, &adm, 40).unwrap();
         if let Some((best, _)) = s.choose(6) {
             let (fitted, _) = s.eq.fit(&best.set).unwrap();
             assert!(adm.admits(&best.set, &fitted));
