@@ -20,11 +20,13 @@
 //! Standard errors: the delete-one jackknife over the same batches as the weak form.
 
 use super::estimate::{estimate, solve_replicates};
-use super::poly::Compiled;
 use super::{prefetch, Estimate, IdentError, Pieces, Problem, Unknown};
 use multiversion::multiversion;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
+
+mod pairs;
+pub(super) use pairs::{DriftParts, Pairs};
 
 /// A multiplicative hash of a grid cell's index (Fibonacci hashing): the cell map is hit
 /// once per sample pair, where the default SipHash cost as much as the rest of the pass.
@@ -224,70 +226,6 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
 }
 
-/// The drift's parts (known force per mass, unit force per unknown and mass:
-/// [`Problem::known_force`], [`Problem::unit_force`]) compiled for per-sample evaluation.
-#[derive(Clone)]
-pub(super) struct DriftParts {
-    /// Known forces, then the unit forces unknown-major (`unit[row * n + i]`).
-    parts: Compiled,
-    n: usize,
-    values: Vec<f64>,
-}
-
-impl DriftParts {
-    pub(super) fn of(problem: &Problem) -> DriftParts {
-        let parts = Compiled::new(problem.known_force.iter().chain(problem.unit_force.iter().flatten()));
-        DriftParts {
-            values: vec![0.0; parts.len()],
-            parts,
-            n: problem.n,
-        }
-    }
-
-    /// The parts at state `y`: known force per mass, unit force per unknown and mass.
-    pub(super) fn at(&mut self, y: &[f64], known: &mut [f64], unit: &mut [f64]) {
-        self.parts.eval(y, &mut self.values);
-        let (kv, uv) = self.values.split_at(self.n);
-        for (k, v) in known.iter_mut().zip(kv) {
-            *k = *v;
-        }
-        for (u, v) in unit.iter_mut().zip(uv) {
-            *u = *v;
-        }
-    }
-}
-
-/// Consecutive samples of each trajectory, `h` apart: the previous state per trajectory.
-pub(super) struct Pairs {
-    pub(super) h: f64,
-    prev: Vec<Option<(f64, Vec<f64>)>>,
-}
-
-impl Pairs {
-    pub(super) fn new(h: f64) -> Pairs {
-        Pairs { h, prev: Vec::new() }
-    }
-
-    /// The state `y` of the sample before `(trajectory, t)` if it is exactly one interval
-    /// earlier; then remember this one (`y` in problem order).
-    pub(super) fn step(&mut self, trajectory: usize, t: f64, y: &[f64], mut f: impl FnMut(&[f64])) {
-        if self.prev.len() <= trajectory {
-            self.prev.resize(trajectory + 1, None);
-        }
-        let h = self.h;
-        match &mut self.prev[trajectory] {
-            Some((t0, y0)) => {
-                if ((t - *t0) - h).abs() <= 1e-6 * h {
-                    f(y0);
-                }
-                *t0 = t;
-                y0.copy_from_slice(y);
-            }
-            slot @ None => *slot = Some((t, y.to_vec())),
-        }
-    }
-}
-
 /// Sample pairs of one batch an [`Increments`] gathers before it evaluates their drifts
 /// together.
 const BLOCK: usize = 64;
@@ -307,7 +245,7 @@ struct PairBlock {
 /// forces, the force regression (the equation error of the equations of motion).
 ///
 /// Pairs are gathered per batch, 64 at a time; their drifts' parts are evaluated along the
-/// block ([`Compiled::eval_block`]) and the block enters its batch's normal equations as
+/// block ([`super::poly::Compiled::eval_block`]) and the block enters its batch's normal equations as
 /// sums along the block (one dot product per entry of the equations).
 pub struct Increments {
     problem: Problem,
@@ -320,9 +258,13 @@ pub struct Increments {
     /// Per state variable that is a displacement, its velocity's state variable (the
     /// force regression interpolates displacements by cubic Hermite).
     velocity_of: Vec<Option<usize>>,
-    /// The sample in problem order (then, for the force regression, the instant-valued
-    /// force on each mass).
+    /// The sample in problem order, the atoms' values after the state (then, for the force
+    /// regression, the instant-valued force on each mass).
     y: Vec<f64>,
+    /// Scratch: one state with its atoms, and a log row, to value the atoms at the force
+    /// regression's interpolated states ([`Problem::fill_atoms`]).
+    point: Vec<f64>,
+    row: Vec<f64>,
     /// Per batch, the pairs gathered.
     blocks: Vec<PairBlock>,
     /// Scratch: states where the parts are evaluated, the parts there (part-major), and
@@ -356,6 +298,8 @@ impl Increments {
                 })
                 .collect(),
             y: vec![0.0; d],
+            point: vec![0.0; d],
+            row: vec![0.0; problem.columns.iter().max().map_or(0, |&c| c + 1)],
             blocks: vec![
                 PairBlock {
                     start: vec![0.0; d * BLOCK],
@@ -403,6 +347,11 @@ impl Increments {
         let d = p.dim();
         for (j, &c) in p.columns.iter().enumerate() {
             self.y[j] = row[c];
+        }
+        // A term without a polynomial form enters the drift as an atom, valued here.
+        let dd = p.density_dim();
+        for (k, a) in p.atoms.iter().enumerate() {
+            self.y[dd + k] = a.value(&p.model, row);
         }
         if let Some(forces) = &self.forces {
             for (i, cols) in forces.iter().enumerate() {
@@ -482,7 +431,8 @@ impl Increments {
                     3.0 * t2 - 2.0 * t3,
                     t3 - t2,
                 );
-                for j in 0..d {
+                let dd = p.density_dim();
+                for j in 0..dd {
                     let (y0, y1) = (&block.start[j * BLOCK..], &block.end[j * BLOCK..]);
                     let at = &mut self.at[j * lanes..(j + 1) * lanes];
                     match self.velocity_of[j] {
@@ -497,6 +447,17 @@ impl Increments {
                                 *a = (1.0 - tau) * y0[l] + tau * y1[l];
                             }
                         }
+                    }
+                }
+                // The atoms at the interpolated state, not interpolated themselves (a
+                // friction term's sign changes inside the interval).
+                for l in (0..lanes).filter(|_| !p.atoms.is_empty()) {
+                    for j in 0..dd {
+                        self.point[j] = self.at[j * lanes + l];
+                    }
+                    p.fill_atoms(&mut self.point, &mut self.row);
+                    for k in dd..d {
+                        self.at[k * lanes + l] = self.point[k];
                     }
                 }
                 self.parts.parts.eval_block(&self.at[..d * lanes], lanes, values);

@@ -173,6 +173,15 @@ impl Problem {
         let (known_force, known_pmax) = terms.known_force();
         let (unit_force, names, start, pmax) = terms.unknown_terms(&unknowns, known_pmax)?;
         let atoms = terms.atoms.into_inner();
+        if let Some(a) = atoms.iter().find(|a| a.slope && !a.term.is_continuous()) {
+            return Err(IdentError::Unsupported(format!(
+                "with filtered excitation the drift holds the force's time derivative (3.24), and the {} of link {:?} \
+                 jumps at 0, so it has none: identify it under white excitation, or model the friction by a \
+                 continuous term (tanh with a small z0)",
+                a.term.describe(),
+                known.link_names[a.link]
+            )));
+        }
         let dim = state.width * n + atoms.len();
         if dim > MAX_VARS {
             return Err(IdentError::Unsupported(format!(

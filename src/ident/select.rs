@@ -495,6 +495,33 @@ fn thresholded(
     }
 }
 
+/// How well the weak form of `problem` fits `data`: the GMM `J` statistic of its efficiently
+/// weighted equations at its own estimate (`N · |T r(θ̂)|²`, `TᵀT` the inverse covariance
+/// of the equations) and its degrees of freedom (equations − unknowns). Models over the
+/// same test functions are compared by it: a term's position (a gap) is profiled by the
+/// `J` of the model at each position (docs/scenario.md "Terms").
+pub fn misfit(problem: &Problem, data: &StationaryData) -> Result<(f64, usize), IdentError> {
+    let total = data.total();
+    let typical = problem.typical(&total);
+    let map = weak::PiecesMap::new(problem, &total);
+    let pc = map.apply(&total);
+    pc.check_finite("profile")?;
+    let (weight, fine) = efficient_weight(problem, data, &map, &pc, &typical);
+    let Some(weight) = weight else {
+        return Err(IdentError::TooLittleData(format!(
+            "{fine} fine batches are too few to weigh {} weak-form equations",
+            pc.rows
+        )));
+    };
+    let k = problem.unknowns.len();
+    let eq = Equations::new(problem, &pc, &weight, total.count as f64);
+    let all: Vec<usize> = (0..k).collect();
+    let (_, j) = eq
+        .fit(&all)
+        .ok_or_else(|| IdentError::NotApplicable("the model's equations are dependent at this position".into()))?;
+    Ok((j, pc.rows.saturating_sub(k)))
+}
+
 /// Select among the coefficients of `problem` (the candidate model: every candidate term
 /// unknown, nothing else) from the weak form of `data`.
 pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, IdentError> {

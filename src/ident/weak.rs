@@ -47,9 +47,29 @@ pub fn moment_degree(problem: &Problem) -> u32 {
     test_degree(problem) + problem.pmax - 1
 }
 
-/// Test-function degree for `problem`.
+/// Test-function degree for `problem`: one above the drift's highest power; and where a
+/// characteristic has terms without a polynomial form (atoms, each of degree 1 in the
+/// moment equations), enough for its unknown terms to meet as many informative test
+/// functions along their argument: an odd term is seen only by the test functions odd in it
+/// (under a symmetric density the others give `0 = 0`), so two degrees per odd term and one
+/// per other term. Power polynomials keep the first bound (docs/theory.md §5).
 pub fn test_degree(problem: &Problem) -> u32 {
-    problem.pmax + 1 + bilinear(problem) as u32
+    // Per characteristic: (odd unknown terms, other unknown terms, has an atom).
+    let mut per: std::collections::BTreeMap<(usize, bool), (u32, u32, bool)> = Default::default();
+    for u in &problem.unknowns {
+        if let super::Unknown::Coefficient(c) = u {
+            let e = per
+                .entry((c.link, c.kind == crate::model::Characteristic::Damping))
+                .or_default();
+            match c.term.is_odd() {
+                true => e.0 += 1,
+                false => e.1 += 1,
+            }
+            e.2 |= c.term.power().is_none();
+        }
+    }
+    let atoms = per.values().filter(|e| e.2).map(|e| 2 * e.0 + e.1).max().unwrap_or(0);
+    (problem.pmax + 1).max(atoms) + bilinear(problem) as u32
 }
 
 /// Whether a corner is unknown: the bilinear drift has more monomial unknowns and needs

@@ -53,7 +53,18 @@ impl NotStationary {
                          stationary density"
                     }
                 };
-                let how = if !term.is_odd() {
+                let how = if let Term::Hinge(a) = term {
+                    format!(
+                        "its leading term, the {}, acts on the side {} 0 only and nothing bounds the other",
+                        term.describe(),
+                        if a.get() > 0.0 { ">" } else { "<" }
+                    )
+                } else if coefficient == 0.0 {
+                    format!(
+                        "its leading {} has the coefficient 0, and nothing holds it",
+                        term.describe()
+                    )
+                } else if !term.is_odd() {
                     format!("its highest {} is even", term.describe())
                 } else {
                     format!(
@@ -62,8 +73,9 @@ impl NotStationary {
                     )
                 };
                 format!(
-                    "the {} between the ends of link {:?}: {how}: {why}, which the method assumes. The highest \
-                     power must be odd with a positive coefficient",
+                    "the {} between the ends of link {:?}: {how}: {why}, which the method assumes. The leading \
+                     term must push back on both sides: an odd power, or abs<p>, sign, gap or tanh, with a positive \
+                     coefficient",
                     kind.name(),
                     links[link].name
                 )
@@ -137,20 +149,6 @@ pub fn stationary(
                 Kind::Stiffness => &links[l].stiffness,
                 Kind::Damping => &links[l].damping,
             };
-            // The pair's combined characteristic in the orientation of its first link: a
-            // link turned round contributes −F(−u) (even terms negated).
-            let first = links[ls[0]].ends;
-            let mut sum: BTreeMap<(u32, Term), f64> = BTreeMap::new();
-            for &l in ls {
-                let same = links[l].ends == first;
-                for &(t, c) in &poly_of(l).terms {
-                    let sign = if same || t.is_odd() { 1.0 } else { -1.0 };
-                    *sum.entry((t.degree(), t)).or_insert(0.0) += sign * c;
-                }
-            }
-            let Some((&(p, term), &c)) = sum.iter().rev().find(|t| *t.1 != 0.0) else {
-                continue;
-            };
             let unknown_kind = |l: usize| match kind {
                 Kind::Stiffness => unknown(l).0,
                 Kind::Damping => unknown(l).1,
@@ -158,28 +156,65 @@ pub fn stationary(
             if ls.iter().any(|&l| unknown_kind(l)) {
                 continue;
             }
-            if term.is_odd() && c > 0.0 {
-                continue;
+            // The pair's combined characteristic in the orientation of its first link (a
+            // link turned round contributes −F(−u)), far out on each side `s`: per growth,
+            // the factor of |z|^growth it tends to. The leading behaviour must restore
+            // (stiffness) or dissipate (damping) on both sides: `s · factor > 0`.
+            let first = links[ls[0]].ends;
+            for s in [1.0, -1.0] {
+                let mut sum: BTreeMap<u32, (f64, Term, f64)> = BTreeMap::new();
+                for &l in ls {
+                    let same = links[l].ends == first;
+                    for &(t, c) in &poly_of(l).terms {
+                        let far = if same {
+                            c * t.far(s).coefficient
+                        } else {
+                            -c * t.far(-s).coefficient
+                        };
+                        let entry = sum
+                            .entry(t.far(if same { s } else { -s }).growth)
+                            .or_insert((0.0, t, c));
+                        entry.0 += far;
+                        if far != 0.0 {
+                            (entry.1, entry.2) = (t, c);
+                        }
+                    }
+                }
+                let (p, factor, term, c) = match sum.iter().rev().find(|t| t.1 .0 != 0.0) {
+                    Some((&p, &(factor, term, c))) => (p, factor, term, c),
+                    // Nothing far out on this side: a spring that lets go (a one-sided hinge)
+                    // lets the mass escape; a damper that acts one way still dissipates.
+                    None if kind == Kind::Stiffness && !sum.is_empty() => {
+                        let (&p, &(_, term, c)) = sum.iter().next_back().expect("not empty");
+                        (p, 0.0, term, c)
+                    }
+                    None => continue,
+                };
+                if s * factor > 0.0 {
+                    continue;
+                }
+                // The bad side decides when some motion stretches this pair and no other pair
+                // whose characteristic grows as fast or faster (sufficient; in a tree of springs
+                // always so). Otherwise those may bound it, and the system stands.
+                let others: Vec<Vec<f64>> = pairs
+                    .iter()
+                    .enumerate()
+                    .filter(|&(pj, (_, lm))| {
+                        pj != pi && lm.iter().map(|&l| poly_of(l).growth()).max().unwrap_or(0) >= p
+                    })
+                    .map(|(_, (k, _))| geometry(*k))
+                    .collect();
+                if in_span(&geometry(*key), &others) {
+                    continue;
+                }
+                let link = *ls.iter().rev().find(|&&l| poly_of(l).growth() == p).unwrap_or(&ls[0]);
+                return Err(NotStationary::Unbounded {
+                    link,
+                    kind,
+                    term,
+                    coefficient: c,
+                });
             }
-            // The bad term decides when some motion stretches this pair and no other pair
-            // whose characteristic is of the same or a higher degree (sufficient; in a tree
-            // of springs always so). Otherwise those may bound it, and the system stands.
-            let others: Vec<Vec<f64>> = pairs
-                .iter()
-                .enumerate()
-                .filter(|&(pj, (_, lm))| pj != pi && lm.iter().map(|&l| poly_of(l).degree()).max().unwrap_or(0) >= p)
-                .map(|(_, (k, _))| geometry(*k))
-                .collect();
-            if in_span(&geometry(*key), &others) {
-                continue;
-            }
-            let link = *ls.iter().rev().find(|&&l| poly_of(l).degree() == p).unwrap_or(&ls[0]);
-            return Err(NotStationary::Unbounded {
-                link,
-                kind,
-                term,
-                coefficient: c,
-            });
         }
     }
     Ok(())

@@ -14,7 +14,7 @@ mod term;
 
 pub use columns::{Columns, Quantity};
 pub use names::{ParameterName, Truth, UnknownName};
-pub use term::Term;
+pub use term::{Far, Level, Term, TERM_SYNTAX};
 
 use crate::scenario::{End, Process, Scenario};
 

@@ -177,10 +177,29 @@ impl Truth {
     }
 
     /// The true value of the parameter `n`: a coefficient the true system does not have is
-    /// 0; a mass or excitation parameter the truth lacks has none.
+    /// 0, unless its term has a position (a profiled gap) and the true characteristic has
+    /// exactly one term of that kind at another position, whose coefficient it is; a mass
+    /// or excitation parameter the truth lacks has none.
     fn parameter(&self, n: &ParameterName) -> Option<f64> {
         match (self.get(n), n) {
             (Some(v), _) => Some(v),
+            (None, ParameterName::Coefficient { kind, term, link }) if term.position().is_some() => {
+                let same_kind: Vec<f64> = self
+                    .0
+                    .iter()
+                    .filter_map(|(m, &v)| match m {
+                        ParameterName::Coefficient {
+                            kind: k,
+                            term: t,
+                            link: l,
+                        } if k == kind && l == link && std::mem::discriminant(t) == std::mem::discriminant(term) => {
+                            Some(v)
+                        }
+                        _ => None,
+                    })
+                    .collect();
+                Some(if same_kind.len() == 1 { same_kind[0] } else { 0.0 })
+            }
             (None, ParameterName::Coefficient { .. }) => Some(0.0),
             (None, _) => None,
         }

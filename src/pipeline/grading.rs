@@ -92,6 +92,7 @@ pub(crate) fn assemble(
         filters,
         sensor_noise: None,
         selection: None,
+        profile: None,
         methods,
         validation,
         iterations,
@@ -185,6 +186,13 @@ pub(crate) fn fill_accuracy(
             } else {
                 f64::NAN
             };
+            let both = crate::scenario::Curve {
+                terms: est.terms.iter().chain(&truth.terms).copied().collect(),
+            };
+            let norm = match on(c).under_density(&both) {
+                true => crate::report::NORM_DENSITY,
+                false => crate::report::NORM_RANGE,
+            };
             worst = worst.max(e);
             // The covariance of the identified terms' coefficients, in their order.
             let index: Vec<Option<usize>> = est
@@ -215,6 +223,7 @@ pub(crate) fn fill_accuracy(
                 link: s.links[l].name.clone(),
                 kind: kind.name(),
                 rel_l2_error: e,
+                norm,
                 range: [lo, hi],
                 identified: est.terms.clone(),
                 covariance: terms_covariance,

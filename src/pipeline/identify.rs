@@ -149,19 +149,34 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         .transpose()?;
 
     // Pass 1: moments per batch, link ranges, lag-1 correlation of each filtered force.
-    // With a selection, also those of the declared model it is compared with.
+    // With a selection, also those of the declared model it is compared with, and those of
+    // the `[identify.compare]` models over the same atoms; a comparison model with other
+    // atoms (other non-polynomial terms) gathers its own moments.
     let declared = (select.is_some())
         .then(|| Problem::from_spec(&Specification::from_scenario(s), &placeholder))
         .transpose()?;
-    let mut data = match &declared {
-        Some(declared) => StationaryData::for_weak_forms(
-            &structure,
-            &[declared],
-            sim.record_length,
-            sim.trajectories,
-            options.batches,
-        ),
-        None => StationaryData::new(
+    let mut comparisons: Vec<Comparison> = s
+        .identify
+        .compare
+        .iter()
+        .map(|(name, links)| Comparison::new(name, links, s, &placeholder, &structure, options.batches))
+        .collect();
+    // A profiled term's position: the model at every position gathers its moments.
+    let mut profile = super::profile::Candidates::new(s, &spec, &placeholder, options.batches);
+    let also: Vec<&Problem> = declared
+        .iter()
+        .chain(
+            comparisons
+                .iter()
+                .filter(|c| c.own.is_none())
+                .filter_map(|c| c.problem.as_ref().ok()),
+        )
+        .collect();
+    let mut data = match also.is_empty() {
+        false => {
+            StationaryData::for_weak_forms(&structure, &also, sim.record_length, sim.trajectories, options.batches)
+        }
+        true => StationaryData::new(
             &structure,
             weak::moment_degree(&structure),
             sim.record_length,
@@ -193,12 +208,36 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         if let Some(d) = naive_data.as_mut() {
             d.push(traj, t, row);
         }
+        for d in comparisons.iter_mut().filter_map(|c| c.own.as_mut()) {
+            d.push(traj, t, row);
+        }
+        if let Some(p) = profile.as_mut() {
+            p.push(traj, t, row);
+        }
         forces.push_lag(traj, row);
     })?;
     data.finish();
     if let Some(d) = naive_data.as_mut() {
         d.finish();
     }
+    for d in comparisons.iter_mut().filter_map(|c| c.own.as_mut()) {
+        d.finish();
+    }
+    // The profiled position of least misfit is the model from here on, with its moments.
+    let profiled = match profile {
+        Some(mut p) => {
+            crate::interrupt::check()?;
+            let t = Instant::now();
+            p.finish();
+            let mut chosen = p.choose(s, &grader.truth, t)?;
+            chosen.refine(s, input, &placeholder, options.batches)?;
+            spec = chosen.spec;
+            structure = Problem::from_spec(&spec, &placeholder)?;
+            data = chosen.data;
+            Some(chosen.report)
+        }
+        None => None,
+    };
     // Sensor noise: estimated, and taken out of the weak form's moments.
     // The sensors' filters: the velocities' tail they took out, put back.
     let loss = super::sensors::filter_loss(s, &structure);
@@ -325,7 +364,14 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         }
     }
     let naive = naive_data.as_ref().filter(|_| !filtered.is_empty());
-    reports.extend(comparison_reports(&spec, &filters, naive, &data, &grader)?);
+    reports.extend(comparison_reports(
+        &spec,
+        &filters,
+        naive,
+        &data,
+        &comparisons,
+        &grader,
+    )?);
     if let Some((chosen, baseline, _)) = &selection {
         // The model as declared, on the same samples: what the selection is measured
         // against (for a simulation, the true structure unless [identify.links] says
@@ -375,6 +421,7 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
         super::sensors::warn_uncorrected(n, &mut report.methods);
     }
     report.sensor_noise = sensor_noise;
+    report.profile = profiled;
     if let Some((chosen, _, seconds)) = selection {
         let names: Vec<String> = chosen.selected_names().iter().map(|n| n.to_string()).collect();
         for m in &mut report.methods {
@@ -428,6 +475,7 @@ fn comparison_reports(
     filters: &[Filter],
     naive: Option<&StationaryData>,
     data: &StationaryData,
+    comparisons: &[Comparison],
     grader: &Grader,
 ) -> Result<Vec<MethodReport>, PipelineError> {
     let observed = data.observed();
@@ -446,12 +494,21 @@ fn comparison_reports(
             t,
         ));
     }
-    for (name, links) in &grader.scenario.identify.compare {
+    for c in comparisons {
         let t = Instant::now();
-        let p = Problem::from_spec(&Specification::with_links(grader.scenario, links), filters)?;
-        let est = ident::identify_weak(&p, data);
+        let spec = Specification::with_links(grader.scenario, &c.links);
+        let (p, est) = match Problem::from_spec(&spec, filters) {
+            Ok(p) => {
+                let est = ident::identify_weak(&p, c.own.as_ref().unwrap_or(data));
+                (p, est)
+            }
+            // The row says why (a symmetry of the comparison model); its problem, built
+            // without that check, only lays out the row.
+            Err(e) => (Problem::from_spec_unchecked(&spec, filters)?, Err(e)),
+        };
+        let observed = c.own.as_ref().map_or(observed, |d| d.observed());
         reports.push(method_report(
-            ReportMethod::Compare(name.clone()),
+            ReportMethod::Compare(c.name.clone()),
             None,
             est,
             grader,
@@ -461,4 +518,44 @@ fn comparison_reports(
         ));
     }
     Ok(reports)
+}
+
+/// One model of `[identify.compare]` before pass 1: its problem over the placeholder
+/// filters, and its own moments when its atoms differ from the identified structure's
+/// (their moments are other variables' moments); otherwise it reads the shared data.
+struct Comparison {
+    name: String,
+    links: Vec<crate::scenario::IdentifyLink>,
+    problem: Result<Problem, IdentError>,
+    own: Option<StationaryData>,
+}
+
+impl Comparison {
+    fn new(
+        name: &str,
+        links: &[crate::scenario::IdentifyLink],
+        s: &Scenario,
+        placeholder: &[Filter],
+        structure: &Problem,
+        batches: usize,
+    ) -> Comparison {
+        let problem = Problem::from_spec(&Specification::with_links(s, links), placeholder);
+        let own = match &problem {
+            // With a profile the shared moments are replaced by the chosen position's.
+            Ok(p) if p.atoms != structure.atoms || s.identify.profile.is_some() => Some(StationaryData::new(
+                p,
+                weak::moment_degree(p),
+                s.simulation.record_length,
+                s.simulation.trajectories,
+                batches,
+            )),
+            _ => None,
+        };
+        Comparison {
+            name: name.to_string(),
+            links: links.to_vec(),
+            problem,
+            own,
+        }
+    }
 }

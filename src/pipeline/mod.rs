@@ -13,6 +13,7 @@
 mod disturbed;
 mod grading;
 mod identify;
+mod profile;
 mod sensors;
 mod source;
 mod spectra;

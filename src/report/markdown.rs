@@ -125,6 +125,9 @@ pub fn markdown(r: &Report) -> String {
     if let Some(sel) = &r.selection {
         s += &super::selection::selection_section(sel);
     }
+    if let Some(p) = &r.profile {
+        s += &super::selection::profile_section(p);
+    }
     s += "## Verdict\n\n";
     for m in &r.methods {
         let mut line = verdict(m);
@@ -156,7 +159,7 @@ pub fn markdown(r: &Report) -> String {
     s += "## Estimates\n\n";
     s += "Errors are relative to the truth; a coefficient whose true value is 0 is measured against its \
           characteristic's scale, and a characteristic's L2 error is taken, under the observed density of its \
-          argument (where the samples are). Standard errors: delete-one jackknife over the \
+          argument (where the samples are; evenly over the observed range where a term is not a power). Standard errors: delete-one jackknife over the \
           record's batches; 95 % intervals: ± Student's t(0.975) standard errors. They measure the sampling \
           noise only, not a method's bias.\n\n";
     let motion = r.scenario_def.as_ref().map_or(Default::default(), |d| d.motion);

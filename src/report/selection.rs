@@ -1,8 +1,70 @@
 //! Structure selection in the reports (docs/selection.md): the terminal's lines and
 //! report.md's section — what was selected from which candidates, the runners-up, the
-//! inclusion over jackknife replicates and the elimination path.
+//! inclusion over jackknife replicates and the elimination path; and a term's profiled
+//! position (`[identify.profile]`, docs/scenario.md "Terms").
 
-use super::SelectionReport;
+use super::{ProfileReport, SelectionReport};
+
+/// The profile's headline: the position chosen, its interval, the truth where known.
+fn profile_headline(p: &ProfileReport) -> String {
+    let truth = match p.truth {
+        Some(t) => format!("; true {t} ({:+.2} %)", 100.0 * (p.chosen / t - 1.0)),
+        None => String::new(),
+    };
+    let refined = match p.refined {
+        Some(_) => ", refined to the vertex of the parabola through the least J and its neighbours",
+        None => "",
+    };
+    format!(
+        "profile: {} chosen as {} (95 % interval {}..{}{truth}) by the weak form's J over {} positions{refined}; \
+         dispersion {:.1}; {:.2} s",
+        p.parameter,
+        p.chosen_parameter,
+        p.interval.0,
+        p.interval.1,
+        p.points.len(),
+        p.dispersion,
+        p.seconds
+    )
+}
+
+/// The terminal's lines of a profile: the headline and `J − J_min` per position.
+pub fn profile_lines(p: &ProfileReport) -> Vec<String> {
+    let j_min = p.points.iter().filter_map(|x| x.j).fold(f64::INFINITY, f64::min);
+    let mut out = vec![profile_headline(p)];
+    let cells: Vec<String> = p
+        .points
+        .iter()
+        .map(|x| match x.j {
+            Some(j) => format!("{}: {:.1}", x.position, j - j_min),
+            None => format!("{}: refused", x.position),
+        })
+        .collect();
+    out.push(format!("  J − J_min by position: {}", cells.join(", ")));
+    out
+}
+
+/// report.md's section of a profile: the table of `J` per position.
+pub fn profile_section(p: &ProfileReport) -> String {
+    let j_min = p.points.iter().filter_map(|x| x.j).fold(f64::INFINITY, f64::min);
+    let mut s = format!(
+        "## Profile\n\n{}\n\n| position | J | J − J_min | dof |\n|---:|---:|---:|---:|\n",
+        profile_headline(p)
+    );
+    for x in &p.points {
+        match x.j {
+            Some(j) => s += &format!("| {} | {:.1} | {:.1} | {} |\n", x.position, j, j - j_min, x.dof),
+            None => {
+                s += &format!(
+                    "| {} | refused: {} | | |\n",
+                    x.position,
+                    x.refused.as_deref().unwrap_or("")
+                )
+            }
+        }
+    }
+    s + "\n"
+}
 
 /// The candidates with an inclusion frequency strictly between 0 and 1, or at odds with
 /// the selection: where the replicates disagree.

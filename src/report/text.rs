@@ -108,6 +108,9 @@ pub fn summary(r: &Report) -> String {
     if let Some(sel) = &r.selection {
         s += &(super::selection::selection_lines(sel).join("\n") + "\n");
     }
+    if let Some(p) = &r.profile {
+        s += &(super::selection::profile_lines(p).join("\n") + "\n");
+    }
     s += &parameter_table(r);
     for m in &r.methods {
         s += &method_lines(m);
@@ -419,10 +422,16 @@ fn method_lines(m: &MethodReport) -> String {
     }
     for c in &m.curves {
         s += &format!(
-            "  curve {} {}: L2 error {} under the observed density, range [{:.4}, {:.4}]\n",
+            "  curve {} {}: L2 error {} {} the {}, range [{:.4}, {:.4}]\n",
             c.link,
             c.kind,
             fmt_err(c.rel_l2_error),
+            if c.norm == crate::report::NORM_DENSITY {
+                "under"
+            } else {
+                "evenly over"
+            },
+            c.norm,
             c.range[0],
             c.range[1]
         );

@@ -28,13 +28,20 @@ pub struct Parameter {
     pub cramer_rao_std: Option<f64>,
 }
 
+/// [`Curve::norm`]: a characteristic's L2 error under the observed density of its
+/// argument (every term a power), or evenly over the observed range.
+pub const NORM_DENSITY: &str = "observed density";
+pub const NORM_RANGE: &str = "observed range";
+
 #[derive(Debug, Clone, Serialize)]
 pub struct Curve {
     pub link: String,
     pub kind: &'static str,
     /// `‖K̂ − K‖ / ‖K‖` under the observed density of the relative displacement or velocity
-    /// (`stats::rel_l2`).
+    /// (`stats::rel_l2`), or evenly over the observed range where a term is not a power.
     pub rel_l2_error: f64,
+    /// Where that norm is taken: `"observed density"` or `"observed range"`.
+    pub norm: &'static str,
     /// Observed range of the relative displacement or velocity.
     pub range: [f64; 2],
     /// `(term, coefficient)` of the identified characteristic.
@@ -172,6 +179,38 @@ pub struct SelectionReport {
     pub selection: crate::ident::select::Selection,
     /// The selection's own time (the candidate model's moments are shared).
     pub seconds: f64,
+}
+
+/// A profiled term position (`[identify.profile]`): the weak form's misfit at every position
+/// tried, the one kept and the positions the data cannot tell from it.
+#[derive(Debug, Clone, Serialize)]
+pub struct ProfileReport {
+    /// The profiled unknown as `[identify.profile]` names it (its declared position).
+    pub parameter: String,
+    /// The term's name at the chosen position, e.g. `kgap(0.147)[m1-m2]`.
+    pub chosen_parameter: String,
+    /// Per position: the GMM `J` of the model there, or why there is none.
+    pub points: Vec<ProfilePoint>,
+    pub chosen: f64,
+    /// The positions whose `J` is within `3.84 · dispersion` of the least (a 95 % interval
+    /// from the χ²₁ difference, widened by the equations' dispersion `max(1, J/dof)`):
+    /// their range.
+    pub interval: (f64, f64),
+    pub dispersion: f64,
+    /// The true position, where the truth has one term of this kind on this characteristic.
+    pub truth: Option<f64>,
+    /// `J` at the parabola's vertex between the grid's positions, when that position was
+    /// kept (`chosen` is then the vertex, between two positions tried).
+    pub refined: Option<f64>,
+    pub seconds: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ProfilePoint {
+    pub position: f64,
+    pub j: Option<f64>,
+    pub dof: usize,
+    pub refused: Option<String>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -400,6 +439,9 @@ pub struct Report {
     /// Structure selection (`[identify.select]`, `--select`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub selection: Option<SelectionReport>,
+    /// A term's position profiled (`[identify.profile]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub profile: Option<ProfileReport>,
     pub methods: Vec<MethodReport>,
     pub validation: Option<Validation>,
     /// The iterative procedure for an unmeasured disturbance (paper section 4): the

@@ -11,7 +11,7 @@ mod paper;
 mod raw;
 mod validate;
 
-use crate::model::Term;
+use crate::model::{Characteristic, Term};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -123,9 +123,15 @@ impl Curve {
     pub fn max_power(&self) -> u32 {
         self.terms.iter().filter_map(|t| t.0.power()).max().unwrap_or(0)
     }
-    /// The highest [`Term::degree`] among the terms (0 when there is none).
-    pub fn degree(&self) -> u32 {
-        self.terms.iter().map(|t| t.0.degree()).max().unwrap_or(0)
+    /// The fastest growth far out among the terms ([`Term::far`]; 0 when there is none).
+    pub fn growth(&self) -> u32 {
+        self.terms
+            .iter()
+            .flat_map(|t| [1.0, -1.0].map(|s| t.0.far(s)))
+            .filter(|f| f.coefficient != 0.0)
+            .map(|f| f.growth)
+            .max()
+            .unwrap_or(0)
     }
     pub fn is_empty(&self) -> bool {
         self.terms.is_empty()
@@ -419,6 +425,58 @@ pub struct Identify {
     pub sensor_noise: NoiseHandling,
     /// `[identify.select]`: choose the model's terms from candidates (docs/selection.md).
     pub select: Option<Select>,
+    /// `[identify.profile]`: the position of one term (a gap) chosen over a range.
+    pub profile: Option<Profile>,
+}
+
+/// `[identify.profile]`: a term whose position (a gap, a saturation amplitude, a knot) is
+/// not given but chosen over a range: the weak form is identified at each of `points`
+/// evenly spaced positions and the one whose equations fit best is kept (docs/scenario.md
+/// "Terms").
+#[derive(Debug, Clone, PartialEq)]
+pub struct Profile {
+    pub link: usize,
+    pub kind: Characteristic,
+    /// The term as `[identify.links]` lists it.
+    pub term: Term,
+    pub range: (f64, f64),
+    pub points: usize,
+}
+
+impl Profile {
+    /// The positions tried, ascending, each rounded to 10 significant digits (so they
+    /// read as the decimals they are meant to be: 0.145, not 0.14500000000000002).
+    pub fn positions(&self) -> Vec<f64> {
+        let (a, b) = self.range;
+        (0..self.points)
+            .map(|i| {
+                let x = a + (b - a) * i as f64 / (self.points - 1) as f64;
+                format!("{x:.9e}").parse().unwrap_or(x)
+            })
+            .collect()
+    }
+
+    /// `links` with the profiled term at position `x`.
+    pub fn links_at(&self, links: &[IdentifyLink], x: f64) -> Vec<IdentifyLink> {
+        let moved = self
+            .term
+            .at_position(x)
+            .expect("positions are checked against the term");
+        let mut out = links.to_vec();
+        for l in out.iter_mut().filter(|l| l.link == self.link) {
+            let list = match self.kind {
+                Characteristic::Stiffness => &mut l.stiffness,
+                Characteristic::Damping => &mut l.damping,
+            };
+            for t in list.iter_mut().flatten().filter(|t| **t == self.term) {
+                *t = moved;
+            }
+            if let Some(list) = list {
+                list.sort_unstable();
+            }
+        }
+        out
+    }
 }
 
 impl Identify {

@@ -130,13 +130,40 @@ pub(crate) struct RawIdentify {
     pub(super) disturbance: Option<Spanned<RawDisturbance>>,
     pub(super) sensor_noise: Option<Spanned<super::NoiseHandling>>,
     pub(super) select: Option<Spanned<RawSelect>>,
+    pub(super) profile: Option<Spanned<RawProfile>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawProfile {
+    pub(super) parameter: Spanned<String>,
+    pub(super) range: Spanned<Vec<f64>>,
+    pub(super) points: Option<Spanned<i64>>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawSelect {
-    pub(super) stiffness: Option<Vec<Spanned<i64>>>,
-    pub(super) damping: Option<Vec<Spanned<i64>>>,
+    pub(super) stiffness: Option<Vec<Spanned<RawTerm>>>,
+    pub(super) damping: Option<Vec<Spanned<RawTerm>>>,
+}
+
+/// A term in a list: a power as a number (`3`) or any term as its name (`"sign"`,
+/// `"gap(0.05)"`).
+#[derive(Deserialize)]
+#[serde(untagged)]
+pub(crate) enum RawTerm {
+    Power(i64),
+    Named(String),
+}
+
+impl std::fmt::Display for RawTerm {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RawTerm::Power(p) => write!(f, "{p}"),
+            RawTerm::Named(s) => f.write_str(s),
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -156,8 +183,8 @@ pub(crate) struct RawCompare {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawIdentifyLink {
-    pub(super) stiffness: Option<Vec<Spanned<i64>>>,
-    pub(super) damping: Option<Vec<Spanned<i64>>>,
+    pub(super) stiffness: Option<Vec<Spanned<RawTerm>>>,
+    pub(super) damping: Option<Vec<Spanned<RawTerm>>>,
 }
 
 #[derive(Deserialize)]

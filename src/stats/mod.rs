@@ -118,6 +118,16 @@ impl Observed<'_> {
     /// for powers; evenly over the range where a term is not a power or the degree is
     /// beyond the means kept.
     pub fn rms(&self, p: &Curve) -> f64 {
+        self.rms_under_density(p).unwrap_or_else(|| rms(p, self.lo, self.hi))
+    }
+
+    /// Whether [`Observed::rms`] of `p` is under the observed density (else evenly over the
+    /// observed range): every term a power within the means kept.
+    pub fn under_density(&self, p: &Curve) -> bool {
+        self.rms_under_density(p).is_some()
+    }
+
+    fn rms_under_density(&self, p: &Curve) -> Option<f64> {
         let under_density = || {
             let m = self.means?;
             let mut s = 0.0;
@@ -128,12 +138,14 @@ impl Observed<'_> {
             }
             Some(s.max(0.0).sqrt())
         };
-        under_density().unwrap_or_else(|| rms(p, self.lo, self.hi))
+        under_density()
     }
 }
 
 /// Relative L2 error `‖p̂ − p‖ / ‖p‖` under the observed density (docs/methods.md,
-/// accuracy): where the samples are, not evenly over a range whose ends they seldom reach.
+/// accuracy): where the samples are, not evenly over a range whose ends they seldom reach;
+/// evenly over the observed range where a term is not a power ([`Observed::under_density`]
+/// of the difference says which).
 pub fn rel_l2(estimate: &Curve, truth: &Curve, on: &Observed) -> f64 {
     let mut diff = estimate.clone();
     for &(p, c) in &truth.terms {

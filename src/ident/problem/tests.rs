@@ -178,3 +178,41 @@ fn the_strong_forms_through_atoms_match_the_polynomial_form() {
         assert_same_estimates(a, b, a.method);
     }
 }
+
+/// The increment regression and the force regression through [`Atom`]s — the terms valued
+/// from each sample's link motion, and at the force regression's interpolated states from
+/// the state — give the estimates of the polynomial path on the same samples.
+#[test]
+fn the_increment_regressions_through_atoms_match_the_polynomial_form() {
+    use crate::ident::baseline::{force_columns, Increments};
+    let (s, samples) = first_link_known("duffing2dof", 500.0);
+    let spec = Specification::from_scenario(&s);
+    let poly = Problem::from_spec(&spec, &[]).unwrap();
+    let atoms = Problem::with_terms_as_atoms(&spec, &[], &[0, 1, 2]).unwrap();
+    assert!(atoms.atoms.len() >= 6, "{} atoms", atoms.atoms.len());
+    let h = s.simulation.sample_interval;
+    for forces in [false, true] {
+        let estimate = |p: &Problem| {
+            let mut inc = match forces {
+                false => Increments::new(p, h, 8),
+                true => Increments::with_forces(p, h, 8, force_columns(p, &[true, true]).unwrap()),
+            };
+            for b in &samples.batches {
+                b.for_each_sample(|j, t, row| inc.push(j as usize, t, (j as usize) % 8, row));
+            }
+            inc.finish();
+            inc.estimate(&p.typical(&crate::ident::moments::RawMoments::new(p.dim(), 2)))
+                .unwrap()
+        };
+        let (a, b) = (estimate(&poly), estimate(&atoms));
+        assert_eq!(a.names, b.names);
+        for k in 0..a.values.len() {
+            let (x, y) = (a.values[k], b.values[k]);
+            assert!(
+                (x - y).abs() <= 1e-9 * x.abs().max(1e-3),
+                "forces {forces}: {}: {x} against {y}",
+                a.names[k]
+            );
+        }
+    }
+}

@@ -103,12 +103,92 @@ pub(crate) fn check_identify(
             .and_then(|i| i.sensor_noise.as_ref())
             .map_or(NoiseHandling::default(), |v| *v.get_ref()),
         select: None,
+        profile: None,
     };
     let mut identify = identify;
     if let Some(sel) = ident.and_then(|i| i.select.as_ref()) {
         identify.select = Some(check_select(loc, sel, links, excitations, &identify)?);
     }
+    if let Some(p) = ident.and_then(|i| i.profile.as_ref()) {
+        identify.profile = Some(check_profile(loc, p, links, &identify)?);
+    }
     Ok(identify)
+}
+
+/// `[identify.profile]`: an unknown coefficient whose term has a position, a range of
+/// positions the term may take, and how many to try.
+fn check_profile(
+    loc: &Locator,
+    raw: &Spanned<RawProfile>,
+    links: &[Link],
+    identify: &Identify,
+) -> Result<Profile, ScenarioError> {
+    let r = raw.get_ref();
+    let key = "identify.profile.parameter";
+    let name = r.parameter.get_ref();
+    let at = |e: String| loc.at(r.parameter.span(), key, e);
+    let Ok(crate::model::ParameterName::Coefficient { kind, term, link }) = name.parse() else {
+        return Err(at(format!(
+            "{name:?} is not a coefficient's name: name the unknown whose term's position is profiled, e.g. \
+             \"kgap(0.1)[m1-m2]\""
+        )));
+    };
+    if term.position().is_none() {
+        return Err(at(format!(
+            "{} has no position to profile: profile a gap(…), tanh(…) or hinge(…) term",
+            term.describe()
+        )));
+    }
+    let l = links
+        .iter()
+        .position(|x| x.name == link)
+        .ok_or_else(|| at(format!("unknown link {link:?}")))?;
+    let listed = identify.links.iter().find(|x| x.link == l).and_then(|x| match kind {
+        Characteristic::Stiffness => x.stiffness.as_ref(),
+        Characteristic::Damping => x.damping.as_ref(),
+    });
+    if !listed.is_some_and(|ts| ts.contains(&term)) {
+        return Err(at(format!(
+            "{name} is not an unknown: list {term} in [identify.links.{link}] {}",
+            kind.name()
+        )));
+    }
+    if identify.select.is_some() || identify.disturbance.is_some() {
+        return Err(loc.at(
+            raw.span(),
+            "identify.profile",
+            "a profile runs with the ordinary identification of a given structure, not with [identify.select] or \
+             [identify.disturbance]",
+        ));
+    }
+    let bad_range = |why: String| loc.at(r.range.span(), "identify.profile.range", why);
+    let &[a, b] = r.range.get_ref().as_slice() else {
+        return Err(bad_range("give the range as [lowest, highest]".into()));
+    };
+    if a >= b || term.at_position(a).is_none() || term.at_position(b).is_none() {
+        return Err(bad_range(format!(
+            "[{a}, {b}] is not a range of positions of the {}: lowest < highest, both finite{}",
+            term.describe(),
+            match term {
+                Term::Hinge(_) => ", non-zero and on the knot's side of 0",
+                _ => " and positive",
+            }
+        )));
+    }
+    let points = match &r.points {
+        None => 21,
+        Some(p) => match *p.get_ref() {
+            n @ 3..=201 => n as usize,
+            n => return Err(loc.at(p.span(), "identify.profile.points", format!("{n}: between 3 and 201"))),
+        },
+    };
+    Ok(Profile {
+        link: l,
+        kind,
+        term,
+        range: (a, b),
+        points,
+    })
 }
 
 /// `[identify.select]`: the candidate terms given for every link; selection chooses among

@@ -138,24 +138,24 @@ pub(crate) fn curve(
         return Err(loc.at(
             map.span(),
             key,
-            "empty: give at least one power, e.g. { 1 = 10.0 }, or leave the key out",
+            "empty: give at least one term, e.g. { 1 = 10.0 }, or leave the key out",
         ));
     }
     terms.sort_by_key(|t| t.0);
     Ok(Curve { terms })
 }
 
-/// The terms of a characteristic to identify, `[1, 3]` (powers), each once; an empty list
-/// is none.
+/// The terms of a characteristic to identify, `[1, 3]` (powers) or `[1, "sign"]`, each once;
+/// an empty list is none.
 pub(crate) fn terms(
     loc: &Locator,
-    raw: &Option<Vec<Spanned<i64>>>,
+    raw: &Option<Vec<Spanned<RawTerm>>>,
     key: &str,
 ) -> Result<Option<Vec<Term>>, ScenarioError> {
     let Some(list) = raw else { return Ok(None) };
     let mut out = Vec::new();
     for p in list {
-        let v = *p.get_ref();
+        let v = p.get_ref();
         let term: Term = v.to_string().parse().map_err(|e| loc.at(p.span(), key, e))?;
         if out.contains(&term) {
             return Err(loc.at(p.span(), key, format!("{} is listed twice", term.describe())));
