@@ -217,7 +217,7 @@ impl GibbsMarginals {
         use crate::scenario::End;
         let [mass] = s.masses.as_slice() else { return None };
         let [link] = s.links.as_slice() else { return None };
-        if !link.ends.contains(&End::Ground) || !link.ends.contains(&End::Mass(0)) {
+        if !link.ends.contains(&End::Ground) || !link.ends.contains(&End::Mass(0)) || link.hysteresis.is_some() {
             return None;
         }
         let [(Term::Power(1), c)] = link.damping.terms.as_slice() else {

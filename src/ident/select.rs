@@ -250,6 +250,7 @@ impl Admissibility {
                     ends: [end(m.link_a[l]), end(m.link_b[l])],
                     stiffness: curve(l, Characteristic::Stiffness),
                     damping: curve(l, Characteristic::Damping),
+                    hysteresis: None,
                 })
                 .collect(),
             coefficients: problem
@@ -501,25 +502,54 @@ fn thresholded(
 /// same test functions are compared by it: a term's position (a gap) is profiled by the
 /// `J` of the model at each position (docs/scenario.md "Terms").
 pub fn misfit(problem: &Problem, data: &StationaryData) -> Result<(f64, usize), IdentError> {
-    let total = data.total();
-    let typical = problem.typical(&total);
-    let map = weak::PiecesMap::new(problem, &total);
-    let pc = map.apply(&total);
-    pc.check_finite("profile")?;
-    let (weight, fine) = efficient_weight(problem, data, &map, &pc, &typical);
-    let Some(weight) = weight else {
-        return Err(IdentError::TooLittleData(format!(
-            "{fine} fine batches are too few to weigh {} weak-form equations",
-            pc.rows
-        )));
-    };
+    let w = Weighted::new(problem, data, "profile", |fine, rows| {
+        format!("{fine} fine batches are too few to weigh {rows} weak-form equations")
+    })?;
     let k = problem.unknowns.len();
-    let eq = Equations::new(problem, &pc, &weight, total.count as f64);
+    let eq = Equations::new(problem, &w.pc, &w.weight, w.total.count as f64);
     let all: Vec<usize> = (0..k).collect();
     let (_, j) = eq
         .fit(&all)
         .ok_or_else(|| IdentError::NotApplicable("the model's equations are dependent at this position".into()))?;
-    Ok((j, pc.rows.saturating_sub(k)))
+    Ok((j, w.pc.rows.saturating_sub(k)))
+}
+
+/// The weak form's pieces of the whole record with their efficient weight: what the
+/// selection and the profile's misfit start from.
+struct Weighted {
+    total: super::moments::RawMoments,
+    map: weak::PiecesMap,
+    pc: Pieces,
+    weight: DMatrix<f64>,
+    /// The unknowns' typical sizes ([`Problem::typical`]).
+    typical: Vec<f64>,
+}
+
+impl Weighted {
+    /// For `what` (the word non-finite pieces are reported with); `too_few(fine batches,
+    /// equations)` says why when too few fine batches weigh the equations.
+    fn new(
+        problem: &Problem,
+        data: &StationaryData,
+        what: &str,
+        too_few: impl FnOnce(usize, usize) -> String,
+    ) -> Result<Weighted, IdentError> {
+        let total = data.total();
+        let typical = problem.typical(&total);
+        let map = weak::PiecesMap::new(problem, &total);
+        let pc = map.apply(&total);
+        pc.check_finite(what)?;
+        match efficient_weight(problem, data, &map, &pc, &typical) {
+            (Some(weight), _) => Ok(Weighted {
+                total,
+                map,
+                pc,
+                weight,
+                typical,
+            }),
+            (None, fine) => Err(IdentError::TooLittleData(too_few(fine, pc.rows))),
+        }
+    }
 }
 
 /// Select among the coefficients of `problem` (the candidate model: every candidate term
@@ -534,27 +564,26 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
         )));
     }
     let k = problem.unknowns.len();
-    let total = data.total();
-    if total.count < 100 * k as u64 {
+    let count = data.total().count;
+    if count < 100 * k as u64 {
         return Err(IdentError::TooLittleData(format!(
-            "{} samples for {k} candidate terms: selection needs at least 100 per candidate",
-            total.count
+            "{count} samples for {k} candidate terms: selection needs at least 100 per candidate"
         )));
     }
-    let typical = problem.typical(&total);
-    let map = weak::PiecesMap::new(problem, &total);
-    let pc = map.apply(&total);
-    pc.check_finite("selection")?;
-    let (weight, fine) = efficient_weight(problem, data, &map, &pc, &typical);
-    let Some(weight) = weight else {
-        return Err(IdentError::TooLittleData(format!(
-            "{fine} fine batches are too few to weigh {} weak-form equations ({} per equation \
+    let Weighted {
+        total,
+        map,
+        pc,
+        weight,
+        typical,
+    } = Weighted::new(problem, data, "selection", |fine, rows| {
+        format!(
+            "{fine} fine batches are too few to weigh {rows} weak-form equations ({} per equation \
              are needed): the selection criterion needs the equations' covariance; use longer \
              records or fewer candidate terms",
-            pc.rows,
             weak::BATCHES_PER_EQUATION
-        )));
-    };
+        )
+    })?;
     let n = total.count as f64;
     let admissibility = Admissibility::new(problem);
     // The equations of the whole record, of every jackknife replicate (all coarse batches
@@ -665,6 +694,7 @@ mod tests {
                 ends: [End::Mass(0), End::Ground],
                 stiffness: Curve { terms: Vec::new() },
                 damping: Curve { terms: Vec::new() },
+                hysteresis: None,
             }],
             coefficients,
         }

@@ -325,6 +325,7 @@ mod tests {
             ends: [a, b],
             stiffness: Curve::powers(k),
             damping: Curve::powers(c),
+            hysteresis: None,
         }
     }
 

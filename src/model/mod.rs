@@ -9,10 +9,12 @@
 
 pub mod admissible;
 mod columns;
+mod hysteresis;
 mod names;
 mod term;
 
 pub use columns::{Columns, Quantity};
+pub use hysteresis::BoucWen;
 pub use names::{ParameterName, Truth, UnknownName};
 pub use term::{Far, Level, Term, TERM_SYNTAX};
 
@@ -83,6 +85,11 @@ pub struct Model {
     /// kinds: every [`Term`] so far is a power). Evaluated term by term, by the generic
     /// stepper only.
     pub other_terms: Vec<(Coefficient, f64)>,
+    /// Per hysteretic link: the link and its Bouc–Wen element, a force with a state of
+    /// its own. Only the simulator's generic stepper carries that state; [`Model::link_force`]
+    /// and the identifier leave it out (they know the link force as a function of `u`
+    /// and `w` alone, which a hysteretic force is not).
+    pub hysteresis: Vec<(usize, BoucWen)>,
     pub excitations: Vec<CompiledExcitation>,
 }
 
@@ -113,6 +120,7 @@ impl Model {
             c_len: Vec::new(),
             coefs: Vec::new(),
             other_terms: Vec::new(),
+            hysteresis: Vec::new(),
             excitations: s
                 .excitations
                 .iter()
@@ -132,6 +140,9 @@ impl Model {
             m.link_a.push(idx(l.ends[0]));
             m.link_b.push(idx(l.ends[1]));
             let link = m.link_a.len() - 1;
+            if let Some(bw) = l.hysteresis {
+                m.hysteresis.push((link, bw));
+            }
             for (kind, poly, start, len) in [
                 (Characteristic::Stiffness, &l.stiffness, &mut m.k_start, &mut m.k_len),
                 (Characteristic::Damping, &l.damping, &mut m.c_start, &mut m.c_len),
@@ -235,6 +246,12 @@ impl Model {
             c_len: vec![c.len()],
             coefs: [k, c].concat(),
             other_terms,
+            hysteresis: self
+                .hysteresis
+                .iter()
+                .filter(|h| h.0 == l)
+                .map(|&(_, bw)| (0, bw))
+                .collect(),
             excitations: vec![excitation],
         }
     }
@@ -365,7 +382,9 @@ impl Model {
     /// Whether every link is linear (powers ≤ 1, no other term): then the stationary
     /// response is Gaussian.
     pub fn is_linear(&self) -> bool {
-        self.k_len.iter().chain(&self.c_len).all(|&n| n <= 1) && self.other_terms.is_empty()
+        self.k_len.iter().chain(&self.c_len).all(|&n| n <= 1)
+            && self.other_terms.is_empty()
+            && self.hysteresis.is_empty()
     }
 
     /// This model with its polynomial part moved among the other terms: the same system,

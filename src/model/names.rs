@@ -176,11 +176,20 @@ impl Truth {
         }
     }
 
-    /// The true value of the parameter `n`: a coefficient the true system does not have is
-    /// 0, unless its term has a position (a profiled gap) and the true characteristic has
+    /// The true value of the parameter `n`: NaN on a characteristic whose truth has a NaN
+    /// (none is known); a coefficient the true system does not have is 0, unless its term has a position (a profiled gap) and the true characteristic has
     /// exactly one term of that kind at another position, whose coefficient it is; a mass
     /// or excitation parameter the truth lacks has none.
     fn parameter(&self, n: &ParameterName) -> Option<f64> {
+        if let ParameterName::Coefficient { kind, link, .. } = n {
+            // A characteristic without a truth (a hysteretic link's) has none for any term.
+            let unknown = self.0.iter().any(|(m, v)| {
+                v.is_nan() && matches!(m, ParameterName::Coefficient { kind: k, link: l, .. } if k == kind && l == link)
+            });
+            if unknown {
+                return Some(f64::NAN);
+            }
+        }
         match (self.get(n), n) {
             (Some(v), _) => Some(v),
             (None, ParameterName::Coefficient { kind, term, link }) if term.position().is_some() => {

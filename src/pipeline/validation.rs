@@ -6,7 +6,7 @@ use crate::ident::data::StationaryData;
 use crate::ident::spectrum::{Spectrum, Welch};
 use crate::ident::{spectrum, Problem, Unknown};
 use crate::model::{Characteristic, Coefficient, Model, Term};
-use crate::report::{PlotData, SpectrumComparison, Validation, ValidationRow};
+use crate::report::{Misfit, PlotData, SpectrumComparison, Validation, ValidationRow};
 use crate::scenario::ReportMethod;
 use crate::scenario::{Process, Scenario};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
@@ -22,9 +22,10 @@ pub(crate) struct Marginals {
     s3: Vec<f64>,
     s4: Vec<f64>,
     n: f64,
-    /// Per trajectory group (`trajectory mod` [`STD_GROUPS`]) and variable: count, sum and
-    /// sum of squares, for the std's standard error from the spread between groups.
-    groups: Vec<[f64; 3]>,
+    /// Per trajectory group (`trajectory mod` [`STD_GROUPS`]) and variable: count and the
+    /// sums of the first four powers, for the standard errors of the std and the kurtosis
+    /// from the spread between groups.
+    groups: Vec<[f64; 5]>,
     hist: Vec<Histogram>,
     welch: Vec<Welch>,
 }
@@ -43,7 +44,7 @@ impl Marginals {
             s3: vec![0.0; d],
             s4: vec![0.0; d],
             n: 0.0,
-            groups: vec![[0.0; 3]; STD_GROUPS * d],
+            groups: vec![[0.0; 5]; STD_GROUPS * d],
             hist,
             welch,
         }
@@ -61,6 +62,8 @@ impl Marginals {
             g[0] += 1.0;
             g[1] += z;
             g[2] += z * z;
+            g[3] += z * z * z;
+            g[4] += z * z * z * z;
         }
         self.n += 1.0;
     }
@@ -80,31 +83,45 @@ impl Marginals {
     /// over the square root of their number; NaN with fewer than two groups (a single
     /// record).
     pub(crate) fn std_error(&self, j: usize) -> f64 {
+        self.group_error(j, |[n, s1, s2, _, _]| (s2 / n - (s1 / n).powi(2)).max(0.0).sqrt())
+    }
+
+    /// The standard error of variable `j`'s kurtosis, as [`Marginals::std_error`]'s.
+    pub(crate) fn kurtosis_error(&self, j: usize) -> f64 {
+        self.group_error(j, |[n, s1, s2, s3, s4]| kurtosis(s1 / n, s2 / n, s3 / n, s4 / n))
+    }
+
+    /// The spread of a statistic over the trajectory groups over the square root of their
+    /// number.
+    fn group_error(&self, j: usize, statistic: impl Fn([f64; 5]) -> f64) -> f64 {
         let d = self.cols.len();
-        let stds: Vec<f64> = (0..STD_GROUPS)
+        let values: Vec<f64> = (0..STD_GROUPS)
             .map(|g| self.groups[g * d + j])
             .filter(|g| g[0] > 1.0)
-            .map(|[n, s1, s2]| (s2 / n - (s1 / n).powi(2)).max(0.0).sqrt())
+            .map(statistic)
             .collect();
-        let m = stds.len() as f64;
-        if stds.len() < 2 {
+        let m = values.len() as f64;
+        if values.len() < 2 {
             return f64::NAN;
         }
-        let mean = stds.iter().sum::<f64>() / m;
-        (stds.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (m - 1.0) / m).sqrt()
+        let mean = values.iter().sum::<f64>() / m;
+        (values.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (m - 1.0) / m).sqrt()
     }
 
     /// (std, kurtosis) of variable `j`.
     pub(crate) fn std_kurtosis(&self, j: usize) -> (f64, f64) {
         let n = self.n;
-        let m = self.s1[j] / n;
-        let m2 = self.s2[j] / n;
-        let m3 = self.s3[j] / n;
-        let m4 = self.s4[j] / n;
+        let (m, m2) = (self.s1[j] / n, self.s2[j] / n);
         let var = m2 - m * m;
-        let c4 = m4 - 4.0 * m * m3 + 6.0 * m * m * m2 - 3.0 * m.powi(4);
-        (var.max(0.0).sqrt(), c4 / (var * var))
+        (var.max(0.0).sqrt(), kurtosis(m, m2, self.s3[j] / n, self.s4[j] / n))
     }
+}
+
+/// The kurtosis `E[(z − m)⁴] / var²` from the raw moments `m`…`m4`.
+fn kurtosis(m: f64, m2: f64, m3: f64, m4: f64) -> f64 {
+    let var = m2 - m * m;
+    let c4 = m4 - 4.0 * m * m3 + 6.0 * m * m * m2 - 3.0 * m.powi(4);
+    c4 / (var * var)
 }
 
 impl SampleSink for Marginals {
@@ -252,6 +269,8 @@ impl Distributions {
                 seed: 0,
                 rows: Vec::new(),
                 error: Some(format!("the identified model could not be simulated: {e}")),
+                reproduces: None,
+                misfits: Vec::new(),
                 left_out: left_out(s),
             },
         }
@@ -294,6 +313,8 @@ impl Distributions {
 /// use what the method does not have (docs/methods.md, validation).
 pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coefficient>], values: &[f64]) -> Model {
     let mut model = Model::new(s);
+    // A true hysteretic force is not in any identified model (model::BoucWen).
+    model.hysteresis.clear();
     for (e, x) in s.excitations.iter().enumerate() {
         if !x.measured {
             match &mut model.excitations[e].process {
@@ -346,6 +367,61 @@ fn left_out(s: &Scenario) -> Vec<String> {
         .collect()
 }
 
+/// A std or kurtosis difference beyond this many standard errors (of the sampling of data
+/// and model together) is a misfit. Over 27 runs of the shipped scenarios' correctly
+/// structured models the largest was 2.5, for the std and the kurtosis alike (docs/results.md,
+/// "The one-argument assumption").
+pub(crate) const MISFIT_STANDARD_ERRORS: f64 = 4.0;
+
+/// A spectrum whose RMS log ratio exceeds this multiple of what the averaging alone gives
+/// is a misfit: over 27 runs of the shipped scenarios' correctly structured models the
+/// ratio was 0.77 to 1.35 (the RMS over some 50 to 100 bins scatters by about a tenth of
+/// itself); the Bouc–Wen SDOF's models gave 5.8 to 6.5.
+pub(crate) const MISFIT_SPECTRUM_RATIO: f64 = 1.6;
+
+/// The statistics on which the re-simulated model and the data disagree beyond what
+/// sampling allows ([`MISFIT_STANDARD_ERRORS`], [`MISFIT_SPECTRUM_RATIO`]).
+fn misfits(rows: &[ValidationRow]) -> Vec<Misfit> {
+    let mut out = Vec::new();
+    for r in rows {
+        let ratio = r.model_std / r.data_std - 1.0;
+        let z = ratio.abs() / r.std_difference_se;
+        if z > MISFIT_STANDARD_ERRORS {
+            out.push(Misfit {
+                variable: r.variable.clone(),
+                statistic: "std",
+                description: format!("model {:+.2} % off the data's, {z:.1} standard errors", 100.0 * ratio),
+            });
+        }
+        let z = (r.model_kurtosis - r.data_kurtosis).abs() / r.kurtosis_difference_se;
+        if z > MISFIT_STANDARD_ERRORS {
+            out.push(Misfit {
+                variable: r.variable.clone(),
+                statistic: "kurtosis",
+                description: format!(
+                    "data {:.3}, model {:.3}, {z:.1} standard errors",
+                    r.data_kurtosis, r.model_kurtosis
+                ),
+            });
+        }
+        if let Some(c) = &r.spectrum {
+            let times = c.rms_log_difference / c.averaging_alone;
+            if times > MISFIT_SPECTRUM_RATIO {
+                out.push(Misfit {
+                    variable: r.variable.clone(),
+                    statistic: "spectrum",
+                    description: format!(
+                        "RMS ln ratio {:.3}, {times:.1} times what the averaging alone gives; peaks at {:.3} \
+                         and {:.3} rad/s",
+                        c.rms_log_difference, c.data_peak_rad_s, c.model_peak_rad_s
+                    ),
+                });
+            }
+        }
+    }
+    out
+}
+
 /// Re-simulate the identified model with the same excitation (another seed) and compare
 /// std, kurtosis and spectrum of every response with the data's.
 pub(crate) fn validate(
@@ -377,12 +453,16 @@ pub(crate) fn validate(
                 std_difference_se: ratio * ((data.std_error(j) / ds).powi(2) + (m.std_error(j) / ms).powi(2)).sqrt(),
                 data_kurtosis: dk,
                 model_kurtosis: mk,
+                kurtosis_difference_se: data.kurtosis_error(j).hypot(m.kurtosis_error(j)),
                 spectrum: compare_spectra(&data.welch[j].spectrum(), &m.welch[j].spectrum()),
             }
         })
-        .collect();
+        .collect::<Vec<_>>();
+    let misfits = misfits(&rows);
     Ok((
         Validation {
+            reproduces: Some(misfits.is_empty()),
+            misfits,
             method,
             record_length_s: sim.record_length,
             trajectories: traj,

@@ -344,6 +344,14 @@ fn validation_section(r: &Report, v: &Validation) -> String {
                   variance.\n\n";
         }
     }
+    if let Some(verdict) = v.verdict() {
+        let mut c = verdict.chars();
+        let first = c
+            .next()
+            .map(|f| f.to_uppercase().collect::<String>())
+            .unwrap_or_default();
+        s += &format!("**{first}{}.**\n\n", c.as_str());
+    }
     if !r.plot.marginals.is_empty() {
         s += "![Marginal densities of the responses: the data (grey histogram) against the re-simulated model \
               (solid; on the log scale only where its bins hold ten samples or more), and, dashed, the exact \

@@ -134,6 +134,10 @@ pub fn summary(r: &Report) -> String {
             "a regression gate is EXCEEDED or its method failed"
         }
     );
+    if r.validation.as_ref().and_then(|v| v.reproduces) == Some(false) {
+        s += "WARNING: the identified model does not reproduce the data (validation above): the structure \
+              assumed (the terms, or the link forces as functions of u and w) misses something the data have.\n";
+    }
     fit(&s)
 }
 
@@ -520,6 +524,9 @@ fn validation(v: &Validation) -> String {
         s += "  diff: model std / data std − 1, ± its standard error from the sampling of both (the spread between \
               trajectory groups); kurt: kurtosis of data / model; spec rms ln: RMS of ln(S_model/S_data) over the \
               band holding 99 % of the data's variance, (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
+    }
+    if let Some(v) = v.verdict() {
+        s += &format!("  verdict: {v}.\n");
     }
     s
 }

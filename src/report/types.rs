@@ -223,6 +223,8 @@ pub struct ValidationRow {
     pub std_difference_se: f64,
     pub data_kurtosis: f64,
     pub model_kurtosis: f64,
+    /// The standard error of `model_kurtosis − data_kurtosis` (as the std's).
+    pub kurtosis_difference_se: f64,
     /// The response spectra compared (absent when either has no power).
     pub spectrum: Option<SpectrumComparison>,
 }
@@ -300,6 +302,12 @@ pub struct Validation {
     pub rows: Vec<ValidationRow>,
     /// Set when the identified model could not be simulated (e.g. not dissipative).
     pub error: Option<String>,
+    /// The verdict: whether every response's std, kurtosis and spectrum agree with the
+    /// data's within what the sampling of both allows (`None` when the model could not be
+    /// simulated).
+    pub reproduces: Option<bool>,
+    /// The statistics that disagree, each named (empty when the model reproduces the data).
+    pub misfits: Vec<Misfit>,
     /// Unmeasured excitations, left out of the re-simulation: the method does not know
     /// them, so the model's responses lack their share.
     pub left_out: Vec<String>,
@@ -317,7 +325,37 @@ impl ValidationRow {
     }
 }
 
+/// One statistic of one response on which the re-simulated model and the data disagree.
+#[derive(Debug, Clone, Serialize)]
+pub struct Misfit {
+    pub variable: String,
+    /// `std`, `kurtosis` or `spectrum`.
+    pub statistic: &'static str,
+    /// How far apart, in the statistic's own terms and against what sampling allows.
+    pub description: String,
+}
+
 impl Validation {
+    /// The verdict as a sentence: whether the model reproduces the data and, if not, which
+    /// statistics of which responses say so.
+    pub fn verdict(&self) -> Option<String> {
+        let reproduces = self.reproduces?;
+        Some(if reproduces {
+            "the model reproduces the data: every response's std, kurtosis and spectrum agree within what \
+             the sampling of both allows"
+                .to_string()
+        } else {
+            format!(
+                "the model does not reproduce the data: {}",
+                self.misfits
+                    .iter()
+                    .map(|m| format!("the {} of {} ({})", m.statistic, m.variable, m.description))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )
+        })
+    }
+
     /// What the re-simulation leaves out, as a sentence (empty when nothing is).
     pub fn left_out_note(&self) -> String {
         if self.left_out.is_empty() {

@@ -151,6 +151,9 @@ pub struct Link {
     pub ends: [End; 2],
     pub stiffness: Curve,
     pub damping: Curve,
+    /// A hysteretic force beside `K(u) + C(w)` (`hysteresis = { … }`): simulated, never
+    /// identified (the method's link forces have one argument each).
+    pub hysteresis: Option<crate::model::BoucWen>,
 }
 
 /// The random process of an excitation.
@@ -844,6 +847,9 @@ impl Scenario {
             ] {
                 for &(term, c) in &poly.terms {
                     let link = l.name.clone();
+                    // A hysteretic link's force is not a function of u and w: no
+                    // one-argument characteristic is its truth, nothing of it is graded.
+                    let c = if l.hysteresis.is_some() { f64::NAN } else { c };
                     out.push((N::Coefficient { kind, term, link }, c));
                 }
             }

@@ -75,6 +75,19 @@ pub(crate) struct RawLink {
     pub(super) ends: Spanned<Vec<Spanned<String>>>,
     pub(super) stiffness: Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
     pub(super) damping: Option<Spanned<BTreeMap<String, Spanned<f64>>>>,
+    pub(super) hysteresis: Option<Spanned<RawHysteresis>>,
+}
+
+/// A link's Bouc–Wen element (`model::BoucWen`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawHysteresis {
+    pub(super) stiffness: Spanned<f64>,
+    #[serde(rename = "A")]
+    pub(super) a: Option<Spanned<f64>>,
+    pub(super) beta: Spanned<f64>,
+    pub(super) gamma: Spanned<f64>,
+    pub(super) n: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq, Eq, Debug)]

@@ -4,7 +4,7 @@
 
 use super::normals::{self, Xoshiro};
 use super::{trajectory_seed, Lane, SimError, DIVERGENCE_LIMIT, LANES};
-use crate::model::{Characteristic, Model, Quantity, Term, GROUND};
+use crate::model::{BoucWen, Characteristic, Model, Quantity, Term, GROUND};
 use crate::scenario::{Process, Scheme, Simulation};
 use multiversion::multiversion;
 use rand::rngs::Xoshiro256PlusPlus;
@@ -32,6 +32,9 @@ pub(crate) struct LaneModel<const D: usize> {
     /// Per link: its terms without a polynomial form, `(is damping, term, coefficient)`.
     /// Only the generic stepper evaluates them; with any, no fast kernel is chosen.
     pub(super) other: Vec<Vec<(bool, Term, f64)>>,
+    /// The hysteretic links and their Bouc–Wen elements; with any, the generic stepper
+    /// carries their states ([`Group::z`]).
+    pub(super) hysteresis: Vec<(usize, BoucWen)>,
     /// `h / m_i`.
     pub(super) h_inv_mass: Vec<f64>,
     pub(super) inv_mass: Vec<f64>,
@@ -87,6 +90,7 @@ impl<const D: usize> LaneModel<D> {
                         .collect()
                 })
                 .collect(),
+            hysteresis: m.hysteresis.clone(),
             h_inv_mass: m.inv_mass.iter().map(|im| h * im).collect(),
             inv_mass: m.inv_mass.clone(),
             white: Vec::new(),
@@ -134,8 +138,8 @@ impl<const D: usize> LaneModel<D> {
                 lm.ou_weight[i * no + slot] = 1.0;
             }
         }
-        if !m.other_terms.is_empty() {
-            // Terms the fused kernels do not evaluate: the generic stepper.
+        if !m.other_terms.is_empty() || !m.hysteresis.is_empty() {
+            // Terms and states the fused kernels do not evaluate: the generic stepper.
         } else if let Some(kernel) = shaped(&lm) {
             lm.complete_links();
             lm.advance = kernel;
@@ -222,6 +226,8 @@ pub(crate) struct Group {
     /// Per excitation: OU force, or the white impulse since the last sample in units of
     /// `σ√h` (the sum of its standard normals).
     pub(super) p: Vec<Lane>,
+    /// Per hysteretic link ([`LaneModel::hysteresis`]): its Bouc–Wen state `z`, not logged.
+    pub(super) z: Vec<Lane>,
     /// Scratch: this step's white-noise increments, per white excitation.
     pub(super) dw: Vec<Lane>,
     /// Scratch: a block of standard normals for the shaped kernel (see [`fill_noise`]).
@@ -262,6 +268,7 @@ impl Group {
             v: vec![zero(); n + 1],
             f: vec![zero(); n + 1],
             p: vec![zero(); ne],
+            z: vec![zero(); model.hysteresis.len()],
             dw: vec![zero(); ne],
             noise: vec![0.0; NOISE_STEPS * ne * LANES],
             scratch: vec![[0.0; super::shaped::W]; 3 * n + ne],
@@ -321,6 +328,13 @@ impl Group {
                 fb[j] += force[j];
             }
         }
+        for (&(l, bw), z) in lm.hysteresis.iter().zip(&self.z) {
+            let (a, b) = (lm.a[l], lm.b[l]);
+            for j in 0..LANES {
+                f[a][j] -= bw.stiffness * z[j];
+                f[b][j] += bw.stiffness * z[j];
+            }
+        }
         for i in 0..lm.n {
             for &e in &lm.ou_on[i] {
                 let p = self.p[e];
@@ -336,6 +350,9 @@ impl Group {
     pub(super) fn step<const D: usize>(&mut self, lm: &LaneModel<D>) {
         self.forces(lm);
         let h = lm.h;
+        if !lm.semi_implicit {
+            self.advance_hysteresis(lm);
+        }
         draw_noise(lm, &mut self.rng, &mut self.p, &mut self.dw);
         for i in 0..lm.n {
             let (mut x, mut v, f) = (self.x[i], self.v[i], self.f[i]);
@@ -361,6 +378,24 @@ impl Group {
             }
             self.x[i] = x;
             self.v[i] = v;
+        }
+        if lm.semi_implicit {
+            self.advance_hysteresis(lm);
+        }
+    }
+
+    /// The hysteretic states over one step, with the velocities the displacements take: the
+    /// step's new ones in the semi-implicit scheme, the old ones in explicit Euler–Maruyama.
+    /// Then `z` follows `u` exactly where the loop is linear (`z = A·u`), and the element
+    /// is the spring it should be there; with the other velocity it would lag `u` by
+    /// `h·w`, a negative damping `k_z·h` (tested: tests/hysteresis.rs).
+    #[inline(always)]
+    fn advance_hysteresis<const D: usize>(&mut self, lm: &LaneModel<D>) {
+        for (&(l, bw), z) in lm.hysteresis.iter().zip(&mut self.z) {
+            let (va, vb) = (&self.v[lm.a[l]], &self.v[lm.b[l]]);
+            for j in 0..LANES {
+                z[j] += lm.h * bw.rate(z[j], va[j] - vb[j]);
+            }
         }
     }
 

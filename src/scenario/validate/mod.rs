@@ -5,7 +5,7 @@ use super::paper::paper_structure;
 use super::raw::*;
 use super::*;
 use crate::model::admissible::{self, NotStationary};
-use crate::model::{Characteristic, Term};
+use crate::model::{BoucWen, Characteristic, Term};
 use std::collections::BTreeMap;
 use std::ops::Range;
 use toml::Spanned;
@@ -549,14 +549,72 @@ pub(crate) fn check_links(loc: &Locator, raw: &RawScenario, masses: &[Mass]) -> 
                  powers in [identify.links], or candidate terms in [identify.select])",
             ));
         }
+        let hysteresis = l
+            .hysteresis
+            .as_ref()
+            .map(|h| hysteresis(loc, raw, h, &format!("{key}.hysteresis")))
+            .transpose()?;
         links.push(Link {
             name: n,
             ends,
             stiffness,
             damping,
+            hysteresis,
         });
     }
     Ok(links)
+}
+
+/// `hysteresis = { stiffness, A, beta, gamma, n }`: a Bouc–Wen element whose loop is
+/// bounded and dissipates (`β > 0`, `|γ| ≤ β`), `n` in 1..=8; a simulated system's only.
+fn hysteresis(
+    loc: &Locator,
+    raw: &RawScenario,
+    h: &Spanned<RawHysteresis>,
+    key: &str,
+) -> Result<BoucWen, ScenarioError> {
+    if raw.data.is_some() {
+        return Err(loc.at(
+            h.span(),
+            key,
+            "a measured system's hysteresis is in its data: `hysteresis` belongs to a simulated system's truth",
+        ));
+    }
+    let r = h.get_ref();
+    let value = |v: &Spanned<f64>, name: &str, allowed: &str, ok: fn(f64) -> bool| {
+        let x = *v.get_ref();
+        if x.is_finite() && ok(x) {
+            Ok(x)
+        } else {
+            Err(loc.at(
+                v.span(),
+                format!("{key}.{name}"),
+                format!("{name} must be {allowed}, got {x}"),
+            ))
+        }
+    };
+    let bw = BoucWen {
+        stiffness: value(&r.stiffness, "stiffness", "a positive force per unit of z", |x| x > 0.0)?,
+        a: r.a
+            .as_ref()
+            .map_or(Ok(1.0), |v| value(v, "A", "positive", |x| x > 0.0))?,
+        beta: value(&r.beta, "beta", "positive (the loop dissipates)", |x| x > 0.0)?,
+        gamma: *r.gamma.get_ref(),
+        n: r.n.as_ref().map_or(Ok(1.0), |v| {
+            value(v, "n", "between 1 and 8", |x| (1.0..=8.0).contains(&x))
+        })?,
+    };
+    if !bw.gamma.is_finite() || bw.gamma <= -bw.beta || bw.gamma > bw.beta {
+        return Err(loc.at(
+            r.gamma.span(),
+            format!("{key}.gamma"),
+            format!(
+                "gamma must lie in (−beta, beta] = (−{0}, {0}] for a bounded, dissipating loop, got {1}",
+                bw.beta, bw.gamma
+            ),
+        ));
+    }
+    Ok(bw)
 }
 
 /// Refuse a system that cannot have a stationary density (docs/scenario.md, "what is
