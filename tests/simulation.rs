@@ -602,3 +602,39 @@ fn turned_round_and_parallel_links_are_their_rewritten_forms() {
     ));
     assert_eq!(parallel, summed, "parallel links");
 }
+
+/// A refined run (`Stepping::Refined`: half the step on the Brownian paths of the run at
+/// the full step) differs from its pair by the integrator alone, so Richardson's
+/// `2·(var_h − var_h/2)` (weak order 1) estimates the scheme's stationary bias at `h`
+/// without the sampling noise of either run. Explicit Euler–Maruyama on the reference SDOF
+/// (k 10, c 0.5, h 1e-3) inflates the displacement's variance by 1.96 % (the recursion's
+/// exact covariance); over 32 × 2500 s the estimate came within 0.6 % of that (allowed 10 %), while the
+/// variance itself scatters by about 1.3 % — the pairing is what makes it usable.
+#[test]
+fn a_refined_run_on_the_same_paths_measures_the_integrators_bias() {
+    use fpkbench::sim::{simulate_stepping, Stepping};
+    let sim = |substeps: usize| {
+        format!(
+            "dt = 1e-3\nrecord_length = 2500.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 3\n\
+             scheme = \"euler-maruyama\"\nsubsteps = {substeps}"
+        )
+    };
+    let var = |substeps: usize, stepping: Stepping| {
+        let s = zoo::linear_sdof(1.0, 10.0, 0.5, 1.0, &sim(substeps));
+        let m = Model::new(&s);
+        let mut mo = Moments::new(m.column_names().len());
+        simulate_stepping(&m, &s.simulation, &mut mo, &|_| {}, stepping).unwrap();
+        mo.covariance(0, 0)
+    };
+    let coarse = var(1, Stepping::Fastest);
+    let refined = var(2, Stepping::Refined);
+    let (ex, _) = zoo::linear_sdof_variances(1.0, 10.0, 0.5, 1.0);
+    let s = zoo::linear_sdof(1.0, 10.0, 0.5, 1.0, &sim(1));
+    let exact =
+        zoo::discrete_stationary_covariance(&Model::new(&s), Scheme::EulerMaruyama, 1e-3).unwrap()[(0, 0)] / ex - 1.0;
+    let richardson = 2.0 * (coarse - refined) / ex;
+    assert!(
+        (richardson / exact - 1.0).abs() < 0.1,
+        "Richardson {richardson:.5} against the recursion's {exact:.5} (coarse {coarse}, refined {refined})"
+    );
+}

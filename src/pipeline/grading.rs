@@ -99,6 +99,7 @@ pub(crate) fn assemble(
         profile: None,
         methods,
         validation,
+        integrator_bias: None,
         iterations,
         passed,
         plot,

@@ -10,6 +10,7 @@
 //! filters. The numerics live in `ident` and `sim`; this module only wires them to the
 //! samples and to the report types.
 
+pub mod bias;
 mod disturbed;
 mod grading;
 mod identify;
@@ -20,6 +21,7 @@ mod spectra;
 pub mod study;
 mod validation;
 
+pub use bias::integrator_bias;
 pub use identify::{check_measured, preflight};
 pub use sensors::CLIPPED;
 pub use source::{Input, LogFile, SampleSource, Simulation, Tables};

@@ -63,6 +63,9 @@ impl SampleSource for Tables {
 /// the thread count), so memory stays bounded either way.
 pub struct Simulation {
     kept: OnceLock<Vec<f64>>,
+    /// How the simulator steps ([`crate::sim::Stepping::Refined`] for the half-step pair
+    /// of an integrator-bias estimate).
+    stepping: crate::sim::Stepping,
     /// Where the kept samples' buffer comes from and goes back to.
     arenas: Arc<Arenas>,
 }
@@ -78,6 +81,7 @@ impl Simulation {
     pub fn new(arenas: Arc<Arenas>) -> Simulation {
         Simulation {
             kept: OnceLock::new(),
+            stepping: crate::sim::Stepping::Fastest,
             arenas,
         }
     }
@@ -118,7 +122,7 @@ impl SampleSource for Simulation {
             }
             f(j, t, row)
         });
-        crate::sim::simulate(&model, &info.scenario.simulation, &mut sink, &|_| {})?;
+        crate::sim::simulate_stepping(&model, &info.scenario.simulation, &mut sink, &|_| {}, self.stepping)?;
         if keep {
             let _ = self.kept.set(kept);
         }
@@ -162,6 +166,16 @@ impl Input {
     /// `scenario` simulated in memory, no log written.
     pub fn simulation(scenario: Scenario) -> Input {
         Input::simulation_in(scenario, Arc::default())
+    }
+
+    /// `scenario` simulated in memory at half its step on the same Brownian paths (twice
+    /// its `substeps`, [`crate::sim::Stepping::Refined`]): the pair of an integrator-bias
+    /// estimate ([`super::bias`]).
+    pub fn refined_simulation(mut scenario: Scenario) -> Input {
+        scenario.simulation.substeps *= 2;
+        let mut source = Simulation::new(Arc::default());
+        source.stepping = crate::sim::Stepping::Refined;
+        Input::new(LogInfo::of_simulation(scenario), Box::new(source))
     }
 
     /// `scenario` simulated in memory, its kept samples' buffer from `arenas`.

@@ -177,6 +177,9 @@ pub fn markdown(r: &Report) -> String {
     if let Some(v) = &r.validation {
         s += &validation_section(r, v);
     }
+    if let Some(b) = &r.integrator_bias {
+        s += &integrator_bias_section(b);
+    }
     s += &provenance_section(r);
     s
 }
@@ -305,6 +308,42 @@ fn iterations_section(r: &Report) -> String {
             );
         }
     }
+    s
+}
+
+/// The integrator's bias on the estimates.
+fn integrator_bias_section(b: &crate::report::IntegratorBias) -> String {
+    let mut s = format!(
+        "## Integrator bias\n\nRichardson's estimate: the same Brownian paths simulated at h = {:.3e} s and at h/2 \
+         and identified alike; with weak order {} the bias at h is (estimate at h − at h/2) / (1 − 2^−{}).\n\n\
+         | method | parameter | estimate | bias | std. error | bias / s.e. |\n|---|---|---:|---:|---:|---:|\n",
+        b.step_s, b.order, b.order
+    );
+    for m in &b.methods {
+        for p in &m.parameters {
+            s += &format!(
+                "| {} | {} | {:.6e} | {:.3e} | {:.3e} | {}{:.2}{} |\n",
+                m.method,
+                p.name,
+                p.estimate,
+                p.bias,
+                p.std_error,
+                if p.exceeds { "**" } else { "" },
+                p.bias / p.std_error,
+                if p.exceeds { "**" } else { "" }
+            );
+        }
+    }
+    let exceeding = b.exceeding();
+    s += &if exceeding.is_empty() {
+        "\nEvery bias is below a quarter of its standard error.\n\n".to_string()
+    } else {
+        format!(
+            "\n**The integrator's bias exceeds a quarter of the standard error for {}**: reduce dt or raise \
+             substeps.\n\n",
+            exceeding.join(", ")
+        )
+    };
     s
 }
 

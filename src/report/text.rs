@@ -122,6 +122,9 @@ pub fn summary(r: &Report) -> String {
     if let Some(v) = &r.validation {
         s += &validation(v);
     }
+    if let Some(b) = &r.integrator_bias {
+        s += &integrator_bias(b);
+    }
     s += &format!(
         "\nresult: {}. Note: {GATE_MEANING}.\n",
         if r.passed && r.methods.iter().all(|m| m.threshold.is_none()) {
@@ -527,6 +530,52 @@ fn validation(v: &Validation) -> String {
     }
     if let Some(v) = v.verdict() {
         s += &format!("  verdict: {v}.\n");
+    }
+    s
+}
+
+/// The integrator's bias on every estimate, with the parameters where it matters named.
+fn integrator_bias(b: &crate::report::IntegratorBias) -> String {
+    let mut s = format!(
+        "\nintegrator bias (Richardson: the same Brownian paths at h = {:.3e} s and h/2, weak order {}; bias = \
+         (estimate at h − at h/2) / (1 − 2^−{})):\n",
+        b.step_s, b.order, b.order
+    );
+    for m in &b.methods {
+        s += &format!(
+            "| {:<22} | {:>13} | {:>11} | {:>11} | {:>8} |\n|{}|{}|{}|{}|{}|\n",
+            m.method.to_string(),
+            "estimate",
+            "bias",
+            "std. error",
+            "bias/se",
+            "-".repeat(24),
+            "-".repeat(15),
+            "-".repeat(13),
+            "-".repeat(13),
+            "-".repeat(10)
+        );
+        for p in &m.parameters {
+            s += &format!(
+                "| {:<22} | {:>13.6e} | {:>11.3e} | {:>11.3e} | {:>7.2}{} |\n",
+                p.name,
+                p.estimate,
+                p.bias,
+                p.std_error,
+                p.bias / p.std_error,
+                if p.exceeds { "!" } else { " " }
+            );
+        }
+    }
+    let exceeding = b.exceeding();
+    if exceeding.is_empty() {
+        s += "  every bias is below a quarter of its standard error: the integrator does not limit these estimates.\n";
+    } else {
+        s += &format!(
+            "WARNING: the integrator's bias exceeds a quarter of the standard error for {}: at this record the \
+             bench grades its integrator as much as the estimator; reduce dt or raise substeps.\n",
+            exceeding.join(", ")
+        );
     }
     s
 }

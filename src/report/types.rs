@@ -325,6 +325,52 @@ impl ValidationRow {
     }
 }
 
+/// The integrator's bias on the estimates (`run --integrator-bias`, `pipeline::bias`).
+#[derive(Debug, Clone, Serialize)]
+pub struct IntegratorBias {
+    /// The run's integration step `h` (dt / substeps), s; the pair ran at `h/2`.
+    pub step_s: f64,
+    /// The schemes' weak order `p`: the bias is `(θ_h − θ_h/2) / (1 − 2^−p)`.
+    pub order: u32,
+    pub methods: Vec<MethodBias>,
+}
+
+impl IntegratorBias {
+    /// The parameters, per method, whose bias exceeds a quarter of their standard error.
+    pub fn exceeding(&self) -> Vec<String> {
+        self.methods
+            .iter()
+            .flat_map(|m| {
+                m.parameters
+                    .iter()
+                    .filter(|p| p.exceeds)
+                    .map(move |p| format!("{} ({})", p.name, m.method))
+            })
+            .collect()
+    }
+}
+
+/// One method's estimates with their integrator bias.
+#[derive(Debug, Clone, Serialize)]
+pub struct MethodBias {
+    pub method: ReportMethod,
+    pub parameters: Vec<ParameterBias>,
+}
+
+/// One estimate's integrator bias.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParameterBias {
+    pub name: String,
+    pub estimate: f64,
+    /// The estimate from the run at half the step on the same paths.
+    pub refined_estimate: f64,
+    /// Richardson's estimate of the bias at the run's step.
+    pub bias: f64,
+    pub std_error: f64,
+    /// `|bias|` above a quarter of the standard error.
+    pub exceeds: bool,
+}
+
 /// One statistic of one response on which the re-simulated model and the data disagree.
 #[derive(Debug, Clone, Serialize)]
 pub struct Misfit {
@@ -482,6 +528,9 @@ pub struct Report {
     pub profile: Option<ProfileReport>,
     pub methods: Vec<MethodReport>,
     pub validation: Option<Validation>,
+    /// The integrator's bias on the estimates (`run --integrator-bias`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrator_bias: Option<IntegratorBias>,
     /// The iterative procedure for an unmeasured disturbance (paper section 4): the
     /// paper's sequence (spectral single-mass step, method `iterated`), then the one with
     /// the measured-force step (`iterated-force`). Empty without `[identify.disturbance]`.

@@ -14,6 +14,10 @@ use rand_distr::{Distribution, StandardNormal};
 /// Mixed into a trajectory's seed for its bridge generator (see [`run_group`]).
 pub(crate) const BRIDGE_STREAM: u64 = 0x4252_4944_4745_5f31;
 
+/// Mixed into a trajectory's seed for the generator that splits a step's normals over two
+/// half steps ([`Group::draw_refined`]).
+pub(crate) const REFINE_STREAM: u64 = 0x5245_4649_4e45_5f32;
+
 /// Advances a group by a number of steps.
 pub(crate) type Stepper<const D: usize> = fn(&mut Group, &LaneModel<D>, usize);
 
@@ -60,6 +64,9 @@ pub(crate) struct LaneModel<const D: usize> {
     pub(super) ou_weight: Vec<f64>,
     /// Advances a group by a number of steps: the shaped kernel when one fits.
     pub(super) advance: Stepper<D>,
+    /// Steps of half the length on the same Brownian paths as the run at twice the step
+    /// ([`super::Stepping::Refined`], [`Group::draw_refined`]).
+    pub(super) refined: bool,
 }
 
 impl<const D: usize> LaneModel<D> {
@@ -103,6 +110,7 @@ impl<const D: usize> LaneModel<D> {
             white_weight: Vec::new(),
             ou_weight: Vec::new(),
             advance: advance_generic::<D>,
+            refined: false,
         };
         for (e, exc) in m.excitations.iter().enumerate() {
             match exc.process {
@@ -249,6 +257,11 @@ pub(crate) struct Group {
     /// Per lane: the generator of the filtered forces' bridge normals at sampling instants,
     /// a stream of its own so the trajectories do not depend on the sampling.
     pub(super) bridge: [Xoshiro256PlusPlus; LANES],
+    /// A refined run's: per lane, the generator of the normals that split a coarse step's
+    /// over its two halves; per excitation, the second half's normal; which half is next.
+    pub(super) refine: [Xoshiro256PlusPlus; LANES],
+    pub(super) second_half: Vec<Lane>,
+    pub(super) in_second_half: bool,
 }
 
 #[inline(always)]
@@ -280,6 +293,11 @@ impl Group {
             bridge: std::array::from_fn(|l| {
                 Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l) ^ BRIDGE_STREAM)
             }),
+            refine: std::array::from_fn(|l| {
+                Xoshiro256PlusPlus::seed_from_u64(trajectory_seed(seed, first + l) ^ REFINE_STREAM)
+            }),
+            second_half: vec![zero(); ne],
+            in_second_half: false,
         }
     }
 
@@ -353,7 +371,11 @@ impl Group {
         if !lm.semi_implicit {
             self.advance_hysteresis(lm);
         }
-        draw_noise(lm, &mut self.rng, &mut self.p, &mut self.dw);
+        if lm.refined {
+            self.draw_refined(lm);
+        } else {
+            draw_noise(lm, &mut self.rng, &mut self.p, &mut self.dw);
+        }
         for i in 0..lm.n {
             let (mut x, mut v, f) = (self.x[i], self.v[i], self.f[i]);
             let him = lm.h_inv_mass[i];
@@ -382,6 +404,58 @@ impl Group {
         if lm.semi_implicit {
             self.advance_hysteresis(lm);
         }
+    }
+
+    /// A refined run's noise ([`super::Stepping::Refined`]): every other step draws the
+    /// normals `N` of the run at twice the step from the same generator in the same order
+    /// ([`draw_noise`]'s), and `B` from a stream of its own, and splits them over the two
+    /// half steps so that their sum is that run's increment: a white force's
+    /// `(N ± B)/√2` (the halves' `√(h/2)` increments add up to `√h·N`); a filtered force's
+    /// `(ρ N + B)/r` and `(N − ρ B)/r` with `ρ` the half step's decay and `r = √(1 + ρ²)`
+    /// (two exact half-step transitions then give the coarse one's exactly). Both halves'
+    /// normals are independent standard normals, so each run alone is exact in law; the
+    /// pair differs by the integrator alone (Richardson's estimate of its bias,
+    /// docs/methods.md).
+    #[inline(always)]
+    fn draw_refined<const D: usize>(&mut self, lm: &LaneModel<D>) {
+        if self.in_second_half {
+            for (slot, &e) in lm.white.iter().enumerate() {
+                let d = self.second_half[e];
+                for j in 0..LANES {
+                    self.p[e][j] += d[j];
+                }
+                self.dw[slot] = d;
+            }
+            for &(e, decay, sd) in &lm.ou {
+                let (pe, y) = (&mut self.p[e], &self.second_half[e]);
+                for j in 0..LANES {
+                    pe[j] = pe[j].mul_add(decay, sd * y[j]);
+                }
+            }
+        } else {
+            let half = std::f64::consts::FRAC_1_SQRT_2;
+            for (slot, &e) in lm.white.iter().enumerate() {
+                let mut d = zero();
+                for j in 0..LANES {
+                    let n: f64 = StandardNormal.sample(&mut self.rng[j]);
+                    let b: f64 = StandardNormal.sample(&mut self.refine[j]);
+                    d[j] = half * (n + b);
+                    self.second_half[e][j] = half * (n - b);
+                    self.p[e][j] += d[j];
+                }
+                self.dw[slot] = d;
+            }
+            for &(e, decay, sd) in &lm.ou {
+                let r = (1.0 + decay * decay).sqrt();
+                for j in 0..LANES {
+                    let n: f64 = StandardNormal.sample(&mut self.rng[j]);
+                    let b: f64 = StandardNormal.sample(&mut self.refine[j]);
+                    self.p[e][j] = self.p[e][j].mul_add(decay, sd * (decay * n + b) / r);
+                    self.second_half[e][j] = (n - decay * b) / r;
+                }
+            }
+        }
+        self.in_second_half = !self.in_second_half;
     }
 
     /// The hysteretic states over one step, with the velocities the displacements take: the

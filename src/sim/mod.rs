@@ -186,6 +186,10 @@ pub enum Stepping {
     Blocked,
     /// The generic stepper (the reference).
     Generic,
+    /// The generic stepper at the simulation's step on the Brownian paths of the run at
+    /// twice that step ([`Stepping::Fastest`] with half the `substeps`): the pair differs
+    /// by the integrator's error alone. `substeps` must be even.
+    Refined,
 }
 
 /// [`simulate`] with the stepper chosen (the bench compares them; the samples are the same).
@@ -221,9 +225,14 @@ pub(crate) fn simulate_padded<const D: usize>(
     let lm = match stepping {
         Stepping::Fastest => LaneModel::<D>::new(model, sim, shaped),
         Stepping::Blocked => LaneModel::<D>::new(model, sim, no_kernel),
-        Stepping::Generic => {
+        Stepping::Generic | Stepping::Refined => {
             let mut lm = LaneModel::<D>::new(model, sim, shaped);
             lm.advance = advance_generic::<D>;
+            lm.refined = stepping == Stepping::Refined;
+            assert!(
+                !lm.refined || sim.substeps.is_multiple_of(2),
+                "a refined run halves the step of its pair"
+            );
             lm
         }
     };
