@@ -22,7 +22,7 @@
 use criterion::{Criterion, Throughput};
 use fpkbench::io::log::{Compression, LogWriter};
 use fpkbench::model::Model;
-use fpkbench::sim::{simulate, LaneNormals, SampleBatch, SampleSink, LANES};
+use fpkbench::sim::{simulate, Discard, LaneNormals, SampleBatch, SampleSink, LANES};
 use fpkbench::Scenario;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
@@ -121,19 +121,6 @@ fn zstd_seconds(bytes: &[u8], level: i32) -> (f64, usize) {
         }],
     )[0];
     (t, out)
-}
-
-/// Drops the samples, handing each batch back to be refilled (as the log writer does).
-#[derive(Default)]
-struct Discard(Option<SampleBatch>);
-impl SampleSink for Discard {
-    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        self.0 = Some(black_box(b));
-        Ok(())
-    }
-    fn recycle(&mut self) -> Option<SampleBatch> {
-        self.0.take()
-    }
 }
 
 /// duffing2dof with `trajectories`, a record of `record` s, sampled every `every` steps.

@@ -4,8 +4,8 @@
 //!   OU-driven SDOF);
 //! - the exact stationary covariance of any linear model under white and filtered noise
 //!   (continuous Lyapunov equation `AΣ + ΣAᵀ + GGᵀ = 0`);
-//! - the exact stationary covariance of the *discrete* semi-implicit and explicit
-//!   Euler–Maruyama recursions for a linear model under white noise (discrete Lyapunov
+//! - the exact stationary covariance of the *discrete* semi-implicit, explicit
+//!   Euler–Maruyama and stochastic Heun recursions for a linear model under white noise (discrete Lyapunov
 //!   equation `Σ = ΦΣΦᵀ + ΓΓᵀ`), which quantifies each scheme's bias;
 //! - the exact stationary marginal densities of a single mass with linear damping under
 //!   white forces ([`GibbsMarginals`]), drawn over the data in the report's densities.
@@ -132,6 +132,11 @@ pub fn discrete_stationary_covariance(model: &Model, scheme: Scheme, h: f64) -> 
     // Velocity rows: v' = v + h (A_vx x + A_vv v) + G_v ΔW.
     let mut phi = &id + &a * h;
     let mut gam = &g * h.sqrt();
+    if scheme == Scheme::Heun {
+        // Y' = Y + h (A Y + A Ȳ)/2 + G ΔW with Ȳ = Y + h A Y + G ΔW.
+        phi += &a * &a * (h * h / 2.0);
+        gam = (&id + &a * (h / 2.0)) * gam;
+    }
     if scheme == Scheme::SemiImplicit {
         // x' = x + h v' : x rows become [I, 0] + h · (velocity rows).
         for i in 0..n {
@@ -147,6 +152,22 @@ pub fn discrete_stationary_covariance(model: &Model, scheme: Scheme, h: f64) -> 
     let big = DMatrix::<f64>::identity(dim * dim, dim * dim) - phi.kronecker(&phi);
     let sol = big.lu().solve(&DVector::from_column_slice(q.as_slice()))?;
     Some(DMatrix::from_column_slice(dim, dim, sol.as_slice()))
+}
+
+/// The stationary covariance of the samples the simulator logs from `scheme`'s recursion
+/// ([`discrete_stationary_covariance`]): the semi-implicit scheme logs the displacement at
+/// the step's midpoint, `x − h v / 2` (`sim::lanes::run_group`), the others the step's end.
+pub fn sampled_stationary_covariance(model: &Model, scheme: Scheme, h: f64) -> Option<DMatrix<f64>> {
+    let s = discrete_stationary_covariance(model, scheme, h)?;
+    if scheme != Scheme::SemiImplicit {
+        return Some(s);
+    }
+    let n = model.masses();
+    let mut l = DMatrix::<f64>::identity(2 * n, 2 * n);
+    for i in 0..n {
+        l[(i, n + i)] = -h / 2.0;
+    }
+    Some(&l * s * l.transpose())
 }
 
 /// `E[Y^β]` of a zero-mean Gaussian with covariance `cov` (Isserlis recursion:

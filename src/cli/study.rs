@@ -81,6 +81,11 @@ pub struct Args {
     /// Print the study file the flags make, and stop.
     #[arg(long, requires = "scenario")]
     pub print: bool,
+    /// Estimate the integrator's bias on every item (with --scenario; as `run
+    /// --integrator-bias`: every item simulated again at half the step on the same paths,
+    /// about doubling the study's time); the summary sets it beside the standard errors.
+    #[arg(long, requires = "scenario")]
+    pub integrator_bias: bool,
 }
 
 /// The study file `--scenario` and its flags stand for.
@@ -118,6 +123,9 @@ fn study_text(args: &Args, scenario: &Path) -> String {
     }
     if let Some(r) = &args.reference {
         t.insert("reference".into(), r.clone().into());
+    }
+    if args.integrator_bias {
+        t.insert("integrator_bias".into(), true.into());
     }
     format!(
         "# fpkbench study from flags\n{}",
@@ -351,12 +359,14 @@ fn study_of(args: &Args) -> anyhow::Result<Option<Study>> {
                 ("--set", !args.set.is_empty()),
                 ("--reference", args.reference.is_some()),
                 ("--print", args.print),
+                ("--integrator-bias", args.integrator_bias),
             ];
             let given: Vec<&str> = flags.iter().filter(|f| f.1).map(|f| f.0).collect();
             if !given.is_empty() {
                 anyhow::bail!(
                     "{}: {} describe a study made with --scenario; a study file has its own keys \
-                     (seeds, seed, record_lengths, sample_intervals, noise_levels, methods, set, reference): edit the file, \
+                     (seeds, seed, record_lengths, sample_intervals, noise_levels, methods, set, reference, \
+                     integrator_bias): edit the file, \
                      or run fpkbench study --scenario SCENARIO with the flags",
                     file.display(),
                     given.join(", ")

@@ -709,6 +709,7 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
     match run.get("scheme").map(String::as_str) {
         Some("semi-implicit") => sim.scheme = crate::scenario::Scheme::SemiImplicit,
         Some("euler-maruyama") => sim.scheme = crate::scenario::Scheme::EulerMaruyama,
+        Some("heun") => sim.scheme = crate::scenario::Scheme::Heun,
         Some(other) => return Err(format!("run fact scheme = {other:?} is not a known scheme")),
         None => {}
     }

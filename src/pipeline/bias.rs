@@ -1,8 +1,9 @@
 //! The integrator's bias on the estimates (docs/methods.md, "The integrator's bias"): the
 //! scenario simulated again at half its step on the same Brownian paths
-//! ([`Input::refined_simulation`]) and identified the same way; both integrators (explicit
-//! and semi-implicit Euler) are of weak order 1, so Richardson's estimate of the bias at
-//! the run's step is `2·(θ_h − θ_h/2)`. The pair shares its noise, so the difference holds
+//! ([`Input::refined_simulation`]) and identified the same way; with the scheme's weak
+//! order `p` (1 for explicit and semi-implicit Euler, 2 for Heun), Richardson's estimate
+//! of the bias at the run's step is `(θ_h − θ_h/2) / (1 − 2^−p)`: `2·(θ_h − θ_h/2)` for
+//! the Euler schemes. The pair shares its noise, so the difference holds
 //! the integrator's error without the sampling error of either run. A parameter whose
 //! bias exceeds a quarter of its standard error is named: there the bench grades its
 //! integrator as much as the estimator.
@@ -10,9 +11,6 @@
 use super::{identify, Input, Options, PipelineError};
 use crate::report::{IntegratorBias, MethodBias, ParameterBias, Report};
 use crate::scenario::Scenario;
-
-/// The scheme's weak order: the bias at step `h` is `C·h^ORDER`.
-const ORDER: i32 = 1;
 
 /// A bias above this share of a parameter's standard error is named.
 pub const BIAS_SHARE: f64 = 0.25;
@@ -38,7 +36,8 @@ pub fn integrator_bias(
         ..options.clone()
     };
     let refined = identify(&Input::refined_simulation(scenario.clone()), &refined_options)?;
-    let factor = 1.0 / (1.0 - 2f64.powi(-ORDER));
+    let order = scenario.simulation.scheme.weak_order();
+    let factor = 1.0 / (1.0 - 2f64.powi(-(order as i32)));
     let mut methods = Vec::new();
     for m in &report.methods {
         let Some(r) = refined.methods.iter().find(|r| r.method == m.method) else {
@@ -70,7 +69,7 @@ pub fn integrator_bias(
     let sim = &scenario.simulation;
     Ok(IntegratorBias {
         step_s: sim.dt / sim.substeps as f64,
-        order: ORDER as u32,
+        order,
         methods,
     })
 }

@@ -21,7 +21,7 @@ mod spectra;
 pub mod study;
 mod validation;
 
-pub use bias::integrator_bias;
+pub use bias::{integrator_bias, BIAS_SHARE};
 pub use identify::{check_measured, preflight};
 pub use sensors::CLIPPED;
 pub use source::{Input, LogFile, SampleSource, Simulation, Tables};

@@ -86,7 +86,9 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
          mean square of the standard errors over the estimates' standard deviation over the seeds (below 1 \
          the standard errors understate), and the efficiency: the mean square Cramér–Rao bound of continuous \
          observation over the estimates' variance over the seeds (1: the best any unbiased estimator does \
-         from the whole path).\n\n![Worst error against record length and \
+         from the whole path). Where the study estimated the integrator's bias (`integrator_bias`), the mean \
+         of the items' Richardson estimates over the root mean square of their standard errors, in bold \
+         above a quarter.\n\n![Worst error against record length and \
          sample interval, coverage](study.svg)\n\n"
     );
     s += "Every item × method has a row: estimated, refused (the data could not separate the \
@@ -155,9 +157,17 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
     if rows > FOLD_ROWS {
         s += &format!("<!-- fold: per parameter: bias, spread and coverage ({rows} rows) -->\n");
     }
+    // The integrator's bias, where the study estimated it (docs/methods.md).
+    let with_bias = summary
+        .iter()
+        .any(|x| x.parameters.iter().any(|p| p.integrator_bias_share.is_some()));
+    let (bias_head, bias_align) = match with_bias {
+        true => (" integrator bias / std. error |", "---:|"),
+        false => ("", ""),
+    };
     s += &format!(
-        "{head} method | parameter | bias | spread | coverage of 95 % intervals | std. error / spread | efficiency |\n\
-         {align}---|---|---:|---:|---:|---:|---:|\n"
+        "{head} method | parameter | bias | spread | coverage of 95 % intervals | std. error / spread | efficiency \
+         |{bias_head}\n{align}---|---|---:|---:|---:|---:|---:|{bias_align}\n"
     );
     let ratio = |r: Option<f64>| r.map_or("–".to_string(), |r| format!("{r:.2}"));
     for x in summary {
@@ -176,6 +186,14 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
                     (e, _) => ratio(e),
                 }
             );
+            if with_bias {
+                s.pop();
+                s += &match p.integrator_bias_share {
+                    Some(b) if b.abs() > crate::pipeline::BIAS_SHARE => format!(" **{b:+.2}** |\n"),
+                    Some(b) => format!(" {b:+.2} |\n"),
+                    None => " – |\n".to_string(),
+                };
+            }
         }
     }
     if let Some(first) = paired.first() {

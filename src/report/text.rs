@@ -573,8 +573,14 @@ fn integrator_bias(b: &crate::report::IntegratorBias) -> String {
     } else {
         s += &format!(
             "WARNING: the integrator's bias exceeds a quarter of the standard error for {}: at this record the \
-             bench grades its integrator as much as the estimator; reduce dt or raise substeps.\n",
-            exceeding.join(", ")
+             bench grades its integrator as much as the estimator; reduce dt or raise substeps{}.\n",
+            exceeding.join(", "),
+            if b.order < 2 {
+                ", or step with scheme = \"heun\" (weak order 2, about the same cost at 2.5 times the step; \
+                 docs/simulation.md)"
+            } else {
+                ""
+            }
         );
     }
     s

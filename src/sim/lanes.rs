@@ -28,6 +28,8 @@ pub(crate) struct LaneModel<const D: usize> {
     pub(super) n: usize,
     pub(super) h: f64,
     pub(super) semi_implicit: bool,
+    /// The stochastic Heun scheme ([`Group::step_heun`]); only the generic stepper runs it.
+    pub(super) heun: bool,
     pub(super) a: Vec<usize>,
     pub(super) b: Vec<usize>,
     /// `k[l][p − 1]`, `c[l][p − 1]`: the polynomial part.
@@ -84,6 +86,7 @@ impl<const D: usize> LaneModel<D> {
             n,
             h,
             semi_implicit: sim.scheme == Scheme::SemiImplicit,
+            heun: sim.scheme == Scheme::Heun,
             a: m.link_a.clone(),
             b: m.link_b.iter().map(|&b| if b == GROUND { n } else { b }).collect(),
             k: (0..m.links()).map(|l| pad(m.stiffness(l))).collect(),
@@ -146,8 +149,8 @@ impl<const D: usize> LaneModel<D> {
                 lm.ou_weight[i * no + slot] = 1.0;
             }
         }
-        if !m.other_terms.is_empty() || !m.hysteresis.is_empty() {
-            // Terms and states the fused kernels do not evaluate: the generic stepper.
+        if !m.other_terms.is_empty() || !m.hysteresis.is_empty() || lm.heun {
+            // Terms, states and a scheme the fused kernels do not have: the generic stepper.
         } else if let Some(kernel) = shaped(&lm) {
             lm.complete_links();
             lm.advance = kernel;
@@ -262,6 +265,13 @@ pub(crate) struct Group {
     pub(super) refine: [Xoshiro256PlusPlus; LANES],
     pub(super) second_half: Vec<Lane>,
     pub(super) in_second_half: bool,
+    /// Scratch of the Heun step: the state, the forces and the hysteretic states and
+    /// rates at the step's start.
+    pub(super) x0: Vec<Lane>,
+    pub(super) v0: Vec<Lane>,
+    pub(super) f0: Vec<Lane>,
+    pub(super) z0: Vec<Lane>,
+    pub(super) z_rate: Vec<Lane>,
 }
 
 #[inline(always)]
@@ -298,6 +308,11 @@ impl Group {
             }),
             second_half: vec![zero(); ne],
             in_second_half: false,
+            x0: vec![zero(); n + 1],
+            v0: vec![zero(); n + 1],
+            f0: vec![zero(); n + 1],
+            z0: vec![zero(); model.hysteresis.len()],
+            z_rate: vec![zero(); model.hysteresis.len()],
         }
     }
 
@@ -366,16 +381,15 @@ impl Group {
     /// One integration step of length `h` for every lane.
     #[inline(always)]
     pub(super) fn step<const D: usize>(&mut self, lm: &LaneModel<D>) {
+        if lm.heun {
+            return self.step_heun(lm);
+        }
         self.forces(lm);
         let h = lm.h;
         if !lm.semi_implicit {
             self.advance_hysteresis(lm);
         }
-        if lm.refined {
-            self.draw_refined(lm);
-        } else {
-            draw_noise(lm, &mut self.rng, &mut self.p, &mut self.dw);
-        }
+        self.draw(lm);
         for i in 0..lm.n {
             let (mut x, mut v, f) = (self.x[i], self.v[i], self.f[i]);
             let him = lm.h_inv_mass[i];
@@ -403,6 +417,86 @@ impl Group {
         }
         if lm.semi_implicit {
             self.advance_hysteresis(lm);
+        }
+    }
+
+    /// The step's noise: the run's own, or a refined run's halves ([`Group::draw_refined`]).
+    #[inline(always)]
+    fn draw<const D: usize>(&mut self, lm: &LaneModel<D>) {
+        if lm.refined {
+            self.draw_refined(lm);
+        } else {
+            draw_noise(lm, &mut self.rng, &mut self.p, &mut self.dw);
+        }
+    }
+
+    /// One stochastic Heun step ([`Scheme::Heun`]; Kloeden and Platen's explicit weak
+    /// order 2 scheme for additive noise): with the drift `a(Y)` and the step's noise
+    /// increment `ΔW` (the same normals as the other schemes draw),
+    /// `Ȳ = Y + h·a(Y) + ΔW`, then `Y' = Y + h·(a(Y) + a(Ȳ))/2 + ΔW`. A filtered force
+    /// takes its exact transition first and enters the drift at the step's start and end,
+    /// the trapezoid of its integral; a Bouc–Wen state is stepped alike. The state is the
+    /// step's end, all of it at one instant (docs/methods.md, "The integrator's bias").
+    #[inline(always)]
+    fn step_heun<const D: usize>(&mut self, lm: &LaneModel<D>) {
+        let (h, n) = (lm.h, lm.n);
+        self.forces(lm);
+        self.x0.copy_from_slice(&self.x);
+        self.v0.copy_from_slice(&self.v);
+        self.f0.copy_from_slice(&self.f);
+        for (k, &(l, bw)) in lm.hysteresis.iter().enumerate() {
+            let (va, vb, z, r) = (&self.v[lm.a[l]], &self.v[lm.b[l]], &self.z[k], &mut self.z_rate[k]);
+            for j in 0..LANES {
+                r[j] = bw.rate(z[j], va[j] - vb[j]);
+            }
+        }
+        self.z0.copy_from_slice(&self.z);
+        self.draw(lm);
+        // Predictor: an explicit Euler step on the increment.
+        for i in 0..n {
+            let (x, v, f) = (&mut self.x[i], &mut self.v[i], &self.f[i]);
+            let him = lm.h_inv_mass[i];
+            for j in 0..LANES {
+                x[j] = h.mul_add(v[j], x[j]);
+                v[j] = him.mul_add(f[j], v[j]);
+            }
+            for &(slot, im) in &lm.white_on[i] {
+                let dw = &self.dw[slot];
+                for j in 0..LANES {
+                    v[j] = im.mul_add(dw[j], v[j]);
+                }
+            }
+        }
+        for (z, r) in self.z.iter_mut().zip(&self.z_rate) {
+            for j in 0..LANES {
+                z[j] = h.mul_add(r[j], z[j]);
+            }
+        }
+        // The drift at the predicted end (the filtered forces at their end values).
+        self.forces(lm);
+        let half = 0.5 * h;
+        for (k, &(l, bw)) in lm.hysteresis.iter().enumerate() {
+            let (va, vb) = (&self.v[lm.a[l]], &self.v[lm.b[l]]);
+            let (z, z0, r) = (&mut self.z[k], &self.z0[k], &self.z_rate[k]);
+            for j in 0..LANES {
+                z[j] = half.mul_add(r[j] + bw.rate(z[j], va[j] - vb[j]), z0[j]);
+            }
+        }
+        // Corrector: the trapezoid of the drift on the same increment.
+        for i in 0..n {
+            let (x, v) = (&mut self.x[i], &mut self.v[i]);
+            let (x0, v0, f0, f1) = (&self.x0[i], &self.v0[i], &self.f0[i], &self.f[i]);
+            let him = 0.5 * lm.h_inv_mass[i];
+            for j in 0..LANES {
+                x[j] = half.mul_add(v0[j] + v[j], x0[j]);
+                v[j] = him.mul_add(f0[j] + f1[j], v0[j]);
+            }
+            for &(slot, im) in &lm.white_on[i] {
+                let dw = &self.dw[slot];
+                for j in 0..LANES {
+                    v[j] = im.mul_add(dw[j], v[j]);
+                }
+            }
         }
     }
 
@@ -583,7 +677,12 @@ pub(super) fn run_group<const D: usize>(
             // Explicit Euler–Maruyama logs the step's end state, but its step applied P_n
             // too, and the same midpoint sample puts its E[v P] within 0.03 % of the
             // continuous value at B·h = 0.06 (the end value: −2.9 %; exact recursion).
-            if bridged {
+            if bridged && lm.heun {
+                // The Heun step's state is its end's, and so is the force's value.
+                for &(e, ..) in &lm.ou {
+                    g.p_mid[e] = g.p[e];
+                }
+            } else if bridged {
                 for &(e, decay, sd) in &lm.ou {
                     let (w, s) = (decay.sqrt() / (1.0 + decay), sd / (1.0 + decay));
                     let (mid, end) = (&mut g.p_mid[e], &g.p[e]);

@@ -28,7 +28,7 @@ mod shaped;
 mod sinks;
 
 pub use normals::LaneNormals;
-pub use sinks::{Collect, ForEach, Moments, SampleBatch, SampleSink};
+pub use sinks::{Collect, Discard, ForEach, Moments, SampleBatch, SampleSink};
 
 use crate::model::Model;
 use crate::scenario::Simulation;

@@ -70,6 +70,20 @@ impl<F: FnMut(u32, f64, &[f64])> SampleSink for ForEach<F> {
     }
 }
 
+/// Drops the samples, handing each batch back to be refilled (as the log writer does): the
+/// simulator's own cost, in benches.
+#[derive(Default)]
+pub struct Discard(Option<SampleBatch>);
+impl SampleSink for Discard {
+    fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        self.0 = Some(std::hint::black_box(b));
+        Ok(())
+    }
+    fn recycle(&mut self) -> Option<SampleBatch> {
+        self.0.take()
+    }
+}
+
 /// A sink that keeps every sample in memory (tests and small runs).
 #[derive(Debug, Default)]
 pub struct Collect {

@@ -120,6 +120,12 @@ pub struct ParameterSummary {
     pub efficiency: Option<f64>,
     /// Its 95 % interval from the seeds' variance (chi-square, `stats::variance_ratio_95`).
     pub efficiency_ci: Option<[f64; 2]>,
+    /// The integrator's bias (a study with `integrator_bias`): the mean of the items'
+    /// Richardson estimates over the root mean square of their standard errors. Above a
+    /// quarter, the integrator moves the estimate by a share of its error bar that the
+    /// intervals' coverage feels.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrator_bias_share: Option<f64>,
 }
 
 fn quantile(sorted: &[f64], q: f64) -> f64 {
@@ -194,7 +200,16 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                     let est_var = sd * sd;
                     let ratio = |ms: Option<f64>| ms.filter(|_| est_var > 0.0).map(|ms| ms / est_var);
                     let efficiency = ratio(mean_square(ps.iter().map(|p| p.cramer_rao_std).collect()));
+                    let share = {
+                        let b: Vec<f64> = ps.iter().filter_map(|p| p.integrator_bias).collect();
+                        let se = mean_square(ps.iter().map(|p| p.std_error).collect());
+                        match (b.is_empty(), se) {
+                            (false, Some(se)) if se > 0.0 => Some(b.iter().sum::<f64>() / b.len() as f64 / se.sqrt()),
+                            _ => None,
+                        }
+                    };
                     ParameterSummary {
+                        integrator_bias_share: share,
                         std_error_ratio: ratio(mean_square(ps.iter().map(|p| p.std_error).collect())).map(f64::sqrt),
                         efficiency,
                         efficiency_ci: efficiency.and_then(|e| crate::stats::variance_ratio_95(e, ps.len())),
