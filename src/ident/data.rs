@@ -118,7 +118,7 @@ impl StationaryData {
         batches: usize,
     ) -> StationaryData {
         let wanted = if degree == super::weak::moment_degree(problem) {
-            super::weak::BATCHES_PER_EQUATION * super::weak::test_functions(problem).len()
+            super::weak::BATCHES_PER_EQUATION * super::weak::equation_count(problem)
         } else {
             MIN_FINE_BATCHES
         };
@@ -146,7 +146,7 @@ impl StationaryData {
         wanted.sort_unstable();
         wanted.dedup();
         let layout = FineLayout::for_batches(
-            super::weak::BATCHES_PER_EQUATION * super::weak::test_functions(problem).len(),
+            super::weak::BATCHES_PER_EQUATION * super::weak::equation_count(problem),
             trajectories,
         );
         let first = RawMoments::with_monomials(problem.dim(), degree, &wanted);

@@ -188,7 +188,14 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
     let mut facts = vec![
         (
             "test functions".into(),
-            format!("{} monomials of degree 1..={}", pc.rows, weak::test_degree(problem)),
+            match weak::local_tests(problem).len() {
+                0 => format!("{} monomials of degree 1..={}", pc.rows, weak::test_degree(problem)),
+                local => format!(
+                    "{} monomials of degree 1..={} and {local} local ones on the hinges",
+                    pc.rows - local,
+                    weak::test_degree(problem)
+                ),
+            },
         ),
         ("moments".into(), {
             // The moments this problem's equations can use: the accumulator may be

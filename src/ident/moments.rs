@@ -138,7 +138,21 @@ impl RawMoments {
 
     /// Moments given exactly by `moment(β)` (reference tests with known densities).
     pub fn exact(vars: usize, max_degree: u32, moment: impl Fn(Exponents) -> f64) -> RawMoments {
-        let mut m = RawMoments::new(vars, max_degree);
+        RawMoments::exact_of(RawMoments::new(vars, max_degree), moment)
+    }
+
+    /// Only the monomials `wanted` (and those [`RawMoments::with_monomials`] adds) given
+    /// exactly by `moment(β)`: many variables, where every monomial would be too many.
+    pub fn exact_monomials(
+        vars: usize,
+        max_degree: u32,
+        wanted: &[Exponents],
+        moment: impl Fn(Exponents) -> f64,
+    ) -> RawMoments {
+        RawMoments::exact_of(RawMoments::with_monomials(vars, max_degree, wanted), moment)
+    }
+
+    fn exact_of(mut m: RawMoments, moment: impl Fn(Exponents) -> f64) -> RawMoments {
         m.sums = m
             .monomials()
             .iter()

@@ -1,21 +1,28 @@
 //! Multivariate polynomials over the state variables, exact enough to assemble the
 //! generator `𝒜ψ` of a polynomial drift on polynomial test functions.
 //!
-//! A monomial is a packed exponent vector ([`Exponents`], 8 bits per variable, at most 16
-//! variables, exponents ≤ 255: a stiffness power 15 on a degree-4 test function needs 19); a polynomial is a sorted map from monomials to coefficients.
+//! A monomial is a packed exponent vector ([`Exponents`], 5 bits per variable, at most 25
+//! variables, exponents ≤ [`MAX_EXPONENT`]: a stiffness power 15 on a degree-16 test function
+//! needs 30); a polynomial is a sorted map from monomials to coefficients.
 
 use std::collections::BTreeMap;
 
-/// Packed exponents, 8 bits per variable (variable `j` in bits `8j..8j+8`).
+/// Packed exponents, 5 bits per variable (variable `j` in bits `5j..5j+5`).
 pub type Exponents = u128;
 
+/// Bits per variable in [`Exponents`].
+const BITS: usize = 5;
+
 /// Largest number of state variables a monomial can hold.
-pub const MAX_VARS: usize = 16;
+pub const MAX_VARS: usize = 128 / BITS;
+
+/// Largest exponent of one variable in a monomial.
+pub const MAX_EXPONENT: u32 = (1 << BITS) - 1;
 
 /// Exponent of variable `j`.
 #[inline]
 pub fn exponent(e: Exponents, j: usize) -> u32 {
-    ((e >> (8 * j)) & 0xff) as u32
+    ((e >> (BITS * j)) & MAX_EXPONENT as u128) as u32
 }
 
 /// Total degree.
@@ -25,7 +32,7 @@ pub fn degree(e: Exponents) -> u32 {
 
 /// The monomial `y_j`.
 pub fn var(j: usize) -> Exponents {
-    1 << (8 * j)
+    1 << (BITS * j)
 }
 
 /// A polynomial `Σ c_β y^β`.
@@ -68,8 +75,8 @@ impl Poly {
         let mut p = Poly::zero();
         for (&a, &ca) in &self.terms {
             for (&b, &cb) in &other.terms {
-                // No carries: callers keep every exponent ≤ 255.
-                debug_assert!((0..MAX_VARS).all(|j| exponent(a, j) + exponent(b, j) <= 255));
+                // No carries: callers keep every exponent ≤ MAX_EXPONENT.
+                debug_assert!((0..MAX_VARS).all(|j| exponent(a, j) + exponent(b, j) <= MAX_EXPONENT));
                 p.add_term(a + b, ca * cb);
             }
         }

@@ -172,7 +172,29 @@ impl Problem {
         };
         let (known_force, known_pmax) = terms.known_force();
         let (unit_force, names, start, pmax) = terms.unknown_terms(&unknowns, known_pmax)?;
-        let atoms = terms.atoms.into_inner();
+        let mut atoms = terms.atoms.into_inner();
+        // The slope of every unknown hinge: the weak form's local test functions read it
+        // (`weak::local_tests`; white layout only).
+        if state.layout == Layout::White {
+            for u in &unknowns {
+                if let Unknown::Coefficient(
+                    c @ Coefficient {
+                        term: Term::Hinge(_), ..
+                    },
+                ) = *u
+                {
+                    let slope = Atom {
+                        link: c.link,
+                        kind: c.kind,
+                        term: c.term,
+                        slope: true,
+                    };
+                    if !atoms.contains(&slope) {
+                        atoms.push(slope);
+                    }
+                }
+            }
+        }
         if let Some(a) = atoms.iter().find(|a| a.slope && !a.term.is_continuous()) {
             return Err(IdentError::Unsupported(format!(
                 "with filtered excitation the drift holds the force's time derivative (3.24), and the {} of link {:?} \
@@ -230,7 +252,7 @@ impl Problem {
                 quantities.iter().map(move |&q| q.column_name(name))
             })
             .collect();
-        Ok(Problem {
+        let problem = Problem {
             model: known.clone(),
             layout,
             unknowns,
@@ -248,7 +270,16 @@ impl Problem {
             state_names,
             inputs: 0,
             atoms,
-        })
+        };
+        let degree = super::weak::moment_degree(&problem);
+        if degree > poly::MAX_EXPONENT {
+            return Err(IdentError::Unsupported(format!(
+                "the weak form of this model reads moments of degree {degree}, and at most {} can be held: give \
+                 the characteristics fewer or lower terms",
+                poly::MAX_EXPONENT
+            )));
+        }
+        Ok(problem)
     }
 
     /// The true value of every unknown, looked up by its name in `truth` (for grading; the

@@ -10,6 +10,15 @@
 //! equations are never normalised by their own norm (rows that vanish by symmetry would
 //! otherwise get full weight).
 //!
+//! Local test functions ([`local_tests`]): a characteristic with unknown hinges
+//! (piecewise-linear terms) is seen by polynomial test functions only through their
+//! smooth averages, so knots a few tenths apart leave the equations nearly rank-deficient.
+//! Each unknown hinge `(z − b)₊` adds test functions built on the hinge itself, nonzero
+//! only beyond its knot: for a damping `ψ = G(w)` with `G' = (w − b)₊ (w/s)^k`, for a
+//! stiffness `ψ = (w/s) (u − b)₊ (u/s)^k`, `k <` [`LOCAL_POWERS`]. Their expectations are
+//! generalised moments of the hinge, its slope `1{z > b}` (an [`super::Atom`] of its own)
+//! and the state, accumulated with the raw moments.
+//!
 //! Weighting: the equations' sampling noise differs by orders of magnitude and is
 //! correlated, so the estimate solves them weighted by the inverse of their covariance,
 //! estimated from the spread of the equations over fine time batches at a first
@@ -18,7 +27,7 @@
 //! seeds).
 
 use super::moments::RawMoments;
-use super::poly::{degree, exponent, monomials, Poly};
+use super::poly::{degree, exponent, monomials, var, Poly};
 use super::{Pieces, Problem};
 
 /// The test functions' monomials.
@@ -43,8 +52,63 @@ pub const A_DEGREE: u32 = 1;
 
 /// Degree of moments the weak form needs for `problem`.
 pub fn moment_degree(problem: &Problem) -> u32 {
-    // Drift of degree p_max times ∂ψ of degree test − 1.
-    test_degree(problem) + problem.pmax - 1
+    // Drift of degree p_max times ∂ψ of degree test − 1; a local test function's factor
+    // (a hinge times a power below LOCAL_POWERS) times the drift, and its square (its scale).
+    let local = match local_tests(problem).is_empty() {
+        true => 0,
+        false => (problem.pmax + LOCAL_POWERS).max(2 * LOCAL_POWERS) + 1,
+    };
+    (test_degree(problem) + problem.pmax - 1).max(local)
+}
+
+/// Number of the weak form's equations: the polynomial test functions, then the local ones.
+pub fn equation_count(problem: &Problem) -> usize {
+    test_functions(problem).len() + local_tests(problem).len()
+}
+
+/// Powers `k` of a characteristic's argument a local test function's factor is multiplied
+/// by (`k = 0 … LOCAL_POWERS − 1`): two equations per hinge (three gave the same accuracy
+/// on `friction_sdof`).
+pub const LOCAL_POWERS: u32 = 2;
+
+/// A local test function of an unknown hinge (see the module's docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalTest {
+    pub link: usize,
+    pub kind: crate::model::Characteristic,
+    /// Variables of the hinge `(z − b)₊` and of its slope `1{z > b}` (both atoms).
+    pub hinge: usize,
+    pub step: usize,
+    /// The power `k` of the argument.
+    pub power: u32,
+}
+
+/// The local test functions of `problem`: [`LOCAL_POWERS`] per unknown hinge whose slope
+/// the problem carries as an atom (white layout).
+pub fn local_tests(problem: &Problem) -> Vec<LocalTest> {
+    let first = problem.dim() - problem.atoms.len();
+    let find = |c: &crate::model::Coefficient, slope: bool| {
+        problem
+            .atoms
+            .iter()
+            .position(|a| a.link == c.link && a.kind == c.kind && a.term == c.term && a.slope == slope)
+            .map(|k| first + k)
+    };
+    let mut out = Vec::new();
+    for u in &problem.unknowns {
+        if let super::Unknown::Coefficient(c) = u {
+            if let (crate::model::Term::Hinge(_), Some(hinge), Some(step)) = (c.term, find(c, false), find(c, true)) {
+                out.extend((0..LOCAL_POWERS).map(|power| LocalTest {
+                    link: c.link,
+                    kind: c.kind,
+                    hinge,
+                    step,
+                    power,
+                }));
+            }
+        }
+    }
+    out
 }
 
 /// Test-function degree for `problem`: one above the drift's highest power; and where a
@@ -52,12 +116,17 @@ pub fn moment_degree(problem: &Problem) -> u32 {
 /// moment equations), enough for its unknown terms to meet as many informative test
 /// functions along their argument: an odd term is seen only by the test functions odd in it
 /// (under a symmetric density the others give `0 = 0`), so two degrees per odd term and one
-/// per other term. Power polynomials keep the first bound (docs/theory.md §5).
+/// per other term. Power polynomials keep the first bound, and hinges (white layout) are
+/// left to their local test functions (docs/theory.md §5).
 pub fn test_degree(problem: &Problem) -> u32 {
     // Per characteristic: (odd unknown terms, other unknown terms, has an atom).
     let mut per: std::collections::BTreeMap<(usize, bool), (u32, u32, bool)> = Default::default();
     for u in &problem.unknowns {
         if let super::Unknown::Coefficient(c) = u {
+            // Hinges are seen by their local test functions instead.
+            if matches!(c.term, crate::model::Term::Hinge(_)) && problem.layout == super::Layout::White {
+                continue;
+            }
             let e = per
                 .entry((c.link, c.kind == crate::model::Characteristic::Damping))
                 .or_default();
@@ -84,12 +153,10 @@ fn bilinear(problem: &Problem) -> bool {
 /// The raw moments the weak form of `problem` reads (a fraction of all monomials of
 /// degree ≤ `2 p_max`: accumulate only these).
 pub fn required_moments(problem: &Problem) -> Vec<super::poly::Exponents> {
-    let d = problem.dim();
-    let all = RawMoments::exact(d, moment_degree(problem), |_| 1.0);
     let seen = std::cell::RefCell::new(std::collections::BTreeSet::new());
     assemble(problem, &|e| {
         seen.borrow_mut().insert(e);
-        all.moment(e)
+        1.0
     });
     seen.into_inner().into_iter().filter(|&e| e != 0).collect()
 }
@@ -106,8 +173,9 @@ pub fn pieces(problem: &Problem, mom: &RawMoments) -> Pieces {
 
 fn assemble(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -> Pieces {
     let scale = scales(problem, moment);
-    let mut pc = Pieces::new(test_functions(problem).len(), problem.n, problem.coefficient_count());
-    generate(problem, &scale, &mut |slot, p| {
+    let local = local_scales(problem, moment);
+    let mut pc = Pieces::new(equation_count(problem), problem.n, problem.coefficient_count());
+    generate(problem, &scale, &local, &mut |slot, p| {
         *slot.of(&mut pc) += p.expectation(moment)
     });
     pc
@@ -118,6 +186,69 @@ fn scales(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -> 
     (0..problem.dim())
         .map(|j| moment(2 * super::poly::var(j)).sqrt().max(1e-300))
         .collect()
+}
+
+/// Relative displacement and velocity `(u, w)` of link `l` as polynomials of the state.
+fn link_motion(problem: &Problem, l: usize) -> (Poly, Poly) {
+    let geometry: Vec<(usize, f64)> = problem.model.geometry(l).collect();
+    let u: Vec<(usize, f64)> = geometry.iter().map(|&(i, sign)| (problem.x(i), sign)).collect();
+    let w: Vec<(usize, f64)> = geometry.iter().map(|&(i, sign)| (problem.v(i), sign)).collect();
+    (Poly::linear(&u), Poly::linear(&w))
+}
+
+/// `p · f`.
+fn scaled(p: &Poly, f: f64) -> Poly {
+    let mut out = Poly::zero();
+    out.add(p, f);
+    out
+}
+
+/// Per local test function: the natural scales of its characteristic's argument `z` and of
+/// its link's velocity `w`, and the weight that gives its factor `g(z)` unit mean square.
+#[derive(Debug, Clone, Copy)]
+struct LocalScale {
+    z: f64,
+    w: f64,
+    weight: f64,
+}
+
+fn local_scales(problem: &Problem, moment: &dyn Fn(super::poly::Exponents) -> f64) -> Vec<LocalScale> {
+    let rms = |p: &Poly| p.mul(p).expectation(moment).sqrt().max(1e-300);
+    local_tests(problem)
+        .iter()
+        .map(|t| {
+            let (u, w) = link_motion(problem, t.link);
+            let (s_z, s_w) = (rms(local_argument(t, &u, &w)), rms(&w));
+            let (g, _) = local_factor(t, &u, &w, s_z);
+            LocalScale {
+                z: s_z,
+                w: s_w,
+                weight: 1.0 / rms(&g),
+            }
+        })
+        .collect()
+}
+
+/// The argument `z` of a local test function's characteristic: `u` or `w`.
+fn local_argument<'a>(t: &LocalTest, u: &'a Poly, w: &'a Poly) -> &'a Poly {
+    match t.kind {
+        crate::model::Characteristic::Stiffness => u,
+        crate::model::Characteristic::Damping => w,
+    }
+}
+
+/// A local test function's factor `g(z) = (z − b)₊ (z/s)^k` and its derivative
+/// `g'(z) = 1{z > b} (z/s)^k + (k/s) (z − b)₊ (z/s)^(k−1)`.
+fn local_factor(t: &LocalTest, u: &Poly, w: &Poly, s: f64) -> (Poly, Poly) {
+    let z = local_argument(t, u, w);
+    let zk = |k: u32| scaled(&z.pow(k), s.powi(-(k as i32)));
+    let hinge = Poly::monomial(var(t.hinge), 1.0);
+    let g = hinge.mul(&zk(t.power));
+    let mut slope = Poly::monomial(var(t.step), 1.0).mul(&zk(t.power));
+    if t.power > 0 {
+        slope.add(&hinge.mul(&zk(t.power - 1)), t.power as f64 / s);
+    }
+    (g, slope)
 }
 
 /// Where a polynomial's expectation goes in [`Pieces`].
@@ -141,7 +272,7 @@ impl Slot {
 }
 
 /// Every polynomial of the weak form, with the slot of [`Pieces`] its expectation fills.
-fn generate(problem: &Problem, scale: &[f64], put: &mut dyn FnMut(Slot, &Poly)) {
+fn generate(problem: &Problem, scale: &[f64], local: &[LocalScale], put: &mut dyn FnMut(Slot, &Poly)) {
     let n = problem.n;
     let d = problem.dim();
     let rc = problem.coefficient_count();
@@ -170,6 +301,41 @@ fn generate(problem: &Problem, scale: &[f64], put: &mut dyn FnMut(Slot, &Poly)) 
         }
         debug_assert!(degree(alpha) <= test_degree(problem));
     }
+    // The local test functions (module docs), after the polynomial ones.
+    for (k, (t, sc)) in local_tests(problem).iter().zip(local).enumerate() {
+        let row = tests.len() + k;
+        let (u, w) = link_motion(problem, t.link);
+        let (g, slope) = local_factor(t, &u, &w, sc.z);
+        // Per mass: ∂ψ/∂v_i (a damping's ψ = G(w) has no x; a stiffness's ψ = (w/s_w) g(u)
+        // is linear in v).
+        let (dpsi, second) = match t.kind {
+            crate::model::Characteristic::Damping => (scaled(&g, sc.weight), Some(scaled(&slope, sc.weight))),
+            crate::model::Characteristic::Stiffness => {
+                // Σ v_i ∂ψ/∂x_i = w² g'(u) / s_w.
+                put(Slot::T0(row), &scaled(&w.mul(&w).mul(&slope), sc.weight / sc.w));
+                (scaled(&g, sc.weight / sc.w), None)
+            }
+        };
+        for i in 0..n {
+            let si = problem.model.sign(t.link, i);
+            if si == 0.0 {
+                continue;
+            }
+            let dpsi_i = scaled(&dpsi, si);
+            put(Slot::A(row * n + i), &problem.known_force[i].mul(&dpsi_i));
+            for r in 0..rc {
+                put(Slot::B((row * n + i) * rc + r), &problem.unit_force[r][i].mul(&dpsi_i));
+            }
+            if let Some(second) = &second {
+                for j in 0..n {
+                    let sj = problem.model.sign(t.link, j);
+                    if sj != 0.0 {
+                        put(Slot::C((row * n + i) * n + j), &scaled(second, si * sj));
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// The weak form's pieces as a linear map of the raw moments, with the test functions
@@ -189,8 +355,9 @@ impl PiecesMap {
     /// The map for `problem` over the monomials of `total`, scaled by `total`'s moments.
     pub fn new(problem: &Problem, total: &RawMoments) -> PiecesMap {
         let scale = scales(problem, &|e| total.moment(e));
+        let local = local_scales(problem, &|e| total.moment(e));
         let mut entries = Vec::new();
-        generate(problem, &scale, &mut |slot, p| {
+        generate(problem, &scale, &local, &mut |slot, p| {
             for (&e, &c) in &p.terms {
                 let idx = total
                     .index_of(e)
@@ -199,7 +366,7 @@ impl PiecesMap {
             }
         });
         PiecesMap {
-            rows: test_functions(problem).len(),
+            rows: equation_count(problem),
             n: problem.n,
             rc: problem.coefficient_count(),
             entries,

@@ -28,12 +28,12 @@ fn known_terms_enter_the_drift_as_their_polynomial_form() {
     }
 }
 
-/// More variables than a monomial holds (nine masses: 18) are refused with the reason,
+/// More variables than a monomial holds (thirteen masses: 26) are refused with the reason,
 /// never packed into wrong exponents.
 #[test]
 fn a_state_beyond_the_monomials_variables_is_refused() {
     let mut t = String::new();
-    for i in 1..=9 {
+    for i in 1..=13 {
         t += &format!("[[mass]]\nname = \"m{i}\"\nvalue = 1.0\n");
         let from = if i == 1 {
             "ground".to_string()
@@ -44,17 +44,17 @@ fn a_state_beyond_the_monomials_variables_is_refused() {
         t += &format!("[[excitation]]\nkind = \"white\"\nsigma = 1.0\nacts_on = [\"m{i}\"]\n");
     }
     t += "[simulation]\ndt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1\n";
-    let s = Scenario::parse(&t, "chain9.toml", "chain9").unwrap();
+    let s = Scenario::parse(&t, "chain13.toml", "chain13").unwrap();
     match Problem::new(&s) {
         Err(IdentError::Unsupported(why)) => {
-            assert!(why.contains("at most 16 variables") && why.contains("has 18"), "{why}")
+            assert!(why.contains("at most 25 variables") && why.contains("has 26"), "{why}")
         }
         other => panic!("{other:?}"),
     }
-    // Eight masses (16 variables) are still taken.
-    let eight = t.split("[[mass]]\nname = \"m9\"").next().unwrap().to_string()
+    // Twelve masses (24 variables) are still taken.
+    let twelve = t.split("[[mass]]\nname = \"m13\"").next().unwrap().to_string()
         + "[simulation]\ndt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1\n";
-    assert!(Problem::new(&Scenario::parse(&eight, "chain8.toml", "chain8").unwrap()).is_ok());
+    assert!(Problem::new(&Scenario::parse(&twelve, "chain12.toml", "chain12").unwrap()).is_ok());
 }
 
 /// `file`'s scenario at `record_length` × 32 trajectories with its first link known (its
