@@ -47,6 +47,22 @@ fn formula(coefficients: &[(Term, f64)], var: &str) -> String {
     s
 }
 
+/// Terms a legend writes out; a longer characteristic (e.g. eight hinges) is shortened
+/// there, and written whole in the figure's description.
+const LEGEND_TERMS: usize = 4;
+
+/// [`formula`] for a legend: at most [`LEGEND_TERMS`] terms, then how many more.
+fn legend_formula(coefficients: &[(Term, f64)], var: &str) -> String {
+    match coefficients.len() {
+        n if n <= LEGEND_TERMS => formula(coefficients, var),
+        n => format!(
+            "{} + … ({} more terms)",
+            formula(&coefficients[..LEGEND_TERMS - 1], var),
+            n - LEGEND_TERMS + 1
+        ),
+    }
+}
+
 /// Whether the report has comparison models to draw.
 pub fn has_comparisons(r: &Report) -> bool {
     r.methods
@@ -173,7 +189,7 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
                     format!(
                         "{} (scenario model): {func} = {}",
                         m.method,
-                        formula(&c.identified, var)
+                        legend_formula(&c.identified, var)
                     ),
                 );
             }
@@ -182,7 +198,7 @@ pub fn plot_compare(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
                     &mut p,
                     &c.identified,
                     Stroke::dashed(color(j + 1), 2.0, 8.0, 4.0),
-                    format!("{}: {func} = {}", m.method, formula(&c.identified, var)),
+                    format!("{}: {func} = {}", m.method, legend_formula(&c.identified, var)),
                 );
             }
             if let Some(truth) = super::characteristics::truth_of(r, &link.name, kind) {
