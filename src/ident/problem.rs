@@ -97,7 +97,8 @@ pub struct Problem {
     /// problem built from a scenario.
     pub inputs: usize,
     /// Terms without a polynomial form, each a variable of its own after the inputs: see
-    /// [`Atom`]. Empty when every term is a power.
+    /// [`Atom`]; and the slope of every unknown hinge, which only the weak form's local test
+    /// functions read (white layout). Empty when every term is a power.
     pub atoms: Vec<Atom>,
 }
 
