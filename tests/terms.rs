@@ -19,6 +19,35 @@ fn sdof(stiffness: &str, c: f64) -> Scenario {
     Scenario::parse(&src, "test.toml", "sdof").unwrap()
 }
 
+/// `z^β_var` times every atom of `p` (of characteristic `kind`, or all) valued at `z` to its
+/// power in the monomial `e`: a term, or its slope (a hinge's step, for its local test
+/// functions). Taken as the mean of `z`'s two sides, so at a knot on a Simpson panel
+/// boundary the quadrature stays exact per piece.
+fn integrand(p: &Problem, e: u128, var: usize, kind: Option<fpkbench::model::Characteristic>, z: f64) -> f64 {
+    let d = p.density_dim();
+    let at = |z: f64| {
+        let mut f = z.powi(exponent(e, var) as i32);
+        for (a, atom) in p
+            .atoms
+            .iter()
+            .enumerate()
+            .filter(|(_, a)| kind.is_none_or(|k| a.kind == k))
+        {
+            let q = exponent(e, d + a);
+            if q > 0 {
+                let t = if atom.slope {
+                    atom.term.slope(z)
+                } else {
+                    atom.term.value(z)
+                };
+                f *= t.powi(q as i32);
+            }
+        }
+        f
+    };
+    0.5 * (at(z - 1e-9) + at(z + 1e-9))
+}
+
 /// With linear damping `c` the stationary density of `m ẍ + c ẋ + K(x) = σ ξ` is exactly
 /// `exp(−(2c/σ²)(m v²/2 + U(x)))`, `U' = K`, whatever the terms of `K`: the displacement
 /// and the velocity independent, the velocity Gaussian. Every generalised moment
@@ -70,26 +99,8 @@ fn the_weak_form_is_exact_on_the_exact_density_of_every_stiffness_term() {
             1 => 0.0,
             _ => (1..b).step_by(2).map(|k| k as f64).product::<f64>() * var_v.powi(b as i32 / 2),
         };
-        let d = p.density_dim();
         let mom = RawMoments::exact_monomials(p.dim(), weak::moment_degree(&p), &weak::required_moments(&p), |e| {
-            // A term or its slope (a hinge's step, for its local test functions), taken at
-            // a knot as the mean of its two sides: Simpson is then exact per piece.
-            let at = |x: f64| {
-                let mut f = x.powi(exponent(e, 0) as i32);
-                for (a, atom) in p.atoms.iter().enumerate() {
-                    let q = exponent(e, d + a);
-                    if q > 0 {
-                        let t = if atom.slope {
-                            atom.term.slope(x)
-                        } else {
-                            atom.term.value(x)
-                        };
-                        f *= t.powi(q as i32);
-                    }
-                }
-                f
-            };
-            let sum: f64 = (0..n).map(|i| w[i] * 0.5 * (at(xs[i] - 1e-9) + at(xs[i] + 1e-9))).sum();
+            let sum: f64 = (0..n).map(|i| w[i] * integrand(&p, e, 0, None, xs[i])).sum();
             sum / z * gauss(exponent(e, 1))
         });
         let pc = weak::pieces(&p, &mom);
@@ -155,30 +166,13 @@ fn local_test_functions_recover_hinges_exactly_on_an_exact_density() {
     // h = 2e-4 and 4e-4: the knots (±0.4; ±0.1, ±0.3, ±0.8, ±1.6) are even multiples.
     let (xs, wx) = grid(4.0, &|x| (-beta * (k1 * x * x / 2.0 + k3 * x.powi(4) / 4.0)).exp());
     let (vs, wv) = grid(8.0, &|v| (-beta * v * v / 2.0).exp());
-    let d = p.density_dim();
     use fpkbench::model::Characteristic;
     let mom = RawMoments::exact_monomials(p.dim(), weak::moment_degree(&p), &weak::required_moments(&p), |e| {
         let part = |points: &[f64], weights: &[f64], var: usize, kind| -> f64 {
-            let at = |z: f64| {
-                let mut f = z.powi(exponent(e, var) as i32);
-                for (a, atom) in p.atoms.iter().enumerate().filter(|(_, a)| a.kind == kind) {
-                    let q = exponent(e, d + a);
-                    if q > 0 {
-                        let t = if atom.slope {
-                            atom.term.slope(z)
-                        } else {
-                            atom.term.value(z)
-                        };
-                        f *= t.powi(q as i32);
-                    }
-                }
-                f
-            };
-            let eps = 1e-9;
             points
                 .iter()
                 .zip(weights)
-                .map(|(&z, &wz)| wz * 0.5 * (at(z - eps) + at(z + eps)))
+                .map(|(&z, &wz)| wz * integrand(&p, e, var, Some(kind), z))
                 .sum()
         };
         part(&xs, &wx, 0, Characteristic::Stiffness) * part(&vs, &wv, 1, Characteristic::Damping)
