@@ -4,9 +4,9 @@
 //! needed) and needs every force measured.
 
 use super::{refused, Context, Estimator, Setup};
-use crate::ident::baseline::{self, Increments};
+use crate::ident::baseline::{self, DriftRule, Increments};
 use crate::ident::{Estimate, IdentError};
-use crate::scenario::Process;
+use crate::scenario::{Process, Scenario, Scheme};
 
 /// The increment regression with the forces as known drift.
 struct ForceRegression(Increments);
@@ -31,14 +31,43 @@ pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
         .iter()
         .map(|e| !setup.measured && matches!(e.process, Process::White { .. }))
         .collect();
+    let rule = if setup.measured {
+        DriftRule::GaussLegendre
+    } else {
+        own_step(setup.scenario)
+    };
     match baseline::applicable(problem).and_then(|()| baseline::force_columns(problem, &interval_means)) {
         Ok(columns) => Box::new(ForceRegression(Increments::with_forces(
             problem,
             setup.sample_interval(),
             setup.data.batch_count(),
             columns,
+            rule,
         ))),
         Err(e) => refused(e),
+    }
+}
+
+/// The Euler step's own rule where fpkbench's log of `scenario` holds every integration
+/// step of white-forced states as the simulator took them (no sensors, no hysteretic state
+/// the regression cannot see); else Gauss–Legendre over the interval.
+fn own_step(scenario: &Scenario) -> DriftRule {
+    let sim = &scenario.simulation;
+    let sensors = &sim.sensors;
+    let every_step = sim.substeps == 1 && sim.steps_per_sample() == 1;
+    let clean = !sensors.noisy() && sensors.anti_alias.is_none() && sensors.bandwidth.is_none();
+    let white = scenario
+        .excitations
+        .iter()
+        .all(|e| matches!(e.process, Process::White { .. }));
+    let hysteretic = scenario.links.iter().any(|l| l.hysteresis.is_some());
+    match sim.scheme {
+        Scheme::SemiImplicit | Scheme::EulerMaruyama if every_step && clean && white && !hysteretic => {
+            DriftRule::EulerStep {
+                semi_implicit: sim.scheme == Scheme::SemiImplicit,
+            }
+        }
+        _ => DriftRule::GaussLegendre,
     }
 }
 

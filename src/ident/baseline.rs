@@ -226,6 +226,19 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
 }
 
+/// Where the force regression takes the drift over a sample interval.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DriftRule {
+    /// Its mean by 3-point Gauss–Legendre on the state interpolated between the interval's
+    /// ends: for any data, a bias of order `h²`.
+    GaussLegendre,
+    /// At the step's start, as an Euler scheme takes it: exact (to rounding) on
+    /// fpkbench's own log of white-forced states sampled at every integration step, so the
+    /// regression checks that the simulator and the identifier evaluate every term alike.
+    /// `semi_implicit`: the log's displacement is the step's midpoint.
+    EulerStep { semi_implicit: bool },
+}
+
 /// Sample pairs of one batch an [`Increments`] gathers before it evaluates their drifts
 /// together.
 const BLOCK: usize = 64;
@@ -258,6 +271,8 @@ pub struct Increments {
     /// Per state variable that is a displacement, its velocity's state variable (the
     /// force regression interpolates displacements by cubic Hermite).
     velocity_of: Vec<Option<usize>>,
+    /// Force regression: where it takes the drift over an interval.
+    rule: DriftRule,
     /// The sample in problem order, the atoms' values after the state (then, for the force
     /// regression, the instant-valued force on each mass).
     y: Vec<f64>,
@@ -288,6 +303,7 @@ impl Increments {
             pairs: Pairs::new(h),
             batches: vec![Normal::new(problem); batches.max(1)],
             forces: None,
+            rule: DriftRule::GaussLegendre,
             velocity_of: problem
                 .columns
                 .iter()
@@ -322,12 +338,20 @@ impl Increments {
     /// displacements by cubic Hermite (their derivatives, the velocities, are known at
     /// both ends), the velocities linearly. An oracle bound, not an FPK method: it
     /// uses the excitation forces, which the FPK methods never see. Needs every force
-    /// measured ([`force_columns`]).
-    pub fn with_forces(problem: &Problem, h: f64, batches: usize, forces: Vec<Vec<(usize, bool)>>) -> Increments {
+    /// measured ([`force_columns`]). With [`DriftRule::EulerStep`] the drift is the Euler
+    /// step's own instead.
+    pub fn with_forces(
+        problem: &Problem,
+        h: f64,
+        batches: usize,
+        forces: Vec<Vec<(usize, bool)>>,
+        rule: DriftRule,
+    ) -> Increments {
         Increments {
             // After the state: the instant-valued force on each mass.
             y: vec![0.0; problem.dim() + problem.n],
             forces: Some(forces),
+            rule,
             ..Increments::new(problem, h, batches)
         }
     }
@@ -416,6 +440,26 @@ impl Increments {
             pack(&block.start, &mut self.at);
             self.parts.parts.eval_block(&self.at[..d * lanes], lanes, values);
             values
+        } else if let DriftRule::EulerStep { semi_implicit } = self.rule {
+            // The step's start state, where the scheme took the drift: the semi-implicit
+            // scheme's logged displacement is its step's midpoint, x_n = x̃_n + h v_n / 2.
+            let (h, dd) = (self.pairs.h, p.density_dim());
+            let shift = if semi_implicit { 0.5 * h } else { 0.0 };
+            for l in 0..lanes {
+                for j in 0..dd {
+                    let y0 = block.start[j * BLOCK + l];
+                    self.point[j] = match self.velocity_of[j] {
+                        Some(v) => shift.mul_add(block.start[v * BLOCK + l], y0),
+                        None => y0,
+                    };
+                }
+                p.fill_atoms(&mut self.point, &mut self.row);
+                for k in 0..d {
+                    self.at[k * lanes + l] = self.point[k];
+                }
+            }
+            self.parts.parts.eval_block(&self.at[..d * lanes], lanes, values);
+            values
         } else {
             // Gauss–Legendre nodes on [0, 1] and weights.
             const R: f64 = 0.387_298_334_620_741_7; // √15 / 10
@@ -478,9 +522,10 @@ impl Increments {
             self.blocks.iter().all(|b| b.len == 0),
             "Increments::finish before estimate"
         );
-        let regression = match self.forces {
-            None => "Δv/h on the drift at the interval's start (Euler–Maruyama pseudo-likelihood)",
-            Some(_) => "Δv/h − F̄/m on the drift's mean over the interval (3-point Gauss–Legendre, displacements by cubic Hermite), the forces measured (an oracle)",
+        let regression = match (&self.forces, self.rule) {
+            (None, _) => "Δv/h on the drift at the interval's start (Euler–Maruyama pseudo-likelihood)",
+            (Some(_), DriftRule::GaussLegendre) => "Δv/h − F̄/m on the drift's mean over the interval (3-point Gauss–Legendre, displacements by cubic Hermite), the forces measured (an oracle)",
+            (Some(_), DriftRule::EulerStep { .. }) => "Δv/h − F̄/m on the drift at the integration step's start, as the simulator took it (the log holds every step; exact up to rounding), the forces measured (an oracle)",
         };
         let facts = vec![
             ("pairs".into(), format!("{} consecutive sample pairs", self.used)),
