@@ -287,6 +287,24 @@ fn friction_is_identified_with_its_own_terms_and_powers_are_biased() {
         curve(&hinges) < 0.5 && curve(&hinges) < curve(&powers) / 2.0,
         "{hinges}"
     );
+    // Neither damping model can represent a friction: their coefficients estimate no true
+    // ones and are not graded (null), the curve is (before: hinge "errors" of 1000 %
+    // against the characteristic's scale made the worst error). The stiffness, which both
+    // represent, is graded as a coefficient.
+    for (m, name) in [(&hinges, "chinge(0.05)[ground-m1]"), (&powers, "c1[ground-m1]")] {
+        let p = m["parameters"].as_array().unwrap().iter().find(|p| p["name"] == name).unwrap();
+        assert!(p["rel_error"].is_null(), "{p}");
+        assert!(m["worst_rel_error"].as_f64().unwrap() >= curve(m), "{m}");
+        assert!(err(m, "k1[ground-m1]") < 0.03, "{m}");
+    }
+    let graded = hinges["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|p| p["rel_error"].as_f64())
+        .chain(hinges["curves"].as_array().unwrap().iter().map(|c| c["rel_l2_error"].as_f64().unwrap()))
+        .fold(0.0, f64::max);
+    assert_eq!(hinges["worst_rel_error"].as_f64(), Some(graded), "{hinges}");
 }
 
 /// The clearance's gap profiled over ±50 %: the report's profile, the gap chosen within

@@ -150,10 +150,22 @@ pub(crate) fn fill_accuracy(
     let true_values = problem.true_values(&g.truth);
     // Measured data on a model file without values for the unknowns: nothing to grade.
     let graded = true_values.iter().all(|t| t.is_finite());
+    // A characteristic whose model cannot represent its truth (powers for a friction, hinges
+    // for a cubic) has coefficients that estimate no true ones: its curve grades it.
+    let represents = |l: usize, kind| {
+        let model: Vec<Term> = coef_of
+            .iter()
+            .flatten()
+            .filter(|c| c.link == l && c.kind == kind)
+            .map(|c| c.term)
+            .collect();
+        represents(&model, &true_curve(l, kind))
+    };
     let mut worst: f64 = 0.0;
     for (k, name) in problem.names.iter().enumerate() {
         let t = true_values[k];
         let rel = match coef_of[k] {
+            Some(c) if !represents(c.link, c.kind) => f64::NAN,
             Some(c) => stats::coefficient_error(values[k], t, c.term, &true_curve(c.link, c.kind), &on(c)),
             None => ((values[k] - t) / t).abs(),
         };
@@ -250,6 +262,22 @@ pub(crate) fn fill_accuracy(
         rep.passed = None;
         rep.gated = false;
     }
+}
+
+/// Whether a characteristic identified with the terms `model` can represent the true one:
+/// every term of the truth is among them, a position (gap, scale, knot) possibly elsewhere
+/// (as a profile leaves it). Else the model's coefficients estimate no true coefficients
+/// and only the curve's error grades it.
+fn represents(model: &[Term], truth: &crate::scenario::Curve) -> bool {
+    let same = |a: &Term, b: &Term| match (a, b) {
+        (Term::Power(p), Term::Power(q)) | (Term::SignedPower(p), Term::SignedPower(q)) => p == q,
+        _ => std::mem::discriminant(a) == std::mem::discriminant(b),
+    };
+    truth
+        .terms
+        .iter()
+        .filter(|(_, v)| *v != 0.0)
+        .all(|(t, _)| model.iter().any(|m| same(m, t)))
 }
 
 /// The coefficient behind each unknown (`None` for masses and intensities).

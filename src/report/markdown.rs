@@ -161,7 +161,9 @@ pub fn markdown(r: &Report) -> String {
           characteristic's scale, and a characteristic's L2 error is taken, under the observed density of its \
           argument (where the samples are; evenly over the observed range where a term is not a power). Standard errors: delete-one jackknife over the \
           record's batches; 95 % intervals: ± Student's t(0.975) standard errors. They measure the sampling \
-          noise only, not a method's bias.\n\n";
+          noise only, not a method's bias. A characteristic whose model cannot represent the truth (powers for a \
+          friction, hinges for a cubic) has no coefficient errors (—): its coefficients estimate no true ones, and \
+          its curve's L2 error grades it.\n\n";
     let motion = r.scenario_def.as_ref().map_or(Default::default(), |d| d.motion);
     for m in &r.methods {
         s += &method_section(m, motion);
