@@ -268,11 +268,57 @@ fn friction_is_identified_with_its_own_terms_and_powers_are_biased() {
         .find(|c| c["kind"] == "damping")
         .unwrap();
     assert!(damping["rel_l2_error"].as_f64().unwrap() > 0.5, "{damping}");
-    // Eight hinges on the damping, told apart by their local test functions (before them:
-    // refused as rank-deficient). At 1e4 s, seeds 1–10: curve error 3.2–25 % (median 10.6 %)
-    // against the powers' 65–117 %.
+    // The powers' coefficients of a damping that cannot represent a friction estimate no
+    // true ones and are not graded (null), the curve is (before: hinge "errors" of 1000 %
+    // against the characteristic's scale made the worst error); the stiffness is graded.
+    let c1 = powers["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "c1[ground-m1]")
+        .unwrap();
+    assert!(c1["rel_error"].is_null(), "{c1}");
+    assert!(err(&powers, "k1[ground-m1]") < 0.03, "{powers}");
+    // Eight hinges, two 0.08 m/s apart beside the jump: at a tenth of the record too few
+    // samples fall between them, and they are refused (seeds 1–10: on 9), naming why.
     let hinges = method("weak [hinges]");
-    assert_eq!(hinges["outcome"], "estimated", "{hinges}");
+    assert_eq!(hinges["outcome"], "refused", "{hinges}");
+    assert!(
+        hinges["error"].as_str().unwrap().contains("cannot be separated"),
+        "{hinges}"
+    );
+}
+
+/// The shipped eight hinges on the friction SDOF's damping at the shipped record (10⁵ s),
+/// told apart by their local test functions (before them: refused as rank-deficient): the
+/// curve within a few percent of a truth that jumps at 0 (seeds 1–10 and 1001–1010: median
+/// 2.61 %, max 4.30 %, floor 1.73 %; docs/results.md), the powers' 65–176 % off.
+#[test]
+fn eight_hinges_follow_a_friction_damper_at_the_shipped_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, stdout, stderr) = fpkbench(&[
+        "run",
+        "scenarios/friction_sdof.toml",
+        "--set",
+        "simulation.seed=1001",
+        "--method",
+        "weak",
+        "--json",
+        "--no-validate",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let r: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let method = |name: &str| {
+        r["methods"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["method"] == name)
+            .unwrap()
+            .clone()
+    };
     let curve = |m: &serde_json::Value| {
         m["curves"]
             .as_array()
@@ -283,26 +329,30 @@ fn friction_is_identified_with_its_own_terms_and_powers_are_biased() {
             .as_f64()
             .unwrap()
     };
-    assert!(
-        curve(&hinges) < 0.5 && curve(&hinges) < curve(&powers) / 2.0,
-        "{hinges}"
-    );
-    // Neither damping model can represent a friction: their coefficients estimate no true
-    // ones and are not graded (null), the curve is (before: hinge "errors" of 1000 %
-    // against the characteristic's scale made the worst error). The stiffness, which both
-    // represent, is graded as a coefficient.
-    for (m, name) in [(&hinges, "chinge(0.05)[ground-m1]"), (&powers, "c1[ground-m1]")] {
-        let p = m["parameters"].as_array().unwrap().iter().find(|p| p["name"] == name).unwrap();
-        assert!(p["rel_error"].is_null(), "{p}");
-        assert!(m["worst_rel_error"].as_f64().unwrap() >= curve(m), "{m}");
-        assert!(err(m, "k1[ground-m1]") < 0.03, "{m}");
-    }
+    let (hinges, powers) = (method("weak [hinges]"), method("weak [powers]"));
+    assert_eq!(hinges["outcome"], "estimated", "{hinges}");
+    assert!(curve(&hinges) < 0.06 && curve(&powers) > 0.5, "{hinges}");
+    // Hinges cannot represent a friction: their coefficients are not graded, the curve and
+    // the stiffness's coefficients are, and the worst error is the largest of those.
+    let p = hinges["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "chinge(0.04)[ground-m1]")
+        .unwrap();
+    assert!(p["rel_error"].is_null(), "{p}");
     let graded = hinges["parameters"]
         .as_array()
         .unwrap()
         .iter()
         .filter_map(|p| p["rel_error"].as_f64())
-        .chain(hinges["curves"].as_array().unwrap().iter().map(|c| c["rel_l2_error"].as_f64().unwrap()))
+        .chain(
+            hinges["curves"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| c["rel_l2_error"].as_f64().unwrap()),
+        )
         .fold(0.0, f64::max);
     assert_eq!(hinges["worst_rel_error"].as_f64(), Some(graded), "{hinges}");
 }
@@ -524,7 +574,10 @@ trajectories = 16
             .collect();
         (errors, facts)
     };
-    for scheme in [fpkbench::scenario::Scheme::SemiImplicit, fpkbench::scenario::Scheme::EulerMaruyama] {
+    for scheme in [
+        fpkbench::scenario::Scheme::SemiImplicit,
+        fpkbench::scenario::Scheme::EulerMaruyama,
+    ] {
         let mut s = base.clone();
         s.simulation.scheme = scheme;
         let (errors, facts) = run(&s);

@@ -376,10 +376,11 @@ fn parameter_table(r: &Report) -> String {
     {
         s += "; ° its 95 % interval contains 0 (the data do not ask for this term)";
     }
-    if methods
-        .iter()
-        .any(|m| m.parameters.iter().any(|p| p.rel_error.is_nan() && p.true_value.is_finite()))
-    {
+    if methods.iter().any(|m| {
+        m.parameters
+            .iter()
+            .any(|p| p.rel_error.is_nan() && p.true_value.is_finite())
+    }) {
         s += "; — the model's terms cannot represent the true characteristic: its coefficients estimate no true \
               ones, and the characteristic's curve error grades it";
     }
