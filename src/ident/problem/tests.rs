@@ -184,18 +184,19 @@ fn the_strong_forms_through_atoms_match_the_polynomial_form() {
 /// the state — give the estimates of the polynomial path on the same samples.
 #[test]
 fn the_increment_regressions_through_atoms_match_the_polynomial_form() {
-    use crate::ident::baseline::{force_columns, Increments};
+    use crate::ident::baseline::{force_columns, DriftRule, Increments};
     let (s, samples) = first_link_known("duffing2dof", 500.0);
     let spec = Specification::from_scenario(&s);
     let poly = Problem::from_spec(&spec, &[]).unwrap();
     let atoms = Problem::with_terms_as_atoms(&spec, &[], &[0, 1, 2]).unwrap();
     assert!(atoms.atoms.len() >= 6, "{} atoms", atoms.atoms.len());
     let h = s.simulation.sample_interval;
-    for forces in [false, true] {
+    let rules = [DriftRule::GaussLegendre, DriftRule::EulerStep { semi_implicit: true }];
+    for forces in [None, Some(rules[0]), Some(rules[1])] {
         let estimate = |p: &Problem| {
             let mut inc = match forces {
-                false => Increments::new(p, h, 8),
-                true => Increments::with_forces(p, h, 8, force_columns(p, &[true, true]).unwrap()),
+                None => Increments::new(p, h, 8),
+                Some(rule) => Increments::with_forces(p, h, 8, force_columns(p, &[true, true]).unwrap(), rule),
             };
             for b in &samples.batches {
                 b.for_each_sample(|j, t, row| inc.push(j as usize, t, (j as usize) % 8, row));
@@ -210,7 +211,7 @@ fn the_increment_regressions_through_atoms_match_the_polynomial_form() {
             let (x, y) = (a.values[k], b.values[k]);
             assert!(
                 (x - y).abs() <= 1e-9 * x.abs().max(1e-3),
-                "forces {forces}: {}: {x} against {y}",
+                "forces {forces:?}: {}: {x} against {y}",
                 a.names[k]
             );
         }
