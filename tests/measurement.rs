@@ -216,6 +216,15 @@ derive = true
 /// The SDOF Duffing oscillator sampled every 0.01 s (32 × 625 s) through the sensors of
 /// `measurement` (the body of a `[measurement]` section).
 fn fine_sdof(measurement: &str) -> (fpkbench::Model, fpkbench::sim::Collect) {
+    let s = fine_sdof_scenario(measurement);
+    let m = fpkbench::Model::new(&s);
+    let mut sink = fpkbench::sim::Collect::default();
+    fpkbench::sim::simulate(&m, &s.simulation, &mut sink, &|_| {}).unwrap();
+    (m, sink)
+}
+
+/// [`fine_sdof`]'s scenario.
+fn fine_sdof_scenario(measurement: &str) -> Scenario {
     let file = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/sdof_duffing.toml");
     let src = std::fs::read_to_string(file).unwrap().replace(
         "[identify]\n",
@@ -224,10 +233,7 @@ fn fine_sdof(measurement: &str) -> (fpkbench::Model, fpkbench::sim::Collect) {
     let mut s = Scenario::parse(&src, file, "sdof_duffing").unwrap();
     s.simulation.record_length = 625.0;
     s.simulation.sample_interval = 0.01;
-    let m = fpkbench::Model::new(&s);
-    let mut sink = fpkbench::sim::Collect::default();
-    fpkbench::sim::simulate(&m, &s.simulation, &mut sink, &|_| {}).unwrap();
-    (m, sink)
+    s
 }
 
 /// The SDOF Duffing oscillator as an accelerometer rig would log it ([`fine_sdof`]): a CSV
@@ -393,6 +399,56 @@ fn velocity_and_displacement_come_from_an_accelerometer() {
         .unwrap()
         .1;
     assert!(k3 < -6.0, "k3 with the accelerometer's noise ignored: z = {k3:.1}");
+}
+
+/// The same rig written in the scenario (`[measurement] sensors`): the simulation logs the
+/// accelerometer's output and keeps the displacement and velocity clean (bit for bit the
+/// motion without sensors), and the run identifies through the accelerometer alone —
+/// with the same estimates, noise and notes as the lab's path above (the same samples
+/// written to a CSV and read by a model file).
+#[test]
+fn a_rig_in_the_scenario_logs_its_sensors_and_is_identified_through_them() {
+    let sensors = "acceleration = 0.03\nsensors = { m1 = [\"acceleration\"] }";
+    let (m, rig) = fine_sdof(sensors);
+    let (_, plain) = fine_sdof("");
+    let c = m.columns();
+    let column = |sink: &fpkbench::sim::Collect, k: usize| {
+        let mut out = Vec::new();
+        for b in &sink.batches {
+            b.for_each_sample(|_, _, row| out.push(row[k]));
+        }
+        out
+    };
+    assert_eq!(column(&rig, c.x(0)), column(&plain, c.x(0)), "the displacement is clean");
+    assert_eq!(column(&rig, c.v(0)), column(&plain, c.v(0)), "the velocity is clean");
+    assert_ne!(column(&rig, c.a(0)), column(&plain, c.a(0)), "the accelerometer is noisy");
+    let options = Options {
+        methods: vec![Method::Weak],
+        validate: false,
+        ..Options::default()
+    };
+    let run = identify(&Input::simulation(fine_sdof_scenario(sensors)), &options).unwrap();
+    let (lab, _) = accelerometer_rig(0.03, "estimate");
+    assert!(
+        run.data_notes.iter().any(|n| n.contains("integrated from a_m1")),
+        "{:?}",
+        run.data_notes
+    );
+    let (a, b) = (&run.methods[0].parameters, &lab.methods[0].parameters);
+    assert_eq!(a.len(), b.len());
+    for (p, q) in a.iter().zip(b) {
+        assert_eq!(p.name, q.name);
+        assert!(p.true_value == q.true_value && p.rel_error.is_finite(), "{p:?}");
+        assert!(
+            (p.estimate - q.estimate).abs() <= 1e-9 * q.estimate.abs(),
+            "{}: {} through the scenario's rig, {} through the lab's path",
+            p.name,
+            p.estimate,
+            q.estimate
+        );
+    }
+    let noise = |r: &Report| r.sensor_noise.as_ref().unwrap().channels.iter().find(|c| c.column == "a_m1").unwrap().std;
+    assert!((noise(&run) / noise(&lab) - 1.0).abs() < 1e-9);
 }
 
 /// Force cells with noise of 30 % of the force's std on filtered2dof's measured filtered

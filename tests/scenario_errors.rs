@@ -560,3 +560,48 @@ fn given_sensor_noise_needs_a_measurement_section() {
         "add [measurement]",
     );
 }
+
+/// `[measurement] sensors`: a mass that does not exist, a sensor that is none, a mass with
+/// neither a displacement nor an acceleration sensor, a mass left out, a force cell where no
+/// force acts, and a noise level for a quantity no sensor gives.
+#[test]
+fn a_rigs_sensors_that_make_no_sense() {
+    let both = r#"m1 = ["acceleration"], m2 = ["acceleration"]"#;
+    for (name, sensors, key, allowed) in [
+        ("unknown_mass", r#"m3 = ["acceleration"]"#, "measurement.sensors.m3", "the masses: m1, m2"),
+        (
+            "no_sensor",
+            r#"m1 = ["strain"], m2 = ["acceleration"]"#,
+            "measurement.sensors.m1",
+            "one of displacement, velocity, acceleration, force",
+        ),
+        (
+            "velocity_alone",
+            r#"m1 = ["velocity"], m2 = ["acceleration"]"#,
+            "measurement.sensors.m1",
+            "a displacement or an acceleration sensor",
+        ),
+        ("mass_left_out", r#"m1 = ["acceleration"]"#, "measurement.sensors", "`m2` has no sensors"),
+        (
+            "cell_without_force",
+            r#"m1 = ["acceleration"], m2 = ["acceleration", "force"]"#,
+            "measurement.sensors.m2",
+            "no excitation acts on `m2`",
+        ),
+    ] {
+        run_bad(
+            name,
+            &format!("{GOOD}[measurement]\nsensors = {{ {sensors} }}\n"),
+            30,
+            key,
+            allowed,
+        );
+    }
+    run_bad(
+        "level_without_sensor",
+        &format!("{GOOD}[measurement]\ndisplacement = 0.1\nsensors = {{ {both} }}\n"),
+        30,
+        "measurement.displacement",
+        "no sensor gives",
+    );
+}

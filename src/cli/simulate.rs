@@ -117,7 +117,7 @@ pub(super) fn clipped_line(clipped: u64, samples: u64) -> String {
         return String::new();
     }
     format!(
-        "  WARNING: the ADC ([measurement] adc_range) clipped {clipped} displacement and velocity values in \
+        "  WARNING: the ADC ([measurement] adc_range) clipped {clipped} sensor values in \
          {samples} samples: clipping biases every moment; widen adc_range\n"
     )
 }

@@ -132,7 +132,7 @@ pub(crate) fn identify_disturbed(
 
     let validation = options
         .validate
-        .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ReportMethod::IteratedForce));
+        .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ReportMethod::IteratedForce, &[]));
     Ok(assemble(
         input,
         &grader,

@@ -402,7 +402,13 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
     let validation = match (first, options.validate) {
         (Some((values, method)), true) => {
             let noisy = super::sensors::for_validation(s, &taken_out);
-            Some(dist.validate(noisy.as_ref().unwrap_or(s), &reported, &values, method))
+            // A response integrated from accelerations carries the integrated accelerometer
+            // noise, slow and coloured, and lacks the motion below the drift removal's corner:
+            // its spectrum is not compared (the white noise the re-simulation adds matches its
+            // variance, not its spectrum); its std and kurtosis are.
+            let integrated = |c: &usize| input.measured().is_some_and(|d| d.integrated_noise.iter().any(|n| n.column == *c));
+            let spectra: Vec<bool> = reported.columns.iter().map(|c| !integrated(c)).collect();
+            Some(dist.validate(noisy.as_ref().unwrap_or(s), &reported, &values, method, &spectra))
         }
         _ => None,
     };

@@ -15,6 +15,7 @@ mod disturbed;
 mod grading;
 mod identify;
 mod profile;
+mod rig;
 mod sensors;
 mod source;
 mod spectra;
@@ -159,5 +160,9 @@ pub fn identify_log(path: &Path, options: &Options) -> Result<Report, PipelineEr
 /// [`LogInfo::accept_truncated`](crate::io::log::LogInfo::accept_truncated) to use what
 /// a truncated log still holds), measured tables, or a simulation in memory.
 pub fn identify(input: &Input, options: &Options) -> Result<Report, PipelineError> {
-    identify_info(input, options, Instant::now())
+    let start = Instant::now();
+    match rig::through_sensors(input)? {
+        Some(sensors) => identify_info(&sensors, options, start),
+        None => identify_info(input, options, start),
+    }
 }

@@ -249,6 +249,7 @@ impl Distributions {
         problem: &Problem,
         values: &[f64],
         method: ReportMethod,
+        spectra: &[bool],
     ) -> Validation {
         match validate(
             s,
@@ -257,6 +258,7 @@ impl Distributions {
             values,
             method.clone(),
             &self.marg,
+            spectra,
         ) {
             Ok((val, m)) => {
                 self.model_marg = Some(m);
@@ -423,7 +425,9 @@ fn misfits(rows: &[ValidationRow]) -> Vec<Misfit> {
 }
 
 /// Re-simulate the identified model with the same excitation (another seed) and compare
-/// std, kurtosis and spectrum of every response with the data's.
+/// std, kurtosis and spectrum of every response with the data's (the spectrum where
+/// `spectra[j]`, or `spectra` is empty).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn validate(
     s: &Scenario,
     problem: &Problem,
@@ -431,6 +435,7 @@ pub(crate) fn validate(
     values: &[f64],
     method: ReportMethod,
     data: &Marginals,
+    spectra: &[bool],
 ) -> Result<(Validation, Marginals), SimError> {
     let model = identified_model(s, problem, coef_of, values);
     // The same run, another seed, at most 1e5 s of trajectory time: enough for std and
@@ -454,7 +459,11 @@ pub(crate) fn validate(
                 data_kurtosis: dk,
                 model_kurtosis: mk,
                 kurtosis_difference_se: data.kurtosis_error(j).hypot(m.kurtosis_error(j)),
-                spectrum: compare_spectra(&data.welch[j].spectrum(), &m.welch[j].spectrum()),
+                spectrum: spectra
+                    .get(j)
+                    .is_none_or(|&c| c)
+                    .then(|| compare_spectra(&data.welch[j].spectrum(), &m.welch[j].spectrum()))
+                    .flatten(),
             }
         })
         .collect::<Vec<_>>();

@@ -9,6 +9,7 @@
 pub mod overrides;
 mod paper;
 mod raw;
+mod rig;
 mod validate;
 
 use crate::model::{Characteristic, Term};
@@ -98,6 +99,7 @@ impl Scheme {
 
 /// Identification methods are named by the estimators' registry (`estimators/mod.rs`).
 pub use crate::estimators::Method;
+pub use rig::MassSensors;
 
 // ---------------------------------------------------------------------------------------
 // Raw TOML, spans kept.
@@ -233,6 +235,8 @@ pub struct Sensors {
     pub anti_alias: Option<AntiAlias>,
     /// Every sensor's bandwidth, Hz: a second-order Butterworth low-pass at it.
     pub bandwidth: Option<f64>,
+    /// `sensors`: per mass, what the rig measures; `None`: every displacement and velocity.
+    pub rig: Option<Vec<MassSensors>>,
 }
 
 /// An anti-alias filter: a Butterworth low-pass of `order` with its −3 dB corner at

@@ -41,6 +41,7 @@ pub(crate) struct RawMeasurement {
     pub(super) anti_alias: Option<Spanned<f64>>,
     pub(super) anti_alias_order: Option<Spanned<i64>>,
     pub(super) bandwidth: Option<Spanned<f64>>,
+    pub(super) sensors: Option<Spanned<BTreeMap<String, Spanned<Vec<Spanned<String>>>>>>,
 }
 
 /// `[data]`: how measured data map onto the model (a model file for `identify --model`).

@@ -265,6 +265,7 @@ pub(crate) fn simulate_padded<const D: usize>(
     })?;
 
     let mut sensors = sensors::SensorNoise::new(model, &sim.sensors, sim.seed);
+    let channels = sensors::channels(model, &sim.sensors);
     // The sensors' filters run on the motion sampled `r` times faster (module `filters`):
     // each group keeps its lanes' filter states and a block of fast samples.
     let filter = filters::SensorFilter::new(&sim.sensors, interval, steps).map_err(SimError::Sensors)?;
@@ -332,11 +333,27 @@ pub(crate) fn simulate_padded<const D: usize>(
                     run_group(g, model, &lm, steps / r, b * r, interval / r as f64, t0, &mut slices)?;
                     drop(slices);
                     let (act, sl) = (g.active, f.state_len());
+                    let at = |k: usize, c: usize, j: usize| w.fast[(k * cols + c) * act + j];
                     for c in 0..cols {
                         for j in 0..act {
-                            let state = &mut w.state[(c * act + j) * sl..(c * act + j + 1) * sl];
-                            let samples = (0..b * r).map(|k| w.fast[(k * cols + c) * act + j]);
-                            f.run(state, w.started, samples, |k, y| out[k * cols + c][j] = y);
+                            match channels[c] {
+                                sensors::Channel::Sensor => {
+                                    let state = &mut w.state[(c * act + j) * sl..(c * act + j + 1) * sl];
+                                    let samples = (0..b * r).map(|k| at(k, c, j));
+                                    f.run(state, w.started, samples, |k, y| out[k * cols + c][j] = y);
+                                }
+                                // A clean state the rig does not measure: unfiltered.
+                                sensors::Channel::Instant => {
+                                    for k in 0..b {
+                                        out[k * cols + c][j] = at(k * r + r - 1, c, j);
+                                    }
+                                }
+                                sensors::Channel::Mean => {
+                                    for k in 0..b {
+                                        out[k * cols + c][j] = (0..r).map(|q| at(k * r + q, c, j)).sum::<f64>() / r as f64;
+                                    }
+                                }
+                            }
                         }
                     }
                     w.started = true;

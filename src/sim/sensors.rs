@@ -1,6 +1,7 @@
 //! The sensors between the simulated motion and the log: white Gaussian noise added to
 //! every mass's displacement and velocity, and to the accelerations and forces where the
-//! rig measures them, as `[measurement]` states (docs/measurement.md).
+//! rig measures them, as `[measurement]` states (docs/measurement.md). With `sensors`, only
+//! the channels the rig's sensors give; the others are logged clean ([`channels`]).
 //!
 //! Each noise value comes from a counter-based generator keyed by the run's seed, the
 //! trajectory, the sample's index in it and the column, so it does not depend on the thread
@@ -11,6 +12,38 @@ use super::sinks::SampleBatch;
 use crate::model::Model;
 use crate::scenario::{NoiseScale, Sensors};
 use rayon::prelude::*;
+
+/// What a log column is on a rig ([`channels`]): a sensor's output (noise, ADC and
+/// filters apply), or a clean state kept for diagnostics — a value at the sample instant,
+/// or a mean over the interval (an acceleration as `Δv/h`, a white force's impulse).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Channel {
+    Sensor,
+    Instant,
+    Mean,
+}
+
+/// Per log column of `model`, what `sensors` make of it: every column a sensor's without
+/// `[measurement] sensors`, else those its masses' sensors give.
+pub(crate) fn channels(model: &Model, sensors: &Sensors) -> Vec<Channel> {
+    let c = model.columns();
+    let Some(rig) = &sensors.rig else {
+        return vec![Channel::Sensor; c.len()];
+    };
+    let mut out = vec![Channel::Instant; c.len()];
+    let pick = |on: bool, clean: Channel| if on { Channel::Sensor } else { clean };
+    for (i, m) in rig.iter().enumerate() {
+        out[c.x(i)] = pick(m.displacement, Channel::Instant);
+        out[c.v(i)] = pick(m.velocity, Channel::Instant);
+        out[c.a(i)] = pick(m.acceleration, Channel::Mean);
+    }
+    for (e, exc) in model.excitations.iter().enumerate() {
+        let white = matches!(exc.process, crate::scenario::Process::White { .. });
+        let cell = exc.targets.iter().any(|&i| rig[i].force);
+        out[c.force(e)] = pick(cell, if white { Channel::Mean } else { Channel::Instant });
+    }
+    out
+}
 
 /// The noise of a run's sensors.
 pub(crate) struct SensorNoise {
@@ -56,6 +89,16 @@ impl SensorNoise {
         if !sensors.columns.is_empty() {
             level.clone_from(&sensors.columns);
             level.resize(c.len(), 0.0);
+        }
+        if sensors.rig.is_some() {
+            // A rig's sensors alone: its ADC converts every one of them, the clean states
+            // stay clean.
+            for (k, ch) in channels(model, sensors).into_iter().enumerate() {
+                if ch != Channel::Sensor {
+                    level[k] = 0.0;
+                }
+                range[k] = if ch == Channel::Sensor { adc } else { 0.0 };
+            }
         }
         let relative = sensors.scale == NoiseScale::Relative && sensors.columns.is_empty();
         Some(SensorNoise {

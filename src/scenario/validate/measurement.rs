@@ -69,7 +69,24 @@ pub(crate) fn check_measurement(loc: &Locator, raw: &RawScenario) -> Result<Sens
             ))
         }
     };
+    let rig = check_rig(loc, raw, m)?;
+    let measures = |f: fn(&MassSensors) -> bool| rig.as_ref().is_none_or(|r| r.iter().any(f));
+    for (v, key, given, word) in [
+        (&m.displacement, "measurement.displacement", measures(|s| s.displacement), "displacement"),
+        (&m.velocity, "measurement.velocity", measures(|s| s.velocity), "velocity"),
+        (&m.acceleration, "measurement.acceleration", measures(|s| s.acceleration), "acceleration"),
+        (&m.force, "measurement.force", measures(|s| s.force), "force"),
+    ] {
+        if let (Some(v), false) = (v, given) {
+            return Err(loc.at(
+                v.span(),
+                key,
+                format!("a noise level for a quantity no sensor gives: add \"{word}\" to a mass's `sensors`, or leave it out"),
+            ));
+        }
+    }
     Ok(Sensors {
+        rig,
         scale: m.noise,
         displacement: level(&m.displacement, "measurement.displacement")?,
         velocity: level(&m.velocity, "measurement.velocity")?,
@@ -160,4 +177,63 @@ pub(crate) fn check_sensor_filters(
     crate::sim::filters::SensorFilter::new(&sim.sensors, sim.sample_interval, sim.steps_per_sample() * sim.substeps)
         .map(|_| ())
         .map_err(|e| loc.at(span, key, e))
+}
+
+/// `sensors = { m1 = ["acceleration", "force"], … }`: every mass listed, each with a
+/// displacement or an acceleration sensor (the state is rebuilt from one of them), a force
+/// cell only where a force acts; not in a model file (its `[data]` says what was measured).
+fn check_rig(loc: &Locator, raw: &RawScenario, m: &RawMeasurement) -> Result<Option<Vec<MassSensors>>, ScenarioError> {
+    let Some(table) = &m.sensors else { return Ok(None) };
+    if raw.data.is_some() {
+        return Err(loc.at(
+            table.span(),
+            "measurement.sensors",
+            "sensors describe a simulated rig; a model file's [data] maps the columns that were measured",
+        ));
+    }
+    let names: Vec<&str> = raw.mass.iter().map(|m| m.name.get_ref().as_str()).collect();
+    let mut rig = vec![None; names.len()];
+    for (mass, words) in table.get_ref() {
+        let key = format!("measurement.sensors.{mass}");
+        let Some(i) = names.iter().position(|n| n == mass) else {
+            return Err(loc.at(words.span(), key, format!("no mass is named `{mass}`; the masses: {}", names.join(", "))));
+        };
+        let mut s = MassSensors::default();
+        for w in words.get_ref() {
+            let flag = match w.get_ref().as_str() {
+                "displacement" => &mut s.displacement,
+                "velocity" => &mut s.velocity,
+                "acceleration" => &mut s.acceleration,
+                "force" => &mut s.force,
+                other => {
+                    return Err(loc.at(
+                        w.span(),
+                        key,
+                        format!("`{other}` is no sensor: one of {}", MassSensors::WORDS.join(", ")),
+                    ))
+                }
+            };
+            *flag = true;
+        }
+        if !s.displacement && !s.acceleration {
+            return Err(loc.at(
+                words.span(),
+                key,
+                "a mass needs a displacement or an acceleration sensor: its motion is rebuilt from one of them",
+            ));
+        }
+        let pushed = raw.excitation.iter().any(|e| e.acts_on.get_ref().iter().any(|t| t.get_ref() == mass));
+        if s.force && !pushed {
+            return Err(loc.at(words.span(), key, format!("no excitation acts on `{mass}`: there is no force to measure")));
+        }
+        rig[i] = Some(s);
+    }
+    if let Some(i) = rig.iter().position(Option::is_none) {
+        return Err(loc.at(
+            table.span(),
+            "measurement.sensors",
+            format!("`{}` has no sensors: list every mass with what its sensors give", names[i]),
+        ));
+    }
+    Ok(Some(rig.into_iter().flatten().collect()))
 }
