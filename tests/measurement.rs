@@ -419,9 +419,17 @@ fn a_rig_in_the_scenario_logs_its_sensors_and_is_identified_through_them() {
         }
         out
     };
-    assert_eq!(column(&rig, c.x(0)), column(&plain, c.x(0)), "the displacement is clean");
+    assert_eq!(
+        column(&rig, c.x(0)),
+        column(&plain, c.x(0)),
+        "the displacement is clean"
+    );
     assert_eq!(column(&rig, c.v(0)), column(&plain, c.v(0)), "the velocity is clean");
-    assert_ne!(column(&rig, c.a(0)), column(&plain, c.a(0)), "the accelerometer is noisy");
+    assert_ne!(
+        column(&rig, c.a(0)),
+        column(&plain, c.a(0)),
+        "the accelerometer is noisy"
+    );
     let options = Options {
         methods: vec![Method::Weak],
         validate: false,
@@ -447,7 +455,16 @@ fn a_rig_in_the_scenario_logs_its_sensors_and_is_identified_through_them() {
             q.estimate
         );
     }
-    let noise = |r: &Report| r.sensor_noise.as_ref().unwrap().channels.iter().find(|c| c.column == "a_m1").unwrap().std;
+    let noise = |r: &Report| {
+        r.sensor_noise
+            .as_ref()
+            .unwrap()
+            .channels
+            .iter()
+            .find(|c| c.column == "a_m1")
+            .unwrap()
+            .std
+    };
     assert!((noise(&run) / noise(&lab) - 1.0).abs() < 1e-9);
 }
 

@@ -568,7 +568,12 @@ fn given_sensor_noise_needs_a_measurement_section() {
 fn a_rigs_sensors_that_make_no_sense() {
     let both = r#"m1 = ["acceleration"], m2 = ["acceleration"]"#;
     for (name, sensors, key, allowed) in [
-        ("unknown_mass", r#"m3 = ["acceleration"]"#, "measurement.sensors.m3", "the masses: m1, m2"),
+        (
+            "unknown_mass",
+            r#"m3 = ["acceleration"]"#,
+            "measurement.sensors.m3",
+            "the masses: m1, m2",
+        ),
         (
             "no_sensor",
             r#"m1 = ["strain"], m2 = ["acceleration"]"#,
@@ -581,7 +586,12 @@ fn a_rigs_sensors_that_make_no_sense() {
             "measurement.sensors.m1",
             "a displacement or an acceleration sensor",
         ),
-        ("mass_left_out", r#"m1 = ["acceleration"]"#, "measurement.sensors", "`m2` has no sensors"),
+        (
+            "mass_left_out",
+            r#"m1 = ["acceleration"]"#,
+            "measurement.sensors",
+            "`m2` has no sensors",
+        ),
         (
             "cell_without_force",
             r#"m1 = ["acceleration"], m2 = ["acceleration", "force"]"#,

@@ -130,9 +130,15 @@ pub(crate) fn identify_disturbed(
     reports.push(direct);
     reports.extend(bounds);
 
-    let validation = options
-        .validate
-        .then(|| dist.validate(s, &problem, iterations[1].iteration.last(), ReportMethod::IteratedForce, &[]));
+    let validation = options.validate.then(|| {
+        dist.validate(
+            s,
+            &problem,
+            iterations[1].iteration.last(),
+            ReportMethod::IteratedForce,
+            &[],
+        )
+    });
     Ok(assemble(
         input,
         &grader,

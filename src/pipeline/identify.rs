@@ -406,7 +406,11 @@ pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) ->
             // noise, slow and coloured, and lacks the motion below the drift removal's corner:
             // its spectrum is not compared (the white noise the re-simulation adds matches its
             // variance, not its spectrum); its std and kurtosis are.
-            let integrated = |c: &usize| input.measured().is_some_and(|d| d.integrated_noise.iter().any(|n| n.column == *c));
+            let integrated = |c: &usize| {
+                input
+                    .measured()
+                    .is_some_and(|d| d.integrated_noise.iter().any(|n| n.column == *c))
+            };
             let spectra: Vec<bool> = reported.columns.iter().map(|c| !integrated(c)).collect();
             Some(dist.validate(noisy.as_ref().unwrap_or(s), &reported, &values, method, &spectra))
         }

@@ -38,7 +38,12 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
                 wanted.push(column);
             }
         }
-        for (e, _) in s.excitations.iter().enumerate().filter(|(_, e)| m.force && e.acts_on.contains(&i)) {
+        for (e, _) in s
+            .excitations
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| m.force && e.acts_on.contains(&i))
+        {
             if !wanted.contains(&layout.force(e)) {
                 wanted.push(layout.force(e));
             }
@@ -56,7 +61,11 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
     let channels: Vec<String> = wanted.iter().map(|&c| names[c].clone()).collect();
     let table = Table {
         path: PathBuf::from(format!("<{}: the rig's sensors>", s.name)),
-        names: ["trajectory", "t"].iter().map(|n| n.to_string()).chain(channels.iter().cloned()).collect(),
+        names: ["trajectory", "t"]
+            .iter()
+            .map(|n| n.to_string())
+            .chain(channels.iter().cloned())
+            .collect(),
         columns,
         record_labels: None,
     };

@@ -41,8 +41,11 @@ pub(crate) struct RawMeasurement {
     pub(super) anti_alias: Option<Spanned<f64>>,
     pub(super) anti_alias_order: Option<Spanned<i64>>,
     pub(super) bandwidth: Option<Spanned<f64>>,
-    pub(super) sensors: Option<Spanned<BTreeMap<String, Spanned<Vec<Spanned<String>>>>>>,
+    pub(super) sensors: Option<Spanned<BTreeMap<String, Spanned<Words>>>>,
 }
+
+/// A list of words, each with its place in the file.
+pub(crate) type Words = Vec<Spanned<String>>;
 
 /// `[data]`: how measured data map onto the model (a model file for `identify --model`).
 #[derive(Deserialize)]

@@ -350,7 +350,8 @@ pub(crate) fn simulate_padded<const D: usize>(
                                 }
                                 sensors::Channel::Mean => {
                                     for k in 0..b {
-                                        out[k * cols + c][j] = (0..r).map(|q| at(k * r + q, c, j)).sum::<f64>() / r as f64;
+                                        out[k * cols + c][j] =
+                                            (0..r).map(|q| at(k * r + q, c, j)).sum::<f64>() / r as f64;
                                     }
                                 }
                             }

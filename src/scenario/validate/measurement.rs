@@ -72,9 +72,24 @@ pub(crate) fn check_measurement(loc: &Locator, raw: &RawScenario) -> Result<Sens
     let rig = check_rig(loc, raw, m)?;
     let measures = |f: fn(&MassSensors) -> bool| rig.as_ref().is_none_or(|r| r.iter().any(f));
     for (v, key, given, word) in [
-        (&m.displacement, "measurement.displacement", measures(|s| s.displacement), "displacement"),
-        (&m.velocity, "measurement.velocity", measures(|s| s.velocity), "velocity"),
-        (&m.acceleration, "measurement.acceleration", measures(|s| s.acceleration), "acceleration"),
+        (
+            &m.displacement,
+            "measurement.displacement",
+            measures(|s| s.displacement),
+            "displacement",
+        ),
+        (
+            &m.velocity,
+            "measurement.velocity",
+            measures(|s| s.velocity),
+            "velocity",
+        ),
+        (
+            &m.acceleration,
+            "measurement.acceleration",
+            measures(|s| s.acceleration),
+            "acceleration",
+        ),
         (&m.force, "measurement.force", measures(|s| s.force), "force"),
     ] {
         if let (Some(v), false) = (v, given) {
@@ -196,7 +211,11 @@ fn check_rig(loc: &Locator, raw: &RawScenario, m: &RawMeasurement) -> Result<Opt
     for (mass, words) in table.get_ref() {
         let key = format!("measurement.sensors.{mass}");
         let Some(i) = names.iter().position(|n| n == mass) else {
-            return Err(loc.at(words.span(), key, format!("no mass is named `{mass}`; the masses: {}", names.join(", "))));
+            return Err(loc.at(
+                words.span(),
+                key,
+                format!("no mass is named `{mass}`; the masses: {}", names.join(", ")),
+            ));
         };
         let mut s = MassSensors::default();
         for w in words.get_ref() {
@@ -222,9 +241,16 @@ fn check_rig(loc: &Locator, raw: &RawScenario, m: &RawMeasurement) -> Result<Opt
                 "a mass needs a displacement or an acceleration sensor: its motion is rebuilt from one of them",
             ));
         }
-        let pushed = raw.excitation.iter().any(|e| e.acts_on.get_ref().iter().any(|t| t.get_ref() == mass));
+        let pushed = raw
+            .excitation
+            .iter()
+            .any(|e| e.acts_on.get_ref().iter().any(|t| t.get_ref() == mass));
         if s.force && !pushed {
-            return Err(loc.at(words.span(), key, format!("no excitation acts on `{mass}`: there is no force to measure")));
+            return Err(loc.at(
+                words.span(),
+                key,
+                format!("no excitation acts on `{mass}`: there is no force to measure"),
+            ));
         }
         rig[i] = Some(s);
     }
@@ -232,7 +258,10 @@ fn check_rig(loc: &Locator, raw: &RawScenario, m: &RawMeasurement) -> Result<Opt
         return Err(loc.at(
             table.span(),
             "measurement.sensors",
-            format!("`{}` has no sensors: list every mass with what its sensors give", names[i]),
+            format!(
+                "`{}` has no sensors: list every mass with what its sensors give",
+                names[i]
+            ),
         ));
     }
     Ok(Some(rig.into_iter().flatten().collect()))
