@@ -209,6 +209,29 @@ fn fpkbench(args: &[&str]) -> (Option<i32>, String, String) {
     )
 }
 
+/// The report of method `name` in a `--json` report.
+fn method_of(r: &serde_json::Value, name: &str) -> serde_json::Value {
+    r["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["method"] == name)
+        .unwrap()
+        .clone()
+}
+
+/// A method report's relative L2 error of `link`'s characteristic `kind`.
+fn curve_error(m: &serde_json::Value, link: &str, kind: &str) -> f64 {
+    m["curves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["link"] == link && c["kind"] == kind)
+        .unwrap()["rel_l2_error"]
+        .as_f64()
+        .unwrap()
+}
+
 /// The friction SDOF simulated and identified with its own terms by the weak form, the
 /// increment regression and the oracle; the powers-only comparison's damping curve far
 /// from the truth. At 1e4 s (a tenth of the shipped record) over 10 seeds the weak form's
@@ -233,15 +256,7 @@ fn friction_is_identified_with_its_own_terms_and_powers_are_biased() {
     ]);
     assert!(code == Some(0) || code == Some(1), "{code:?}: {stderr}");
     let r: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    let method = |name: &str| {
-        r["methods"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["method"] == name)
-            .unwrap()
-            .clone()
-    };
+    let method = |name: &str| method_of(&r, name);
     let weak = method("weak");
     let err = |m: &serde_json::Value, p: &str| {
         m["parameters"]
@@ -261,13 +276,7 @@ fn friction_is_identified_with_its_own_terms_and_powers_are_biased() {
     // of the jump, 25 %: it is not compared here).
     assert_eq!(method("force-regression")["outcome"], "estimated");
     let powers = method("weak [powers]");
-    let damping = powers["curves"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|c| c["kind"] == "damping")
-        .unwrap();
-    assert!(damping["rel_l2_error"].as_f64().unwrap() > 0.5, "{damping}");
+    assert!(curve_error(&powers, "ground-m1", "damping") > 0.5, "{powers}");
     // The powers' coefficients of a damping that cannot represent a friction estimate no
     // true ones and are not graded (null), the curve is (before: hinge "errors" of 1000 %
     // against the characteristic's scale made the worst error); the stiffness is graded.
@@ -310,25 +319,8 @@ fn eight_hinges_follow_a_friction_damper_at_the_shipped_record() {
     ]);
     assert_eq!(code, Some(0), "{stderr}");
     let r: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    let method = |name: &str| {
-        r["methods"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["method"] == name)
-            .unwrap()
-            .clone()
-    };
-    let curve = |m: &serde_json::Value| {
-        m["curves"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|c| c["kind"] == "damping")
-            .unwrap()["rel_l2_error"]
-            .as_f64()
-            .unwrap()
-    };
+    let method = |name: &str| method_of(&r, name);
+    let curve = |m: &serde_json::Value| curve_error(m, "ground-m1", "damping");
     let (hinges, powers) = (method("weak [hinges]"), method("weak [powers]"));
     assert_eq!(hinges["outcome"], "estimated", "{hinges}");
     assert!(curve(&hinges) < 0.06 && curve(&powers) > 0.5, "{hinges}");
@@ -403,21 +395,9 @@ fn a_gap_is_profiled_and_its_position_reported() {
     // (seeds 1–10) the coupling's curve is 2.2–9.5 % off with hinges, 10.7–64 % with powers,
     // the hinges better on every seed.
     let coupling = |name: &str| {
-        let m = r["methods"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["method"] == name)
-            .unwrap();
+        let m = method_of(&r, name);
         assert_eq!(m["outcome"], "estimated", "{m}");
-        m["curves"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|c| c["link"] == "m1-m2" && c["kind"] == "stiffness")
-            .unwrap()["rel_l2_error"]
-            .as_f64()
-            .unwrap()
+        curve_error(&m, "m1-m2", "stiffness")
     };
     let (hinges, powers) = (coupling("weak [hinges]"), coupling("weak [powers]"));
     assert!(hinges < 0.2 && hinges < powers, "hinges {hinges}, powers {powers}");
@@ -540,8 +520,8 @@ fn the_weak_form_is_exact_on_an_energy_dependent_dampings_density() {
 /// where the Euler scheme took it (`DriftRule::EulerStep`), so its equation error is
 /// rounding alone: every coefficient of every term kind, on a grounded and a coupling
 /// link, comes back to machine precision — the simulator and the identifier evaluate each
-/// term alike (sign conventions, gaps, knots, scales). Both Euler schemes; the default
-/// sampling (every 100th step) keeps Gauss–Legendre and its interval bias.
+/// term alike (sign conventions, gaps, knots, scales). Both Euler schemes; sampled every
+/// 20th step the regression keeps Gauss–Legendre and its interval bias.
 #[test]
 fn the_force_regression_recovers_every_term_to_machine_precision_on_its_own_steps() {
     let src = r#"
