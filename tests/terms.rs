@@ -220,6 +220,16 @@ fn method_of(r: &serde_json::Value, name: &str) -> serde_json::Value {
         .clone()
 }
 
+/// A method report's parameter `name`.
+fn parameter_of<'a>(m: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
+    m["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == name)
+        .unwrap()
+}
+
 /// A method report's relative L2 error of `link`'s characteristic `kind`.
 fn curve_error(m: &serde_json::Value, link: &str, kind: &str) -> f64 {
     m["curves"]
@@ -258,17 +268,7 @@ fn friction_is_identified_with_its_own_terms_and_powers_are_biased() {
     let r: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     let method = |name: &str| method_of(&r, name);
     let weak = method("weak");
-    let err = |m: &serde_json::Value, p: &str| {
-        m["parameters"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|x| x["name"] == p)
-            .unwrap()["rel_error"]
-            .as_f64()
-            .unwrap()
-            .abs()
-    };
+    let err = |m: &serde_json::Value, p: &str| parameter_of(m, p)["rel_error"].as_f64().unwrap().abs();
     assert!(err(&weak, "csign[ground-m1]") < 0.18, "{weak}");
     assert!(err(&weak, "c1[ground-m1]") < 0.26, "{weak}");
     assert!(err(&weak, "k1[ground-m1]") < 0.03, "{weak}");
@@ -280,12 +280,7 @@ fn friction_is_identified_with_its_own_terms_and_powers_are_biased() {
     // The powers' coefficients of a damping that cannot represent a friction estimate no
     // true ones and are not graded (null), the curve is (before: hinge "errors" of 1000 %
     // against the characteristic's scale made the worst error); the stiffness is graded.
-    let c1 = powers["parameters"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|p| p["name"] == "c1[ground-m1]")
-        .unwrap();
+    let c1 = parameter_of(&powers, "c1[ground-m1]");
     assert!(c1["rel_error"].is_null(), "{c1}");
     assert!(err(&powers, "k1[ground-m1]") < 0.03, "{powers}");
     // Eight hinges, two 0.08 m/s apart beside the jump: at a tenth of the record too few
@@ -326,12 +321,7 @@ fn eight_hinges_follow_a_friction_damper_at_the_shipped_record() {
     assert!(curve(&hinges) < 0.06 && curve(&powers) > 0.5, "{hinges}");
     // Hinges cannot represent a friction: their coefficients are not graded, the curve and
     // the stiffness's coefficients are, and the worst error is the largest of those.
-    let p = hinges["parameters"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|p| p["name"] == "chinge(0.04)[ground-m1]")
-        .unwrap();
+    let p = parameter_of(&hinges, "chinge(0.04)[ground-m1]");
     assert!(p["rel_error"].is_null(), "{p}");
     let graded = hinges["parameters"]
         .as_array()
