@@ -12,6 +12,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 static REQUESTED: AtomicBool = AtomicBool::new(false);
 
+/// How many samples a long loop handles between two looks at the flag (a few
+/// milliseconds of work); passes also update their progress counts at this cadence.
+pub const LOOK_EVERY: usize = 1 << 14;
+
 /// Ask every running call to stop.
 pub fn request() {
     REQUESTED.store(true, Ordering::Relaxed);

@@ -3,10 +3,11 @@
 //! excited multi-mass system identified from the stationary density of its response via
 //! the Fokker–Planck–Kolmogorov equation.
 //!
-//! Dependencies point one way: `pipeline` → `report`, `io` → `ident`, `sim`, `stats` →
-//! `model` → `scenario`; the numerics never import file formats, plotting or the CLI
-//! (which lives in the binary). `docs/architecture.md` lists every module; the
-//! mathematics, with the function implementing each equation, is in `docs/theory.md`.
+//! Dependencies point one way, in the layers of `docs/architecture.md` ("Layers", kept by
+//! `tests/layering.rs`); the numerics never import file formats, plotting or the CLI
+//! (which lives in the binary). `docs/architecture.md` lists every module and the stages
+//! of an identification; the mathematics, with the function implementing each equation,
+//! is in `docs/theory.md`.
 //!
 //! Identify a linear oscillator from its simulated stationary response with the weak form:
 //!

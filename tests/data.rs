@@ -684,12 +684,17 @@ fn validation_spectra_tell_a_wrong_model_from_the_right_one() {
         let model = Scenario::parse(model_text, "model.toml", "m").unwrap();
         let info = Input::tables(model.clone(), measured(&model, vec![table.clone().into()]).unwrap());
         let r = identify(&info, &with_validation).unwrap();
+        let checks: Vec<&str> = r.failed_checks.iter().map(|c| c.check).collect();
         let v = r.validation.expect("validated");
         let row = v.rows.iter().find(|row| row.variable == "x_m1").unwrap();
-        row.spectrum.clone().expect("compared")
+        (row.spectrum.clone().expect("compared"), checks, r.passed)
     };
-    let right = spectrum_of_x(MODEL);
-    let wrong = spectrum_of_x(&MODEL.replace("stiffness = [1, 3]", "stiffness = [1]"));
+    let (right, right_checks, right_passed) = spectrum_of_x(MODEL);
+    let (wrong, wrong_checks, wrong_passed) = spectrum_of_x(&MODEL.replace("stiffness = [1, 3]", "stiffness = [1]"));
+    // On measured data the validation's verdict is a check of the run (docs/methods.md,
+    // "Checks"): the right model passes, the model the validation rejects fails the run.
+    assert!(right_checks.is_empty() && right_passed, "{right_checks:?}");
+    assert!(wrong_checks == ["validation"] && !wrong_passed, "{wrong_checks:?}");
     // With the right model the RMS is the averaging's alone: their ratio is 1 within about
     // 1/√(2·bins) ≈ 0.1 (≈ 50 bins in the band; measured 1.03). The linear model's spectrum
     // is off by a systematic ≈ 0.17 in ln (measured ratio 2.4 on this record).

@@ -36,6 +36,10 @@ pub struct IdentifyArgs {
     /// Print the report as JSON on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Print each stage's wall time on stderr (docs/architecture.md, "Stages and passes";
+    /// also in report.json's `timings_s.stages`).
+    #[arg(long, short = 'v')]
+    pub verbose: bool,
     /// Strong form: how the density is estimated. `kernel`: Gaussian kernel estimates of
     /// the density and of every probability flux, whose smoothing adds no bias; `histogram`:
     /// the paper's procedure as written (histogram, central differences; --bins, --span,
@@ -208,6 +212,12 @@ pub fn finish(report: &Report, args: &IdentifyArgs, staged: Option<(FolderLock, 
             m.error.as_deref().unwrap_or("no reason given")
         );
     }
+    if args.verbose {
+        eprint!("{}", stage_times(report));
+    }
+    for c in &report.failed_checks {
+        eprintln!("check failed: {} ({}): {}", c.check, c.method, c.message);
+    }
     Ok(if !undecided.is_empty() {
         ExitCode::from(2)
     } else if report.passed {
@@ -215,6 +225,21 @@ pub fn finish(report: &Report, args: &IdentifyArgs, staged: Option<(FolderLock, 
     } else {
         ExitCode::from(1)
     })
+}
+
+/// The stages' wall times, one line each, and their sum against the identification's.
+fn stage_times(report: &Report) -> String {
+    let t = &report.timings_s;
+    let mut s = String::from("stages (wall time):\n");
+    for st in &t.stages {
+        s += &format!("  {:<18} {:>8.3} s\n", st.stage, st.s);
+    }
+    let sum: f64 = t.stages.iter().map(|st| st.s).sum();
+    s += &format!("  {:<18} {:>8.3} s (identify {:.3} s", "sum", sum, t.identify);
+    if t.simulate > 0.0 {
+        s += &format!(", simulate {:.3} s, total {:.3} s", t.simulate, t.total);
+    }
+    s + ")\n"
 }
 
 /// Where the report files go: `--out`, or `out/<scenario>/`.

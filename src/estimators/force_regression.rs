@@ -4,6 +4,7 @@
 //! needed) and needs every force measured.
 
 use super::{refused, Context, Estimator, Setup};
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::baseline::{self, DriftRule, Increments};
 use crate::ident::{Estimate, IdentError};
 use crate::scenario::{Process, Scenario, Scheme};
@@ -71,15 +72,24 @@ fn own_step(scenario: &Scenario) -> DriftRule {
     }
 }
 
-impl Estimator for ForceRegression {
-    fn push(&mut self, trajectory: u32, t: f64, batch: usize, row: &[f64]) {
+impl Accumulator for ForceRegression {
+    fn push(&mut self, s: &Sample) {
+        let Sample {
+            trajectory,
+            t,
+            batch,
+            row,
+            ..
+        } = *s;
         self.0.push(trajectory as usize, t, batch, row);
     }
 
     fn finish(&mut self) {
         self.0.finish();
     }
+}
 
+impl Estimator for ForceRegression {
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
         self.0.estimate(cx.typical)
     }

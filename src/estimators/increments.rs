@@ -2,6 +2,7 @@
 //! on the drift (the Euler–Maruyama pseudo-likelihood, `ident::baseline`).
 
 use super::{refused, Context, Estimator, Setup};
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::baseline::{self, Increments};
 use crate::ident::{Estimate, IdentError};
 
@@ -16,15 +17,24 @@ pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
     }
 }
 
-impl Estimator for Increments {
-    fn push(&mut self, trajectory: u32, t: f64, batch: usize, row: &[f64]) {
+impl Accumulator for Increments {
+    fn push(&mut self, s: &Sample) {
+        let Sample {
+            trajectory,
+            t,
+            batch,
+            row,
+            ..
+        } = *s;
         Increments::push(self, trajectory as usize, t, batch, row);
     }
 
     fn finish(&mut self) {
         Increments::finish(self);
     }
+}
 
+impl Estimator for Increments {
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
         Increments::estimate(self, cx.typical)
     }

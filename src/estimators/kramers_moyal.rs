@@ -2,6 +2,7 @@
 //! coefficient), then least squares of the drift (`ident::baseline`).
 
 use super::{refused, Context, Estimator, Setup};
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::baseline::{self, KramersMoyal};
 use crate::ident::strong::GridOptions;
 use crate::ident::{Estimate, IdentError};
@@ -24,15 +25,24 @@ pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
     ))
 }
 
-impl Estimator for KramersMoyal {
-    fn push(&mut self, trajectory: u32, t: f64, batch: usize, row: &[f64]) {
+impl Accumulator for KramersMoyal {
+    fn push(&mut self, s: &Sample) {
+        let Sample {
+            trajectory,
+            t,
+            batch,
+            row,
+            ..
+        } = *s;
         KramersMoyal::push(self, trajectory as usize, t, batch, row);
     }
 
     fn finish(&mut self) {
         KramersMoyal::finish(self);
     }
+}
 
+impl Estimator for KramersMoyal {
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
         KramersMoyal::estimate(self, cx.typical)
     }

@@ -2,6 +2,7 @@
 //! pairs, consistent at any sample interval for a linear system (`ident::local_linear`).
 
 use super::{refused, Context, Estimator, Setup};
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::baseline;
 use crate::ident::local_linear::LocalLinear;
 use crate::ident::{Estimate, IdentError};
@@ -17,13 +18,20 @@ pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
     }
 }
 
-impl Estimator for LocalLinear {
-    fn push(&mut self, trajectory: u32, t: f64, batch: usize, row: &[f64]) {
+impl Accumulator for LocalLinear {
+    fn push(&mut self, s: &Sample) {
+        let Sample {
+            trajectory,
+            t,
+            batch,
+            row,
+            ..
+        } = *s;
         LocalLinear::push(self, trajectory as usize, t, batch, row);
     }
+}
 
-    fn finish(&mut self) {}
-
+impl Estimator for LocalLinear {
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
         LocalLinear::estimate(self, cx.typical)
     }

@@ -16,6 +16,7 @@ mod marginals;
 mod strong;
 mod weak;
 
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::data::StationaryData;
 use crate::ident::kernel::KernelOptions;
 use crate::ident::moments::RawMoments;
@@ -137,12 +138,9 @@ pub struct Context<'a> {
     pub bilinear: bool,
 }
 
-/// One identification method: accumulators filled from the samples, then an estimate.
-pub trait Estimator {
-    /// One sample of the second pass (jackknife batch `batch`).
-    fn push(&mut self, trajectory: u32, t: f64, batch: usize, row: &[f64]);
-    /// The second pass is over.
-    fn finish(&mut self) {}
+/// One identification method: an [`Accumulator`] filled from the samples of the second
+/// pass (and of a later one, where it asks), then an estimate.
+pub trait Estimator: Accumulator {
     /// The filters are fitted and `problem` is complete; `true` asks for the samples once
     /// more (`push`, then `finish`), as an accumulator that depends on the filters needs.
     fn needs_pass(&mut self, _problem: &Problem, _setup: &Setup) -> bool {
@@ -165,8 +163,10 @@ pub enum Kind {
 /// An estimator that cannot be built: its method's row reports why.
 pub(crate) fn refused(e: IdentError) -> Box<dyn Estimator> {
     struct Refused(IdentError);
+    impl Accumulator for Refused {
+        fn push(&mut self, _: &Sample) {}
+    }
     impl Estimator for Refused {
-        fn push(&mut self, _: u32, _: f64, _: usize, _: &[f64]) {}
         fn estimate(&self, _: &Context) -> Result<Estimate, IdentError> {
             Err(self.0.clone())
         }
@@ -387,7 +387,14 @@ mod tests {
         for &m in Method::REGISTERED {
             let mut estimator = m.estimator(&setup);
             for b in &samples.batches {
-                b.for_each_sample(|j, t, row| estimator.push(j, t, data.batch_of(j, t), row));
+                b.for_each_sample(|trajectory, t, row| {
+                    estimator.push(&Sample {
+                        trajectory,
+                        t,
+                        batch: data.batch_of(trajectory, t),
+                        row,
+                    })
+                });
             }
             estimator.finish();
             let result = estimator.estimate(&cx);

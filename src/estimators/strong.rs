@@ -4,6 +4,7 @@
 //! paper's histogram and central differences (`ident::strong`).
 
 use super::{refused, Context, Estimator, Setup, StrongDensity};
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::kernel::FluxLattice;
 use crate::ident::strong::{self, DensityGrid};
 use crate::ident::{self, Estimate, IdentError, Problem};
@@ -55,8 +56,9 @@ struct Kernel {
     lattice: Option<Result<FluxLattice, IdentError>>,
 }
 
-impl Estimator for Kernel {
-    fn push(&mut self, _: u32, _: f64, batch: usize, row: &[f64]) {
+impl Accumulator for Kernel {
+    fn push(&mut self, s: &Sample) {
+        let Sample { batch, row, .. } = *s;
         if let Some(Ok(l)) = self.lattice.as_mut() {
             l.push_in(batch, row);
         }
@@ -67,7 +69,9 @@ impl Estimator for Kernel {
             l.finish();
         }
     }
+}
 
+impl Estimator for Kernel {
     fn needs_pass(&mut self, problem: &Problem, setup: &Setup) -> bool {
         if self.lattice.is_some() {
             return false;
@@ -97,15 +101,18 @@ pub(super) struct Histogram {
     pub(super) marginals: bool,
 }
 
-impl Estimator for Histogram {
-    fn push(&mut self, _: u32, _: f64, batch: usize, row: &[f64]) {
+impl Accumulator for Histogram {
+    fn push(&mut self, s: &Sample) {
+        let Sample { batch, row, .. } = *s;
         self.grid.push_in(batch, row);
     }
 
     fn finish(&mut self) {
         self.grid.finish();
     }
+}
 
+impl Estimator for Histogram {
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
         if cx.bilinear {
             return Err(bilinear_refused());

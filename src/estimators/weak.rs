@@ -3,6 +3,7 @@
 //! drift is bilinear: monomials first, then the corner and the coefficients.
 
 use super::{Context, Estimator, Setup};
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::{self, Estimate, IdentError};
 
 struct WeakForm;
@@ -11,9 +12,11 @@ pub(super) fn build(_: &Setup) -> Box<dyn Estimator> {
     Box::new(WeakForm)
 }
 
-impl Estimator for WeakForm {
-    fn push(&mut self, _: u32, _: f64, _: usize, _: &[f64]) {}
+impl Accumulator for WeakForm {
+    fn push(&mut self, _: &Sample) {}
+}
 
+impl Estimator for WeakForm {
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
         if cx.bilinear {
             ident::identify_weak_bilinear(cx.problem, cx.data)

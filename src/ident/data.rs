@@ -72,6 +72,31 @@ pub struct Observed<'a> {
     pub powers: &'a [[[f64; OBSERVED_POWERS]; 2]],
 }
 
+/// Which fine and coarse batch a sample falls into: [`StationaryData`]'s layout, without
+/// its moments.
+#[derive(Debug, Clone, Copy)]
+pub struct Batching {
+    layout: FineLayout,
+    record_length: f64,
+    per_coarse: usize,
+}
+
+impl Batching {
+    /// The fine batch of a sample of `trajectory` at time `t`.
+    fn fine_batch(&self, trajectory: u32, t: f64) -> usize {
+        let FineLayout { subgroups, windows } = self.layout;
+        let w = ((t / self.record_length * windows as f64).ceil() as usize).clamp(1, windows) - 1;
+        let j = trajectory as usize;
+        let (g, s) = (j % TRAJECTORY_GROUPS, (j / TRAJECTORY_GROUPS) % subgroups);
+        (g * windows + w) * subgroups + s
+    }
+
+    /// The coarse batch of a sample of `trajectory` at time `t`.
+    pub fn batch_of(&self, trajectory: u32, t: f64) -> usize {
+        self.fine_batch(trajectory, t) / self.per_coarse
+    }
+}
+
 /// Moments and ranges of the state, per time batch.
 #[derive(Debug, Clone)]
 pub struct StationaryData {
@@ -199,11 +224,7 @@ impl StationaryData {
 
     /// The fine batch of a sample of `trajectory` at time `t`.
     fn fine_batch(&self, trajectory: u32, t: f64) -> usize {
-        let FineLayout { subgroups, windows } = self.layout;
-        let w = ((t / self.record_length * windows as f64).ceil() as usize).clamp(1, windows) - 1;
-        let j = trajectory as usize;
-        let (g, s) = (j % TRAJECTORY_GROUPS, (j / TRAJECTORY_GROUPS) % subgroups);
-        (g * windows + w) * subgroups + s
+        self.batching().fine_batch(trajectory, t)
     }
 
     /// Fine batches per coarse batch.
@@ -214,7 +235,17 @@ impl StationaryData {
     /// The coarse batch (see [`StationaryData::batches`]) of a sample of `trajectory` at
     /// time `t`: other estimators' jackknives use the same batches.
     pub fn batch_of(&self, trajectory: u32, t: f64) -> usize {
-        self.fine_batch(trajectory, t) / self.per_coarse()
+        self.batching().batch_of(trajectory, t)
+    }
+
+    /// How samples fall into batches, apart from the moments (what a pass hands every
+    /// accumulator as [`super::accumulate::Sample::batch`]).
+    pub fn batching(&self) -> Batching {
+        Batching {
+            layout: self.layout,
+            record_length: self.record_length,
+            per_coarse: self.per_coarse(),
+        }
     }
 
     /// Number of coarse batches.
@@ -379,4 +410,13 @@ fn sum_of(group: &[RawMoments]) -> RawMoments {
         t.merge(b);
     }
     t
+}
+
+impl super::accumulate::Accumulator for StationaryData {
+    fn push(&mut self, s: &super::accumulate::Sample) {
+        StationaryData::push(self, s.trajectory, s.t, s.row)
+    }
+    fn finish(&mut self) {
+        StationaryData::finish(self)
+    }
 }

@@ -121,3 +121,9 @@ impl FisherInformation {
         sd.iter().all(|v| v.is_finite()).then_some(sd)
     }
 }
+
+impl super::accumulate::Accumulator for FisherInformation {
+    fn push(&mut self, s: &super::accumulate::Sample) {
+        FisherInformation::push(self, s.row)
+    }
+}

@@ -26,6 +26,7 @@ mod problem;
 mod spec;
 mod symmetry;
 
+pub mod accumulate;
 pub mod baseline;
 pub mod data;
 pub mod disturbance;
@@ -104,6 +105,11 @@ pub enum IdentError {
     /// dimensions): reported as not applicable, never as a failed gate.
     #[error("not applicable: {0}")]
     NotApplicable(String),
+    /// The measured force's spectrum rejects the force model the problem needs (its
+    /// first-order filter (3.20) misses the spectrum far beyond what averaging allows):
+    /// identifying with it would contradict the data (docs/methods.md, "Checks").
+    #[error("the force model is rejected by the data: {0}")]
+    ForceModelRejected(String),
 }
 
 /// Ask for the cache line holding `x` (no effect where there is no prefetch instruction):

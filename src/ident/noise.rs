@@ -346,6 +346,12 @@ pub fn deconvolve_powers(sums: &mut [f64], s2: f64) {
     }
 }
 
+impl super::accumulate::Accumulator for NoiseFloor {
+    fn push(&mut self, s: &super::accumulate::Sample) {
+        NoiseFloor::push(self, s.trajectory, s.t, s.batch, s.row)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::moments::RawMoments;

@@ -10,7 +10,9 @@
 
 pub use super::delimited::{CsvFile, CsvOptions, Labels, RowFn};
 pub use super::measured::differentiate;
-pub use super::measured::{measured, DifferencedNoise, Measured, DERIVE_LIMIT, GAP, OUTLIER, STEP_OMEGA};
+pub use super::measured::{
+    measured, DifferencedNoise, IntegratedNoise, Measured, DERIVE_LIMIT, GAP, OUTLIER, STEP_OMEGA,
+};
 use crate::scenario::DataMapping;
 use std::path::{Path, PathBuf};
 

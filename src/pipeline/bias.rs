@@ -12,8 +12,7 @@ use super::{identify, Input, Options, PipelineError};
 use crate::report::{IntegratorBias, MethodBias, ParameterBias, Report};
 use crate::scenario::Scenario;
 
-/// A bias above this share of a parameter's standard error is named.
-pub const BIAS_SHARE: f64 = 0.25;
+pub use crate::report::BIAS_SHARE;
 
 /// The bias of every estimate of `report` (identified from `scenario`'s simulation with
 /// `options`), from the refined run's identification.

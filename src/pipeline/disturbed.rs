@@ -5,8 +5,10 @@
 use super::grading::{assemble, method_report, Grader};
 use super::source::Input;
 use super::spectra::ForceSpectra;
+use super::stages::Clock;
 use super::validation::Distributions;
-use super::{Options, PipelineError};
+use super::{pass, Options, PipelineError};
+use crate::ident::accumulate::{Each, Sample};
 use crate::ident::data::StationaryData;
 use crate::ident::disturbance::SingleMass;
 use crate::ident::poly::Poly;
@@ -35,6 +37,7 @@ pub(crate) fn identify_disturbed(
     }
     let st = settings.structure;
     let log = Columns::new(s.masses.len(), s.excitations.len());
+    let mut clock = Clock::start();
     let mut sums = Sums::of(input, settings, options)?;
 
     // Pass 2: force spectra, P3's pieces, histograms.
@@ -42,15 +45,24 @@ pub(crate) fn identify_disturbed(
     let mut p3 = sums.p3_welch(input, settings);
     let m1 = s.masses[st.free].value;
     let mut dist = Distributions::new(s, &sums.white_structure, &sums.white);
-    input.for_each_sample(|traj, _, row| {
-        sums.forces.push(traj, row);
-        p3.push(
-            traj as usize,
-            row[log.force(st.measured)] + m1 * row[log.a(st.free)],
-            row[log.x(st.free)] - row[log.x(st.driven)],
-        );
-        dist.push(traj as usize, row);
-    })?;
+    clock.lap("first pass");
+    pass::run(
+        input,
+        sums.white.batching(),
+        &mut [
+            &mut sums.forces,
+            &mut Each(|x: &Sample| {
+                let row = x.row;
+                p3.push(
+                    x.trajectory as usize,
+                    row[log.force(st.measured)] + m1 * row[log.a(st.free)],
+                    row[log.x(st.free)] - row[log.x(st.driven)],
+                )
+            }),
+            &mut dist,
+        ],
+    )?;
+    clock.lap("second pass");
 
     // Filters: P2 as the identifier uses it; the disturbances' for the bound.
     let (filters, filter_reports, mut spectra) = sums.forces.filters(s);
@@ -67,6 +79,7 @@ pub(crate) fn identify_disturbed(
     let paper = disturbance::iterate(&inputs, SingleMass::Spectral)?;
     let measured_force = disturbance::iterate(&inputs, SingleMass::Force)?;
     let problem = paper.problem.clone();
+    clock.lap("iteration");
     if let Some(last) = paper.steps.last().filter(|l| l.step > 0) {
         let k1 = last.p3_k1.expect("steps >= 1 have one");
         spectra.push((
@@ -129,6 +142,7 @@ pub(crate) fn identify_disturbed(
     );
     reports.push(direct);
     reports.extend(bounds);
+    clock.lap("rows and grading");
 
     let validation = options.validate.then(|| {
         dist.validate(
@@ -139,7 +153,8 @@ pub(crate) fn identify_disturbed(
             &[],
         )
     });
-    Ok(assemble(
+    clock.lap("validation");
+    let mut report = assemble(
         input,
         &grader,
         sums.white.samples(),
@@ -149,7 +164,10 @@ pub(crate) fn identify_disturbed(
         validation,
         iterations,
         dist.into_plot(spectra),
-    ))
+    );
+    clock.lap("report");
+    report.timings_s.stages = clock.timings;
+    Ok(report)
 }
 
 /// What the first pass over the samples accumulates: the moments of every weak form the
@@ -207,17 +225,20 @@ impl Sums {
         let mut bound_data = data_for(&force_bound);
         let mut force = data_for(&force_structure);
         let mut forces = ForceSpectra::new(s, &fitted);
-        input.for_each_sample(|traj, t, row| {
-            white.push(traj, t, row);
-            driven.push(traj, t, &row[log.kinematics(st.driven)]);
-            force.push(traj, t, &disturbance::force_row(s, &st, row));
-            bound_data.push(traj, t, row);
-            forces.push_lag(traj, row);
-        })?;
-        white.finish();
+        let batching = white.batching();
+        pass::run(
+            input,
+            batching,
+            &mut [
+                &mut white,
+                &mut Each(|x: &Sample| driven.push(x.trajectory, x.t, &x.row[log.kinematics(st.driven)])),
+                &mut Each(|x: &Sample| force.push(x.trajectory, x.t, &disturbance::force_row(s, &st, x.row))),
+                &mut bound_data,
+                &mut forces,
+            ],
+        )?;
         driven.finish();
         force.finish();
-        bound_data.finish();
         Ok(Sums {
             white_structure,
             white,

@@ -14,11 +14,13 @@ pub mod bias;
 mod disturbed;
 mod grading;
 mod identify;
+mod pass;
 mod profile;
 mod rig;
 mod sensors;
 mod source;
 mod spectra;
+mod stages;
 pub mod study;
 mod validation;
 

@@ -6,6 +6,7 @@
 //! (docs/scenario.md "Terms").
 
 use super::PipelineError;
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::{self, data::StationaryData, weak, Filter, IdentError, Problem, Specification};
 use crate::model::{ParameterName, Truth};
 use crate::pipeline::source::Input;
@@ -209,8 +210,7 @@ impl Chosen {
             sim.trajectories,
             batches,
         );
-        input.for_each_sample(|traj, t, row| data.push(traj, t, row))?;
-        data.finish();
+        super::pass::run(input, data.batching(), &mut [&mut data])?;
         if let Ok((j, _)) = ident::select::misfit(&problem, &data) {
             if j < self.j_min {
                 self.report.chosen = x;
@@ -238,4 +238,13 @@ fn position_name(s: &Scenario, p: &Profile, x: f64) -> String {
 /// `x` to 10 significant digits.
 fn round10(x: f64) -> f64 {
     format!("{x:.9e}").parse().unwrap_or(x)
+}
+
+impl Accumulator for Candidates {
+    fn push(&mut self, s: &Sample) {
+        Candidates::push(self, s.trajectory, s.t, s.row)
+    }
+    fn finish(&mut self) {
+        Candidates::finish(self)
+    }
 }

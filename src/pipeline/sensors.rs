@@ -7,7 +7,7 @@ use crate::estimators::Method;
 use crate::ident::data::StationaryData;
 use crate::ident::noise::{ChannelNoise, NoiseFloor, Pair};
 use crate::ident::Problem;
-use crate::io::table::{differentiate, Measured};
+use crate::io::table::{differentiate, DifferencedNoise, IntegratedNoise, Measured};
 use crate::report::{ChannelNoiseReport, FilterLossReport, MethodReport, SensorNoiseReport};
 use crate::scenario::ReportMethod;
 use crate::scenario::{NoiseHandling, Scenario};
@@ -49,6 +49,16 @@ fn column_of(floor: &NoiseFloor, ch: &ChannelNoise) -> usize {
         .expect("a channel of a pair")
 }
 
+/// What a correction builds up: per log column the noise variance to take out, the
+/// report's rows and notes, and the variance to put back (taken out as noise of negative
+/// variance).
+struct Correction {
+    by_column: Vec<f64>,
+    rows: Vec<ChannelNoiseReport>,
+    notes: Vec<String>,
+    put_back: Vec<f64>,
+}
+
 /// Estimate the noise, correct `data` (and `also`, the naive white-noise row's) as the
 /// scenario asks, and say what was done; the noise variance taken out of each log column.
 pub(crate) fn correct(
@@ -65,6 +75,98 @@ pub(crate) fn correct(
         Ok((c, r)) => (c, r, None),
         Err(why) => (Vec::new(), Vec::new(), Some(why)),
     };
+    let columns = structure.model.columns().len();
+    let mut k = Correction {
+        by_column: vec![0.0; columns],
+        rows: Vec::new(),
+        notes: Vec::new(),
+        put_back: vec![0.0; columns],
+    };
+    pair_rows(&mut k, floor, &channels, s, structure);
+    // Velocities differenced from noisy displacements: the displacement's noise, and what
+    // the differences make of it on the velocity (io::measured::differentiate).
+    let differenced = measured.map_or(&[][..], |m| &m.differenced[..]);
+    differenced_rows(&mut k, differenced, s, structure);
+    differences_tail(&mut k, differenced, s, structure);
+    let integrated = measured.map_or(&[][..], |m| &m.integrated_noise[..]);
+    integrated_rows(&mut k, integrated, s, structure);
+    let Correction {
+        mut by_column,
+        rows,
+        mut notes,
+        mut put_back,
+    } = k;
+    let noise_only = by_column.clone();
+    // What the filters and the differences took goes back in as noise of negative variance
+    // (a convolution).
+    if let Some(l) = loss.filter(|l| l.put_back) {
+        for (b, v) in put_back.iter_mut().zip(&l.by_column) {
+            *b += v;
+        }
+    }
+    for (b, v) in by_column.iter_mut().zip(&put_back) {
+        *b -= v;
+    }
+    let corrected = by_column.iter().any(|&v| v != 0.0) && structure.atoms.is_empty();
+    let replicates = match handling {
+        NoiseHandling::Estimate => replicate_corrections(floor, &channels, &replicates, &noise_only, &put_back),
+        _ => Vec::new(),
+    };
+    if let Some(l) = loss {
+        notes.push(l.note.clone());
+    }
+    if corrected {
+        data.deconvolve(&by_column, &replicates);
+        // The naive row's problem batches its samples its own way: its replicates keep
+        // the whole record's correction.
+        if let Some(d) = also {
+            d.deconvolve(&by_column, &[]);
+        }
+        notes.push(
+            "the weak form reads moments with the noise taken out; the strong forms and the baselines read the \
+             noisy samples as they are; the validation adds the same noise to the model's response"
+                .to_string(),
+        );
+    } else if handling == NoiseHandling::Estimate && !channels.is_empty() && !channels.iter().any(|c| c.detected()) {
+        notes.push("no channel shows noise beyond 3 standard errors: nothing taken out".to_string());
+    } else if by_column.iter().any(|&v| v > 0.0) {
+        notes.push(
+            "not corrected: the model has terms without a polynomial form, whose moments the correction does not reach"
+                .to_string(),
+        );
+    }
+    let masses = structure.model.masses();
+    let covered = floor.pairs().len() + integrated.len() / 2 + differenced.len();
+    if covered < masses {
+        notes.push(format!(
+            "{} of {masses} masses have no measured displacement–velocity pair: their sensors' noise is neither \
+             estimated nor corrected",
+            masses - covered,
+        ));
+    }
+    let report = SensorNoiseReport {
+        handling: match handling {
+            NoiseHandling::Estimate => "estimate",
+            NoiseHandling::Given => "given",
+            NoiseHandling::Ignore => "ignore",
+        }
+        .to_string(),
+        channels: rows,
+        // Without pairs, the differenced or integrated channels' own estimates stand.
+        not_estimated: not_estimated
+            .filter(|_| !floor.pairs().is_empty() || (integrated.is_empty() && differenced.is_empty())),
+        corrected,
+        notes,
+        filter_loss: loss.map_or_else(Vec::new, |l| l.rows.clone()),
+    };
+    let noise_taken_out = corrected && noise_only.iter().any(|&v| v > 0.0);
+    (report, if noise_taken_out { noise_only } else { Vec::new() })
+}
+
+/// The measured displacement–velocity pairs' channels: the noise each shows, and what is
+/// taken out of its column as `[identify] sensor_noise` asks.
+fn pair_rows(k: &mut Correction, floor: &NoiseFloor, channels: &[ChannelNoise], s: &Scenario, structure: &Problem) {
+    let handling = s.identify.sensor_noise;
     let sensors = &s.simulation.sensors;
     let layout = structure.model.columns();
     let level = |c: usize| {
@@ -78,9 +180,8 @@ pub(crate) fn correct(
     // The scenario's sensors in the channel's unit: relative levels times the estimated
     // signal std. An ADC adds its rounding, of variance q²/12 for a step q.
     let stated = |ch: &ChannelNoise, c: usize| -> f64 { sensors.noise_variance(level(c), ch.signal_std).sqrt() };
-    let mut by_column = vec![0.0; structure.model.columns().len()];
-    let mut rows = Vec::new();
-    for ch in &channels {
+    let (by_column, rows) = (&mut k.by_column, &mut k.rows);
+    for ch in channels {
         let c = column_of(floor, ch);
         let used = match handling {
             // Only noise the data show: clean data are identified exactly as without the
@@ -104,9 +205,14 @@ pub(crate) fn correct(
             at_limits: ch.at_limits,
         });
     }
-    // Velocities differenced from noisy displacements: the displacement's noise, and what
-    // the differences make of it on the velocity (io::measured::differentiate).
-    let differenced = measured.map_or(&[][..], |m| &m.differenced[..]);
+}
+
+/// Velocities differenced from noisy displacements: each pair's noise, on the
+/// displacement and through the differences on the velocity.
+fn differenced_rows(k: &mut Correction, differenced: &[DifferencedNoise], s: &Scenario, structure: &Problem) {
+    let handling = s.identify.sensor_noise;
+    let sensors = &s.simulation.sensors;
+    let (by_column, rows) = (&mut k.by_column, &mut k.rows);
     for d in differenced {
         let f = &d.found;
         let h = s.simulation.sample_interval;
@@ -133,11 +239,14 @@ pub(crate) fn correct(
             });
         }
     }
-    let mut notes = Vec::new();
-    // Variance put back per column (taken out as noise of negative variance, below).
-    let mut put_back = vec![0.0; by_column.len()];
-    // The differences' loss of a white-forced velocity's tail (differentiate::white_tail_loss),
-    // put back as noise of negative variance.
+}
+
+/// The differences' loss of a white-forced velocity's tail
+/// (`differentiate::white_tail_loss`), put back where nothing blocks it.
+fn differences_tail(k: &mut Correction, differenced: &[DifferencedNoise], s: &Scenario, structure: &Problem) {
+    let handling = s.identify.sensor_noise;
+    let layout = structure.model.columns();
+    let (notes, put_back) = (&mut k.notes, &mut k.put_back);
     for d in differenced {
         let Some(i) = (0..structure.model.masses()).find(|&i| layout.v(i) == d.velocity) else {
             continue;
@@ -179,7 +288,14 @@ pub(crate) fn correct(
                 .to_string(),
         );
     }
-    let integrated = measured.map_or(&[][..], |m| &m.integrated_noise[..]);
+}
+
+/// Accelerometers: their noise estimated below the modes (io::measured, module
+/// `integrate`) or stated, through the integration onto velocity and displacement.
+fn integrated_rows(k: &mut Correction, integrated: &[IntegratedNoise], s: &Scenario, structure: &Problem) {
+    let handling = s.identify.sensor_noise;
+    let sensors = &s.simulation.sensors;
+    let (by_column, rows, notes) = (&mut k.by_column, &mut k.rows, &mut k.notes);
     let names = structure.model.column_names();
     // Accelerometers: their noise estimated below the modes (io::measured, module
     // `integrate`) or stated, through the integration onto velocity and displacement.
@@ -260,93 +376,39 @@ pub(crate) fn correct(
                 .to_string(),
         );
     }
-    let noise_only = by_column.clone();
-    // What the filters and the differences took goes back in as noise of negative variance
-    // (a convolution).
-    if let Some(l) = loss.filter(|l| l.put_back) {
-        for (b, v) in put_back.iter_mut().zip(&l.by_column) {
-            *b += v;
-        }
-    }
-    for (b, v) in by_column.iter_mut().zip(&put_back) {
-        *b -= v;
-    }
-    let corrected = by_column.iter().any(|&v| v != 0.0) && structure.atoms.is_empty();
-    // Estimated noise: each jackknife replicate is corrected with its own estimate.
-    let mut replicates: Vec<Option<Vec<f64>>> = if handling == NoiseHandling::Estimate {
-        replicates
-            .iter()
-            .map(|r| {
-                r.as_ref().map(|r| {
-                    // Columns the pairs do not estimate keep the whole record's correction.
-                    let mut v = noise_only.clone();
-                    for (ch, &var) in channels.iter().zip(r) {
-                        let c = column_of(floor, ch);
-                        if noise_only[c] > 0.0 {
-                            v[c] = var.max(0.0);
-                        }
+}
+
+/// Estimated noise: each jackknife replicate corrected with its own estimate (columns the
+/// pairs do not estimate keep the whole record's correction), less what is put back.
+fn replicate_corrections(
+    floor: &NoiseFloor,
+    channels: &[ChannelNoise],
+    replicates: &[Option<Vec<f64>>],
+    noise_only: &[f64],
+    put_back: &[f64],
+) -> Vec<Option<Vec<f64>>> {
+    let mut replicates: Vec<Option<Vec<f64>>> = replicates
+        .iter()
+        .map(|r| {
+            r.as_ref().map(|r| {
+                // Columns the pairs do not estimate keep the whole record's correction.
+                let mut v = noise_only.to_vec();
+                for (ch, &var) in channels.iter().zip(r) {
+                    let c = column_of(floor, ch);
+                    if noise_only[c] > 0.0 {
+                        v[c] = var.max(0.0);
                     }
-                    v
-                })
+                }
+                v
             })
-            .collect()
-    } else {
-        Vec::new()
-    };
+        })
+        .collect();
     for r in replicates.iter_mut().flatten() {
-        for (b, v) in r.iter_mut().zip(&put_back) {
+        for (b, v) in r.iter_mut().zip(put_back) {
             *b -= v;
         }
     }
-    if let Some(l) = loss {
-        notes.push(l.note.clone());
-    }
-    if corrected {
-        data.deconvolve(&by_column, &replicates);
-        // The naive row's problem batches its samples its own way: its replicates keep
-        // the whole record's correction.
-        if let Some(d) = also {
-            d.deconvolve(&by_column, &[]);
-        }
-        notes.push(
-            "the weak form reads moments with the noise taken out; the strong forms and the baselines read the \
-             noisy samples as they are; the validation adds the same noise to the model's response"
-                .to_string(),
-        );
-    } else if handling == NoiseHandling::Estimate && !channels.is_empty() && !channels.iter().any(|c| c.detected()) {
-        notes.push("no channel shows noise beyond 3 standard errors: nothing taken out".to_string());
-    } else if by_column.iter().any(|&v| v > 0.0) {
-        notes.push(
-            "not corrected: the model has terms without a polynomial form, whose moments the correction does not reach"
-                .to_string(),
-        );
-    }
-    let masses = structure.model.masses();
-    let covered = floor.pairs().len() + integrated.len() / 2 + differenced.len();
-    if covered < masses {
-        notes.push(format!(
-            "{} of {masses} masses have no measured displacement–velocity pair: their sensors' noise is neither \
-             estimated nor corrected",
-            masses - covered,
-        ));
-    }
-    let report = SensorNoiseReport {
-        handling: match handling {
-            NoiseHandling::Estimate => "estimate",
-            NoiseHandling::Given => "given",
-            NoiseHandling::Ignore => "ignore",
-        }
-        .to_string(),
-        channels: rows,
-        // Without pairs, the differenced or integrated channels' own estimates stand.
-        not_estimated: not_estimated
-            .filter(|_| !floor.pairs().is_empty() || (integrated.is_empty() && differenced.is_empty())),
-        corrected,
-        notes,
-        filter_loss: loss.map_or_else(Vec::new, |l| l.rows.clone()),
-    };
-    let noise_taken_out = corrected && noise_only.iter().any(|&v| v > 0.0);
-    (report, if noise_taken_out { noise_only } else { Vec::new() })
+    replicates
 }
 
 /// What the sensors' filters (`[measurement] anti_alias`, `bandwidth`) take out of a

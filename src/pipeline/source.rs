@@ -140,8 +140,8 @@ pub struct Input {
 
 impl Input {
     /// How many samples pass between two looks at the interrupt flag and two updates of
-    /// [`Input::samples_read`] (a few milliseconds of work).
-    pub const LOOK_EVERY: usize = 1 << 14;
+    /// [`Input::samples_read`] ([`crate::interrupt::LOOK_EVERY`]).
+    pub const LOOK_EVERY: usize = crate::interrupt::LOOK_EVERY;
 
     /// `source`'s samples, described by `info`.
     pub fn new(info: LogInfo, source: Box<dyn SampleSource>) -> Input {

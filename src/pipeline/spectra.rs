@@ -2,6 +2,7 @@
 //! pass 2, and the rational-spectrum fit (3.20) that gives each filter's `A` and `B`, with
 //! a force cell's noise floor, stated or estimated, taken out first (docs/measurement.md).
 
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::{spectrum, spectrum::Welch, Filter};
 use crate::model::Columns;
 use crate::report::FilterReport;
@@ -19,6 +20,9 @@ pub(crate) struct ForceSpectra {
     /// trajectories in [`FLOOR_PARTS`] parts (trajectory `j` in part `j % parts`), for the
     /// estimate's jackknife.
     parts: Vec<Vec<Welch>>,
+    /// Whether the Welch estimates have started (the second pass): before, a sample feeds
+    /// the lag-1 correlations.
+    welching: bool,
 }
 
 /// Parts of the trajectories a force cell's noise-floor estimate leaves out in turn.
@@ -33,6 +37,7 @@ impl ForceSpectra {
             lag: vec![(0.0, 0.0, vec![f64::NAN; s.simulation.trajectories]); excitations.len()],
             welch: Vec::new(),
             parts: Vec::new(),
+            welching: false,
         }
     }
 
@@ -51,6 +56,7 @@ impl ForceSpectra {
     }
 
     pub(crate) fn start_welch(&mut self, sim: &crate::scenario::Simulation) {
+        self.welching = true;
         self.welch = self
             .lag
             .iter()
@@ -162,4 +168,16 @@ fn force_floor(s: &Scenario, spec: &spectrum::Spectrum) -> Option<f64> {
     let std = (spectrum::variance(spec) / (1.0 + level * level)).sqrt();
     let variance = sensors.noise_variance(level, std);
     (variance > 0.0).then(|| variance * spec.sample_interval / (2.0 * std::f64::consts::PI))
+}
+
+/// The first pass feeds the lag-1 correlations that place the Welch segments; after
+/// [`ForceSpectra::start_welch`], the spectra.
+impl Accumulator for ForceSpectra {
+    fn push(&mut self, s: &Sample) {
+        if self.welching {
+            ForceSpectra::push(self, s.trajectory, s.row)
+        } else {
+            self.push_lag(s.trajectory, s.row)
+        }
+    }
 }

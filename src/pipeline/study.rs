@@ -14,8 +14,10 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-mod summary;
-pub use summary::{paired, summarize, Paired, ParameterSummary, SelectionSummary, Summary};
+pub use crate::report::study_rows::{
+    paired, summarize, Configuration, Item, Paired, ParameterSummary, Row, RowParameter, RowSelection,
+    SelectionSummary, Summary,
+};
 
 /// A study file (TOML).
 #[derive(Debug, Clone, Deserialize)]
@@ -76,146 +78,6 @@ pub struct Study {
     /// simulated in memory keeps for its later passes), handed from item to item: items of
     /// one study have the same size, and fresh pages cost a tenth of an item's time.
     arenas: Arc<Arenas>,
-}
-
-/// One item: a configuration and a seed index.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Item {
-    pub index: usize,
-    pub record_length: f64,
-    pub sample_interval: f64,
-    /// The sensor noise level of a study over noise levels (`noise_levels`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sensor_noise: Option<f64>,
-    pub seed_index: usize,
-    pub seed: u64,
-}
-
-impl Item {
-    /// The item's file name: its configuration, never its shard.
-    pub fn key(&self) -> String {
-        let noise = self.sensor_noise.map_or(String::new(), |n| format!("-n{n}"));
-        format!(
-            "T{}-h{}{noise}-s{}",
-            self.record_length, self.sample_interval, self.seed_index
-        )
-    }
-
-    /// Its configuration: record length, sample interval and sensor noise level.
-    pub fn configuration(&self) -> Configuration {
-        Configuration {
-            record_length: self.record_length,
-            sample_interval: self.sample_interval,
-            sensor_noise: self.sensor_noise,
-        }
-    }
-}
-
-/// What a study varies besides the seed.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Configuration {
-    pub record_length: f64,
-    pub sample_interval: f64,
-    /// The sensor noise's std as a fraction of each channel's std (a study over noise levels).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub sensor_noise: Option<f64>,
-}
-
-impl Configuration {
-    /// The order of a study's tables: by record length, interval, then noise level.
-    pub fn order(&self, other: &Configuration) -> std::cmp::Ordering {
-        let noise = |c: &Configuration| c.sensor_noise.unwrap_or(-1.0);
-        self.record_length
-            .total_cmp(&other.record_length)
-            .then(self.sample_interval.total_cmp(&other.sample_interval))
-            .then(noise(self).total_cmp(&noise(other)))
-    }
-}
-
-/// One method's result on one item.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Row {
-    pub study: String,
-    pub item: Item,
-    pub method: String,
-    /// Estimated, refused, not applicable, or failed (the item could not be run).
-    pub outcome: Outcome,
-    pub samples: u64,
-    /// Why the method gave no estimate (then the numbers are empty).
-    pub error: Option<String>,
-    pub worst_rel_error: Option<f64>,
-    pub parameters: Vec<RowParameter>,
-    /// Writing the log (0 without logs: the simulation then runs inside the passes).
-    pub simulate_s: f64,
-    /// This method's own solve.
-    pub identify_s: f64,
-    /// The whole item (simulation, passes over the samples, every method).
-    pub item_s: f64,
-    /// With structure selection: what the method's model kept and lost against the truth.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub selection: Option<RowSelection>,
-}
-
-/// A selected model against the truth (docs/selection.md).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RowSelection {
-    pub candidates: usize,
-    pub selected: Vec<String>,
-    /// Candidates with a non-zero true coefficient that the selection dropped.
-    pub true_dropped: Vec<String>,
-    /// Candidates with a zero true coefficient that the selection kept.
-    pub false_kept: Vec<String>,
-}
-
-impl RowSelection {
-    /// The terms a method's model kept (`selected`) from the report's candidates, against
-    /// the truth.
-    fn of(r: &Report, selected: &[String]) -> Option<RowSelection> {
-        let s = &r.selection.as_ref()?.selection;
-        let mut out = RowSelection {
-            candidates: s.candidates.len(),
-            selected: Vec::new(),
-            true_dropped: Vec::new(),
-            false_kept: Vec::new(),
-        };
-        for name in &s.candidates {
-            let kept = selected.contains(&name.to_string());
-            let truth = r.truth.of(name).unwrap_or(0.0) != 0.0;
-            match (kept, truth) {
-                (true, false) => out.false_kept.push(name.to_string()),
-                (false, true) => out.true_dropped.push(name.to_string()),
-                _ => {}
-            }
-            if kept {
-                out.selected.push(name.to_string());
-            }
-        }
-        Some(out)
-    }
-
-    /// Whether the selection is the true structure among the candidates.
-    pub fn exact(&self) -> bool {
-        self.true_dropped.is_empty() && self.false_kept.is_empty()
-    }
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RowParameter {
-    pub name: String,
-    pub true_value: f64,
-    pub estimate: f64,
-    pub std_error: Option<f64>,
-    pub rel_error: f64,
-    /// Whether the 95 % interval holds the true value (`None` without an interval).
-    pub covered: Option<bool>,
-    /// The Cramér–Rao bound of continuous observation on the parameter's standard
-    /// deviation, from this item's samples (`None` where it does not apply).
-    #[serde(default)]
-    pub cramer_rao_std: Option<f64>,
-    /// Richardson's estimate of the integrator's bias on the estimate (a study with
-    /// `integrator_bias`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub integrator_bias: Option<f64>,
 }
 
 #[derive(Debug, thiserror::Error)]

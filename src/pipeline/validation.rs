@@ -2,6 +2,7 @@
 //! its std, kurtosis, marginal densities and spectra are compared with the data's.
 
 use super::grading::coefficients_of;
+use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::data::StationaryData;
 use crate::ident::spectrum::{Spectrum, Welch};
 use crate::ident::{spectrum, Problem, Unknown};
@@ -482,6 +483,12 @@ pub(crate) fn validate(
         },
         m,
     ))
+}
+
+impl Accumulator for Distributions {
+    fn push(&mut self, s: &Sample) {
+        Distributions::push(self, s.trajectory as usize, s.row)
+    }
 }
 
 #[cfg(test)]

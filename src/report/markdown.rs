@@ -147,10 +147,18 @@ pub fn markdown(r: &Report) -> String {
         "\n{} — {GATE_MEANING}.\n\n",
         if r.passed {
             "Every regression gate holds"
+        } else if !r.failed_checks.is_empty() {
+            "**A check of the method's premises failed**"
         } else {
             "**A regression gate is exceeded or its method failed**"
         }
     );
+    for c in &r.failed_checks {
+        s += &format!("- **Failed check: {}** ({}): {}\n", c.check, c.method, c.message);
+    }
+    if !r.failed_checks.is_empty() {
+        s += "\n";
+    }
     s += "![Identified and true characteristics over the observed range of each link's relative displacement \
           and velocity. Top: the truth (thin black) drawn over every estimate; the FPK estimators with their 95 % \
           pointwise bands; baselines and deliberately wrong models dashed, with a triangle where they leave the \

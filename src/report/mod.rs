@@ -22,6 +22,8 @@ pub use plot::{
 pub use text::{fit, summary, sweep_summary};
 pub use types::*;
 
+pub mod study_rows;
+
 pub use crate::io::output::write_atomic;
 
 /// The figures [`write_all`] may write, each as `.svg`, `.png` and `.pdf`.

@@ -7,7 +7,7 @@
 
 use super::figure::{color, log_range, Axis, Color, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
 use super::plot::write_figure;
-use crate::pipeline::study::{Configuration, Paired, Row, Summary};
+use super::study_rows::{Configuration, Paired, Row, Summary};
 use std::path::{Path, PathBuf};
 
 fn pct(x: f64) -> String {
@@ -189,7 +189,7 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
             if with_bias {
                 s.pop();
                 s += &match p.integrator_bias_share {
-                    Some(b) if b.abs() > crate::pipeline::BIAS_SHARE => format!(" **{b:+.2}** |\n"),
+                    Some(b) if b.abs() > super::BIAS_SHARE => format!(" **{b:+.2}** |\n"),
                     Some(b) => format!(" {b:+.2} |\n"),
                     None => " – |\n".to_string(),
                 };

@@ -133,11 +133,18 @@ pub fn summary(r: &Report) -> String {
             "every gate holds, some only the uncalibrated default (set [accept] from the spread over seeds)"
         } else if r.passed {
             "every regression gate holds"
+        } else if !r.failed_checks.is_empty() {
+            "a check of the method's premises FAILED (below)"
         } else {
             "a regression gate is EXCEEDED or its method failed"
         }
     );
-    if r.validation.as_ref().and_then(|v| v.reproduces) == Some(false) {
+    for c in &r.failed_checks {
+        s += &format!("FAILED CHECK {} ({}): {}\n", c.check, c.method, c.message);
+    }
+    if r.validation.as_ref().and_then(|v| v.reproduces) == Some(false)
+        && !r.failed_checks.iter().any(|c| c.check == "validation")
+    {
         s += "WARNING: the identified model does not reproduce the data (validation above): the structure \
               assumed (the terms, or the link forces as functions of u and w) misses something the data have.\n";
     }

@@ -117,9 +117,11 @@ impl Outcome {
         use crate::ident::IdentError as E;
         match e {
             E::NotApplicable(_) => Outcome::NotApplicable,
-            E::NotIdentifiable { .. } | E::Symmetric { .. } | E::Inseparable(_) | E::TooLittleData(_) => {
-                Outcome::Refused
-            }
+            E::NotIdentifiable { .. }
+            | E::Symmetric { .. }
+            | E::Inseparable(_)
+            | E::TooLittleData(_)
+            | E::ForceModelRejected(_) => Outcome::Refused,
             _ => Outcome::Failed,
         }
     }
@@ -428,11 +430,42 @@ impl Validation {
     }
 }
 
+/// An integrator's bias above this share of a parameter's standard error is named
+/// (docs/methods.md, "The integrator's bias").
+pub const BIAS_SHARE: f64 = 0.25;
+
+/// Wall-clock times of a run (s).
 #[derive(Debug, Clone, Serialize)]
 pub struct Timings {
+    /// The simulation that wrote the log (0 when a log or measured data was identified).
     pub simulate: f64,
+    /// The identification, from reading the log to the report.
     pub identify: f64,
+    /// The whole command.
     pub total: f64,
+    /// The identification's stages in the order they ran (`pipeline::stages`); empty for
+    /// the iterative procedure of section 4, which runs as one.
+    pub stages: Vec<StageTime>,
+}
+
+/// A check of the method's own premises that failed (docs/methods.md, "Checks").
+#[derive(Debug, Clone, Serialize)]
+pub struct FailedCheck {
+    /// `dissipativity` or `validation`.
+    pub check: &'static str,
+    /// The method whose result failed it.
+    pub method: String,
+    /// What failed, and why it matters.
+    pub message: String,
+}
+
+/// One stage's wall-clock time.
+#[derive(Debug, Clone, Serialize)]
+pub struct StageTime {
+    /// The stage's name (docs/architecture.md, "Stages and passes").
+    pub stage: String,
+    /// Its wall-clock time (s).
+    pub s: f64,
 }
 
 /// What the plots need beyond the report.
@@ -548,8 +581,13 @@ pub struct Report {
     /// paper's sequence (spectral single-mass step, method `iterated`), then the one with
     /// the measured-force step (`iterated-force`). Empty without `[identify.disturbance]`.
     pub iterations: Vec<IterationReport>,
-    /// Every applicable gated method within its regression gate (and at least one gated).
+    /// Every applicable gated method within its regression gate (and at least one gated),
+    /// and no check of [`Report::failed_checks`] failed.
     pub passed: bool,
+    /// The checks of the method's own premises that failed (docs/methods.md, "Checks"):
+    /// an FPK estimate with no stationary density, a model the validation rejects on
+    /// measured data. Any of them fails the run (exit 1).
+    pub failed_checks: Vec<FailedCheck>,
     #[serde(skip)]
     pub plot: PlotData,
     #[serde(skip)]

@@ -211,7 +211,7 @@ impl Measured {
             let mut changed = None;
             let mut stopped = false;
             source.for_each_row(&plan.wanted, &mut Labels::default(), &mut |r, v| {
-                if r % crate::pipeline::Input::LOOK_EVERY == 0 && crate::interrupt::requested() {
+                if r % crate::interrupt::LOOK_EVERY == 0 && crate::interrupt::requested() {
                     stopped = true;
                     return Ok(false);
                 }
@@ -362,52 +362,13 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
     let layout = m.columns();
     let names = m.column_names();
     let width = layout.len();
-    let mut interval: Option<f64> = d.sample_interval;
-    let mut notes = Vec::new();
-    let mut plans = Vec::new();
-    let mut lengths = Vec::new();
-    let mut crossings = vec![0usize; d.columns.len()];
-    for source in sources {
-        let c = Columns::of(&source, d, &names)?;
-        let s = scan(&source, &c, d)?;
-        check_values(&source, &c, &s)?;
-        for (total, n) in crossings.iter_mut().zip(&s.crossings) {
-            *total += n;
-        }
-        if s.records.is_empty() {
-            continue;
-        }
-        if interval.is_none() {
-            interval =
-                interval_of(&s.first_steps).or_else(|| s.records.iter().find_map(|r| r.runs.first()).map(|r| r.step));
-        }
-        let h = interval.ok_or_else(|| {
-            err(
-                source.path(),
-                "no sample interval: give [data] sample_interval, or a time column with two samples in a record",
-            )
-        })?;
-        let mut pieces_of = vec![(0u32, Vec::new()); s.records.len()];
-        for slot in s.order() {
-            let p = if c.time_at.is_some() {
-                pieces(&source, &s, slot, d, h, &mut notes)?
-            } else {
-                vec![s.records[slot].rows]
-            };
-            pieces_of[slot] = (lengths.len() as u32, p.clone());
-            lengths.extend(p);
-        }
-        plans.push((
-            source,
-            Plan {
-                mapped: c.mapped.iter().map(|&(k, scale, _)| (k, scale)).collect(),
-                wanted: c.wanted,
-                record_at: c.record_at,
-                slots: s.slots,
-                pieces: pieces_of,
-            },
-        ));
-    }
+    let Sources {
+        interval,
+        notes,
+        plans,
+        lengths,
+        crossings,
+    } = plan_sources(sources, d, &names)?;
     let Some(sample_interval) = interval.filter(|_| !lengths.is_empty()) else {
         return Err(err(
             plans.first().map_or(std::path::Path::new("<data>"), |p| p.0.path()),
@@ -536,6 +497,75 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         err(&path, e).in_column(column)
     })?;
     Ok(data)
+}
+
+/// What the first pass over every source finds: the sample interval, the notes, each
+/// source's reading plan, every record piece's length and each mapped column's mean
+/// crossings.
+struct Sources {
+    interval: Option<f64>,
+    notes: Vec<String>,
+    plans: Vec<(Source, Plan)>,
+    lengths: Vec<usize>,
+    crossings: Vec<usize>,
+}
+
+/// Scan every source (`scan`, `check_values`) and plan its reading: its records in
+/// order, split into pieces at time gaps where the mapping asks.
+fn plan_sources(sources: Vec<Source>, d: &DataMapping, names: &[String]) -> Result<Sources, DataError> {
+    let mut interval: Option<f64> = d.sample_interval;
+    let mut notes = Vec::new();
+    let mut plans = Vec::new();
+    let mut lengths = Vec::new();
+    let mut crossings = vec![0usize; d.columns.len()];
+    for source in sources {
+        let c = Columns::of(&source, d, names)?;
+        let s = scan(&source, &c, d)?;
+        check_values(&source, &c, &s)?;
+        for (total, n) in crossings.iter_mut().zip(&s.crossings) {
+            *total += n;
+        }
+        if s.records.is_empty() {
+            continue;
+        }
+        if interval.is_none() {
+            interval =
+                interval_of(&s.first_steps).or_else(|| s.records.iter().find_map(|r| r.runs.first()).map(|r| r.step));
+        }
+        let h = interval.ok_or_else(|| {
+            err(
+                source.path(),
+                "no sample interval: give [data] sample_interval, or a time column with two samples in a record",
+            )
+        })?;
+        let mut pieces_of = vec![(0u32, Vec::new()); s.records.len()];
+        for slot in s.order() {
+            let p = if c.time_at.is_some() {
+                pieces(&source, &s, slot, d, h, &mut notes)?
+            } else {
+                vec![s.records[slot].rows]
+            };
+            pieces_of[slot] = (lengths.len() as u32, p.clone());
+            lengths.extend(p);
+        }
+        plans.push((
+            source,
+            Plan {
+                mapped: c.mapped.iter().map(|&(k, scale, _)| (k, scale)).collect(),
+                wanted: c.wanted,
+                record_at: c.record_at,
+                slots: s.slots,
+                pieces: pieces_of,
+            },
+        ));
+    }
+    Ok(Sources {
+        interval,
+        notes,
+        plans,
+        lengths,
+        crossings,
+    })
 }
 
 impl Measured {

@@ -215,7 +215,7 @@ pub(super) fn scan(source: &Source, c: &Columns, d: &DataMapping) -> Result<Scan
     let mut stop = None;
     let mut labels = Labels::default();
     source.for_each_row(&c.wanted, &mut labels, &mut |r, v| {
-        if r % crate::pipeline::Input::LOOK_EVERY == 0 && crate::interrupt::requested() {
+        if r % crate::interrupt::LOOK_EVERY == 0 && crate::interrupt::requested() {
             stop = Some(Stop::Interrupted);
             return Ok(false);
         }

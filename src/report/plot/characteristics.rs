@@ -68,160 +68,11 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
     let mut strips = Vec::new();
     for (l, link) in s.links.iter().enumerate() {
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
-            let truth = truth_of(r, &link.name, kind).unwrap_or_default();
-            let identified = r
-                .methods
-                .iter()
-                .any(|m| m.curves.iter().any(|c| c.link == link.name && c.kind == kind.name()));
-            if truth.is_empty() && !identified {
-                continue;
+            if let Some((panel, residual, strip)) = characteristic_panels(r, l, link, kind, &uf) {
+                panels.push(panel);
+                residuals.push(residual);
+                strips.push(strip);
             }
-            let (hist, unit, xs) = observed(r, l, kind);
-            let (what, func, var) = words(kind);
-            let (lo, hi) = (hist.lo, hist.hi);
-            let true_ys: Vec<f64> = xs.iter().map(|&z| truth.eval(z)).collect();
-            let known = !truth.is_empty();
-            let mut range_values: Vec<f64> = if known { true_ys.clone() } else { Vec::new() };
-            let mut marks = Vec::new();
-            let mut lines = Vec::new();
-            let mut legend = Vec::new();
-            let mut residual = Panel::new(
-                "",
-                Axis::linear(lo, hi, "").unlabelled(),
-                Axis::linear(
-                    0.0,
-                    1.0,
-                    if known {
-                        format!("{} − {func} ({uf})", func.replacen('(', "\u{302}(", 1))
-                    } else {
-                        format!("95 % band ({uf})")
-                    },
-                ),
-            );
-            let mut residual_values = vec![0.0];
-            for (mi, m) in r.methods.iter().enumerate() {
-                let Some(c) = m.curves.iter().find(|c| c.link == link.name && c.kind == kind.name()) else {
-                    continue;
-                };
-                let p = stats::characteristic(&c.identified);
-                let ys: Vec<f64> = xs.iter().map(|&z| p.eval(z)).collect();
-                let col = color(mi);
-                let right = sets_range(m);
-                if right {
-                    range_values.extend(&ys);
-                    let half: Vec<f64> = xs.iter().map(|&z| c.half_width_95(z).unwrap_or(0.0)).collect();
-                    if c.half_width_95(0.0).is_some() {
-                        marks.push(Mark::Band {
-                            xs: xs.clone(),
-                            lower: ys.iter().zip(&half).map(|(y, h)| y - h).collect(),
-                            upper: ys.iter().zip(&half).map(|(y, h)| y + h).collect(),
-                            color: col,
-                            opacity: 0.2,
-                        });
-                    }
-                    // The residual: estimate − truth (or 0 with no truth) and its band.
-                    let d: Vec<f64> = if known {
-                        ys.iter().zip(&true_ys).map(|(y, t)| y - t).collect()
-                    } else {
-                        vec![0.0; xs.len()]
-                    };
-                    let lower: Vec<f64> = d.iter().zip(&half).map(|(y, h)| y - h).collect();
-                    let upper: Vec<f64> = d.iter().zip(&half).map(|(y, h)| y + h).collect();
-                    residual_values.extend(lower.iter().chain(&upper));
-                    residual.mark(Mark::Band {
-                        xs: xs.clone(),
-                        lower,
-                        upper,
-                        color: col,
-                        opacity: 0.2,
-                    });
-                    if known {
-                        residual.mark(Mark::Line {
-                            points: xs.iter().copied().zip(d).collect(),
-                            stroke: Stroke::solid(col, 2.2),
-                        });
-                    }
-                }
-                let stroke = if right {
-                    Stroke::solid(col, 3.2)
-                } else {
-                    Stroke::dashed(col, 1.6, 7.0, 4.0)
-                };
-                let mut notes = Vec::new();
-                if c.rel_l2_error.is_finite() {
-                    notes.push(format!("{} error", fmt_err(c.rel_l2_error)));
-                }
-                if right && !c.covariance.is_empty() {
-                    notes.push("95 % band".into());
-                }
-                let label = if notes.is_empty() {
-                    m.method.to_string()
-                } else {
-                    format!("{} ({})", m.method, notes.join(", "))
-                };
-                lines.push((xs.iter().copied().zip(ys).collect::<Vec<_>>(), stroke, label));
-            }
-            if range_values.is_empty() {
-                // Nothing is meant to be right (measured data, baselines only): every curve.
-                range_values = lines.iter().flat_map(|l| l.0.iter().map(|p| p.1)).collect();
-            }
-            let (y0, y1) = padded(range_values, 0.06);
-            for (pts, stroke, mut label) in lines {
-                if pts.iter().any(|p| p.1 < y0 || p.1 > y1) {
-                    label += " — off scale ▲▼";
-                }
-                legend.push((Swatch::Line(stroke), label));
-                marks.push(Mark::Line { points: pts, stroke });
-            }
-            let mut title = format!("{} {}: {what} {func}", link.name, kind.name());
-            let mut notes = Vec::new();
-            if known {
-                let truth_stroke = Stroke::solid(BLACK, 1.3);
-                marks.push(Mark::Line {
-                    points: xs.iter().copied().zip(true_ys).collect(),
-                    stroke: truth_stroke,
-                });
-                legend.insert(0, (Swatch::Line(truth_stroke), "true".into()));
-                if legend.len() == 1 {
-                    title += " — known, not identified";
-                    notes.push("given in the scenario as known; no method estimates it".to_string());
-                }
-            }
-            let mut panel = Panel::new(
-                title,
-                Axis::linear(lo, hi, "").unlabelled(),
-                Axis::linear(y0, y1, format!("{func} ({uf})")),
-            );
-            panel.marks = marks;
-            panel.legend = legend;
-            panel.legend_at = Corner::Above;
-            panel.notes = notes;
-            panel.mark_exits = true;
-            panels.push(panel);
-            let (r0, r1) = padded(residual_values, 0.08);
-            residual.y.lo = r0;
-            residual.y.hi = r1;
-            // Zero under the residuals, not over them.
-            residual.marks.insert(
-                0,
-                Mark::HLine {
-                    y: 0.0,
-                    stroke: Stroke::solid(BLACK, 1.0),
-                },
-            );
-            // A characteristic that no FPK estimator identifies has no residual to show.
-            residuals.push((residual.marks.len() > 1).then_some(residual));
-            strips.push(histogram_strip(
-                hist,
-                &format!(
-                    "{var} ({unit}): relative {} over the observed range; grey: the data's distribution",
-                    if kind == Characteristic::Stiffness {
-                        "displacement"
-                    } else {
-                        "velocity"
-                    }
-                ),
-            ));
         }
     }
     let mut fig = Figure::new(1200.0);
@@ -245,4 +96,169 @@ pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<Path
         fig.row(100.0, bottom);
     }
     write_figure(path, &fig)
+}
+
+/// One characteristic's three panels: the estimates over the truth with their bands, the
+/// residual (none where no FPK estimator identifies it) and the data's distribution of its
+/// argument; `None` where nothing is known or identified about it.
+fn characteristic_panels(
+    r: &Report,
+    l: usize,
+    link: &crate::scenario::Link,
+    kind: Characteristic,
+    uf: &str,
+) -> Option<(Panel, Option<Panel>, Panel)> {
+    let truth = truth_of(r, &link.name, kind).unwrap_or_default();
+    let identified = r
+        .methods
+        .iter()
+        .any(|m| m.curves.iter().any(|c| c.link == link.name && c.kind == kind.name()));
+    if truth.is_empty() && !identified {
+        return None;
+    }
+    let (hist, unit, xs) = observed(r, l, kind);
+    let (what, func, var) = words(kind);
+    let (lo, hi) = (hist.lo, hist.hi);
+    let true_ys: Vec<f64> = xs.iter().map(|&z| truth.eval(z)).collect();
+    let known = !truth.is_empty();
+    let mut range_values: Vec<f64> = if known { true_ys.clone() } else { Vec::new() };
+    let mut marks = Vec::new();
+    let mut lines = Vec::new();
+    let mut legend = Vec::new();
+    let mut residual = Panel::new(
+        "",
+        Axis::linear(lo, hi, "").unlabelled(),
+        Axis::linear(
+            0.0,
+            1.0,
+            if known {
+                format!("{} − {func} ({uf})", func.replacen('(', "\u{302}(", 1))
+            } else {
+                format!("95 % band ({uf})")
+            },
+        ),
+    );
+    let mut residual_values = vec![0.0];
+    for (mi, m) in r.methods.iter().enumerate() {
+        let Some(c) = m.curves.iter().find(|c| c.link == link.name && c.kind == kind.name()) else {
+            continue;
+        };
+        let p = stats::characteristic(&c.identified);
+        let ys: Vec<f64> = xs.iter().map(|&z| p.eval(z)).collect();
+        let col = color(mi);
+        let right = sets_range(m);
+        if right {
+            range_values.extend(&ys);
+            let half: Vec<f64> = xs.iter().map(|&z| c.half_width_95(z).unwrap_or(0.0)).collect();
+            if c.half_width_95(0.0).is_some() {
+                marks.push(Mark::Band {
+                    xs: xs.clone(),
+                    lower: ys.iter().zip(&half).map(|(y, h)| y - h).collect(),
+                    upper: ys.iter().zip(&half).map(|(y, h)| y + h).collect(),
+                    color: col,
+                    opacity: 0.2,
+                });
+            }
+            // The residual: estimate − truth (or 0 with no truth) and its band.
+            let d: Vec<f64> = if known {
+                ys.iter().zip(&true_ys).map(|(y, t)| y - t).collect()
+            } else {
+                vec![0.0; xs.len()]
+            };
+            let lower: Vec<f64> = d.iter().zip(&half).map(|(y, h)| y - h).collect();
+            let upper: Vec<f64> = d.iter().zip(&half).map(|(y, h)| y + h).collect();
+            residual_values.extend(lower.iter().chain(&upper));
+            residual.mark(Mark::Band {
+                xs: xs.clone(),
+                lower,
+                upper,
+                color: col,
+                opacity: 0.2,
+            });
+            if known {
+                residual.mark(Mark::Line {
+                    points: xs.iter().copied().zip(d).collect(),
+                    stroke: Stroke::solid(col, 2.2),
+                });
+            }
+        }
+        let stroke = if right {
+            Stroke::solid(col, 3.2)
+        } else {
+            Stroke::dashed(col, 1.6, 7.0, 4.0)
+        };
+        let mut notes = Vec::new();
+        if c.rel_l2_error.is_finite() {
+            notes.push(format!("{} error", fmt_err(c.rel_l2_error)));
+        }
+        if right && !c.covariance.is_empty() {
+            notes.push("95 % band".into());
+        }
+        let label = if notes.is_empty() {
+            m.method.to_string()
+        } else {
+            format!("{} ({})", m.method, notes.join(", "))
+        };
+        lines.push((xs.iter().copied().zip(ys).collect::<Vec<_>>(), stroke, label));
+    }
+    if range_values.is_empty() {
+        // Nothing is meant to be right (measured data, baselines only): every curve.
+        range_values = lines.iter().flat_map(|l| l.0.iter().map(|p| p.1)).collect();
+    }
+    let (y0, y1) = padded(range_values, 0.06);
+    for (pts, stroke, mut label) in lines {
+        if pts.iter().any(|p| p.1 < y0 || p.1 > y1) {
+            label += " — off scale ▲▼";
+        }
+        legend.push((Swatch::Line(stroke), label));
+        marks.push(Mark::Line { points: pts, stroke });
+    }
+    let mut title = format!("{} {}: {what} {func}", link.name, kind.name());
+    let mut notes = Vec::new();
+    if known {
+        let truth_stroke = Stroke::solid(BLACK, 1.3);
+        marks.push(Mark::Line {
+            points: xs.iter().copied().zip(true_ys).collect(),
+            stroke: truth_stroke,
+        });
+        legend.insert(0, (Swatch::Line(truth_stroke), "true".into()));
+        if legend.len() == 1 {
+            title += " — known, not identified";
+            notes.push("given in the scenario as known; no method estimates it".to_string());
+        }
+    }
+    let mut panel = Panel::new(
+        title,
+        Axis::linear(lo, hi, "").unlabelled(),
+        Axis::linear(y0, y1, format!("{func} ({uf})")),
+    );
+    panel.marks = marks;
+    panel.legend = legend;
+    panel.legend_at = Corner::Above;
+    panel.notes = notes;
+    panel.mark_exits = true;
+    let (r0, r1) = padded(residual_values, 0.08);
+    residual.y.lo = r0;
+    residual.y.hi = r1;
+    // Zero under the residuals, not over them.
+    residual.marks.insert(
+        0,
+        Mark::HLine {
+            y: 0.0,
+            stroke: Stroke::solid(BLACK, 1.0),
+        },
+    );
+    let strip = histogram_strip(
+        hist,
+        &format!(
+            "{var} ({unit}): relative {} over the observed range; grey: the data's distribution",
+            if kind == Characteristic::Stiffness {
+                "displacement"
+            } else {
+                "velocity"
+            }
+        ),
+    );
+    // A characteristic that no FPK estimator identifies has no residual to show.
+    Some((panel, (residual.marks.len() > 1).then_some(residual), strip))
 }

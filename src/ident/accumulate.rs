@@ -1,0 +1,74 @@
+//! What every pass over the samples is made of: an [`Accumulator`] takes the samples one
+//! at a time and is finished when the pass is over. The weak form's moments, the noise
+//! floor, the Fisher information, every estimator's pieces, the force spectra and the
+//! validation's distributions are accumulators; `crate::pipeline::pass` runs a list of
+//! them over a sample source (docs/architecture.md, "Stages and passes").
+//!
+//! A leaf module: it depends on nothing, so every layer can implement it.
+
+/// One stationary sample as a pass hands it over.
+#[derive(Debug, Clone, Copy)]
+pub struct Sample<'r> {
+    /// The trajectory (record) the sample belongs to.
+    pub trajectory: u32,
+    /// Its time after burn-in (s).
+    pub t: f64,
+    /// Its coarse jackknife batch (`StationaryData::batch_of`).
+    pub batch: usize,
+    /// The log's columns.
+    pub row: &'r [f64],
+}
+
+/// A computation over the samples of one pass: `push` for every sample, in the source's
+/// order (a trajectory's samples in time order), then `finish` once.
+pub trait Accumulator {
+    /// One sample.
+    fn push(&mut self, sample: &Sample);
+    /// The pass is over: flush what is buffered.
+    fn finish(&mut self) {}
+}
+
+impl<A: Accumulator + ?Sized> Accumulator for Box<A> {
+    fn push(&mut self, sample: &Sample) {
+        (**self).push(sample)
+    }
+    fn finish(&mut self) {
+        (**self).finish()
+    }
+}
+
+impl<A: Accumulator> Accumulator for Option<A> {
+    fn push(&mut self, sample: &Sample) {
+        if let Some(a) = self {
+            a.push(sample)
+        }
+    }
+    fn finish(&mut self) {
+        if let Some(a) = self {
+            a.finish()
+        }
+    }
+}
+
+impl<A: Accumulator> Accumulator for Vec<A> {
+    fn push(&mut self, sample: &Sample) {
+        for a in self.iter_mut() {
+            a.push(sample)
+        }
+    }
+    fn finish(&mut self) {
+        for a in self.iter_mut() {
+            a.finish()
+        }
+    }
+}
+
+/// A closure as an accumulator: what feeds another accumulator a row of its own (a
+/// subset of the columns, a derived force), or a sum too small for a type of its own.
+pub struct Each<F>(pub F);
+
+impl<F: FnMut(&Sample)> Accumulator for Each<F> {
+    fn push(&mut self, sample: &Sample) {
+        (self.0)(sample)
+    }
+}

@@ -1,0 +1,159 @@
+//! Stage "plan" (read and check): the methods to run, the structure selection asked for,
+//! the specification and its problem over placeholder filters, and every accumulator of
+//! the first pass — the weak form's moments (with those of the declared and comparison
+//! models that share its atoms), the naive white-noise row's, the comparison models' and
+//! the profile positions' own, the force spectra's lag sums and the sensor-noise floor.
+
+use super::super::grading::Grader;
+use super::super::identify::{accumulated, placeholder_filters, selection};
+use super::super::source::Input;
+use super::super::spectra::ForceSpectra;
+use super::super::{Options, PipelineError};
+use super::Identification;
+use crate::ident::data::StationaryData;
+use crate::ident::{weak, Filter, IdentError, Problem, Specification};
+use crate::scenario::Scenario;
+
+/// The plan of an identification of `input`.
+pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identification<'a>, PipelineError> {
+    let s = &input.info.scenario;
+    let grader = Grader::of_log(&input.info)?;
+    let sim = &s.simulation;
+    let methods = if options.methods.is_empty() {
+        s.identify.methods.clone()
+    } else {
+        options.methods.clone()
+    };
+    // Measured filtered excitations: their A, B come from the force spectrum unless known.
+    let placeholder = placeholder_filters(s);
+    let filtered: Vec<usize> = placeholder.iter().map(|f| f.excitation).collect();
+    let select = selection(s, options.select.as_ref())?;
+    let spec = accumulated(s, select.as_ref());
+    let structure = Problem::from_spec(&spec, &placeholder)?;
+    let naive_structure = (!filtered.is_empty())
+        .then(|| Problem::from_spec(&spec.whitened(&placeholder), &[]))
+        .transpose()?;
+    // With a selection, the first pass also gathers the moments of the declared model it
+    // is compared with, and those of the `[identify.compare]` models over the same atoms; a
+    // comparison model with other atoms (other non-polynomial terms) gathers its own.
+    let declared = (select.is_some())
+        .then(|| Problem::from_spec(&Specification::from_scenario(s), &placeholder))
+        .transpose()?;
+    let comparisons: Vec<Comparison> = s
+        .identify
+        .compare
+        .iter()
+        .map(|(name, links)| Comparison::new(name, links, s, &placeholder, &structure, options.batches))
+        .collect();
+    // A profiled term's position: the model at every position gathers its moments.
+    let profile_candidates = super::super::profile::Candidates::new(s, &spec, &placeholder, options.batches);
+    let also: Vec<&Problem> = declared
+        .iter()
+        .chain(
+            comparisons
+                .iter()
+                .filter(|c| c.own.is_none())
+                .filter_map(|c| c.problem.as_ref().ok()),
+        )
+        .collect();
+    let data = match also.is_empty() {
+        false => {
+            StationaryData::for_weak_forms(&structure, &also, sim.record_length, sim.trajectories, options.batches)
+        }
+        true => StationaryData::new(
+            &structure,
+            weak::moment_degree(&structure),
+            sim.record_length,
+            sim.trajectories,
+            options.batches,
+        ),
+    };
+    // The naive white-noise row shows what ignoring the filters costs against the truth;
+    // measured data have none to show it against, and nobody asked for it there.
+    let naive_data = naive_structure
+        .as_ref()
+        .filter(|_| input.measured().is_none())
+        .map(|p| {
+            StationaryData::new(
+                p,
+                weak::moment_degree(p),
+                sim.record_length,
+                sim.trajectories,
+                options.batches,
+            )
+        });
+    let forces = ForceSpectra::new(s, &filtered);
+    let floor = super::super::sensors::noise_floor(input, &structure, data.batch_count());
+    Ok(Identification {
+        input,
+        options,
+        grader,
+        methods,
+        placeholder,
+        select,
+        spec,
+        structure,
+        naive_structure,
+        comparisons,
+        profile_candidates,
+        data,
+        naive_data,
+        forces,
+        floor,
+        profiled: None,
+        sensor_noise: None,
+        taken_out: Vec::new(),
+        selected: None,
+        total: None,
+        estimators: Vec::new(),
+        dist: None,
+        fisher: None,
+        fitted: None,
+        rows: Vec::new(),
+        first: None,
+        reported: None,
+        validation: None,
+        failed_checks: Vec::new(),
+    })
+}
+
+/// One model of `[identify.compare]` before the first pass: its problem over the
+/// placeholder filters, and its own moments when its atoms differ from the identified
+/// structure's (their moments are other variables' moments); otherwise it reads the
+/// shared data.
+pub(crate) struct Comparison {
+    pub name: String,
+    pub links: Vec<crate::scenario::IdentifyLink>,
+    pub problem: Result<Problem, IdentError>,
+    pub own: Option<StationaryData>,
+}
+
+impl Comparison {
+    fn new(
+        name: &str,
+        links: &[crate::scenario::IdentifyLink],
+        s: &Scenario,
+        placeholder: &[Filter],
+        structure: &Problem,
+        batches: usize,
+    ) -> Comparison {
+        let problem = Problem::from_spec(&Specification::with_links(s, links), placeholder);
+        let own = match &problem {
+            // With a profile the shared moments are replaced by the chosen position's.
+            Ok(p) if p.atoms != structure.atoms || s.identify.profile.is_some() => Some(StationaryData::new(
+                p,
+                weak::moment_degree(p),
+                s.simulation.record_length,
+                s.simulation.trajectories,
+                batches,
+            )),
+            _ => None,
+        };
+        Comparison {
+            name: name.to_string(),
+            links: links.to_vec(),
+            problem,
+            own,
+        }
+    }
+}

@@ -1,0 +1,62 @@
+//! Stage "second pass": every requested method's estimator built from the first pass
+//! (its grid, its kernel's width) and fed every sample, with the Fisher information (the
+//! Cramér–Rao bound beside every standard error), the force spectra's Welch estimates (and
+//! a force cell's noise floor, where it is estimated) and the distributions the
+//! validation and the figures compare.
+
+use super::super::pass;
+use super::super::validation::Distributions;
+use super::super::PipelineError;
+use super::Identification;
+use crate::estimators::Setup;
+use crate::ident::accumulate::Accumulator;
+use crate::ident::fisher::FisherInformation;
+use crate::scenario::NoiseHandling;
+
+/// What the estimators are built from, once the first pass's moments are final.
+pub(super) fn setup<'a>(id: &'a Identification) -> Setup<'a> {
+    Setup {
+        scenario: &id.input.info.scenario,
+        structure: &id.structure,
+        whitened: id.naive_structure.as_ref(),
+        data: &id.data,
+        total: id.total.as_ref().expect("set before the second pass"),
+        settings: &id.options.estimators,
+        arenas: &id.options.arenas,
+        measured: id.input.measured().is_some(),
+    }
+}
+
+pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
+    let s = &id.input.info.scenario;
+    id.total = Some(id.data.total());
+    let estimators = {
+        let setup = setup(id);
+        id.methods.iter().map(|&m| (m, m.estimator(&setup))).collect()
+    };
+    id.estimators = estimators;
+    let mut dist = Distributions::new(s, &id.structure, &id.data);
+    id.forces.start_welch(&s.simulation);
+    if s.identify.sensor_noise == NoiseHandling::Estimate
+        && (s.simulation.sensors.noisy() || id.input.measured().is_some())
+    {
+        id.forces.estimate_floors(s.simulation.trajectories);
+    }
+    let mut fisher = FisherInformation::new(&id.structure).ok();
+    let batching = id.data.batching();
+    let mut list: Vec<&mut dyn Accumulator> = id
+        .estimators
+        .iter_mut()
+        .map(|(_, e)| e as &mut dyn Accumulator)
+        .collect();
+    list.push(&mut fisher);
+    // The distributions are gathered only for what shows them (the validation, the figures).
+    if id.options.validate || id.options.plots {
+        list.push(&mut dist);
+    }
+    list.push(&mut id.forces);
+    pass::run(id.input, batching, &mut list)?;
+    id.dist = Some(dist);
+    id.fisher = fisher;
+    Ok(())
+}

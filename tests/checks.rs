@@ -1,0 +1,181 @@
+//! Checks of the method's own premises (docs/methods.md, "Checks"): a measured force whose
+//! spectrum rejects the first-order filter (3.20) refuses every method that needs it and
+//! leaves the force regression standing; an Ornstein–Uhlenbeck force of the same rig is not
+//! rejected. The tables are made here, by a small integrator of the test's own, as a lab's
+//! would be: nothing of fpkbench's simulator is in them.
+
+use fpkbench::io::table::{measured, read_for};
+use fpkbench::pipeline::{identify, Input, Options};
+use fpkbench::report::{Outcome, Report};
+use fpkbench::scenario::{Method, ReportMethod};
+use fpkbench::Scenario;
+use std::fmt::Write;
+
+/// A linear oscillator, m = 1, k1 = (2π·5 Hz)², c1 = 2·0.05·ω (5 % damping).
+const K1: f64 = 100.0 * std::f64::consts::PI * std::f64::consts::PI;
+const C1: f64 = std::f64::consts::PI;
+const STEP: f64 = 5e-4;
+const SAMPLE: f64 = 5e-3;
+
+const MODEL: &str = r#"
+name = "rig"
+[[mass]]
+name = "m1"
+value = 1.0
+[[link]]
+ends = ["ground", "m1"]
+[[excitation]]
+name = "shaker"
+kind = "filtered"
+A = 1.0
+B = 1.0
+acts_on = ["m1"]
+[identify]
+methods = ["weak", "force-regression"]
+[identify.links.ground-m1]
+stiffness = [1]
+damping = [1]
+[data]
+time = "t"
+record = "record"
+[data.columns]
+x_m1 = "x"
+v_m1 = "v"
+a_m1 = "a"
+p_shaker = "p"
+"#;
+
+/// SplitMix64's uniform numbers in [0, 1).
+struct Uniform(u64);
+
+impl Uniform {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn normal(&mut self) -> f64 {
+        let (u1, u2) = (self.next().max(1e-300), self.next());
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+/// The oscillator driven by `force(step)`, semi-implicit Euler at STEP, `records` records
+/// of `length` s after a 20 s transient, sampled every SAMPLE: a CSV of record, t, x, v,
+/// a (from the equation of motion at the sample) and p.
+fn rig_table(records: usize, length: f64, mut force: impl FnMut(usize) -> f64) -> String {
+    let mut csv = String::from("record,t,x,v,a,p\n");
+    let per_sample = (SAMPLE / STEP).round() as usize;
+    let (transient, samples) = ((20.0 / STEP) as usize, (length / SAMPLE) as usize);
+    for r in 0..records {
+        let (mut x, mut v) = (0.0, 0.0);
+        for n in 0..transient + samples * per_sample {
+            let p = force(r * (transient + samples * per_sample) + n);
+            if n >= transient && (n - transient) % per_sample == 0 {
+                let t = (n - transient) as f64 * STEP;
+                let a = p - C1 * v - K1 * x;
+                writeln!(csv, "{r},{t},{x:e},{v:e},{a:e},{p:e}").unwrap();
+            }
+            v += STEP * (p - C1 * v - K1 * x);
+            x += STEP * v;
+        }
+    }
+    csv
+}
+
+fn identify_table(csv: &str) -> Report {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rig.csv");
+    std::fs::write(&path, csv).unwrap();
+    let model = Scenario::parse(MODEL, "rig.toml", "rig").unwrap();
+    let source = read_for(&path, model.data.as_ref().unwrap()).unwrap();
+    let data = measured(&model, vec![source]).unwrap();
+    let options = Options {
+        validate: false,
+        methods: vec![Method::Weak, Method::ForceRegression],
+        ..Options::default()
+    };
+    identify(&Input::tables(model, data), &options).unwrap()
+}
+
+fn row(r: &Report, m: ReportMethod) -> &fpkbench::report::MethodReport {
+    r.methods.iter().find(|x| x.method == m).unwrap()
+}
+
+#[test]
+fn a_multisine_force_read_as_first_order_is_refused_and_the_force_regression_stands() {
+    // A random-phase multisine flat from 0.1 to 20 Hz (four times the mode), a new
+    // realisation per record: its spectrum is flat and then nothing, which no first-order
+    // spectrum follows.
+    let (lines, f0) = (200, 0.1);
+    let mut u = Uniform(7);
+    let mut phases = Vec::new();
+    let mut record = usize::MAX;
+    let per_record = ((20.0 + 60.0) / STEP) as usize;
+    let table = rig_table(8, 60.0, |n| {
+        if n / per_record != record {
+            record = n / per_record;
+            phases = (0..lines).map(|_| 2.0 * std::f64::consts::PI * u.next()).collect();
+        }
+        let t = (n % per_record) as f64 * STEP;
+        (0..lines)
+            .map(|k| (2.0 * std::f64::consts::PI * f0 * (k + 1) as f64 * t + phases[k]).cos())
+            .sum::<f64>()
+            * 4.0
+    });
+    let r = identify_table(&table);
+    let f = &r.filters[0];
+    let ratio = f.rms_log_residual / f.expected_rms_log_residual;
+    assert!(ratio > 3.0, "the first-order fit misses by {ratio:.2}× the averaging");
+    let weak = row(&r, ReportMethod::Estimator(Method::Weak));
+    assert_eq!(weak.outcome, Outcome::Refused, "{:?}", weak.error);
+    let why = weak.error.as_deref().unwrap();
+    assert!(
+        why.contains("force model is rejected") && why.contains("shaker"),
+        "{why}"
+    );
+    assert!(weak.parameters.iter().all(|p| !p.estimate.is_finite()) || weak.parameters.is_empty());
+    let fr = row(&r, ReportMethod::Estimator(Method::ForceRegression));
+    assert_eq!(fr.outcome, Outcome::Estimated, "{:?}", fr.error);
+    // The force regression reads the force itself: k1 and c1 within a few per cent.
+    let value = |name: &str| fr.parameters.iter().find(|p| p.name == name).unwrap().estimate;
+    assert!(
+        (value("k1[ground-m1]") / K1 - 1.0).abs() < 0.02,
+        "{}",
+        value("k1[ground-m1]")
+    );
+    assert!(
+        (value("c1[ground-m1]") / C1 - 1.0).abs() < 0.1,
+        "{}",
+        value("c1[ground-m1]")
+    );
+    assert!(!r.passed);
+}
+
+#[test]
+fn an_ornstein_uhlenbeck_force_of_the_same_rig_is_not_rejected() {
+    // dP = −B P dt + A dW, exact in each step, B = 20 1/s (near the mode's 31 rad/s).
+    let (a, b) = (200.0, 20.0);
+    let phi: f64 = (-b * STEP).exp();
+    let sd = a * ((1.0 - phi * phi) / (2.0 * b)).sqrt();
+    let mut u = Uniform(11);
+    let mut p = 0.0;
+    let table = rig_table(8, 60.0, |_| {
+        p = phi * p + sd * u.normal();
+        p
+    });
+    let r = identify_table(&table);
+    let f = &r.filters[0];
+    let ratio = f.rms_log_residual / f.expected_rms_log_residual;
+    // A right model's misfit is the averaging's: 0.98–1.03 on the shipped scenarios.
+    assert!(
+        ratio < 1.5,
+        "the first-order fit misses an OU force by {ratio:.2}× the averaging"
+    );
+    let weak = row(&r, ReportMethod::Estimator(Method::Weak));
+    assert_eq!(weak.outcome, Outcome::Estimated, "{:?}", weak.error);
+    assert!((f.fitted_b / b - 1.0).abs() < 0.2, "B = {}", f.fitted_b);
+}
