@@ -20,55 +20,138 @@ use fpkbench::{Model, Scenario};
 use std::hint::black_box;
 use std::time::Instant;
 
-fn main() {
-    let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
-    let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
-    s.simulation.record_length = 12_500.0; // 16 × 125 000 = 2e6 samples
-    let p = Problem::new(&s).unwrap();
-    let mut c = Collect::default();
-    simulate(&Model::new(&s), &s.simulation, &mut c, &|_| {}).unwrap();
-    let mut rows: Vec<f64> = Vec::new();
-    let mut full_rows: Vec<(u32, f64, Vec<f64>)> = Vec::new();
-    for b in &c.batches {
-        b.for_each_sample(|j, t, row| {
-            rows.extend(p.columns.iter().map(|&k| row[k]));
-            full_rows.push((j, t, row.to_vec()));
-        });
-    }
-    let n = rows.len() / 4;
-    let deg = weak::moment_degree(&p);
+/// The samples every bench reads, and what is built from them once.
+struct Fixture {
+    s: Scenario,
+    p: Problem,
+    rows: Vec<f64>,
+    full_rows: Vec<(u32, f64, Vec<f64>)>,
+    n: usize,
+    deg: u32,
+    candidates: Problem,
+    cdata: StationaryData,
+    grid0: DensityGrid,
+    block_rows: Vec<f64>,
+}
 
+impl Fixture {
+    fn new() -> Fixture {
+        let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
+        let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+        s.simulation.record_length = 12_500.0; // 16 × 125 000 = 2e6 samples
+        let p = Problem::new(&s).unwrap();
+        let mut c = Collect::default();
+        simulate(&Model::new(&s), &s.simulation, &mut c, &|_| {}).unwrap();
+        let mut rows: Vec<f64> = Vec::new();
+        let mut full_rows: Vec<(u32, f64, Vec<f64>)> = Vec::new();
+        for b in &c.batches {
+            b.for_each_sample(|j, t, row| {
+                rows.extend(p.columns.iter().map(|&k| row[k]));
+                full_rows.push((j, t, row.to_vec()));
+            });
+        }
+        let n = rows.len() / 4;
+        let deg = weak::moment_degree(&p);
+
+        // Structure selection: the candidate model's moments, then the search against the
+        // weak estimate of the candidate model itself.
+        let powers: Vec<fpkbench::model::Term> = (1..=5).map(fpkbench::model::Term::Power).collect();
+        let select = fpkbench::scenario::Select {
+            stiffness: Some(powers.clone()),
+            damping: Some(powers),
+        };
+        let candidates = Problem::from_spec(
+            &fpkbench::ident::Specification::with_links(&s, &select.candidates(&s.links, &s.identify.links)),
+            &[],
+        )
+        .unwrap();
+        let mut cdata = StationaryData::for_weak_forms(
+            &candidates,
+            &[&p],
+            s.simulation.record_length,
+            s.simulation.trajectories,
+            32,
+        );
+        for (tr, tt, r) in &full_rows {
+            cdata.push(*tr, *tt, r);
+        }
+        cdata.finish();
+
+        let grid0 = DensityGrid::new(
+            &p,
+            &{
+                let mut m = RawMoments::new(4, 2);
+                m.add_block(&rows);
+                m
+            },
+            GridOptions {
+                bins: 20,
+                span_std: 3.0,
+                min_count: 5,
+            },
+        )
+        .unwrap();
+        let block_rows: Vec<f64> = rows
+            .chunks_exact(4 * 64)
+            .flat_map(|b| (0..4).flat_map(move |j| (0..64).map(move |l| b[l * 4 + j])))
+            .collect();
+        Fixture {
+            s,
+            p,
+            rows,
+            full_rows,
+            n,
+            deg,
+            candidates,
+            cdata,
+            grid0,
+            block_rows,
+        }
+    }
+
+    /// The drift's parts: known forces, then every unit force per mass.
+    fn parts(&self) -> Compiled {
+        Compiled::new(self.p.known_force.iter().chain(self.p.unit_force.iter().flatten()))
+    }
+}
+
+fn main() {
+    let f = Fixture::new();
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    benches(&f, &one);
+    ratios(&f, &one);
+}
+
+/// The criterion benches.
+fn benches(f: &Fixture, one: &rayon::ThreadPool) {
+    let Fixture {
+        p,
+        rows,
+        full_rows,
+        n,
+        candidates,
+        cdata,
+        grid0,
+        block_rows,
+        ..
+    } = f;
+    let n = *n;
     let mut cr = Criterion::default().sample_size(10).configure_from_args();
     let mut g = cr.benchmark_group("identification duffing2dof");
     g.throughput(Throughput::Elements(n as u64));
     g.bench_function("weak: raw moments to degree 6, 1 thread", |b| {
         b.iter(|| {
             one.install(|| {
-                let mut m = weak::accumulator(&p);
-                m.add_block(&rows);
+                let mut m = weak::accumulator(p);
+                m.add_block(rows);
                 black_box(m.sums[1])
             })
         })
     });
-    let grid0 = DensityGrid::new(
-        &p,
-        &{
-            let mut m = RawMoments::new(4, 2);
-            m.add_block(&rows);
-            m
-        },
-        GridOptions {
-            bins: 20,
-            span_std: 3.0,
-            min_count: 5,
-        },
-    )
-    .unwrap();
     g.bench_function("strong: fill a 20^4 grid", |b| {
         b.iter(|| {
             let mut grid = grid0.clone();
-            for (_, _, r) in &full_rows {
+            for (_, _, r) in full_rows.iter() {
                 grid.push(r);
             }
             black_box(grid.inside)
@@ -78,14 +161,14 @@ fn main() {
     // (automatic options for 2e6 4-D samples), no jackknife groups.
     let (mean, std): (Vec<f64>, Vec<f64>) = {
         let mut m = RawMoments::new(4, 2);
-        m.add_block(&rows);
+        m.add_block(rows);
         (0..4).map(|j| (m.mean(j), m.std(j))).unzip()
     };
     let arenas = std::sync::Arc::new(fpkbench::ident::Arenas::default());
     g.bench_function("strong: spread the kernel lattice's fluxes", |b| {
         b.iter(|| {
-            let mut l = FluxLattice::new(&p, &mean, &std, KernelOptions::auto(4, n as u64), 0, &arenas).unwrap();
-            for (_, _, r) in &full_rows {
+            let mut l = FluxLattice::new(p, &mean, &std, KernelOptions::auto(4, n as u64), 0, &arenas).unwrap();
+            for (_, _, r) in full_rows.iter() {
                 l.push_in(0, r);
             }
             l.finish();
@@ -93,7 +176,7 @@ fn main() {
         })
     });
     // The drift's parts: known forces, then every unit force per mass.
-    let parts = || Compiled::new(p.known_force.iter().chain(p.unit_force.iter().flatten()));
+    let parts = || f.parts();
     let width = parts().len();
     g.bench_function("drift parts, one state at a time", |b| {
         let (mut c, mut out) = (parts(), vec![0.0; width]);
@@ -106,10 +189,6 @@ fn main() {
             black_box(acc)
         })
     });
-    let block_rows: Vec<f64> = rows
-        .chunks_exact(4 * 64)
-        .flat_map(|b| (0..4).flat_map(move |j| (0..64).map(move |l| b[l * 4 + j])))
-        .collect();
     g.bench_function("drift parts, 64 states at once", |b| {
         let (mut c, mut out) = (parts(), vec![0.0; width * 64]);
         b.iter(|| {
@@ -121,63 +200,57 @@ fn main() {
             black_box(acc)
         })
     });
-    // Structure selection: the candidate model's moments, then the search against the
-    // weak estimate of the candidate model itself.
-    let powers: Vec<fpkbench::model::Term> = (1..=5).map(fpkbench::model::Term::Power).collect();
-    let select = fpkbench::scenario::Select {
-        stiffness: Some(powers.clone()),
-        damping: Some(powers),
-    };
-    let candidates = Problem::from_spec(
-        &fpkbench::ident::Specification::with_links(&s, &select.candidates(&s.links, &s.identify.links)),
-        &[],
-    )
-    .unwrap();
-    let mut cdata = StationaryData::for_weak_forms(
-        &candidates,
-        &[&p],
-        s.simulation.record_length,
-        s.simulation.trajectories,
-        32,
-    );
-    for (tr, tt, r) in &full_rows {
-        cdata.push(*tr, *tt, r);
-    }
-    cdata.finish();
     g.bench_function("selection among 30 candidates", |b| {
-        b.iter(|| black_box(fpkbench::ident::select::select(&candidates, &cdata).unwrap().criterion))
+        b.iter(|| black_box(fpkbench::ident::select::select(candidates, cdata).unwrap().criterion))
     });
     g.bench_function("weak estimate of the 30-term candidate model", |b| {
-        b.iter(|| black_box(fpkbench::ident::identify_weak(&candidates, &cdata).unwrap().values[0]))
+        b.iter(|| black_box(fpkbench::ident::identify_weak(candidates, cdata).unwrap().values[0]))
     });
     g.finish();
     cr.final_summary();
+}
 
-    // Ratios in one run.
+/// Ratios measured in one run.
+fn ratios(f: &Fixture, one: &rayon::ThreadPool) {
+    let Fixture {
+        s,
+        p,
+        rows,
+        full_rows,
+        n,
+        deg,
+        candidates,
+        cdata,
+        grid0,
+        block_rows,
+    } = f;
+    let (n, deg) = (*n, *deg);
+    let parts = || f.parts();
+    let width = parts().len();
     let t = Instant::now();
     one.install(|| {
-        let mut m = weak::accumulator(&p);
-        m.add_block(&rows);
+        let mut m = weak::accumulator(p);
+        m.add_block(rows);
         black_box(m.sums[1]);
     });
     let weak_rate = n as f64 / t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let mut data = StationaryData::new(&p, deg, s.simulation.record_length, s.simulation.trajectories, 8);
-    for (tr, tt, r) in &full_rows {
+    let mut data = StationaryData::new(p, deg, s.simulation.record_length, s.simulation.trajectories, 8);
+    for (tr, tt, r) in full_rows.iter() {
         data.push(*tr, *tt, r);
     }
     data.finish();
-    let est = fpkbench::ident::identify_weak(&p, &data).unwrap();
+    let est = fpkbench::ident::identify_weak(p, &data).unwrap();
     let weak_all = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut grid = grid0.clone();
-    for (_, _, r) in &full_rows {
+    for (_, _, r) in full_rows.iter() {
         grid.push(r);
     }
     let fill = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let typical = p.typical(&data.total());
-    let _ = black_box(fpkbench::ident::identify_strong(&p, &grid, false, &typical));
+    let _ = black_box(fpkbench::ident::identify_strong(p, &grid, false, &typical));
     let solve = t.elapsed().as_secs_f64();
     let (mut c, mut out) = (parts(), vec![0.0; width * 64]);
     let t = Instant::now();
@@ -193,10 +266,10 @@ fn main() {
     }
     let blocked = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let chosen = black_box(fpkbench::ident::select::select(&candidates, &cdata).unwrap());
+    let chosen = black_box(fpkbench::ident::select::select(candidates, cdata).unwrap());
     let selection = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    black_box(fpkbench::ident::identify_weak(&candidates, &cdata).unwrap());
+    black_box(fpkbench::ident::identify_weak(candidates, cdata).unwrap());
     let candidate_estimate = t.elapsed().as_secs_f64();
     println!(
         "\n== identification figures measured in this run (duffing2dof, 4-D state, {} unknowns, {n} samples) ==",
@@ -204,7 +277,7 @@ fn main() {
     );
     println!(
         "weak form, {} moments to degree {deg}, 1 thread {:>10.3e} samples/s per core (target >= 3e7)",
-        weak::accumulator(&p).monomials().len() - 1,
+        weak::accumulator(p).monomials().len() - 1,
         weak_rate
     );
     println!(

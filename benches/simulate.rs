@@ -218,6 +218,16 @@ fn fastest_tidied(reps: usize, jobs: &mut [&mut dyn FnMut()], tidy: &mut dyn FnM
 }
 
 fn main() {
+    // One full lane group per thread for the per-core figure.
+    let one = scenario(LANES, 100.0, 100);
+    let two = scenario(2 * LANES, 100.0, 100);
+    criterion_benches(&one, &two);
+    generation(&one, &two).print();
+    logging();
+}
+
+/// The criterion benches: the random-number bound and the simulator on one and two threads.
+fn criterion_benches(one: &Scenario, two: &Scenario) {
     let mut c = Criterion::default().sample_size(10).configure_from_args();
     let mut g = c.benchmark_group("random-number bound");
     g.throughput(Throughput::Elements(1 << 22));
@@ -226,22 +236,33 @@ fn main() {
     });
     g.finish();
 
-    // One full lane group per thread for the per-core figure.
-    let one = scenario(LANES, 100.0, 100);
-    let two = scenario(2 * LANES, 100.0, 100);
     let mut g = c.benchmark_group("simulator duffing2dof");
-    g.throughput(Throughput::Elements(steps(&one)));
+    g.throughput(Throughput::Elements(steps(one)));
     g.bench_function("1 thread, one lane group", |b| {
-        b.iter(|| run(&one, 1, &mut Discard::default()))
+        b.iter(|| run(one, 1, &mut Discard::default()))
     });
-    g.throughput(Throughput::Elements(steps(&two)));
+    g.throughput(Throughput::Elements(steps(two)));
     g.bench_function("2 threads, two lane groups", |b| {
-        b.iter(|| run(&two, 2, &mut Discard::default()))
+        b.iter(|| run(two, 2, &mut Discard::default()))
     });
     g.finish();
     c.final_summary();
+}
 
-    // Ratios, one run.
+/// The simulator's rates against the raw random-number rate, measured in one run.
+struct Generation {
+    n: usize,
+    t_rr: f64,
+    t_runs: f64,
+    t_side: f64,
+    normals_per_step: f64,
+    bound: f64,
+    rate1: f64,
+    rate2: f64,
+    ceiling2: f64,
+}
+
+fn generation(one: &Scenario, two: &Scenario) -> Generation {
     let n = 1 << 23;
     let pool2 = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
     let [t_rr, t_runs, t_side, t_runs2, t1, t2]: [f64; 6] = fastest(
@@ -259,8 +280,8 @@ fn main() {
             &mut || {
                 pool2.install(|| rayon::join(|| black_box(normals_in_runs(n)), || black_box(normals_in_runs(n))));
             },
-            &mut || run(&one, 1, &mut Discard::default()),
-            &mut || run(&two, 2, &mut Discard::default()),
+            &mut || run(one, 1, &mut Discard::default()),
+            &mut || run(two, 2, &mut Discard::default()),
         ],
     )
     .try_into()
@@ -269,10 +290,68 @@ fn main() {
     let normal_rate = n as f64 / t_rr.min(t_runs).min(t_side);
     let normals_per_step = 2.0; // one per white excitation
     let bound = normal_rate / normals_per_step;
-    let rate1 = steps(&one) as f64 / t1;
-    let rate2 = steps(&two) as f64 / t2;
+    let rate1 = steps(one) as f64 / t1;
+    let rate2 = steps(two) as f64 / t2;
     let ceiling2 = 2.0 * t_runs / t_runs2;
 
+    Generation {
+        n,
+        t_rr,
+        t_runs,
+        t_side,
+        normals_per_step,
+        bound,
+        rate1,
+        rate2,
+        ceiling2,
+    }
+}
+
+impl Generation {
+    fn print(&self) {
+        let Generation {
+            n,
+            t_rr,
+            t_runs,
+            t_side,
+            normals_per_step,
+            bound,
+            rate1,
+            rate2,
+            ceiling2,
+        } = *self;
+        println!("\n== ratios measured in this run (duffing2dof, dt = 1e-3) ==");
+        println!(
+            "raw normals, one generator/lane  {:>9.3e} /s round-robin, {:.3e} /s in runs per core",
+            n as f64 / t_rr,
+            n as f64 / t_runs
+        );
+        println!(
+            "raw normals, lanes side by side  {:>9.3e} /s per core = {:.2}x in runs (the simulator's generator)",
+            n as f64 / t_side,
+            t_runs / t_side
+        );
+        println!(
+            "random-number bound             {:>10.3e} steps/s per core ({normals_per_step} normals per step)",
+            bound
+        );
+        println!(
+            "simulator, 1 thread             {:>10.3e} steps/s  = {:.2} of the bound (target >= 0.8)",
+            rate1,
+            rate1 / bound
+        );
+        println!(
+            "simulator, 2 threads            {:>10.3e} steps/s  = {:.2}x one thread (target >= 1.8; \
+             raw normals on 2 threads: {:.2}x)",
+            rate2,
+            rate2 / rate1,
+            ceiling2
+        );
+    }
+}
+
+/// Logging's cost against the unlogged run, and its floors, measured in one run.
+fn logging() {
     // Long enough (0.07 s on two cores) that a log's fixed costs (the file, the writer thread)
     // do not dominate.
     let quiet = scenario(2 * LANES, 300.0, 100_000); // one sample at the end: no logging to speak of
@@ -337,59 +416,12 @@ fn main() {
     .unwrap();
     let samples = (logged.simulation.trajectories * logged.simulation.samples_per_trajectory()) as f64;
 
-    // A floor for any file of these bytes: the kernel taking the logged run's byte count
-    // from a ready buffer, in plain 1 MiB writes on one core, with no simulation running.
-    let ready: Vec<u8> = (0..1 << 20).map(|i| (i * 131 % 251) as u8).collect();
-    let write_bytes = |p: &Path| {
-        let tmp = p.with_extension("partial");
-        let mut file = std::fs::File::create(&tmp).unwrap();
-        let mut left = bytes as usize;
-        while left > 0 {
-            let n = left.min(ready.len());
-            file.write_all(&ready[..n]).unwrap();
-            left -= n;
-        }
-        drop(file);
-        std::fs::rename(&tmp, p).unwrap();
-    };
-    let (raw_path, raw_ram_path) = (path.with_file_name("raw.bin"), ram_path.with_file_name("raw.bin"));
-    let [t_kernel, t_kernel_ram]: [f64; 2] = fastest_tidied(
-        7,
-        &mut [&mut || write_bytes(&raw_path), &mut || write_bytes(&raw_ram_path)],
-        &mut || {
-            for p in [&raw_path, &raw_ram_path] {
-                let _ = std::fs::remove_file(p);
-            }
-        },
-    )
-    .try_into()
-    .unwrap();
+    let (t_kernel, t_kernel_ram) = kernel_seconds(bytes, &path, &ram_path);
     // Both cores already simulate (and sample) for `t_sampled`; the kernel's work can at
     // best be shared between them.
     let kernel_floor = |t: f64| (t_sampled + t / 2.0) / t_quiet;
 
-    // The writer alone, fed pre-made batches shaped like the logged run's.
-    let (trajectories, instants) = (logged.simulation.trajectories, 1024);
-    let batch = SampleBatch {
-        columns: 8,
-        trajectories,
-        time: (0..instants).map(|k| k as f64 * 0.01).collect(),
-        values: (0..instants * 8 * trajectories)
-            .map(|i| ((i as f64) * 0.618).sin())
-            .collect(),
-    };
-    let writer_secs = fastest(
-        3,
-        &mut [&mut || {
-            let mut w = LogWriter::create(&path, &logged, &m).unwrap();
-            for _ in 0..8 {
-                w.write(batch.clone()).unwrap();
-            }
-            w.finish().unwrap();
-        }],
-    )[0];
-    let writer_rate = (8 * batch.len()) as f64 / writer_secs;
-
+    let writer_rate = writer_rate(&logged, &path, &m);
     // A floor for any zstd-compressed log of these samples: compressing just their payload
     // bytes, with no framing, no index and no file.
     let mut payload = Payload::default();
@@ -397,33 +429,6 @@ fn main() {
     let (z1, z1_bytes) = zstd_seconds(&payload.0, 1);
     let (z5, _) = zstd_seconds(&payload.0, -5);
 
-    println!("\n== ratios measured in this run (duffing2dof, dt = 1e-3) ==");
-    println!(
-        "raw normals, one generator/lane  {:>9.3e} /s round-robin, {:.3e} /s in runs per core",
-        n as f64 / t_rr,
-        n as f64 / t_runs
-    );
-    println!(
-        "raw normals, lanes side by side  {:>9.3e} /s per core = {:.2}x in runs (the simulator's generator)",
-        n as f64 / t_side,
-        t_runs / t_side
-    );
-    println!(
-        "random-number bound             {:>10.3e} steps/s per core ({normals_per_step} normals per step)",
-        bound
-    );
-    println!(
-        "simulator, 1 thread             {:>10.3e} steps/s  = {:.2} of the bound (target >= 0.8)",
-        rate1,
-        rate1 / bound
-    );
-    println!(
-        "simulator, 2 threads            {:>10.3e} steps/s  = {:.2}x one thread (target >= 1.8; \
-         raw normals on 2 threads: {:.2}x)",
-        rate2,
-        rate2 / rate1,
-        ceiling2
-    );
     println!(
         "MCAP log every 10th step        {:>10.3} s vs {:.3} s unlogged = {:.2}x (target <= 1.25), \
          2 simulating threads",
@@ -501,4 +506,59 @@ fn main() {
         bytes as f64 / samples,
         samples
     );
+}
+
+/// A floor for any file of `bytes` bytes: the kernel taking them from a ready buffer, in
+/// plain 1 MiB writes on one core, with no simulation running; on disk and in RAM (s).
+fn kernel_seconds(bytes: u64, path: &Path, ram_path: &Path) -> (f64, f64) {
+    let ready: Vec<u8> = (0..1 << 20).map(|i| (i * 131 % 251) as u8).collect();
+    let write_bytes = |p: &Path| {
+        let tmp = p.with_extension("partial");
+        let mut file = std::fs::File::create(&tmp).unwrap();
+        let mut left = bytes as usize;
+        while left > 0 {
+            let n = left.min(ready.len());
+            file.write_all(&ready[..n]).unwrap();
+            left -= n;
+        }
+        drop(file);
+        std::fs::rename(&tmp, p).unwrap();
+    };
+    let (raw_path, raw_ram_path) = (path.with_file_name("raw.bin"), ram_path.with_file_name("raw.bin"));
+    let [t_kernel, t_kernel_ram]: [f64; 2] = fastest_tidied(
+        7,
+        &mut [&mut || write_bytes(&raw_path), &mut || write_bytes(&raw_ram_path)],
+        &mut || {
+            for p in [&raw_path, &raw_ram_path] {
+                let _ = std::fs::remove_file(p);
+            }
+        },
+    )
+    .try_into()
+    .unwrap();
+    (t_kernel, t_kernel_ram)
+}
+
+/// The writer alone, fed pre-made batches shaped like `logged`'s (samples/s).
+fn writer_rate(logged: &Scenario, path: &Path, m: &Model) -> f64 {
+    let (trajectories, instants) = (logged.simulation.trajectories, 1024);
+    let batch = SampleBatch {
+        columns: 8,
+        trajectories,
+        time: (0..instants).map(|k| k as f64 * 0.01).collect(),
+        values: (0..instants * 8 * trajectories)
+            .map(|i| ((i as f64) * 0.618).sin())
+            .collect(),
+    };
+    let writer_secs = fastest(
+        3,
+        &mut [&mut || {
+            let mut w = LogWriter::create(path, logged, m).unwrap();
+            for _ in 0..8 {
+                w.write(batch.clone()).unwrap();
+            }
+            w.finish().unwrap();
+        }],
+    )[0];
+    (8 * batch.len()) as f64 / writer_secs
 }

@@ -115,7 +115,7 @@ impl From<IdentError> for Failure {
             | IdentError::Symmetric { .. }
             | IdentError::Inseparable(_)
             | IdentError::TooLittleData(_) => Kind::Identifiability,
-            IdentError::NonFinite(_) => Kind::Data,
+            IdentError::NonFinite(_) | IdentError::ForceModelRejected(_) => Kind::Data,
             _ => Kind::Scenario,
         };
         Failure::new(kind, e)

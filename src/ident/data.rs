@@ -83,6 +83,7 @@ pub struct Batching {
 
 impl Batching {
     /// The fine batch of a sample of `trajectory` at time `t`.
+    #[inline]
     fn fine_batch(&self, trajectory: u32, t: f64) -> usize {
         let FineLayout { subgroups, windows } = self.layout;
         let w = ((t / self.record_length * windows as f64).ceil() as usize).clamp(1, windows) - 1;
@@ -92,6 +93,7 @@ impl Batching {
     }
 
     /// The coarse batch of a sample of `trajectory` at time `t`.
+    #[inline]
     pub fn batch_of(&self, trajectory: u32, t: f64) -> usize {
         self.fine_batch(trajectory, t) / self.per_coarse
     }

@@ -43,17 +43,6 @@ impl Quantity {
     pub fn column_name(self, owner: &str) -> String {
         format!("{}_{owner}", self.symbol())
     }
-
-    /// The quantity a column name stands for, from its prefix.
-    pub fn of_column(name: &str) -> Option<Quantity> {
-        match name.get(..2)? {
-            "x_" => Some(Quantity::Displacement),
-            "v_" => Some(Quantity::Velocity),
-            "a_" => Some(Quantity::Acceleration),
-            "p_" => Some(Quantity::Force),
-            _ => None,
-        }
-    }
 }
 
 /// Where each value of a sample sits.

@@ -213,31 +213,7 @@ pub(crate) fn fill_accuracy(
                 false => crate::report::NORM_RANGE,
             };
             worst = worst.max(e);
-            // The covariance of the identified terms' coefficients, in their order.
-            let index: Vec<Option<usize>> = est
-                .terms
-                .iter()
-                .map(|&(term, _)| {
-                    coef_of
-                        .iter()
-                        .position(|c| *c == Some(Coefficient { link: l, kind, term }))
-                })
-                .collect();
-            let terms_covariance = match covariance.is_empty() {
-                true => Vec::new(),
-                false => index
-                    .iter()
-                    .map(|a| {
-                        index
-                            .iter()
-                            .map(|b| match (a, b) {
-                                (Some(a), Some(b)) => covariance[*a][*b],
-                                _ => 0.0,
-                            })
-                            .collect()
-                    })
-                    .collect(),
-            };
+            let terms_covariance = terms_covariance(&est, coef_of, covariance, l, kind);
             rep.curves.push(Curve {
                 link: s.links[l].name.clone(),
                 kind: kind.name(),
@@ -264,6 +240,41 @@ pub(crate) fn fill_accuracy(
         rep.passed = None;
         rep.gated = false;
     }
+}
+
+/// The covariance of the identified terms' coefficients of link `l`'s `kind`, in their
+/// order in `est` (empty without a covariance).
+fn terms_covariance(
+    est: &crate::scenario::Curve,
+    coef_of: &[Option<Coefficient>],
+    covariance: &[Vec<f64>],
+    l: usize,
+    kind: Characteristic,
+) -> Vec<Vec<f64>> {
+    if covariance.is_empty() {
+        return Vec::new();
+    }
+    let index: Vec<Option<usize>> = est
+        .terms
+        .iter()
+        .map(|&(term, _)| {
+            coef_of
+                .iter()
+                .position(|c| *c == Some(Coefficient { link: l, kind, term }))
+        })
+        .collect();
+    index
+        .iter()
+        .map(|a| {
+            index
+                .iter()
+                .map(|b| match (a, b) {
+                    (Some(a), Some(b)) => covariance[*a][*b],
+                    _ => 0.0,
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// Whether a characteristic identified with the terms `model` can represent the true one:

@@ -327,39 +327,7 @@ pub(crate) fn simulate_padded<const D: usize>(
                 .par_iter_mut()
                 .zip(parts.par_iter_mut())
                 .zip(filtering.par_iter_mut())
-                .map(|((g, out), w)| {
-                    let fast = &mut w.fast[..b * r * cols * g.active];
-                    let mut slices: Vec<&mut [f64]> = fast.chunks_exact_mut(g.active).collect();
-                    run_group(g, model, &lm, steps / r, b * r, interval / r as f64, t0, &mut slices)?;
-                    drop(slices);
-                    let (act, sl) = (g.active, f.state_len());
-                    let at = |k: usize, c: usize, j: usize| w.fast[(k * cols + c) * act + j];
-                    for c in 0..cols {
-                        for j in 0..act {
-                            match channels[c] {
-                                sensors::Channel::Sensor => {
-                                    let state = &mut w.state[(c * act + j) * sl..(c * act + j + 1) * sl];
-                                    let samples = (0..b * r).map(|k| at(k, c, j));
-                                    f.run(state, w.started, samples, |k, y| out[k * cols + c][j] = y);
-                                }
-                                // A clean state the rig does not measure: unfiltered.
-                                sensors::Channel::Instant => {
-                                    for k in 0..b {
-                                        out[k * cols + c][j] = at(k * r + r - 1, c, j);
-                                    }
-                                }
-                                sensors::Channel::Mean => {
-                                    for k in 0..b {
-                                        out[k * cols + c][j] =
-                                            (0..r).map(|q| at(k * r + q, c, j)).sum::<f64>() / r as f64;
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    w.started = true;
-                    Ok(())
-                })
+                .map(|((g, out), w)| run_filtered_group(g, model, &lm, f, &channels, w, (b, steps, interval, t0), out))
                 .collect(),
         };
         drop(parts);
@@ -378,6 +346,53 @@ pub(crate) fn simulate_padded<const D: usize>(
         steps: steps_total,
         clipped: sensors.map_or(0, |s| s.clipped),
     })
+}
+
+/// One group's block of `b` samples through the sensors' filters: the motion stepped `r`
+/// times finer into the group's fast samples, each sensor channel filtered and decimated
+/// into `out`, a clean channel taken at the instant or as the interval's mean.
+#[allow(clippy::too_many_arguments)]
+fn run_filtered_group<const D: usize>(
+    g: &mut Group,
+    model: &Model,
+    lm: &LaneModel<D>,
+    f: &filters::SensorFilter,
+    channels: &[sensors::Channel],
+    w: &mut Filtering,
+    (b, steps, interval, t0): (usize, usize, f64, f64),
+    out: &mut [&mut [f64]],
+) -> Result<(), SimError> {
+    let (r, cols) = (f.oversampling, model.columns().len());
+    let fast = &mut w.fast[..b * r * cols * g.active];
+    let mut slices: Vec<&mut [f64]> = fast.chunks_exact_mut(g.active).collect();
+    run_group(g, model, lm, steps / r, b * r, interval / r as f64, t0, &mut slices)?;
+    drop(slices);
+    let (act, sl) = (g.active, f.state_len());
+    let at = |k: usize, c: usize, j: usize| w.fast[(k * cols + c) * act + j];
+    for c in 0..cols {
+        for j in 0..act {
+            match channels[c] {
+                sensors::Channel::Sensor => {
+                    let state = &mut w.state[(c * act + j) * sl..(c * act + j + 1) * sl];
+                    let samples = (0..b * r).map(|k| at(k, c, j));
+                    f.run(state, w.started, samples, |k, y| out[k * cols + c][j] = y);
+                }
+                // A clean state the rig does not measure: unfiltered.
+                sensors::Channel::Instant => {
+                    for k in 0..b {
+                        out[k * cols + c][j] = at(k * r + r - 1, c, j);
+                    }
+                }
+                sensors::Channel::Mean => {
+                    for k in 0..b {
+                        out[k * cols + c][j] = (0..r).map(|q| at(k * r + q, c, j)).sum::<f64>() / r as f64;
+                    }
+                }
+            }
+        }
+    }
+    w.started = true;
+    Ok(())
 }
 
 /// One group's sensor filters: per column and lane the filter's state (set from the

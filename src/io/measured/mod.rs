@@ -569,6 +569,36 @@ fn plan_sources(sources: Vec<Source>, d: &DataMapping, names: &[String]) -> Resu
 }
 
 impl Measured {
+    /// The slowest motion's frequency over `masses`' integrated motion, `σ_v/σ_x` (rad/s),
+    /// in one pass.
+    fn slowest_motion(&self, masses: &[(usize, usize, usize)]) -> Result<f64, DataError> {
+        let mut sums = vec![[0.0f64; 4]; masses.len()];
+        self.for_each_sample(&mut |_, _, row| {
+            for (s, &(x, v, _)) in sums.iter_mut().zip(masses) {
+                s[0] += row[x];
+                s[1] += row[x] * row[x];
+                s[2] += row[v];
+                s[3] += row[v] * row[v];
+            }
+        })?;
+        let n = self.samples() as f64;
+        let slowest = sums
+            .iter()
+            .map(|s| {
+                let var = |m: f64, q: f64| (q / n - (m / n).powi(2)).max(0.0);
+                (var(s[2], s[3]) / var(s[0], s[1])).sqrt()
+            })
+            .filter(|w| w.is_finite() && *w > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        if !slowest.is_finite() {
+            return Err(err(
+                &self.files[0],
+                "the integrated accelerations do not move: no motion to identify",
+            ));
+        }
+        Ok(slowest)
+    }
+
     /// Set the integration of `masses`' accelerations up: the drift window from
     /// `drift_period` or, without it, from the data (a first integration with a window of
     /// [`PROVISIONAL_DRIFT`] sample intervals gives each mass's `σ_v/σ_x`, its motion's
@@ -609,31 +639,7 @@ impl Measured {
             Some(p) => (p, "as [data] drift_period gives".to_string()),
             None => {
                 set(self, integrate::half_for(PROVISIONAL_DRIFT * h, h))?;
-                let k = masses.len();
-                let mut sums = vec![[0.0f64; 4]; k];
-                self.for_each_sample(&mut |_, _, row| {
-                    for (s, &(x, v, _)) in sums.iter_mut().zip(&masses) {
-                        s[0] += row[x];
-                        s[1] += row[x] * row[x];
-                        s[2] += row[v];
-                        s[3] += row[v] * row[v];
-                    }
-                })?;
-                let n = self.samples() as f64;
-                let slowest = sums
-                    .iter()
-                    .map(|s| {
-                        let var = |m: f64, q: f64| (q / n - (m / n).powi(2)).max(0.0);
-                        (var(s[2], s[3]) / var(s[0], s[1])).sqrt()
-                    })
-                    .filter(|w| w.is_finite() && *w > 0.0)
-                    .fold(f64::INFINITY, f64::min);
-                if !slowest.is_finite() {
-                    return Err(err(
-                        &self.files[0],
-                        "the integrated accelerations do not move: no motion to identify",
-                    ));
-                }
+                let slowest = self.slowest_motion(&masses)?;
                 (
                     DRIFT_PERIODS * 2.0 * std::f64::consts::PI / slowest,
                     format!("{DRIFT_PERIODS} periods of the slowest motion, ω = σ_v/σ_x = {slowest:.3} rad/s"),
