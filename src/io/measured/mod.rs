@@ -15,6 +15,7 @@
 pub mod differentiate;
 mod integrate;
 mod scan;
+mod sources;
 
 use super::table::{err, DataError, Labels, Source};
 use super::units;
@@ -22,6 +23,7 @@ use crate::ident::spectrum::{CrossWelch, Derivative, Welch};
 use crate::scenario::{DataMapping, Scenario};
 use differentiate::{derive_notes, Resolution};
 use scan::{check_values, interval_of, pieces, scan, Columns};
+use sources::{plan_sources, Sources};
 use std::collections::HashMap;
 use std::path::PathBuf;
 
@@ -497,75 +499,6 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         err(&path, e).in_column(column)
     })?;
     Ok(data)
-}
-
-/// What the first pass over every source finds: the sample interval, the notes, each
-/// source's reading plan, every record piece's length and each mapped column's mean
-/// crossings.
-struct Sources {
-    interval: Option<f64>,
-    notes: Vec<String>,
-    plans: Vec<(Source, Plan)>,
-    lengths: Vec<usize>,
-    crossings: Vec<usize>,
-}
-
-/// Scan every source (`scan`, `check_values`) and plan its reading: its records in
-/// order, split into pieces at time gaps where the mapping asks.
-fn plan_sources(sources: Vec<Source>, d: &DataMapping, names: &[String]) -> Result<Sources, DataError> {
-    let mut interval: Option<f64> = d.sample_interval;
-    let mut notes = Vec::new();
-    let mut plans = Vec::new();
-    let mut lengths = Vec::new();
-    let mut crossings = vec![0usize; d.columns.len()];
-    for source in sources {
-        let c = Columns::of(&source, d, names)?;
-        let s = scan(&source, &c, d)?;
-        check_values(&source, &c, &s)?;
-        for (total, n) in crossings.iter_mut().zip(&s.crossings) {
-            *total += n;
-        }
-        if s.records.is_empty() {
-            continue;
-        }
-        if interval.is_none() {
-            interval =
-                interval_of(&s.first_steps).or_else(|| s.records.iter().find_map(|r| r.runs.first()).map(|r| r.step));
-        }
-        let h = interval.ok_or_else(|| {
-            err(
-                source.path(),
-                "no sample interval: give [data] sample_interval, or a time column with two samples in a record",
-            )
-        })?;
-        let mut pieces_of = vec![(0u32, Vec::new()); s.records.len()];
-        for slot in s.order() {
-            let p = if c.time_at.is_some() {
-                pieces(&source, &s, slot, d, h, &mut notes)?
-            } else {
-                vec![s.records[slot].rows]
-            };
-            pieces_of[slot] = (lengths.len() as u32, p.clone());
-            lengths.extend(p);
-        }
-        plans.push((
-            source,
-            Plan {
-                mapped: c.mapped.iter().map(|&(k, scale, _)| (k, scale)).collect(),
-                wanted: c.wanted,
-                record_at: c.record_at,
-                slots: s.slots,
-                pieces: pieces_of,
-            },
-        ));
-    }
-    Ok(Sources {
-        interval,
-        notes,
-        plans,
-        lengths,
-        crossings,
-    })
 }
 
 impl Measured {

@@ -159,28 +159,8 @@ fn characteristic_panels(
                     opacity: 0.2,
                 });
             }
-            // The residual: estimate − truth (or 0 with no truth) and its band.
-            let d: Vec<f64> = if known {
-                ys.iter().zip(&true_ys).map(|(y, t)| y - t).collect()
-            } else {
-                vec![0.0; xs.len()]
-            };
-            let lower: Vec<f64> = d.iter().zip(&half).map(|(y, h)| y - h).collect();
-            let upper: Vec<f64> = d.iter().zip(&half).map(|(y, h)| y + h).collect();
-            residual_values.extend(lower.iter().chain(&upper));
-            residual.mark(Mark::Band {
-                xs: xs.clone(),
-                lower,
-                upper,
-                color: col,
-                opacity: 0.2,
-            });
-            if known {
-                residual.mark(Mark::Line {
-                    points: xs.iter().copied().zip(d).collect(),
-                    stroke: Stroke::solid(col, 2.2),
-                });
-            }
+            let truth_ys = known.then_some(true_ys.as_slice());
+            residual_marks(&mut residual, &mut residual_values, (&xs, &ys, &half), truth_ys, col);
         }
         let stroke = if right {
             Stroke::solid(col, 3.2)
@@ -261,4 +241,35 @@ fn characteristic_panels(
     );
     // A characteristic that no FPK estimator identifies has no residual to show.
     Some((panel, (residual.marks.len() > 1).then_some(residual), strip))
+}
+
+/// The residual of one estimate, `estimate − truth` (or 0 with no truth), with its band:
+/// drawn on `residual`, its extent added to `values`.
+fn residual_marks(
+    residual: &mut Panel,
+    values: &mut Vec<f64>,
+    (xs, ys, half): (&[f64], &[f64], &[f64]),
+    truth: Option<&[f64]>,
+    col: crate::report::figure::Color,
+) {
+    let d: Vec<f64> = match truth {
+        Some(t) => ys.iter().zip(t).map(|(y, t)| y - t).collect(),
+        None => vec![0.0; xs.len()],
+    };
+    let lower: Vec<f64> = d.iter().zip(half).map(|(y, h)| y - h).collect();
+    let upper: Vec<f64> = d.iter().zip(half).map(|(y, h)| y + h).collect();
+    values.extend(lower.iter().chain(&upper));
+    residual.mark(Mark::Band {
+        xs: xs.to_vec(),
+        lower,
+        upper,
+        color: col,
+        opacity: 0.2,
+    });
+    if truth.is_some() {
+        residual.mark(Mark::Line {
+            points: xs.iter().copied().zip(d).collect(),
+            stroke: Stroke::solid(col, 2.2),
+        });
+    }
 }
