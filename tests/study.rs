@@ -227,13 +227,38 @@ fn grid_flags_beside_a_study_file_are_refused_not_ignored() {
     let tmp = tempfile::tempdir().unwrap();
     let file = study_file(tmp.path());
     let out = tmp.path().join("out");
-    for flags in [&["--seeds", "8"][..], &["--method", "weak", "--seed", "3"]] {
+    for flags in [
+        &["--seeds", "8"][..],
+        &["--method", "weak", "--seed", "3"],
+        &["--select"],
+        &["--select-powers", "3"],
+    ] {
         let o = fpk(&[&["study", &file, "--out", out.to_str().unwrap()][..], flags].concat());
         assert_eq!(o.status.code(), Some(2));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains("s.toml") && err.contains(flags[0]), "{err}");
         assert!(!out.exists());
     }
+}
+
+#[test]
+fn select_on_a_scenario_with_its_own_candidates_keeps_them() {
+    // chain3 declares [identify.select]: `--select` runs its selection as declared, and
+    // does not replace its candidates with none (which failed at `link[4]`).
+    let printed = fpk(&["study", "--scenario", "scenarios/chain3.toml", "--select", "--print"]);
+    assert!(printed.status.success(), "{}", String::from_utf8_lossy(&printed.stderr));
+    let text = String::from_utf8(printed.stdout).unwrap();
+    assert!(!text.contains("identify.select"), "{text}");
+    // A scenario without candidates of its own gets the unknown terms as candidates.
+    let printed = fpk(&[
+        "study",
+        "--scenario",
+        "scenarios/sdof_duffing.toml",
+        "--select",
+        "--print",
+    ]);
+    let text = String::from_utf8(printed.stdout).unwrap();
+    assert!(text.contains("identify.select={}"), "{text}");
 }
 
 #[test]

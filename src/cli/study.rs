@@ -115,7 +115,9 @@ fn study_text(args: &Args, scenario: &Path) -> String {
         for kind in ["stiffness", "damping"] {
             set.push(format!("identify.select.{kind}=[{}]", powers.join(", ")));
         }
-    } else if args.select {
+    } else if args.select && !declares_select(scenario, &args.set) {
+        // A scenario with its own `[identify.select]` keeps its candidates; without one,
+        // the unknown terms are the candidates.
         set.push("identify.select={}".into());
     }
     if !set.is_empty() {
@@ -317,6 +319,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Whether `scenario` (with the `--set` overrides) declares `[identify.select]`; a
+/// scenario that cannot be read is reported when the study is made from it.
+fn declares_select(scenario: &Path, set: &[String]) -> bool {
+    fpkbench::Scenario::from_file_with(scenario, set).is_ok_and(|s| s.identify.select.is_some())
+}
+
 /// `fpkbench study merge`: the summary of the items in `dirs`, written to `out` (the first
 /// folder when not given).
 fn merge(dirs: &[PathBuf], out: Option<&Path>, reference: Option<&str>) -> anyhow::Result<()> {
@@ -360,13 +368,15 @@ fn study_of(args: &Args) -> anyhow::Result<Option<Study>> {
                 ("--reference", args.reference.is_some()),
                 ("--print", args.print),
                 ("--integrator-bias", args.integrator_bias),
+                ("--select", args.select),
+                ("--select-powers", args.select_powers.is_some()),
             ];
             let given: Vec<&str> = flags.iter().filter(|f| f.1).map(|f| f.0).collect();
             if !given.is_empty() {
                 anyhow::bail!(
                     "{}: {} describe a study made with --scenario; a study file has its own keys \
                      (seeds, seed, record_lengths, sample_intervals, noise_levels, methods, set, reference, \
-                     integrator_bias): edit the file, \
+                     integrator_bias; a selection is its scenario's [identify.select]): edit the file, \
                      or run fpkbench study --scenario SCENARIO with the flags",
                     file.display(),
                     given.join(", ")
