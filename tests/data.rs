@@ -323,8 +323,12 @@ fn bad_data_are_refused_naming_the_file_row_and_column() {
 }
 
 #[test]
-fn velocities_can_be_derived_from_displacements_and_coarse_sampling_is_flagged() {
-    // The SDOF log's displacements only, the velocity by central differences.
+fn velocities_can_be_derived_from_displacements_even_at_coarse_sampling() {
+    // The SDOF log's displacements only, the velocity by differences: central ones where
+    // the sampling is fine, the exact central difference of a higher order where it is
+    // coarse (ω·h = 0.37 at 0.1 s, where central differences lose 3.4 % of the velocity
+    // and k3 came out 24 % low). Either way the derived velocities give the log's
+    // estimates to within a fraction of their standard errors.
     let dir = tempfile::tempdir().unwrap();
     let model = Scenario::parse(
         &MODEL
@@ -342,24 +346,21 @@ fn velocities_can_be_derived_from_displacements_and_coarse_sampling_is_flagged()
         let csv = dir.path().join("run.csv");
         export(&log, "csv", &csv);
         let data = measured(&model, vec![source(&model, &csv)]).unwrap();
-        assert!(
-            data.notes.iter().any(|n| n.contains("v_m1 derived from x_m1")),
-            "{:?}",
-            data.notes
-        );
+        let note = data
+            .notes
+            .iter()
+            .find(|n| n.contains("v_m1 derived from x_m1"))
+            .unwrap_or_else(|| panic!("{:?}", data.notes));
+        assert_eq!(note.contains("exact central difference"), coarse, "{note}");
         let warned = data.notes.iter().any(|n| n.contains("too coarse to differentiate"));
-        assert_eq!(warned, coarse, "{interval} s: {:?}", data.notes);
-        if !coarse {
-            // Finely sampled, the derived velocities give the log's estimates to within a
-            // fraction of their standard errors.
-            let r = identify(&Input::tables(model.clone(), data), &options()).unwrap();
-            let from_log = estimates(&identify_log(&log, &options()).unwrap());
-            for ((n, e, _), (_, le, lse)) in estimates(&r).iter().zip(&from_log) {
-                assert!(
-                    (e - le).abs() < *lse,
-                    "{n}: {e} from derived velocities vs {le} ± {lse}"
-                );
-            }
+        assert!(!warned, "{interval} s: {:?}", data.notes);
+        let r = identify(&Input::tables(model.clone(), data), &options()).unwrap();
+        let from_log = estimates(&identify_log(&log, &options()).unwrap());
+        for ((n, e, _), (_, le, lse)) in estimates(&r).iter().zip(&from_log) {
+            assert!(
+                (e - le).abs() < *lse,
+                "{interval} s, {n}: {e} from derived velocities vs {le} ± {lse}"
+            );
         }
     }
 }
@@ -657,9 +658,18 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
     };
     let measured_loss = 100.0 * (1.0 - std(&derived_a) / std(&first));
     assert!(
-        (stated - measured_loss).abs() < 3.0 && measured_loss > 10.0,
+        (stated - measured_loss).abs() < 3.0 && measured_loss > 2.0,
         "stated {stated} %, measured {measured_loss:.1} %: {warning}"
     );
+    // The exact central differences it used lose far less than central differences would.
+    let note = data.notes.iter().find(|n| n.contains("a_j derived from v_j")).unwrap();
+    let central: f64 = note
+        .split("would lose ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("{note}"));
+    assert!(central > measured_loss + 5.0, "{note}; measured {measured_loss:.1} %");
     let info = Input::tables(derived, data);
     fpkbench::pipeline::check_measured(&info).unwrap();
     assert!(identify(&info, &options()).is_ok());

@@ -490,6 +490,115 @@ pub fn ou_noise_floor(parts: &[Spectrum]) -> Option<(f64, f64)> {
     Some((n, se))
 }
 
+/// Share of the response's variance left out of the band at each end (below and above).
+pub const BAND_TAIL: f64 = 0.01;
+
+/// The force's band: the bins about the response's band where its density is within this
+/// factor of the level.
+pub const FORCE_BAND: f64 = 0.1;
+
+/// The white noise equivalent to a measured force over the band where the response has
+/// its energy (docs/methods.md, "The force model").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BandLevel {
+    /// Two-sided density of the equivalent white noise, unit²·s/rad (`σ² / 2π`).
+    pub density: f64,
+    /// The response's band, rad/s: the bins holding all but [`BAND_TAIL`] of its variance
+    /// at either end.
+    pub band: (f64, f64),
+    /// The force's band, rad/s: where its density is within [`FORCE_BAND`] of the level.
+    pub force_band: (f64, f64),
+    /// The share of the system's gain outside the force's band (`∫|H|²` beyond its edges,
+    /// over all of it): what a white force would have driven and this one does not. The
+    /// level is corrected for it.
+    pub edge_share: f64,
+    /// RMS of `ln(Ŝ_F / S̄)` over the response's band, weighted by the response's density,
+    /// `S̄` the band's own level: 0 for a force flat over the band.
+    pub rms_log_residual: f64,
+    /// What the averaging alone gives of that RMS, `≈ 1/√K`.
+    pub expected_rms: f64,
+}
+
+/// The level of the white noise equivalent to the force of spectrum `force` for a response
+/// (a velocity it drives) of spectrum `response` on the same bins. With the system's gain
+/// `G = S_v / S_F = |H(ω)|²` measured over the force's band `F`, a white force of density
+/// `S̄` gives the velocity the variance `S̄ ∫G`, and the measured force gives `∫_F S_v`; so
+/// `S̄ = ∫_F S_v / ∫G`, the gain beyond `F` extrapolated as a velocity's above and below
+/// its modes (`G ∝ ω⁻²` above: `∫_{ω_u}^∞ G = G(ω_u)·ω_u`; `G ∝ ω²` below:
+/// `∫_0^{ω_l} G = G(ω_l)·ω_l/3`). For a linear system it is the one white level that gives
+/// the response its measured variance, so the energy balance the FPK equation rests on
+/// holds with it. `None` without bins, segments or force power where the response is.
+pub fn band_level(force: &Spectrum, response: &Spectrum) -> Option<BandLevel> {
+    let bins = force.omega.len().min(response.omega.len());
+    let skip = SKIP_LOW_BINS.min(bins.saturating_sub(8));
+    if bins < skip + 8 || force.segments == 0 || response.segments == 0 {
+        return None;
+    }
+    let omega = &force.omega[skip..bins];
+    let sv = &response.density[skip..bins];
+    let sf = &force.density[skip..bins];
+    let total: f64 = sv.iter().sum();
+    if total <= 0.0 || !total.is_finite() {
+        return None;
+    }
+    let (mut lo, mut hi, mut cum) = (None, 0, 0.0);
+    for (k, &d) in sv.iter().enumerate() {
+        cum += d;
+        if lo.is_none() && cum >= BAND_TAIL * total {
+            lo = Some(k);
+        }
+        if cum <= (1.0 - BAND_TAIL) * total {
+            hi = k + 1;
+        }
+    }
+    let lo = lo?;
+    let hi = hi.max(lo).min(sv.len() - 1);
+    if (lo..=hi).any(|k| sf[k] <= 0.0) {
+        return None;
+    }
+    let level = |range: std::ops::RangeInclusive<usize>| {
+        let v: f64 = range.clone().map(|k| sv[k]).sum();
+        v / range.map(|k| sv[k] / sf[k]).sum::<f64>()
+    };
+    let own = level(lo..=hi);
+    let rms = ((lo..=hi).map(|k| sv[k] * (sf[k] / own).ln().powi(2)).sum::<f64>()
+        / (lo..=hi).map(|k| sv[k]).sum::<f64>())
+    .sqrt();
+    // The force's band: outwards from the response's while the force stays near its level.
+    let near = |k: usize| sf[k] >= FORCE_BAND * own;
+    let (mut fl, mut fu) = (lo, hi);
+    while fl > 0 && near(fl - 1) {
+        fl -= 1;
+    }
+    while fu + 1 < sf.len() && near(fu + 1) {
+        fu += 1;
+    }
+    let dw = if omega.len() > 1 { omega[1] - omega[0] } else { 1.0 };
+    let gain = |k: usize| sv[k] / sf[k];
+    // The gain at an edge: the mean over its three outermost bins, against their scatter.
+    let edge = |ks: [usize; 3]| ks.iter().map(|&k| gain(k)).sum::<f64>() / 3.0;
+    let inside: f64 = (fl..=fu).map(gain).sum::<f64>() * dw;
+    let upper = if fu + 1 < sf.len() && fu >= fl + 2 {
+        edge([fu - 2, fu - 1, fu]) * omega[fu]
+    } else {
+        0.0
+    };
+    let lower = if fl > 0 && fu >= fl + 2 {
+        edge([fl, fl + 1, fl + 2]) * omega[fl] / 3.0
+    } else {
+        0.0
+    };
+    let driven: f64 = (fl..=fu).map(|k| sv[k]).sum::<f64>() * dw;
+    Some(BandLevel {
+        density: driven / (inside + upper + lower),
+        band: (omega[lo], omega[hi]),
+        force_band: (omega[fl], omega[fu]),
+        edge_share: (upper + lower) / (inside + upper + lower),
+        rms_log_residual: rms,
+        expected_rms: 1.0 / (force.segments as f64).sqrt(),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -516,6 +625,68 @@ mod tests {
         // 1/ω² of its size.
         let d = fit(|t| (v(t), x(t)));
         assert!(d.lead < -0.95 && d.gain < 0.4, "{d:?}");
+    }
+
+    /// An oscillator's velocity gain `|H|² = ω² / ((ω_n² − ω²)² + (2ζω_nω)²)` on a grid.
+    fn oscillator(force: impl Fn(f64) -> f64) -> (Spectrum, Spectrum) {
+        let (wn, zeta) = (30.0, 0.05);
+        let omega: Vec<f64> = (1..=512).map(|k| k as f64 * 0.25).collect();
+        let sf: Vec<f64> = omega.iter().map(|&w| force(w)).collect();
+        let sv = omega
+            .iter()
+            .zip(&sf)
+            .map(|(&w, f)| f * w * w / ((wn * wn - w * w).powi(2) + (2.0 * zeta * wn * w).powi(2)))
+            .collect();
+        let spectrum = |density| Spectrum {
+            omega: omega.clone(),
+            density,
+            segments: 100,
+            segment_len: 1024,
+            sample_interval: 0.01,
+        };
+        (spectrum(sf), spectrum(sv))
+    }
+
+    /// A force flat over the response's band is its own equivalent white noise, whatever
+    /// it does far outside; one that falls inside the band is not flat there, and says so;
+    /// one whose band ends inside the resonance leaves much of the gain undriven.
+    #[test]
+    fn the_equivalent_white_level_of_a_band_limited_force() {
+        // Flat at 2 up to 3.3 times the mode, a trace above: the gain beyond the edge is a
+        // velocity's tail, 2 % of it, which a white force of level 2 would drive and this
+        // one does not; the equivalent level is 2 less that share, to within the tail's
+        // extrapolation as ω⁻².
+        let (f, v) = oscillator(|w| if w < 100.0 { 2.0 } else { 1e-9 });
+        let l = band_level(&f, &v).unwrap();
+        // ∫G over all ω is π/(2c), c = 2ζω_n; the tail above 100 rad/s numerically.
+        let gain = |w: f64| w * w / ((900.0 - w * w).powi(2) + (3.0 * w).powi(2));
+        let tail: f64 = (0..2_000_000)
+            .map(|i| gain(99.875 + (i as f64 + 0.5) * 0.01) * 0.01)
+            .sum::<f64>()
+            + 1.0 / (99.875 + 20_000.0);
+        let exact = 2.0 * (1.0 - tail / (std::f64::consts::PI / 6.0));
+        assert!(
+            (l.density / exact - 1.0).abs() < 0.005 && l.density < 1.99,
+            "{l:?} against {exact}"
+        );
+        assert!(l.edge_share > 0.005 && l.edge_share < 0.05, "{l:?}");
+        assert!(l.rms_log_residual < 1e-12);
+        assert!(l.band.0 < 30.0 && l.band.1 > 30.0 && l.band.1 < 100.0, "{:?}", l.band);
+        assert!(l.force_band.1 < 100.0 && l.force_band.1 > 99.0, "{:?}", l.force_band);
+        assert!((l.expected_rms - 0.1).abs() < 1e-12);
+        // Flat everywhere: no edge, the level exactly.
+        let (f, v) = oscillator(|_| 2.0);
+        let l = band_level(&f, &v).unwrap();
+        assert!((l.density / 2.0 - 1.0).abs() < 1e-12 && l.edge_share == 0.0, "{l:?}");
+        // Halved above 25 rad/s, inside the resonance: the misfit is about half of ln 2 (a
+        // systematic misfit, which the check weighs against the averaging's `1/√K`).
+        let (f, v) = oscillator(|w| if w < 25.0 { 2.0 } else { 1.0 });
+        let l = band_level(&f, &v).unwrap();
+        assert!(l.density > 1.0 && l.density < 2.0 && l.rms_log_residual > 0.15, "{l:?}");
+        // Ending at the mode: the flat part is flat, but half the gain is beyond its edge.
+        let (f, v) = oscillator(|w| if w < 30.0 { 2.0 } else { 1e-9 });
+        let l = band_level(&f, &v).unwrap();
+        assert!(l.edge_share > 0.3, "{l:?}");
     }
 
     /// An Ornstein–Uhlenbeck force (A = B = 5) sampled exactly every 0.1 s, 16 × 25,000

@@ -95,6 +95,7 @@ pub(crate) fn assemble(
         data_notes: input.measured().map(|m| m.notes.clone()).unwrap_or_default(),
         records,
         filters,
+        white_levels: Vec::new(),
         sensor_noise: None,
         selection: None,
         profile: None,

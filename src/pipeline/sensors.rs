@@ -216,7 +216,7 @@ fn differenced_rows(k: &mut Correction, differenced: &[DifferencedNoise], s: &Sc
     for d in differenced {
         let f = &d.found;
         let h = s.simulation.sample_interval;
-        let gain = differentiate::noise_gain(&differentiate::weights(f.half), h);
+        let gain = differentiate::noise_gain(&f.weights(), h);
         let used = match handling {
             NoiseHandling::Estimate if f.detected() => f.noise,
             NoiseHandling::Given => sensors.noise_variance(sensors.displacement, f.signal.sqrt()),
@@ -258,7 +258,7 @@ fn differences_tail(k: &mut Correction, differenced: &[DifferencedNoise], s: &Sc
         }
         let m = structure.model.mass[i];
         let h = s.simulation.sample_interval;
-        let tail = intensity / (m * m) * differentiate::white_tail_loss(&differentiate::weights(d.found.half), h);
+        let tail = intensity / (m * m) * differentiate::white_tail_loss(&d.found.weights(), h);
         let name = &structure.model.column_names()[d.velocity];
         if handling == NoiseHandling::Ignore {
             blocked.insert(0, "[identify] sensor_noise = \"ignore\"".to_string());
@@ -509,6 +509,8 @@ fn white_intensity(s: &Scenario, i: usize, blocked: &mut Vec<String>) -> f64 {
         intensity += sigma * sigma;
         if !x.measured || s.identify.unknown_intensities.contains(&e) {
             blocked.push(format!("{} is not known to the identifier", x.name));
+        } else if s.identify.equivalent_white.contains(&e) {
+            blocked.push(format!("{}'s level is read from its spectrum after the pass", x.name));
         } else if x.acts_on.len() > 1 {
             blocked.push(format!("{} acts on more than one mass", x.name));
         }

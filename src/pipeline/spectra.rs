@@ -1,11 +1,13 @@
 //! Spectra of the measured filtered forces: lag-1 correlation in pass 1, Welch estimates in
 //! pass 2, and the rational-spectrum fit (3.20) that gives each filter's `A` and `B`, with
 //! a force cell's noise floor, stated or estimated, taken out first (docs/measurement.md).
+//! Beside them, the forces read as their equivalent white noise: their spectra and their
+//! responses', whose band gives the level (docs/methods.md, "The force model").
 
 use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::{spectrum, spectrum::Welch, Filter};
 use crate::model::Columns;
-use crate::report::FilterReport;
+use crate::report::{FilterReport, WhiteLevelReport};
 use crate::scenario::{NoiseHandling, Process, Scenario};
 
 /// The measured forces whose spectra are fitted: lag-1 sums in pass 1 (an AR(1) guess of
@@ -23,10 +25,32 @@ pub(crate) struct ForceSpectra {
     /// Whether the Welch estimates have started (the second pass): before, a sample feeds
     /// the lag-1 correlations.
     welching: bool,
+    /// The forces read as their equivalent white noise.
+    white: Vec<WhiteBand>,
+}
+
+/// A force read as its equivalent white noise: Welch estimates of it and of the velocity of
+/// the first mass it drives, per part of the trajectories (trajectory `j` in part
+/// `j % parts`, for the level's jackknife).
+struct WhiteBand {
+    excitation: usize,
+    force: usize,
+    response: usize,
+    parts: Vec<(Welch, Welch)>,
 }
 
 /// Parts of the trajectories a force cell's noise-floor estimate leaves out in turn.
 const FLOOR_PARTS: usize = 8;
+
+/// A force is read as white over the response's band when its log density's RMS about the
+/// level is within this multiple of what the averaging alone gives (as the first-order
+/// fit's, `stages::excitation::REJECT`).
+pub(crate) const REJECT_WHITE: f64 = 3.0;
+
+/// The largest share of the system's gain a force read as white may leave beyond its band
+/// (`spectrum::BandLevel::edge_share`): the level is corrected for it, by a tail
+/// extrapolated as a velocity's, which is sound only while the tail is small.
+pub(crate) const EDGE_LIMIT: f64 = 0.1;
 
 impl ForceSpectra {
     pub(crate) fn new(s: &Scenario, excitations: &[usize]) -> ForceSpectra {
@@ -38,6 +62,17 @@ impl ForceSpectra {
             welch: Vec::new(),
             parts: Vec::new(),
             welching: false,
+            white: s
+                .identify
+                .equivalent_white
+                .iter()
+                .map(|&e| WhiteBand {
+                    excitation: e,
+                    force: log.force(e),
+                    response: log.v(s.excitations[e].acts_on[0]),
+                    parts: Vec::new(),
+                })
+                .collect(),
         }
     }
 
@@ -70,6 +105,14 @@ impl ForceSpectra {
                 )
             })
             .collect();
+        // The response's segments resolve a resonance: an eighth of a trajectory, at most
+        // 4096 samples.
+        let len = (sim.samples_per_trajectory() / 8).next_power_of_two().clamp(64, 4096);
+        let welch = Welch::new(len, sim.sample_interval, sim.trajectories);
+        let parts = sim.trajectories.clamp(1, FLOOR_PARTS);
+        for w in &mut self.white {
+            w.parts = vec![(welch.clone(), welch.clone()); parts];
+        }
     }
 
     /// Estimate each force cell's noise floor too (`sensor_noise = "estimate"` on data that
@@ -87,6 +130,77 @@ impl ForceSpectra {
             let n = parts.len();
             parts[traj as usize % n].push(traj as usize, row[c]);
         }
+        for w in &mut self.white {
+            let n = w.parts.len();
+            let (f, v) = &mut w.parts[traj as usize % n];
+            f.push(traj as usize, row[w.force]);
+            v.push(traj as usize, row[w.response]);
+        }
+    }
+
+    /// The level of every force read as its equivalent white noise, with its report: the
+    /// band level of the pooled spectra ([`spectrum::band_level`]), its standard error the
+    /// delete-one jackknife over the parts. A force without a level (no segment, no power
+    /// in the band) has none and is reported as not accepted.
+    pub(crate) fn white_levels(&self, s: &Scenario) -> Vec<(usize, Option<f64>, WhiteLevelReport)> {
+        self.white
+            .iter()
+            .map(|w| {
+                let spectra: Vec<(spectrum::Spectrum, spectrum::Spectrum)> =
+                    w.parts.iter().map(|(f, v)| (f.spectrum(), v.spectrum())).collect();
+                let pooled = |leave: Option<usize>| {
+                    let kept = || spectra.iter().enumerate().filter(move |&(p, _)| Some(p) != leave);
+                    let (f0, v0) = &spectra[0];
+                    let segments = kept().map(|(_, (f, _))| f.segments).sum();
+                    let f = spectrum::Spectrum {
+                        density: spectrum::pooled_density(kept().map(|(_, (f, _))| f)),
+                        segments,
+                        ..f0.clone()
+                    };
+                    let v = spectrum::Spectrum {
+                        density: spectrum::pooled_density(kept().map(|(_, (_, v))| v)),
+                        segments,
+                        ..v0.clone()
+                    };
+                    spectrum::band_level(&f, &v)
+                };
+                let sigma_of = |l: &spectrum::BandLevel| (2.0 * std::f64::consts::PI * l.density).sqrt();
+                let level = pooled(None);
+                let reps: Vec<f64> = (0..spectra.len())
+                    .filter_map(|leave| pooled(Some(leave)).map(|l| sigma_of(&l)))
+                    .collect();
+                let sigma_se = if reps.len() >= 3 && reps.len() == spectra.len() {
+                    let g = reps.len() as f64;
+                    let mean = reps.iter().sum::<f64>() / g;
+                    ((g - 1.0) / g * reps.iter().map(|r| (r - mean).powi(2)).sum::<f64>()).sqrt()
+                } else {
+                    f64::NAN
+                };
+                let x = &s.excitations[w.excitation];
+                let true_sigma = match x.process {
+                    Process::White { sigma } if s.data.is_none() => sigma,
+                    _ => f64::NAN,
+                };
+                let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
+                let accepted = level
+                    .is_some_and(|l| l.rms_log_residual <= REJECT_WHITE * l.expected_rms && l.edge_share <= EDGE_LIMIT);
+                let report = WhiteLevelReport {
+                    excitation: x.name.clone(),
+                    sigma: level.map_or(f64::NAN, |l| sigma_of(&l)),
+                    sigma_se,
+                    true_sigma,
+                    band_hz: level.map_or((f64::NAN, f64::NAN), |l| (hz(l.band.0), hz(l.band.1))),
+                    force_band_hz: level.map_or((f64::NAN, f64::NAN), |l| (hz(l.force_band.0), hz(l.force_band.1))),
+                    edge_share: level.map_or(f64::NAN, |l| l.edge_share),
+                    rms_log_residual: level.map_or(f64::NAN, |l| l.rms_log_residual),
+                    expected_rms_log_residual: level.map_or(f64::NAN, |l| l.expected_rms),
+                    segments: spectra.iter().map(|(f, _)| f.segments).sum(),
+                    segment_len: spectra.first().map_or(0, |(f, _)| f.segment_len),
+                    accepted,
+                };
+                (w.excitation, level.filter(|_| accepted).map(|l| sigma_of(&l)), report)
+            })
+            .collect()
     }
 
     /// Fit (3.20) to every spectrum: the filters the identifier uses (the fit, or the true

@@ -335,6 +335,10 @@ pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coeff
             }
         }
     }
+    // The forces read as their equivalent white noise, at the level the identifier used.
+    for &e in &s.identify.equivalent_white {
+        model.excitations[e].process = problem.model.excitations[e].process;
+    }
     // The filters the identifier used (fitted to the force spectra, or known).
     for f in &problem.filters {
         model.excitations[f.excitation].process = Process::Filtered { a: f.a, b: f.b };

@@ -183,6 +183,7 @@ pub fn markdown(r: &Report) -> String {
         );
     }
     s += &filters_section(r);
+    s += &white_levels_section(r);
     s += &iterations_section(r);
     if let Some(v) = &r.validation {
         s += &validation_section(r, v);
@@ -303,6 +304,18 @@ fn filters_section(r: &Report) -> String {
         }
     }
     s
+}
+
+/// The forces read as their equivalent white noise.
+fn white_levels_section(r: &Report) -> String {
+    if r.white_levels.is_empty() {
+        return String::new();
+    }
+    let mut s = "## Forces read as white\n\n".to_string();
+    for w in &r.white_levels {
+        s += &format!("- {}", super::text::white_level_line(w));
+    }
+    s + "\n"
 }
 
 /// The section-4 procedure's sequences, step by step.

@@ -277,10 +277,48 @@ fn filters(r: &Report) -> String {
         }
         s += "\n";
     }
-    if !r.filters.is_empty() {
+    for w in &r.white_levels {
+        s += &white_level_line(w);
+    }
+    if !r.filters.is_empty() || !r.white_levels.is_empty() {
         s += "\n";
     }
     s
+}
+
+/// A force read as its equivalent white noise: its level, the bands and the misfit.
+pub(crate) fn white_level_line(w: &crate::report::WhiteLevelReport) -> String {
+    let vs_truth = if w.true_sigma.is_finite() {
+        format!(
+            " ({:+.2} % against the true {})",
+            100.0 * (w.sigma / w.true_sigma - 1.0),
+            w.true_sigma
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "force {} read as white: sigma = {:.4} ± {:.2}{vs_truth} over the response's band {:.2}–{:.2} Hz (the \
+         force's band {:.2}–{:.2} Hz, {:.1} % of the gain beyond it, corrected for); log residual RMS {:.3} \
+         (averaging alone: {:.3}) over {} segments of {}{}\n",
+        w.excitation,
+        w.sigma,
+        w.sigma_se,
+        w.band_hz.0,
+        w.band_hz.1,
+        w.force_band_hz.0,
+        w.force_band_hz.1,
+        100.0 * w.edge_share,
+        w.rms_log_residual,
+        w.expected_rms_log_residual,
+        w.segments,
+        w.segment_len,
+        if w.accepted {
+            ""
+        } else {
+            "; REJECTED (docs/methods.md, \"The force model\")"
+        }
+    )
 }
 
 /// Seconds as a reader wants them: milliseconds below a tenth of a second (a method's

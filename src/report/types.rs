@@ -94,6 +94,39 @@ pub struct FilterReport {
     pub noise_floor_se: Option<f64>,
 }
 
+/// A measured force read as its equivalent white noise (`[identify] equivalent_white`): the
+/// level taken from its spectrum over the band where the response has its energy, and how
+/// flat the spectrum is there (docs/methods.md, "The force model").
+#[derive(Debug, Clone, Serialize)]
+pub struct WhiteLevelReport {
+    pub excitation: String,
+    /// The level used, `σ` of `P dt = σ dW` (two-sided density `σ²/2π`).
+    pub sigma: f64,
+    /// Its delete-one jackknife standard error over parts of the trajectories (NaN with
+    /// fewer than three parts).
+    pub sigma_se: f64,
+    /// The scenario's `sigma` where it is a truth (a simulation), else NaN.
+    pub true_sigma: f64,
+    /// The response's band, Hz: its variance less 1 % at each end.
+    pub band_hz: (f64, f64),
+    /// The force's band, Hz: where its density is within a factor 10 of the level.
+    pub force_band_hz: (f64, f64),
+    /// The share of the system's gain beyond the force's band (extrapolated as a
+    /// velocity's), which the level is corrected for.
+    pub edge_share: f64,
+    /// RMS of the log ratio of the force's density to the level over the band, weighted by
+    /// the response.
+    pub rms_log_residual: f64,
+    /// What the averaging alone gives of it.
+    pub expected_rms_log_residual: f64,
+    pub segments: usize,
+    pub segment_len: usize,
+    /// Whether the force is read as white: flat over the response's band (the misfit
+    /// within 3 times the averaging's) and driving nearly all of the system's gain (the
+    /// edge share within its limit).
+    pub accepted: bool,
+}
+
 /// What a method made of the data: each method's outcome is its own (docs/methods.md,
 /// "Outcomes and exit codes").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -562,6 +595,9 @@ pub struct Report {
     pub records: Option<Records>,
     /// Filtered excitations: fitted and used `A`, `B`.
     pub filters: Vec<FilterReport>,
+    /// Measured forces read as their equivalent white noise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub white_levels: Vec<WhiteLevelReport>,
     /// Sensor noise: estimated and corrected where the scenario declares sensors and for
     /// measured data (`None` otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]

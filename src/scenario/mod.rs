@@ -438,6 +438,11 @@ pub struct Identify {
     /// Filtered excitations whose corner `B` is unknown: the drift is then bilinear, and
     /// the identifier solves for the monomial coefficients `B`, `B·θ`, `θ`.
     pub unknown_corners: Vec<usize>,
+    /// Measured white excitations whose level `sigma` is not given but taken from the
+    /// measured force's spectrum over the band where the response has its energy: the
+    /// equivalent white noise of a band-limited or multisine input (docs/methods.md,
+    /// "The force model").
+    pub equivalent_white: Vec<usize>,
     /// Alternative models identified alongside for comparison (e.g. the paper's linear
     /// case 1), by name: each replaces `links`; reported, not gated.
     pub compare: Vec<(String, Vec<IdentifyLink>)>,
@@ -518,6 +523,8 @@ impl Identify {
             "unknown intensities"
         } else if !self.unknown_corners.is_empty() || filtered_fitted {
             "filters fitted to the force spectra (list them in known_filters)"
+        } else if !self.equivalent_white.is_empty() {
+            "white levels taken from the force spectra (give their sigma)"
         } else {
             return None;
         };
@@ -846,6 +853,7 @@ impl Scenario {
         remap(&mut id.unknown_intensities);
         remap(&mut id.known_filters);
         remap(&mut id.unknown_corners);
+        remap(&mut id.equivalent_white);
         if let Some(d) = &mut id.disturbance {
             d.structure.measured = index[d.structure.measured].expect("the measured force is kept");
         }

@@ -141,6 +141,9 @@ struct Step {
     to: usize,
     lag: usize,
     half: usize,
+    /// The exact central difference of order `2·half` (coarse sampling, no noise), not the
+    /// least-squares cubic's slope (`differentiate::stencil`).
+    exact: bool,
 }
 
 /// A record id as a map key (text ids are numbered by [`Labels`]).
@@ -198,7 +201,11 @@ impl Measured {
             Some(i) => i.margin() + 1,
             None => self.derive.iter().map(|s| s.lag + s.half).max().unwrap_or(0).max(lag) + 1,
         };
-        let stencils: Vec<Vec<f64>> = self.derive.iter().map(|s| differentiate::weights(s.half)).collect();
+        let stencils: Vec<Vec<f64>> = self
+            .derive
+            .iter()
+            .map(|s| differentiate::stencil(s.half, s.exact))
+            .collect();
         let mut handed = 0u64;
         for (source, plan) in &self.plans {
             let slots = plan.pieces.len();
@@ -409,6 +416,7 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
                     to,
                     lag: lag[to],
                     half: 1,
+                    exact: false,
                 });
                 present[to] = true;
             }
@@ -460,16 +468,28 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
     data.motion_frequency = look.motion_frequency;
     // Velocities from displacements: differences as wide as the displacement's noise
     // asks (`differentiate`), and every later derivative's lag after them.
+    // Where the sampling is coarse and the source shows no noise, the exact central
+    // difference of the order the source's spectrum asks for.
     let mut lags = vec![0usize; width];
+    let mut noisy = vec![false; width];
     for (k, step) in data.derive.iter_mut().enumerate() {
-        if let Some(d) = look.differencing[k] {
-            step.half = d.half;
+        let detected = look.differencing[k].is_some_and(|d| d.detected());
+        if let (false, false, Some((half, _))) = (detected, noisy[step.from], look.derived[k].exact) {
+            step.half = half;
+            step.exact = true;
+        }
+        if let Some(mut d) = look.differencing[k] {
+            if !step.exact {
+                step.half = d.half;
+            }
+            (d.half, d.exact) = (step.half, step.exact);
             data.differenced.push(DifferencedNoise {
                 displacement: step.from,
                 velocity: step.to,
                 found: d,
             });
         }
+        noisy[step.to] = detected || noisy[step.from];
         lags[step.to] = lags[step.from] + step.half;
         step.lag = lags[step.to];
     }
@@ -485,6 +505,7 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
             *r,
             look.differencing[k],
             noisy_source,
+            (step.half, step.exact),
         );
         data.notes.extend(notes);
     }
@@ -778,8 +799,8 @@ mod tests {
 
     /// Records interleaved row by row, one split at a gap: each record's samples come out
     /// in time order with their time from the record's start, and the derived velocity and
-    /// acceleration are the central differences of the whole record (one-sided at its
-    /// ends), computed here directly.
+    /// acceleration are the differences of the whole record (central, one-sided at its
+    /// ends, where the stencil would reach past them), computed here directly.
     #[test]
     fn interleaved_records_stream_with_their_derivatives() {
         // The shipped SDOF model, reading the displacement only and deriving the rest.
@@ -813,10 +834,22 @@ mod tests {
             .iter()
             .any(|n| n.contains("record 2 split at 1 time gap(s) into 2 records")));
         let layout = crate::Model::new(&model).columns();
-        let diff = |f: &[f64]| -> Vec<f64> {
+        // The stencil each step chose (the exact central difference of a higher order where
+        // the sampling is coarse, as here), the central difference where it would reach
+        // past a record's ends.
+        let diff = |f: &[f64], step: &Step| -> Vec<f64> {
             let n = f.len();
+            let w = differentiate::stencil(step.half, step.exact);
             (0..n)
                 .map(|s| {
+                    if s >= step.half && s + step.half < n {
+                        return w
+                            .iter()
+                            .enumerate()
+                            .map(|(k, wk)| wk * (f[s + k + 1] - f[s - k - 1]))
+                            .sum::<f64>()
+                            / h;
+                    }
                     let (a, b) = (s.saturating_sub(1), (s + 1).min(n - 1));
                     (f[b] - f[a]) / ((b - a) as f64 * h)
                 })
@@ -826,8 +859,8 @@ mod tests {
             let (times, samples) = data.record(j as u32).unwrap();
             let n = data.lengths[j];
             let xs: Vec<f64> = (0..n).map(|s| x(id, (from + s) as f64)).collect();
-            let v = diff(&xs);
-            let a = diff(&v);
+            let v = diff(&xs, &data.derive[0]);
+            let a = diff(&v, &data.derive[1]);
             assert_eq!(times, (1..=n).map(|s| s as f64 * h).collect::<Vec<_>>());
             for s in 0..n {
                 let row = &samples[s * data.width..(s + 1) * data.width];

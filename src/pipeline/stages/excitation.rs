@@ -1,13 +1,17 @@
 //! Stage "excitation fit": the rational spectrum (3.20) fitted to every measured filtered
-//! force's Welch estimate (or its known `A`, `B`), the problem completed with the filters,
-//! and the fit judged: a first-order spectrum that misses the measured one by more than
-//! [`REJECT`] times what averaging alone explains is a force model the data reject, and
-//! every method that needs it is refused (docs/methods.md, "Checks").
+//! force's Welch estimate (or its known `A`, `B`), the level of every force read as its
+//! equivalent white noise taken over the band where the response has its energy, the
+//! problem completed with both, and the fits judged: a first-order spectrum that misses the
+//! measured one by more than [`REJECT`] times what averaging alone explains, or a force not
+//! flat over the response's band, is a force model the data reject, and every method that
+//! needs it is refused (docs/methods.md, "The force model" and "Checks").
 
+use super::super::spectra::{EDGE_LIMIT, REJECT_WHITE};
 use super::super::PipelineError;
 use super::{Fitted, Identification};
-use crate::ident::Problem;
-use crate::report::FilterReport;
+use crate::ident::{Problem, Specification};
+use crate::report::{FilterReport, WhiteLevelReport};
+use crate::scenario::Process;
 
 /// A fitted filter whose log residual RMS exceeds this multiple of what the averaging
 /// alone gives is rejected. On the shipped filtered scenarios the ratio is 0.98–1.03 (one
@@ -17,14 +21,29 @@ use crate::report::FilterReport;
 pub const REJECT: f64 = 3.0;
 
 pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
-    let (filters, reports, spectra) = id.forces.filters(&id.input.info.scenario);
+    let s = &id.input.info.scenario;
+    let (filters, reports, spectra) = id.forces.filters(s);
+    let white = id.forces.white_levels(s);
+    let levels: Vec<(usize, f64)> = white.iter().filter_map(|&(e, sigma, _)| Some((e, sigma?))).collect();
+    let white_reports: Vec<WhiteLevelReport> = white.into_iter().map(|(_, _, r)| r).collect();
+    id.spec = with_levels(&id.spec, &levels);
     let problem = Problem::from_spec(&id.spec, &filters)?;
     let typical = problem.typical(id.total.as_ref().expect("set in the second pass"));
-    let rejected = rejected(&reports);
+    let why: Vec<String> = rejected(&reports)
+        .into_iter()
+        .chain(rejected_white(&white_reports))
+        .collect();
+    let rejected = (!why.is_empty()).then(|| {
+        why.join("; ")
+            + ". Every method that needs the force model is refused; the force regression, which uses the \
+               measured force itself, stands"
+    });
     id.fitted = Some(Fitted {
         filters,
         reports,
         spectra,
+        levels,
+        white_reports,
         problem,
         typical,
         rejected,
@@ -32,7 +51,57 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     Ok(())
 }
 
-/// Why the fitted force models are rejected, if any is.
+/// `spec` with the white forces of `levels` at their measured level.
+pub(crate) fn with_levels(spec: &Specification, levels: &[(usize, f64)]) -> Specification {
+    let mut spec = spec.clone();
+    for &(e, sigma) in levels {
+        spec.model.excitations[e].process = Process::White { sigma };
+    }
+    spec
+}
+
+/// Why the forces read as white are rejected, if any is.
+fn rejected_white(reports: &[WhiteLevelReport]) -> Option<String> {
+    let why: Vec<String> = reports
+        .iter()
+        .filter(|w| !w.accepted)
+        .map(|w| {
+            if w.sigma.is_finite() && w.edge_share > EDGE_LIMIT {
+                format!(
+                    "{}'s band ({:.4}–{:.4} Hz) ends where the system still responds: {:.0} % of its gain lies \
+                     beyond it (the limit is {:.0} %), which no white noise leaves undriven; drive the rig over a \
+                     band that covers its modes with room to spare",
+                    w.excitation,
+                    w.force_band_hz.0,
+                    w.force_band_hz.1,
+                    100.0 * w.edge_share,
+                    100.0 * EDGE_LIMIT
+                )
+            } else if w.sigma.is_finite() {
+                format!(
+                    "{} is not white over the band where the response has its energy ({:.4}–{:.4} Hz): its \
+                     log density scatters about the level by an RMS of {:.3}, {:.1} times what averaging alone \
+                     gives ({:.3}; the limit is {REJECT_WHITE} times)",
+                    w.excitation,
+                    w.band_hz.0,
+                    w.band_hz.1,
+                    w.rms_log_residual,
+                    w.rms_log_residual / w.expected_rms_log_residual,
+                    w.expected_rms_log_residual,
+                )
+            } else {
+                format!(
+                    "{}'s level cannot be read from its spectrum (no Welch segment, or no power where the \
+                     response has its energy)",
+                    w.excitation
+                )
+            }
+        })
+        .collect();
+    (!why.is_empty()).then(|| why.join("; "))
+}
+
+/// Why the fitted first-order force models are rejected, if any is.
 fn rejected(reports: &[FilterReport]) -> Option<String> {
     let why: Vec<String> = reports
         .iter()
@@ -41,17 +110,16 @@ fn rejected(reports: &[FilterReport]) -> Option<String> {
             format!(
                 "the first-order spectrum (3.20) fitted to {} misses it by an RMS log ratio of {:.3}, {:.0} times \
                  what averaging alone gives ({:.3}; the limit is {REJECT} times): the force is not an \
-                 Ornstein–Uhlenbeck process (a band-limited or multisine input is not)",
+                 Ornstein–Uhlenbeck process (a band-limited or multisine input is not: flat over the \
+                 response's band, it can be read as its equivalent white noise, kind = \"white\" with \
+                 [identify] equivalent_white = [{:?}])",
                 f.excitation,
                 f.rms_log_residual,
                 f.rms_log_residual / f.expected_rms_log_residual,
-                f.expected_rms_log_residual
+                f.expected_rms_log_residual,
+                f.excitation
             )
         })
         .collect();
-    (!why.is_empty()).then(|| {
-        why.join("; ")
-            + ". Every method that needs the force model is refused; the force regression, which uses the \
-               measured force itself, stands"
-    })
+    (!why.is_empty()).then(|| why.join("; "))
 }

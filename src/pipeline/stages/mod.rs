@@ -80,7 +80,10 @@ pub(crate) struct Fitted {
         crate::ident::spectrum::OuFit,
         (f64, f64),
     )>,
-    /// The problem with the fitted (or known) filters.
+    /// The forces read as their equivalent white noise, at their measured level `σ`.
+    pub levels: Vec<(usize, f64)>,
+    pub white_reports: Vec<crate::report::WhiteLevelReport>,
+    /// The problem with the fitted (or known) filters and the measured levels.
     pub problem: Problem,
     /// Typical magnitudes of its unknowns (the least squares' column scaling).
     pub typical: Vec<f64>,
@@ -170,7 +173,9 @@ impl Identification<'_> {
             failed_checks,
             ..
         } = self;
-        let (filter_reports, spectra) = fitted.map(|f| (f.reports, f.spectra)).unwrap_or_default();
+        let (filter_reports, white_levels, spectra) = fitted
+            .map(|f| (f.reports, f.white_reports, f.spectra))
+            .unwrap_or_default();
         let plot = dist
             .expect("the second pass makes the distributions")
             .into_plot(spectra);
@@ -188,6 +193,7 @@ impl Identification<'_> {
         if let Some(n) = &sensor_noise {
             super::sensors::warn_uncorrected(n, &mut report.methods);
         }
+        report.white_levels = white_levels;
         report.sensor_noise = sensor_noise;
         report.profile = profiled;
         report.passed &= failed_checks.is_empty();

@@ -60,7 +60,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     rows.extend(comparison_rows(
         &id.spec,
         fitted.rejected.as_deref(),
-        &fitted.filters,
+        (&fitted.filters, &fitted.levels),
         naive,
         &id.data,
         &id.comparisons,
@@ -82,7 +82,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
             let t = Instant::now();
             let p = Problem::from_spec(&spec, &fitted.filters)?;
             let est = match &fitted.rejected {
-                Some(why) if !fitted.filters.is_empty() => Err(IdentError::ForceModelRejected(why.clone())),
+                Some(why) => Err(IdentError::ForceModelRejected(why.clone())),
                 _ => ident::identify_weak(&p, &id.data),
             };
             let mut row = method_report(
@@ -145,7 +145,7 @@ fn estimator_rows(
 fn comparison_rows(
     spec: &Specification,
     rejected: Option<&str>,
-    filters: &[Filter],
+    (filters, levels): (&[Filter], &[(usize, f64)]),
     naive: Option<&StationaryData>,
     data: &StationaryData,
     comparisons: &[Comparison],
@@ -169,9 +169,9 @@ fn comparison_rows(
     }
     for c in comparisons {
         let t = Instant::now();
-        let spec = Specification::with_links(grader.scenario, &c.links);
+        let spec = super::excitation::with_levels(&Specification::with_links(grader.scenario, &c.links), levels);
         let (p, est) = match Problem::from_spec(&spec, filters) {
-            Ok(p) if rejected.is_some() && !filters.is_empty() => {
+            Ok(p) if rejected.is_some() => {
                 let why = rejected.unwrap_or_default().to_string();
                 (p, Err(IdentError::ForceModelRejected(why)))
             }

@@ -42,7 +42,11 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     {
         id.forces.estimate_floors(s.simulation.trajectories);
     }
-    let mut fisher = FisherInformation::new(&id.structure).ok();
+    // The bound is of white forces; a measured force read as its equivalent white noise is
+    // not one, and its level is not known before this pass.
+    let mut fisher = FisherInformation::new(&id.structure)
+        .ok()
+        .filter(|_| s.identify.equivalent_white.is_empty());
     let batching = id.data.batching();
     let mut list: Vec<&mut dyn Accumulator> = id
         .estimators

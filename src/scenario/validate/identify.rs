@@ -63,6 +63,27 @@ pub(crate) fn check_identify(
         ident.and_then(|i| i.unknown_corners.as_ref()),
         "identify.unknown_corners",
     )?;
+    let mut equivalent_white = Vec::new();
+    for e in ident.and_then(|i| i.equivalent_white.as_ref()).into_iter().flatten() {
+        let key = "identify.equivalent_white";
+        let k = excitation_index(loc, excitations, e, key)?;
+        let x = &excitations[k];
+        let why = if !matches!(x.process, Process::White { .. }) {
+            Some(
+                "is filtered: its spectrum is fitted by (3.20); an equivalent white noise is declared kind = \"white\"",
+            )
+        } else if !x.measured {
+            Some("is not measured: its level can only be read from a measured force's spectrum")
+        } else if equivalent_white.contains(&k) {
+            Some("is listed twice")
+        } else {
+            None
+        };
+        if let Some(why) = why {
+            return Err(loc.at(e.span(), key, format!("excitation {:?} {why}", e.get_ref())));
+        }
+        equivalent_white.push(k);
+    }
     let mut unknown_masses = Vec::new();
     for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {
         let End::Mass(k) = mass_index(loc, masses, m, "identify.unknown_masses", false)? else {
@@ -78,6 +99,14 @@ pub(crate) fn check_identify(
         .collect::<Result<Vec<_>, _>>()?;
     let disturbance = match ident.and_then(|i| i.disturbance.as_ref()) {
         None => None,
+        Some(d) if !equivalent_white.is_empty() => {
+            return Err(loc.at(
+                d.span(),
+                "identify.disturbance",
+                "the iterative procedure needs every measured force's model before its first step: give the \
+                 sigma of the forces listed in identify.equivalent_white",
+            ))
+        }
         Some(d) => Some(check_disturbance(loc, d, || {
             paper_structure(
                 masses,
@@ -97,6 +126,7 @@ pub(crate) fn check_identify(
         unknown_intensities,
         known_filters,
         unknown_corners,
+        equivalent_white,
         compare,
         disturbance,
         sensor_noise: ident

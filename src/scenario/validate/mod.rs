@@ -224,6 +224,7 @@ impl Scenario {
         check_sensor_filters(&loc, &raw, &simulation, data.is_some())?;
         let identify = check_identify(&loc, &raw, &masses, &links, &excitations)?;
         let accept = check_accept(&loc, &raw, &identify)?;
+        check_equivalent_white_columns(&loc, &raw, &identify, &excitations, data.as_ref())?;
         if identify.sensor_noise == NoiseHandling::Given && !simulation.sensors.noisy() {
             let span = raw
                 .identify
@@ -286,6 +287,33 @@ fn check_filters_resolved(
 }
 
 /// `[data]`: every mapped column a quantity of the model, every factor finite and non-zero.
+/// An equivalent white force's level is read from its measured column: a model file must
+/// map `p_<excitation>`.
+fn check_equivalent_white_columns(
+    loc: &Locator,
+    raw: &RawScenario,
+    identify: &Identify,
+    excitations: &[Excitation],
+    data: Option<&DataMapping>,
+) -> Result<(), ScenarioError> {
+    let Some(data) = data else { return Ok(()) };
+    let listed = raw.identify.as_ref().and_then(|i| i.equivalent_white.as_ref());
+    for (&e, written) in identify.equivalent_white.iter().zip(listed.into_iter().flatten()) {
+        let column = format!("p_{}", excitations[e].name);
+        if !data.columns.iter().any(|(c, _)| *c == column) {
+            return Err(loc.at(
+                written.span(),
+                "identify.equivalent_white",
+                format!(
+                    "the level of {:?} is read from its measured force: map `{column}` in [data.columns]",
+                    excitations[e].name
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn check_data(
     loc: &Locator,
     raw: &RawScenario,
@@ -694,12 +722,34 @@ pub(crate) fn check_excitations(
                         "`A` and `B` belong to kind = \"filtered\"; white noise takes `sigma`",
                     ));
                 }
-                let s = e
-                    .sigma
+                // An equivalent white noise's level comes from its measured spectrum: its
+                // `sigma`, if written, is only a start.
+                let equivalent = raw
+                    .identify
                     .as_ref()
-                    .ok_or_else(|| loc.at(e.kind.span(), format!("{key}.sigma"), "white noise needs `sigma` (> 0)"))?;
-                Process::White {
-                    sigma: finite_positive(loc, s, &format!("{key}.sigma"), "noise intensity")?,
+                    .and_then(|i| i.equivalent_white.as_ref())
+                    .is_some_and(|l| {
+                        let default_name = targets
+                            .iter()
+                            .map(|t| t.get_ref().as_str())
+                            .collect::<Vec<_>>()
+                            .join("_");
+                        let name = e.name.as_ref().map_or(default_name, |n| n.get_ref().clone());
+                        l.iter().any(|n| *n.get_ref() == name)
+                    });
+                match e.sigma.as_ref() {
+                    None if equivalent => Process::White { sigma: 1.0 },
+                    None => {
+                        return Err(loc.at(
+                            e.kind.span(),
+                            format!("{key}.sigma"),
+                            "white noise needs `sigma` (> 0), unless its level is taken from its measured \
+                             spectrum ([identify] equivalent_white)",
+                        ))
+                    }
+                    Some(s) => Process::White {
+                        sigma: finite_positive(loc, s, &format!("{key}.sigma"), "noise intensity")?,
+                    },
                 }
             }
             RawKind::Filtered => {
