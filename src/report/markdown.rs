@@ -3,6 +3,7 @@
 //! run came from. Markdown tables and image links only, so any renderer shows it; `report.html`
 //! is made from the same text ([`super::html`]), folding the blocks after `<!-- fold: … -->`.
 
+use super::figures::image;
 use super::text::{decimals, fixed, fmt_err, iteration_summary, GATE_MEANING};
 use super::{MethodReport, Report, Validation};
 
@@ -123,7 +124,7 @@ pub fn markdown(r: &Report) -> String {
         s += &sensor_noise_section(n);
     }
     if let Some(sel) = &r.selection {
-        s += &super::selection::selection_section(sel);
+        s += &super::selection::selection_section(sel, &image(r, "selection"));
     }
     if let Some(p) = &r.profile {
         s += &super::selection::profile_section(p);
@@ -159,11 +160,7 @@ pub fn markdown(r: &Report) -> String {
     if !r.failed_checks.is_empty() {
         s += "\n";
     }
-    s += "![Identified and true characteristics over the observed range of each link's relative displacement \
-          and velocity. Top: the truth (thin black) drawn over every estimate; the FPK estimators with their 95 % \
-          pointwise bands; baselines and deliberately wrong models dashed, with a triangle where they leave the \
-          range. Middle: each FPK estimate minus the truth, with its band (with no truth, the band alone about \
-          zero). Bottom: the data's distribution of the argument.](characteristics.svg)\n\n";
+    s += &image(r, "characteristics");
     s += "## Estimates\n\n";
     s += "Errors are relative to the truth; a coefficient whose true value is 0 is measured against its \
           characteristic's scale, and a characteristic's L2 error is taken, under the observed density of its \
@@ -176,11 +173,10 @@ pub fn markdown(r: &Report) -> String {
     for m in &r.methods {
         s += &method_section(m, motion);
     }
-    if super::plot::compare::has_comparisons(r) {
-        s += &format!(
-            "## Models compared\n\n![{}](compare.svg)\n\n",
-            super::plot::compare::caption(r)
-        );
+    let compared = image(r, "compare");
+    if !compared.is_empty() {
+        s += "## Models compared\n\n";
+        s += &compared;
     }
     s += &filters_section(r);
     s += &white_levels_section(r);
@@ -299,9 +295,7 @@ fn filters_section(r: &Report) -> String {
             );
         }
         s += "\n";
-        if !r.plot.spectra.is_empty() {
-            s += &format!("![{}](spectrum.svg)\n\n", super::plot::spectra::caption(r));
-        }
+        s += &image(r, "spectrum");
     }
     s
 }
@@ -322,7 +316,8 @@ fn white_levels_section(r: &Report) -> String {
 fn iterations_section(r: &Report) -> String {
     let mut s = String::new();
     if !r.iterations.is_empty() {
-        s += "## Iterative procedure (paper section 4)\n\n![Estimates over the steps](iteration.svg)\n\n";
+        s += "## Iterative procedure (paper section 4)\n\n";
+        s += &image(r, "iteration");
         for it in &r.iterations {
             s += &format!(
                 "<!-- fold: {} step by step -->\n```\n{}\n```\n\n",
@@ -414,17 +409,8 @@ fn validation_section(r: &Report, v: &Validation) -> String {
             .unwrap_or_default();
         s += &format!("**{first}{}.**\n\n", c.as_str());
     }
-    if !r.plot.marginals.is_empty() {
-        s += "![Marginal densities of the responses: the data (grey histogram) against the re-simulated model \
-              (solid; on the log scale only where its bins hold ten samples or more), and, dashed, the exact \
-              stationary density where it is known in closed form (one mass, linear damping, white \
-              forces).](densities.svg)\n\n";
-    }
-    if r.plot.response_spectra.iter().any(|x| x.2.segments > 0) {
-        s += "![One-sided spectral densities G(ω) = 2 S(ω) of the responses (the area under G over ω > 0 is the \
-              variance): the data (Welch) against the re-simulated model, on the same \
-              segments.](response_spectra.svg)\n\n";
-    }
+    s += &image(r, "densities");
+    s += &image(r, "response_spectra");
     s
 }
 

@@ -4,6 +4,7 @@
 //! Depends on the result types only; never on the numerics' internals.
 
 pub mod figure;
+pub mod figures;
 pub mod html;
 mod markdown;
 pub mod plot;
@@ -12,6 +13,7 @@ pub mod raster;
 mod selection;
 pub mod study;
 pub mod text;
+#[warn(missing_docs)]
 pub mod types;
 
 pub use markdown::markdown;
@@ -26,23 +28,13 @@ pub mod study_rows;
 
 pub use crate::io::output::write_atomic;
 
-/// The figures [`write_all`] may write, each as `.svg`, `.png` and `.pdf`.
-pub const FIGURES: [&str; 7] = [
-    "characteristics",
-    "selection",
-    "compare",
-    "iteration",
-    "spectrum",
-    "densities",
-    "response_spectra",
-];
-
-/// Every file [`write_all`] may write into a report folder.
+/// Every file [`write_all`] may write into a report folder: the pages, and each figure of
+/// the registry ([`figures::FIGURES`]) as `.svg`, `.png` and `.pdf`.
 pub fn files() -> Vec<String> {
     let mut out: Vec<String> = ["report.json", "report.md", "report.html"].map(String::from).to_vec();
-    for f in FIGURES {
+    for f in figures::FIGURES {
         for ext in ["svg", "png", "pdf"] {
-            out.push(format!("{f}.{ext}"));
+            out.push(format!("{}.{ext}", f.name));
         }
     }
     out
@@ -82,23 +74,7 @@ pub fn write_all(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let p = dir.join("report.json");
     write_atomic(&p, json.as_bytes())?;
     files.push(p);
-    files.extend(plot_characteristics(r, &dir.join("characteristics.svg"))?);
-    files.extend(plot::selection::plot_selection(r, &dir.join("selection.svg"))?);
-    if plot::compare::has_comparisons(r) {
-        files.extend(plot::compare::plot_compare(r, &dir.join("compare.svg"))?);
-    }
-    if !r.iterations.is_empty() {
-        files.extend(plot_iteration(r, &dir.join("iteration.svg"))?);
-    }
-    if !r.plot.spectra.is_empty() {
-        files.extend(plot_spectra(r, &dir.join("spectrum.svg"))?);
-    }
-    if !r.plot.marginals.is_empty() {
-        files.extend(plot_densities(r, &dir.join("densities.svg"))?);
-    }
-    if r.plot.response_spectra.iter().any(|s| s.2.segments > 0) {
-        files.extend(plot_response_spectra(r, &dir.join("response_spectra.svg"))?);
-    }
+    files.extend(figures::write_figures(r, dir)?);
     let md = markdown(r);
     let p = dir.join("report.md");
     write_atomic(&p, md.as_bytes())?;

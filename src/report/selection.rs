@@ -162,14 +162,13 @@ pub fn selection_lines(r: &SelectionReport) -> Vec<String> {
 }
 
 /// report.md's section.
-pub fn selection_section(r: &SelectionReport) -> String {
+/// `image` is the registry's paragraph of the selection figure (`figures::image`).
+pub fn selection_section(r: &SelectionReport, image: &str) -> String {
     let s = &r.selection;
     let mut out = format!(
         "## Structure selection\n\n{}. Every method below identified the selected model; the row \
          `weak [declared terms]` is the model as `[identify.links]` declares it, on the same \
-         samples (docs/selection.md).\n\n![The criterion along the elimination path against the \
-         number of terms, the selected model marked; each candidate's share of the jackknife \
-         replicates that select it](selection.svg)\n\n",
+         samples (docs/selection.md).\n\n{image}",
         how(r)
     );
     out += &format!(

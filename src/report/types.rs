@@ -8,10 +8,16 @@ use crate::stats::Histogram;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// One unknown's estimate in a method's report, with its uncertainty and, where there is a
+/// truth, its error.
 #[derive(Debug, Clone, Serialize)]
 pub struct Parameter {
+    /// The unknown, e.g. `k3[ground-m1]`, `m[m1]`, `sigma[m1]`.
     pub name: UnknownName,
+    /// Its true value (NaN where there is no truth: measured data, a term the truth lacks
+    /// a counterpart of).
     pub true_value: f64,
+    /// The method's estimate.
     pub estimate: f64,
     /// The jackknife's standard error (NaN, `null` in JSON, where the method has none).
     pub std_error: f64,
@@ -21,6 +27,8 @@ pub struct Parameter {
     /// Whether the 95 % interval excludes 0 (for an extra term of an over-parameterised
     /// model: whether the data ask for it); `None` without an interval.
     pub differs_from_zero: Option<bool>,
+    /// `estimate / true_value − 1`, or against the characteristic's scale where the true
+    /// value is 0 (NaN without a truth).
     pub rel_error: f64,
     /// The Cramér–Rao bound of continuous observation on this parameter's standard
     /// deviation, from the samples ([`crate::ident::fisher`]); `None` where it does not
@@ -31,11 +39,16 @@ pub struct Parameter {
 /// [`Curve::norm`]: a characteristic's L2 error under the observed density of its
 /// argument (every term a power), or evenly over the observed range.
 pub const NORM_DENSITY: &str = "observed density";
+/// [`Curve::norm`]: evenly over the observed range (a term that is not a power).
 pub const NORM_RANGE: &str = "observed range";
 
+/// One identified characteristic against the true one, over the observed range of its
+/// argument.
 #[derive(Debug, Clone, Serialize)]
 pub struct Curve {
+    /// The link, e.g. `ground-m1`.
     pub link: String,
+    /// `stiffness` or `damping`.
     pub kind: &'static str,
     /// `‖K̂ − K‖ / ‖K‖` under the observed density of the relative displacement or velocity
     /// (`stats::rel_l2`), or evenly over the observed range where a term is not a power.
@@ -71,18 +84,29 @@ impl Curve {
 /// what the identifier used.
 #[derive(Debug, Clone, Serialize)]
 pub struct FilterReport {
+    /// The excitation's name.
     pub excitation: String,
     /// `fitted` or `known`.
     pub used: &'static str,
+    /// The `A` the identifier used (fitted, or known).
     pub a: f64,
+    /// The `B` the identifier used, 1/s.
     pub b: f64,
+    /// `A` of the fit of (3.20) to the measured spectrum.
     pub fitted_a: f64,
+    /// `B` of that fit, 1/s.
     pub fitted_b: f64,
+    /// The scenario's `A` where it is a truth (a simulation), else NaN.
     pub true_a: f64,
+    /// The scenario's `B` where it is a truth, else NaN.
     pub true_b: f64,
+    /// RMS of `ln Ŝ − ln S_fit` over the fitted frequencies (0 = perfect).
     pub rms_log_residual: f64,
+    /// What the averaging alone gives of that RMS, `≈ 1/√K` over `K` segments.
     pub expected_rms_log_residual: f64,
+    /// Welch segments averaged.
     pub segments: usize,
+    /// Samples per Welch segment.
     pub segment_len: usize,
     /// The force cells' noise floor (two-sided density) taken out of the spectrum before
     /// the fit, if any: stated, or estimated.
@@ -99,6 +123,7 @@ pub struct FilterReport {
 /// flat the spectrum is there (docs/methods.md, "The force model").
 #[derive(Debug, Clone, Serialize)]
 pub struct WhiteLevelReport {
+    /// The excitation's name.
     pub excitation: String,
     /// The level used, `σ` of `P dt = σ dW` (two-sided density `σ²/2π`).
     pub sigma: f64,
@@ -119,7 +144,9 @@ pub struct WhiteLevelReport {
     pub rms_log_residual: f64,
     /// What the averaging alone gives of it.
     pub expected_rms_log_residual: f64,
+    /// Welch segments averaged (all parts).
     pub segments: usize,
+    /// Samples per Welch segment.
     pub segment_len: usize,
     /// Whether the force is read as white: flat over the response's band (the misfit
     /// within 3 times the averaging's) and driving nearly all of the system's gain (the
@@ -170,15 +197,22 @@ impl Outcome {
     }
 }
 
+/// One method's row of a report: its outcome, estimates, curves, gate and diagnostics
+/// (docs/methods.md, "Outcomes and exit codes").
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodReport {
+    /// The estimator, baseline or comparison model this row is about.
     pub method: ReportMethod,
     /// Estimated, refused, not applicable or failed.
     pub outcome: Outcome,
     /// Whether this method has an acceptance gate (baselines and comparisons do not).
     pub gated: bool,
+    /// Every unknown's estimate (empty when the method gave none).
     pub parameters: Vec<Parameter>,
+    /// Every identified characteristic against the truth.
     pub curves: Vec<Curve>,
+    /// The largest relative error over the parameters and curves (NaN without a truth or an
+    /// estimate).
     pub worst_rel_error: f64,
     /// The regression gate on `worst_rel_error` (mean + 4 sd over seeds, set in the
     /// scenario's `[accept]`); `None` for baselines and comparisons.
@@ -193,13 +227,20 @@ pub struct MethodReport {
     pub not_applicable: Option<String>,
     /// Warnings about the estimate's reliability (e.g. too few usable cells per unknown).
     pub warnings: Vec<String>,
+    /// The least squares' conditioning and the method's own diagnostics.
     pub diagnostics: Option<Diagnostics>,
+    /// Whether the smallest singular value is so small against the largest that some
+    /// combination of unknowns is poorly determined by the data.
     pub weakly_determined: bool,
+    /// What the method did, as label and text (moments, test functions, grid, weighting).
     pub facts: BTreeMap<String, String>,
+    /// Per characteristic: whether the estimate is dissipative over the observed range
+    /// ((3.4), (3.16)–(3.17)).
     pub dissipativity: Vec<stats::Dissipativity>,
     /// Why the method gave no estimate when it was refused or failed (then `passed` is
     /// false).
     pub error: Option<String>,
+    /// The method's wall-clock time (s).
     pub seconds: f64,
     /// With structure selection: the terms selected, which this method identified
     /// (docs/selection.md).
@@ -211,6 +252,8 @@ pub struct MethodReport {
 #[derive(Debug, Clone, Serialize)]
 pub struct SelectionReport {
     #[serde(flatten)]
+    /// The selection: candidates, the elimination path, the chosen terms and their
+    /// inclusion frequencies.
     pub selection: crate::ident::select::Selection,
     /// The selection's own time (the candidate model's moments are shared).
     pub seconds: f64,
@@ -226,37 +269,52 @@ pub struct ProfileReport {
     pub chosen_parameter: String,
     /// Per position: the GMM `J` of the model there, or why there is none.
     pub points: Vec<ProfilePoint>,
+    /// The position kept (the least `J`, or the refined vertex).
     pub chosen: f64,
     /// The positions whose `J` is within `3.84 · dispersion` of the least (a 95 % interval
     /// from the χ²₁ difference, widened by the equations' dispersion `max(1, J/dof)`):
     /// their range.
     pub interval: (f64, f64),
+    /// The equations' dispersion `max(1, J/dof)` at the chosen position.
     pub dispersion: f64,
     /// The true position, where the truth has one term of this kind on this characteristic.
     pub truth: Option<f64>,
     /// `J` at the parabola's vertex between the grid's positions, when that position was
     /// kept (`chosen` is then the vertex, between two positions tried).
     pub refined: Option<f64>,
+    /// The profile's wall-clock time (s).
     pub seconds: f64,
 }
 
+/// One position of a profiled term.
 #[derive(Debug, Clone, Serialize)]
 pub struct ProfilePoint {
+    /// The term's position (e.g. a clearance's gap).
     pub position: f64,
+    /// The weak form's GMM `J` there (`None` where it was refused).
     pub j: Option<f64>,
+    /// Degrees of freedom of `J`: equations less unknowns.
     pub dof: usize,
+    /// Why the model at this position was refused, if it was.
     pub refused: Option<String>,
 }
 
+/// One response variable of the validation: the data's statistics against the
+/// re-simulated model's.
 #[derive(Debug, Clone, Serialize)]
 pub struct ValidationRow {
+    /// The log column, e.g. `x_m1`.
     pub variable: String,
+    /// The data's standard deviation.
     pub data_std: f64,
+    /// The re-simulated model's standard deviation.
     pub model_std: f64,
     /// The standard error of `model_std / data_std − 1` from the sampling of both (the
     /// spread between trajectory groups; NaN for a single record).
     pub std_difference_se: f64,
+    /// The data's kurtosis.
     pub data_kurtosis: f64,
+    /// The re-simulated model's kurtosis.
     pub model_kurtosis: f64,
     /// The standard error of `model_kurtosis − data_kurtosis` (as the std's).
     pub kurtosis_difference_se: f64,
@@ -273,7 +331,9 @@ pub struct SpectrumComparison {
     pub rms_log_difference: f64,
     /// What that RMS is from the averaging alone, `√(1/K_data + 1/K_model)`.
     pub averaging_alone: f64,
+    /// The data's spectral peak, rad/s.
     pub data_peak_rad_s: f64,
+    /// The model's spectral peak, rad/s.
     pub model_peak_rad_s: f64,
 }
 
@@ -284,6 +344,7 @@ pub struct SpectrumComparison {
 pub struct SensorNoiseReport {
     /// `estimate`, `given` or `ignore` (`[identify] sensor_noise`).
     pub handling: String,
+    /// One row per measured channel.
     pub channels: Vec<ChannelNoiseReport>,
     /// Why the noise could not be estimated, if it could not.
     pub not_estimated: Option<String>,
@@ -300,6 +361,7 @@ pub struct SensorNoiseReport {
 /// The variance the sensors' filters take out of one velocity column.
 #[derive(Debug, Clone, Serialize)]
 pub struct FilterLossReport {
+    /// The log column the filters acted on.
     pub column: String,
     /// The standard deviation of what was taken out (the column's unit).
     pub std: f64,
@@ -308,6 +370,7 @@ pub struct FilterLossReport {
 /// One sensor channel's noise.
 #[derive(Debug, Clone, Serialize)]
 pub struct ChannelNoiseReport {
+    /// The log column, e.g. `x_m1`.
     pub column: String,
     /// Estimated noise standard deviation (channel unit).
     pub std: f64,
@@ -327,13 +390,20 @@ pub struct ChannelNoiseReport {
     pub at_limits: u64,
 }
 
+/// The validation by re-simulation: the identified model simulated afresh and its
+/// responses' statistics compared with the data's (docs/methods.md, "Validation by
+/// re-simulation").
 #[derive(Debug, Clone, Serialize)]
 pub struct Validation {
     /// The method whose model was re-simulated.
     pub method: ReportMethod,
+    /// Each re-simulated trajectory's length (s).
     pub record_length_s: f64,
+    /// Trajectories re-simulated.
     pub trajectories: usize,
+    /// The re-simulation's seed.
     pub seed: u64,
+    /// One row per response variable.
     pub rows: Vec<ValidationRow>,
     /// Set when the identified model could not be simulated (e.g. not dissipative).
     pub error: Option<String>,
@@ -367,6 +437,7 @@ pub struct IntegratorBias {
     pub step_s: f64,
     /// The schemes' weak order `p`: the bias is `(θ_h − θ_h/2) / (1 − 2^−p)`.
     pub order: u32,
+    /// Per method, its estimates with their bias.
     pub methods: Vec<MethodBias>,
 }
 
@@ -388,19 +459,24 @@ impl IntegratorBias {
 /// One method's estimates with their integrator bias.
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodBias {
+    /// The method.
     pub method: ReportMethod,
+    /// Its estimates, each with its bias.
     pub parameters: Vec<ParameterBias>,
 }
 
 /// One estimate's integrator bias.
 #[derive(Debug, Clone, Serialize)]
 pub struct ParameterBias {
+    /// The unknown's name.
     pub name: String,
+    /// The estimate at the run's step.
     pub estimate: f64,
     /// The estimate from the run at half the step on the same paths.
     pub refined_estimate: f64,
     /// Richardson's estimate of the bias at the run's step.
     pub bias: f64,
+    /// The estimate's standard error (jackknife).
     pub std_error: f64,
     /// `|bias|` above a quarter of the standard error.
     pub exceeds: bool,
@@ -409,6 +485,7 @@ pub struct ParameterBias {
 /// One statistic of one response on which the re-simulated model and the data disagree.
 #[derive(Debug, Clone, Serialize)]
 pub struct Misfit {
+    /// The log column, e.g. `v_m1`.
     pub variable: String,
     /// `std`, `kurtosis` or `spectrum`.
     pub statistic: &'static str,
@@ -508,7 +585,9 @@ pub struct PlotData {
     pub link_hist: Vec<(Histogram, Histogram)>,
     /// Per state variable: (name, unit, data histogram, re-simulated model histogram).
     pub marginals: Vec<(String, String, Histogram, Option<Histogram>)>,
+    /// Samples behind the data histograms.
     pub samples: f64,
+    /// Samples behind the re-simulated model's histograms.
     pub model_samples: f64,
     /// Per filtered excitation: name, estimated spectrum, fit, true (A, B).
     pub spectra: Vec<(String, spectrum::Spectrum, spectrum::OuFit, (f64, f64))>,
@@ -519,7 +598,9 @@ pub struct PlotData {
 /// What produced a report: the tool and the exact scenario.
 #[derive(Debug, Clone, Serialize)]
 pub struct Provenance {
+    /// The program's name.
     pub tool: &'static str,
+    /// Its version.
     pub version: &'static str,
     /// The git commit the binary was built from (`None` outside a git checkout), with
     /// `-dirty` when the tree had uncommitted changes.
@@ -531,6 +612,8 @@ pub struct Provenance {
 }
 
 impl Provenance {
+    /// The provenance of a run of the scenario `text` (as stored in the log, with its
+    /// `# --set` lines).
     pub fn of_scenario(text: &str) -> Provenance {
         use sha2::Digest;
         let digest = sha2::Sha256::digest(text.as_bytes());
@@ -551,10 +634,13 @@ impl Provenance {
 /// The records of measured data, as they are.
 #[derive(Debug, Clone, Serialize)]
 pub struct Records {
+    /// How many records.
     pub count: usize,
     /// Their lengths (samples × sample interval), in all, shortest and longest (s).
     pub total_s: f64,
+    /// The shortest record (s).
     pub shortest_s: f64,
+    /// The longest record (s).
     pub longest_s: f64,
 }
 
@@ -571,21 +657,32 @@ impl Records {
 /// The result of identifying one log.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
+    /// The tool, its version and commit, and the scenario's digest.
     pub provenance: Provenance,
+    /// The scenario's (or model file's) name.
     pub scenario: String,
+    /// The log (or data files) identified.
     pub log: String,
+    /// Each trajectory's recorded length (s); the longest record's for measured data.
     pub record_length_s: f64,
+    /// The whole record over all trajectories (s).
     pub total_record_s: f64,
     /// Samples identified from.
     pub samples: u64,
     /// Samples the run was to write; more than `samples` when a truncated log was
     /// identified from what it still holds (`identify --allow-truncated`).
     pub expected_samples: u64,
+    /// The sample interval (s).
     pub sample_interval_s: f64,
+    /// Trajectories (records of measured data).
     pub trajectories: usize,
+    /// The simulation's seed.
     pub seed: u64,
+    /// The integration scheme (`semi-implicit`, `heun`, `euler-maruyama`).
     pub scheme: String,
+    /// The integration step (s).
     pub dt_s: f64,
+    /// Where the time went: simulate, identify, total, and each identification stage.
     pub timings_s: Timings,
     /// What reading measured data did that a user should know: derived quantities, and
     /// warnings (lines starting `WARNING`) about sampling too coarse to differentiate.
@@ -608,7 +705,9 @@ pub struct Report {
     /// A term's position profiled (`[identify.profile]`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub profile: Option<ProfileReport>,
+    /// One row per method run, then the ungated comparison rows.
     pub methods: Vec<MethodReport>,
+    /// The validation by re-simulation (`None` with `--no-validate`).
     pub validation: Option<Validation>,
     /// The integrator's bias on the estimates (`run --integrator-bias`).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -625,8 +724,10 @@ pub struct Report {
     /// measured data. Any of them fails the run (exit 1).
     pub failed_checks: Vec<FailedCheck>,
     #[serde(skip)]
+    /// What the figures draw beyond the report.
     pub plot: PlotData,
     #[serde(skip)]
+    /// The scenario (or model file) identified.
     pub scenario_def: Option<Scenario>,
     /// The truth the report was graded against (the log's truth record).
     #[serde(skip)]
@@ -639,6 +740,7 @@ pub struct IterationReport {
     /// The report method of the final iterate (`iterated`, `iterated-force`).
     pub method: ReportMethod,
     #[serde(flatten)]
+    /// The sequence: its estimates per step and how it stopped.
     pub iteration: disturbance::Iteration,
     /// The true value of every parameter (`iteration.names`), from the log's truth record.
     pub truth: Vec<f64>,
@@ -646,7 +748,9 @@ pub struct IterationReport {
     pub step_rel_errors: Vec<Vec<f64>>,
     /// Per step: the worst relative error, curves included.
     pub step_worst_rel_error: Vec<f64>,
+    /// The worst relative error of step 0 (the identification without the disturbance).
     pub step0_worst_rel_error: f64,
+    /// The worst relative error of the final iterate.
     pub final_worst_rel_error: f64,
     /// The report method of this sequence's bound: the identification given the
     /// disturbance as if it were measured, in the same model of the forces.
@@ -660,13 +764,16 @@ pub struct IterationReport {
 pub struct SweepPoint {
     /// Standard deviation of the disturbance over that of the measured force.
     pub level: f64,
+    /// The worst relative error of step 0.
     pub step0_worst_rel_error: f64,
     /// Per sequence (the paper's, then the measured-force one): its final iterate and bound.
     pub sequences: Vec<SweepSequence>,
+    /// Step 0's estimates.
     pub step0: Vec<f64>,
     /// The one-step solve of (4.8) (`direct-force`): worst error (NaN when it failed) and
     /// estimates.
     pub direct_worst_rel_error: f64,
+    /// The one-step solve's estimates.
     pub direct: Vec<f64>,
 }
 
@@ -675,24 +782,35 @@ pub struct SweepPoint {
 pub struct SweepSequence {
     /// `iterated` or `iterated-force`.
     pub method: ReportMethod,
+    /// Steps taken.
     pub steps: usize,
+    /// Why the sequence stopped (converged, diverged, the step limit).
     pub stopped_by: disturbance::StopReason,
+    /// Whether the worst error fell at every step.
     pub monotone: bool,
+    /// The worst relative error of the final iterate.
     pub final_worst_rel_error: f64,
     #[serde(rename = "final")]
+    /// The final iterate's estimates.
     pub last: Vec<f64>,
     /// The sequence's bound (the disturbance given as measured) and its worst error.
     pub bound_method: ReportMethod,
+    /// The bound's worst relative error.
     pub bound_worst_rel_error: f64,
+    /// The bound's estimates.
     pub bound: Vec<f64>,
 }
 
 /// A disturbance-strength sweep: the procedure's accuracy against the disturbance level.
 #[derive(Debug, Clone, Serialize)]
 pub struct Sweep {
+    /// The disturbed scenario's name.
     pub scenario: String,
+    /// The unknowns, in the order of every estimate vector.
     pub names: Vec<UnknownName>,
+    /// Their true values.
     pub truth: Vec<f64>,
+    /// One point per disturbance level.
     pub points: Vec<SweepPoint>,
 }
 
