@@ -466,33 +466,7 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         return Err(err(&data.files[0], "stopped: an interrupt was requested"));
     }
     data.motion_frequency = look.motion_frequency;
-    // Velocities from displacements: differences as wide as the displacement's noise
-    // asks (`differentiate`), and every later derivative's lag after them.
-    // Where the sampling is coarse and the source shows no noise, the exact central
-    // difference of the order the source's spectrum asks for.
-    let mut lags = vec![0usize; width];
-    let mut noisy = vec![false; width];
-    for (k, step) in data.derive.iter_mut().enumerate() {
-        let detected = look.differencing[k].is_some_and(|d| d.detected());
-        if let (false, false, Some((half, _))) = (detected, noisy[step.from], look.derived[k].exact) {
-            step.half = half;
-            step.exact = true;
-        }
-        if let Some(mut d) = look.differencing[k] {
-            if !step.exact {
-                step.half = d.half;
-            }
-            (d.half, d.exact) = (step.half, step.exact);
-            data.differenced.push(DifferencedNoise {
-                displacement: step.from,
-                velocity: step.to,
-                found: d,
-            });
-        }
-        noisy[step.to] = detected || noisy[step.from];
-        lags[step.to] = lags[step.from] + step.half;
-        step.lag = lags[step.to];
-    }
+    data.choose_stencils(&look, width);
     for (k, (step, r)) in data.derive.iter().zip(&look.derived).enumerate() {
         let noisy_source = data
             .differenced
@@ -789,6 +763,38 @@ impl Measured {
                 .collect(),
             derivatives: pairs.into_iter().map(|(p, w)| (p, w.derivative_gain())).collect(),
         })
+    }
+}
+
+impl Measured {
+    /// Each derived column's differences: as wide as the displacement's noise asks
+    /// (`differentiate`), or, where the sampling is coarse and the source shows no noise,
+    /// the exact central difference of the order the source's spectrum asks for; and every
+    /// later derivative's lag after them.
+    fn choose_stencils(&mut self, look: &Look, width: usize) {
+        let mut lags = vec![0usize; width];
+        let mut noisy = vec![false; width];
+        for (k, step) in self.derive.iter_mut().enumerate() {
+            let detected = look.differencing[k].is_some_and(|d| d.detected());
+            if let (false, false, Some((half, _))) = (detected, noisy[step.from], look.derived[k].exact) {
+                step.half = half;
+                step.exact = true;
+            }
+            if let Some(mut d) = look.differencing[k] {
+                if !step.exact {
+                    step.half = d.half;
+                }
+                (d.half, d.exact) = (step.half, step.exact);
+                self.differenced.push(DifferencedNoise {
+                    displacement: step.from,
+                    velocity: step.to,
+                    found: d,
+                });
+            }
+            noisy[step.to] = detected || noisy[step.from];
+            lags[step.to] = lags[step.from] + step.half;
+            step.lag = lags[step.to];
+        }
     }
 }
 

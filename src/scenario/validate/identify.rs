@@ -423,3 +423,30 @@ pub(crate) fn check_accept(loc: &Locator, raw: &RawScenario, identify: &Identify
     }
     Ok(accept)
 }
+
+/// An equivalent white force's level is read from its measured column: a model file must
+/// map `p_<excitation>`.
+pub(crate) fn check_equivalent_white_columns(
+    loc: &Locator,
+    raw: &RawScenario,
+    identify: &Identify,
+    excitations: &[Excitation],
+    data: Option<&DataMapping>,
+) -> Result<(), ScenarioError> {
+    let Some(data) = data else { return Ok(()) };
+    let listed = raw.identify.as_ref().and_then(|i| i.equivalent_white.as_ref());
+    for (&e, written) in identify.equivalent_white.iter().zip(listed.into_iter().flatten()) {
+        let column = format!("p_{}", excitations[e].name);
+        if !data.columns.iter().any(|(c, _)| *c == column) {
+            return Err(loc.at(
+                written.span(),
+                "identify.equivalent_white",
+                format!(
+                    "the level of {:?} is read from its measured force: map `{column}` in [data.columns]",
+                    excitations[e].name
+                ),
+            ));
+        }
+    }
+    Ok(())
+}

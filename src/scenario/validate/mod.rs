@@ -224,7 +224,7 @@ impl Scenario {
         check_sensor_filters(&loc, &raw, &simulation, data.is_some())?;
         let identify = check_identify(&loc, &raw, &masses, &links, &excitations)?;
         let accept = check_accept(&loc, &raw, &identify)?;
-        check_equivalent_white_columns(&loc, &raw, &identify, &excitations, data.as_ref())?;
+        identify::check_equivalent_white_columns(&loc, &raw, &identify, &excitations, data.as_ref())?;
         if identify.sensor_noise == NoiseHandling::Given && !simulation.sensors.noisy() {
             let span = raw
                 .identify
@@ -287,33 +287,6 @@ fn check_filters_resolved(
 }
 
 /// `[data]`: every mapped column a quantity of the model, every factor finite and non-zero.
-/// An equivalent white force's level is read from its measured column: a model file must
-/// map `p_<excitation>`.
-fn check_equivalent_white_columns(
-    loc: &Locator,
-    raw: &RawScenario,
-    identify: &Identify,
-    excitations: &[Excitation],
-    data: Option<&DataMapping>,
-) -> Result<(), ScenarioError> {
-    let Some(data) = data else { return Ok(()) };
-    let listed = raw.identify.as_ref().and_then(|i| i.equivalent_white.as_ref());
-    for (&e, written) in identify.equivalent_white.iter().zip(listed.into_iter().flatten()) {
-        let column = format!("p_{}", excitations[e].name);
-        if !data.columns.iter().any(|(c, _)| *c == column) {
-            return Err(loc.at(
-                written.span(),
-                "identify.equivalent_white",
-                format!(
-                    "the level of {:?} is read from its measured force: map `{column}` in [data.columns]",
-                    excitations[e].name
-                ),
-            ));
-        }
-    }
-    Ok(())
-}
-
 pub(crate) fn check_data(
     loc: &Locator,
     raw: &RawScenario,
