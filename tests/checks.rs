@@ -244,8 +244,8 @@ fn band_edge_study() {
             let r = identify_with(&multisine_table(lines, 0.1, seed), &equivalent_white_model());
             let l = &r.white_levels[0];
             let weak = row(&r, ReportMethod::Estimator(Method::Weak));
-            // A refused row has no estimates: read the level's effect from the force
-            // regression's absence of one, and the weak form's from a rerun unrefused.
+            // A refused row has no estimates (NaN in the table); "uncorrected" is what the
+            // level without its edge correction gives (c1 scales with σ²).
             let value = |name: &str| {
                 weak.parameters
                     .iter()

@@ -636,12 +636,15 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
         .unwrap_or_else(|| panic!("{:?}", data.notes));
     // The loss it states is the loss measured against the logged acceleration: the
     // derived column's std against the true one's (both over the first record).
-    let stated: f64 = warning
-        .split("lacks about ")
-        .nth(1)
-        .and_then(|r| r.split(' ').next())
-        .and_then(|x| x.parse().ok())
-        .unwrap_or_else(|| panic!("{warning}"));
+    // The number after `marker` in a note, e.g. "lacks about 4 %".
+    let percent_after = |note: &str, marker: &str| -> f64 {
+        note.split(marker)
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("{note}"))
+    };
+    let stated = percent_after(warning, "lacks about ");
     let t = read_table(&csv, &[]).unwrap();
     let col = |n: &str| t.columns[t.names.iter().position(|x| x == n).unwrap()].clone();
     let (traj, a_true) = (col("trajectory"), col("a_j"));
@@ -663,12 +666,7 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
     );
     // The exact central differences it used lose far less than central differences would.
     let note = data.notes.iter().find(|n| n.contains("a_j derived from v_j")).unwrap();
-    let central: f64 = note
-        .split("would lose ")
-        .nth(1)
-        .and_then(|r| r.split(' ').next())
-        .and_then(|x| x.parse().ok())
-        .unwrap_or_else(|| panic!("{note}"));
+    let central = percent_after(note, "would lose ");
     assert!(central > measured_loss + 5.0, "{note}; measured {measured_loss:.1} %");
     let info = Input::tables(derived, data);
     fpkbench::pipeline::check_measured(&info).unwrap();
