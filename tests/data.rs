@@ -731,6 +731,27 @@ fn a_scale_factor_on_a_column_nothing_reads_is_refused_naming_the_key() {
 }
 
 #[test]
+fn a_mean_to_remove_from_a_column_nothing_reads_is_refused_naming_the_key() {
+    let text = std::fs::read_to_string("models/bushing.toml").unwrap();
+    let with = |list: &str| text.replacen("[data]\n", &format!("[data]\nremove_mean = {list}\n"), 1);
+    let e = Scenario::parse(&with("[\"Moment\"]"), "bushing.toml", "b")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("data.remove_mean")
+            && e.contains("\"Moment\" is not a column the model reads")
+            && e.contains("\"moment\""),
+        "{e}"
+    );
+    let e = Scenario::parse(&with("[\"moment\", \"moment\"]"), "bushing.toml", "b")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("data.remove_mean") && e.contains("listed twice"), "{e}");
+    let ok = Scenario::parse(&with("[\"moment\"]"), "bushing.toml", "b").unwrap();
+    assert_eq!(ok.data.unwrap().remove_mean, ["moment"]);
+}
+
+#[test]
 fn unequal_records_are_reported_as_they_are_not_as_a_simulation() {
     // 32 records of 312.5 s with the last half of every other one cut: 24 records' worth.
     let dir = tempfile::tempdir().unwrap();

@@ -158,6 +158,13 @@ pub struct Args {
     /// record column) an independent record.
     #[arg(long, num_args = 1.., requires = "model")]
     pub data: Vec<PathBuf>,
+    /// Held-out measured data in the same layout as --data (e.g. a benchmark's test
+    /// segment): every identified model is driven by their measured forces from their
+    /// first measured state and its displacements compared with theirs sample by sample —
+    /// the free-run simulation error (docs/methods.md, "Prediction"). Every excitation's
+    /// force must be mapped in [data.columns].
+    #[arg(long, num_args = 1.., requires = "model")]
+    pub predict: Vec<PathBuf>,
     /// Identify a truncated log (a killed writer) from the samples it still holds, instead
     /// of refusing it; the report says how many of the promised samples were used.
     #[arg(long)]
@@ -266,7 +273,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             refuse_same_file(file, &dir.join(f))?;
         }
     }
-    let report = identify(&input, &args.identify.options())?;
+    let mut options = args.identify.options();
+    if !args.predict.is_empty() {
+        let model = args.model.as_deref().expect("clap requires --model with --predict");
+        options.predict = Some(std::sync::Arc::new(held_out(model, &input, &args.predict)?));
+    }
+    let report = identify(&input, &options)?;
     finish(&report, &args.identify, None)
 }
 
@@ -311,4 +323,42 @@ fn measured_input(model: &Path, data: &[PathBuf], select: Option<&Select>) -> an
         .map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
     fpkbench::pipeline::check_measured(&input).map_err(|e| anyhow::anyhow!("{}: {e}", data[0].display()))?;
     Ok(input)
+}
+
+/// `--predict`'s records, read through the model file's [data] like the identification's
+/// (a table without its record column is one record); refused unless every excitation's
+/// force is in them.
+fn held_out(model: &Path, input: &Input, files: &[PathBuf]) -> anyhow::Result<fpkbench::io::table::Measured> {
+    let mut scenario = input.info.scenario.clone();
+    let mapping = scenario.data.as_mut().expect("a model file has [data]");
+    let tables = files
+        .iter()
+        .map(|p| fpkbench::io::table::read_for(p, mapping))
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(record) = &mapping.record {
+        if tables.iter().all(|t| !t.names().contains(record)) {
+            mapping.record = None;
+        }
+    }
+    let scenario = &scenario;
+    let means = input.measured().map(|d| d.removed_means.as_slice());
+    let measured = fpkbench::io::table::measured_with(scenario, tables, means)?;
+    let m = fpkbench::model::Model::new(scenario);
+    let c = m.columns();
+    for (e, name) in m.excitation_names.iter().enumerate() {
+        if !measured.present[c.force(e)] {
+            anyhow::bail!(
+                "{}: --predict drives the identified model by the measured forces, but the excitation `{name}` \
+                 has no force column (map `p_{name}` in [data.columns])",
+                model.display()
+            );
+        }
+    }
+    if !(0..m.masses()).any(|i| measured.present[c.x(i)] && !measured.derived(c.x(i))) {
+        anyhow::bail!(
+            "{}: --predict compares displacements, and no mass's displacement is mapped in [data.columns]",
+            model.display()
+        );
+    }
+    Ok(measured)
 }

@@ -11,7 +11,7 @@
 pub use super::delimited::{CsvFile, CsvOptions, Labels, RowFn};
 pub use super::measured::differentiate;
 pub use super::measured::{
-    measured, DifferencedNoise, IntegratedNoise, Measured, DERIVE_LIMIT, GAP, OUTLIER, STEP_OMEGA,
+    measured, measured_with, DifferencedNoise, IntegratedNoise, Measured, DERIVE_LIMIT, GAP, OUTLIER, STEP_OMEGA,
 };
 use crate::scenario::DataMapping;
 use std::path::{Path, PathBuf};

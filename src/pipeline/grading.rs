@@ -101,6 +101,7 @@ pub(crate) fn assemble(
         profile: None,
         methods,
         validation,
+        prediction: None,
         integrator_bias: None,
         iterations,
         passed,

@@ -94,6 +94,9 @@ pub struct Options {
     /// Large tables kept from one identification for the next (a study passes every item
     /// the same).
     pub arenas: Arc<Arenas>,
+    /// `--predict`: held-out records (mapped by the same model file) that every identified
+    /// model is driven by, its response compared with theirs (stage "prediction").
+    pub predict: Option<Arc<crate::io::table::Measured>>,
 }
 
 impl Default for Options {
@@ -108,6 +111,7 @@ impl Default for Options {
             tolerance: None,
             select: None,
             arenas: Arc::default(),
+            predict: None,
         }
     }
 }

@@ -76,6 +76,7 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
         record: Some("trajectory".into()),
         columns: channels.iter().map(|c| (c.clone(), c.clone())).collect(),
         scale: BTreeMap::new(),
+        remove_mean: Vec::new(),
         npy_columns: Vec::new(),
         topic: None,
         derive: true,

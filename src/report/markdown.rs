@@ -184,6 +184,12 @@ pub fn markdown(r: &Report) -> String {
     if let Some(v) = &r.validation {
         s += &validation_section(r, v);
     }
+    if let Some(p) = &r.prediction {
+        s += &format!(
+            "## Prediction on held-out records\n\n```\n{}```\n\n",
+            super::text::prediction(p).trim_start()
+        );
+    }
     if let Some(b) = &r.integrator_bias {
         s += &integrator_bias_section(b);
     }

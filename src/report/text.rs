@@ -122,6 +122,9 @@ pub fn summary(r: &Report) -> String {
     if let Some(v) = &r.validation {
         s += &validation(v);
     }
+    if let Some(p) = &r.prediction {
+        s += &prediction(p);
+    }
     if let Some(b) = &r.integrator_bias {
         s += &integrator_bias(b);
     }
@@ -852,5 +855,35 @@ pub fn sweep_summary(sw: &crate::report::Sweep) -> String {
         s += ": the disturbance given as if measured; direct-force: k1, K2, C2 in one solve of (4.8), no iteration)\n";
     }
     s += "(worst relative error over every parameter and curve, as in the run reports)\n";
+    s
+}
+
+/// The free-run simulation error on held-out records: a line per compared column, one per
+/// method.
+pub(crate) fn prediction(p: &crate::report::PredictionReport) -> String {
+    let mut s = format!(
+        "\nprediction: each identified model driven by the measured forces of {} held-out record(s) \
+         ({} samples every {} s, {} Runge-Kutta steps per sample; {})\n",
+        p.records,
+        p.samples,
+        p.sample_interval_s,
+        p.substeps,
+        p.files.join(", ")
+    );
+    for (q, (column, spread)) in p.columns.iter().enumerate() {
+        s += &format!("  {column}: measured RMS {spread:.4e} about its mean\n");
+        for row in &p.rows {
+            s += &match &row.error {
+                Some(e) => format!("    {:<18} not driven: {e}\n", row.method.to_string()),
+                None => format!(
+                    "    {:<18} RMS error {:.4e} ({:.2} % of the measured), mean error {:+.3e}\n",
+                    row.method.to_string(),
+                    row.rms_error[q],
+                    100.0 * row.rms_error[q] / spread,
+                    row.mean_error[q]
+                ),
+            };
+        }
+    }
     s
 }

@@ -654,6 +654,43 @@ impl Records {
     }
 }
 
+/// The identified models driven by the measured forces of held-out records
+/// (`identify --predict`), against the measured response (docs/methods.md, "Prediction").
+#[derive(Debug, Clone, Serialize)]
+pub struct PredictionReport {
+    /// The data files driven with.
+    pub files: Vec<String>,
+    /// Their records.
+    pub records: usize,
+    /// Their samples.
+    pub samples: u64,
+    /// Their sample interval (s).
+    pub sample_interval_s: f64,
+    /// Runge–Kutta steps per sample interval.
+    pub substeps: usize,
+    /// Per displacement compared: its column name and the measured response's RMS about
+    /// its mean, in the column's units.
+    pub columns: Vec<(String, f64)>,
+    /// One row per method with an estimate.
+    pub rows: Vec<PredictionRow>,
+}
+
+/// One identified model's free-run simulation error.
+#[derive(Debug, Clone, Serialize)]
+pub struct PredictionRow {
+    /// The method whose estimates make the model.
+    pub method: ReportMethod,
+    /// Per compared column: the RMS of the simulated minus the measured displacement, in
+    /// the column's units (NaN where the run failed).
+    pub rms_error: Vec<f64>,
+    /// Per compared column: the mean of that difference (an offset the model does not
+    /// reproduce).
+    pub mean_error: Vec<f64>,
+    /// Why the model could not be driven (it diverged), if it could not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
 /// The result of identifying one log.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
@@ -709,6 +746,9 @@ pub struct Report {
     pub methods: Vec<MethodReport>,
     /// The validation by re-simulation (`None` with `--no-validate`).
     pub validation: Option<Validation>,
+    /// The free-run simulation error on held-out records (`identify --predict`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prediction: Option<PredictionReport>,
     /// The integrator's bias on the estimates (`run --integrator-bias`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub integrator_bias: Option<IntegratorBias>,

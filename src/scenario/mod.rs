@@ -721,6 +721,9 @@ pub struct DataMapping {
     pub columns: Vec<(String, String)>,
     /// Factors to SI units, per table column (default 1).
     pub scale: BTreeMap<String, f64>,
+    /// Table columns whose mean over the identification's data is taken out before the
+    /// scale (a sensor's or an amplifier's DC offset; docs/data.md).
+    pub remove_mean: Vec<String>,
     /// Column names of a plain 2-D `.npy` array, in order.
     pub npy_columns: Vec<String>,
     /// The topic of an MCAP file from another tool (JSON messages; the columns are the

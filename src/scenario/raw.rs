@@ -56,6 +56,7 @@ pub(crate) struct RawData {
     pub(super) record: Option<Spanned<String>>,
     pub(super) columns: Spanned<BTreeMap<String, Spanned<String>>>,
     pub(super) scale: Option<BTreeMap<String, Spanned<f64>>>,
+    pub(super) remove_mean: Option<Vec<Spanned<String>>>,
     pub(super) npy_columns: Option<Vec<Spanned<String>>>,
     pub(super) topic: Option<Spanned<String>>,
     pub(super) derive: Option<bool>,

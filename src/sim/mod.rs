@@ -20,6 +20,7 @@
 //! tests) are supplied by the caller.
 
 mod blocked;
+pub mod driven;
 pub(crate) mod filters;
 mod lanes;
 mod normals;

@@ -58,6 +58,9 @@ pub struct Measured {
     pub present: Vec<bool>,
     /// What the reading did that a user should know (e.g. derived velocities).
     pub notes: Vec<String>,
+    /// The table columns whose mean was taken out (`[data] remove_mean`), with that mean in
+    /// the table's units: held-out data are read with the same offsets.
+    pub removed_means: Vec<(String, f64)>,
     /// The highest RMS frequency of the measured motion (rad/s): over the masses, of each
     /// velocity's spectrum (else the displacement's) up to the Nyquist frequency, in the
     /// longest record. A re-simulation of the data's model steps finely enough for it.
@@ -122,8 +125,9 @@ impl Integration {
 struct Plan {
     /// The table columns read, in order: the mapped ones, then the time, then the record.
     wanted: Vec<usize>,
-    /// Per mapped column (the first of `wanted`): its layout column and scale.
-    mapped: Vec<(usize, f64)>,
+    /// Per mapped column (the first of `wanted`): its layout column, scale and the offset
+    /// taken out before the scale (`[data] remove_mean`).
+    mapped: Vec<(usize, f64, f64)>,
     /// Where in `wanted` the record column is.
     record_at: Option<usize>,
     /// A record id's key ([`key`]) → its slot.
@@ -244,8 +248,8 @@ impl Measured {
                 let rows = &mut rings[slot * ring * w..(slot + 1) * ring * w];
                 let row = &mut rows[(pos % ring) * w..(pos % ring + 1) * w];
                 row.fill(f64::NAN);
-                for (&(k, scale), x) in plan.mapped.iter().zip(v) {
-                    row[k] = x * scale;
+                for (&(k, scale, offset), x) in plan.mapped.iter().zip(v) {
+                    row[k] = (x - offset) * scale;
                 }
                 let trajectory = first + *p as u32;
                 if let Some(i) = &self.integrate {
@@ -366,6 +370,16 @@ fn difference(rows: &mut [f64], ring: usize, w: usize, h: f64, step: Step, stenc
 /// (files, or the record column), check the time base and every value, derive what the
 /// model file asks to, and check the units of the mapped columns against each other.
 pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, DataError> {
+    measured_with(model, sources, None)
+}
+
+/// [`measured`], the columns of `[data] remove_mean` offset by the given `means` (those
+/// of the data a model was identified from: held-out data read the same way) where given.
+pub fn measured_with(
+    model: &Scenario,
+    sources: Vec<Source>,
+    means: Option<&[(String, f64)]>,
+) -> Result<Measured, DataError> {
     let d: &DataMapping = model.data.as_ref().expect("a model file");
     let m = crate::model::Model::new(model);
     let layout = m.columns();
@@ -377,7 +391,8 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         plans,
         lengths,
         crossings,
-    } = plan_sources(sources, d, &names)?;
+        removed_means,
+    } = plan_sources(sources, d, &names, means)?;
     let Some(sample_interval) = interval.filter(|_| !lengths.is_empty()) else {
         return Err(err(
             plans.first().map_or(std::path::Path::new("<data>"), |p| p.0.path()),
@@ -430,6 +445,7 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
         lengths,
         present,
         notes,
+        removed_means,
         motion_frequency: f64::NAN,
         plans,
         derive,

@@ -14,22 +14,39 @@ pub(super) struct Sources {
     pub plans: Vec<(Source, Plan)>,
     pub lengths: Vec<usize>,
     pub crossings: Vec<usize>,
+    /// The columns of `[data] remove_mean` and the mean taken out of each (the table's
+    /// units).
+    pub removed_means: Vec<(String, f64)>,
 }
 
 /// Scan every source (`scan`, `check_values`) and plan its reading: its records in
-/// order, split into pieces at time gaps where the mapping asks.
-pub(super) fn plan_sources(sources: Vec<Source>, d: &DataMapping, names: &[String]) -> Result<Sources, DataError> {
+/// order, split into pieces at time gaps where the mapping asks; the columns of
+/// `[data] remove_mean` offset by their mean over every source, or by `means` where given
+/// (held-out data read with the identification's offsets).
+pub(super) fn plan_sources(
+    sources: Vec<Source>,
+    d: &DataMapping,
+    names: &[String],
+    means: Option<&[(String, f64)]>,
+) -> Result<Sources, DataError> {
     let mut interval: Option<f64> = d.sample_interval;
     let mut notes = Vec::new();
     let mut plans = Vec::new();
     let mut lengths = Vec::new();
     let mut crossings = vec![0usize; d.columns.len()];
+    // Per mapped column: the sum of its values and their count.
+    let mut sums = vec![(0.0f64, 0usize); d.columns.len()];
     for source in sources {
         let c = Columns::of(&source, d, names)?;
         let s = scan(&source, &c, d)?;
         check_values(&source, &c, &s)?;
         for (total, n) in crossings.iter_mut().zip(&s.crossings) {
             *total += n;
+        }
+        for r in &s.records {
+            for (sum, x) in sums.iter_mut().zip(&r.sums) {
+                *sum = (sum.0 + x, sum.1 + r.rows);
+            }
         }
         if s.records.is_empty() {
             continue;
@@ -57,7 +74,7 @@ pub(super) fn plan_sources(sources: Vec<Source>, d: &DataMapping, names: &[Strin
         plans.push((
             source,
             Plan {
-                mapped: c.mapped.iter().map(|&(k, scale, _)| (k, scale)).collect(),
+                mapped: c.mapped.iter().map(|&(k, scale, _)| (k, scale, 0.0)).collect(),
                 wanted: c.wanted,
                 record_at: c.record_at,
                 slots: s.slots,
@@ -65,11 +82,36 @@ pub(super) fn plan_sources(sources: Vec<Source>, d: &DataMapping, names: &[Strin
             },
         ));
     }
+    let mut removed_means = Vec::new();
+    for column in &d.remove_mean {
+        let j = d
+            .columns
+            .iter()
+            .position(|(_, c)| c == column)
+            .expect("checked by the model file");
+        let mean = match means.and_then(|m| m.iter().find(|(c, _)| c == column)) {
+            Some(&(_, given)) => given,
+            None => sums[j].0 / sums[j].1.max(1) as f64,
+        };
+        for (_, plan) in &mut plans {
+            plan.mapped[j].2 = mean;
+        }
+        let how = if means.is_some() {
+            "the identification's data's"
+        } else {
+            "its"
+        };
+        notes.push(format!(
+            "{column}: {how} mean, {mean:.6e}, taken out ([data] remove_mean)"
+        ));
+        removed_means.push((column.clone(), mean));
+    }
     Ok(Sources {
         interval,
         notes,
         plans,
         lengths,
         crossings,
+        removed_means,
     })
 }

@@ -14,6 +14,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         .comparisons
         .iter_mut()
         .filter_map(|c| c.own.as_mut().map(|d| d as &mut dyn Accumulator))
+        .chain(id.declared_own.as_mut().map(|d| d as &mut dyn Accumulator))
         .collect();
     let mut list: Vec<&mut dyn Accumulator> = vec![&mut id.floor, &mut id.data, &mut id.naive_data];
     list.append(&mut own);

@@ -15,6 +15,7 @@
 //! | later passes ([`later_passes`]) | the samples, the filters | the accumulators that need the filters |
 //! | rows and grading ([`rows`]) | every accumulator | one report row per method and comparison |
 //! | validation ([`validation`]) | the first FPK estimate, the distributions | the validation table |
+//! | prediction ([`prediction`]) | every estimate, the held-out records (`--predict`) | the free-run simulation errors |
 //! | verdict ([`verdict`]) | the rows, the validation | the failed checks of the method's premises |
 //! | report ([`Identification::into_report`]) | everything | the [`Report`] |
 //!
@@ -26,6 +27,7 @@ mod excitation;
 mod first_pass;
 mod later_passes;
 mod plan;
+mod prediction;
 mod profile;
 mod rows;
 mod second_pass;
@@ -66,6 +68,7 @@ pub(crate) const ORDINARY: &[(&str, Stage)] = &[
     ("later passes", later_passes::run),
     ("rows and grading", rows::run),
     ("validation", validation::run),
+    ("prediction", prediction::run),
     ("verdict", verdict::run),
 ];
 
@@ -119,6 +122,9 @@ pub(crate) struct Identification<'a> {
     pub naive_structure: Option<Problem>,
     /// The `[identify.compare]` models.
     pub comparisons: Vec<Comparison>,
+    /// With a selection: the declared model's own moments, where its atoms differ from the
+    /// candidate model's (else it reads `data`).
+    pub declared_own: Option<StationaryData>,
     /// The profiled term's candidate positions, until the profile stage chooses one.
     pub profile_candidates: Option<super::profile::Candidates>,
     /// The first pass's moments per batch and link ranges (the weak form's data).
@@ -144,9 +150,12 @@ pub(crate) struct Identification<'a> {
     pub rows: Vec<MethodReport>,
     /// The first FPK estimate that succeeded, which the validation re-simulates.
     pub first: Option<(Vec<f64>, ReportMethod)>,
+    /// Every method's estimate that succeeded (the prediction drives each).
+    pub estimates: Vec<(ReportMethod, Vec<f64>)>,
     /// The problem the rows are about (the physical one of a bilinear problem).
     pub reported: Option<Problem>,
     pub validation: Option<Validation>,
+    pub prediction: Option<crate::report::PredictionReport>,
     /// The checks of the method's premises that failed.
     pub failed_checks: Vec<crate::report::FailedCheck>,
 }
@@ -167,6 +176,7 @@ impl Identification<'_> {
             dist,
             rows,
             validation,
+            prediction,
             sensor_noise,
             profiled,
             selected,
@@ -194,6 +204,7 @@ impl Identification<'_> {
             super::sensors::warn_uncorrected(n, &mut report.methods);
         }
         report.white_levels = white_levels;
+        report.prediction = prediction;
         report.sensor_noise = sensor_noise;
         report.profile = profiled;
         report.passed &= failed_checks.is_empty();

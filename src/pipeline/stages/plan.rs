@@ -47,8 +47,20 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         .collect();
     // A profiled term's position: the model at every position gathers its moments.
     let profile_candidates = super::super::profile::Candidates::new(s, &spec, &placeholder, options.batches);
+    // A declared model with other atoms (a non-power term the candidates lack) gathers
+    // its own moments, as a comparison model does.
+    let declared_own = declared.as_ref().filter(|d| d.atoms != structure.atoms).map(|d| {
+        StationaryData::new(
+            d,
+            weak::moment_degree(d),
+            sim.record_length,
+            sim.trajectories,
+            options.batches,
+        )
+    });
     let also: Vec<&Problem> = declared
         .iter()
+        .filter(|d| d.atoms == structure.atoms)
         .chain(
             comparisons
                 .iter()
@@ -95,6 +107,7 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         structure,
         naive_structure,
         comparisons,
+        declared_own,
         profile_candidates,
         data,
         naive_data,
@@ -111,8 +124,10 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         fitted: None,
         rows: Vec::new(),
         first: None,
+        estimates: Vec::new(),
         reported: None,
         validation: None,
+        prediction: None,
         failed_checks: Vec::new(),
     })
 }

@@ -34,7 +34,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         typical: &fitted.typical,
         bilinear,
     };
-    let (mut rows, first) = estimator_rows(
+    let (mut rows, estimates) = estimator_rows(
         &id.estimators,
         &context,
         fitted.rejected.as_deref(),
@@ -71,19 +71,25 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         // against (for a simulation, the true structure unless [identify.links] says
         // otherwise); and the baseline selection's model.
         let s = &id.input.info.scenario;
-        for (name, spec, names) in [
-            (DECLARED, Specification::from_scenario(s), None),
+        for (name, spec, names, data) in [
+            (
+                DECLARED,
+                Specification::from_scenario(s),
+                None,
+                id.declared_own.as_ref().unwrap_or(&id.data),
+            ),
             (
                 THRESHOLDED,
                 selected.baseline.clone(),
                 Some(selected.selection.thresholded_names()),
+                &id.data,
             ),
         ] {
             let t = Instant::now();
             let p = Problem::from_spec(&spec, &fitted.filters)?;
             let est = match &fitted.rejected {
                 Some(why) => Err(IdentError::ForceModelRejected(why.clone())),
-                _ => ident::identify_weak(&p, &id.data),
+                _ => ident::identify_weak(&p, data),
             };
             let mut row = method_report(
                 ReportMethod::Compare(name.into()),
@@ -91,7 +97,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
                 est,
                 &id.grader,
                 &p,
-                id.data.observed(),
+                data.observed(),
                 t,
             );
             row.selected = names.map(|names| names.iter().map(|n| n.to_string()).collect());
@@ -99,14 +105,18 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         }
     }
     id.rows = rows;
-    id.first = first;
+    id.first = estimates
+        .iter()
+        .find(|(_, _, baseline)| !baseline)
+        .map(|(m, v, _)| (v.clone(), m.clone()));
+    id.estimates = estimates.into_iter().map(|(m, v, _)| (m, v)).collect();
     id.reported = Some(reported);
     Ok(())
 }
 
-/// One row per requested method, and the first estimate of an FPK estimator that
-/// succeeded (what the validation re-simulates); rows are about `reported` (the physical
-/// problem of a bilinear one). Where the data reject the force model (`rejected`), every
+/// One row per requested method, and every estimate that succeeded, with whether its
+/// method is a baseline (the first FPK one is what the validation re-simulates); rows are
+/// about `reported` (the physical problem of a bilinear one). Where the data reject the force model (`rejected`), every
 /// method but the force regression (which reads the measured force itself) is refused.
 #[allow(clippy::type_complexity)]
 fn estimator_rows(
@@ -116,10 +126,10 @@ fn estimator_rows(
     reported: &Problem,
     grader: &Grader,
     observed: Observed,
-) -> Result<(Vec<MethodReport>, Option<(Vec<f64>, ReportMethod)>), PipelineError> {
+) -> Result<(Vec<MethodReport>, Vec<(ReportMethod, Vec<f64>, bool)>), PipelineError> {
     let s = grader.scenario;
     let mut rows = Vec::new();
-    let mut first = None;
+    let mut estimates = Vec::new();
     for (m, estimator) in estimators {
         crate::interrupt::check()?;
         let t = Instant::now();
@@ -128,14 +138,14 @@ fn estimator_rows(
             _ => estimator.estimate(cx),
         };
         let method = ReportMethod::Estimator(*m);
-        if let (Ok(est), None, false) = (&est, &first, m.is_baseline()) {
-            first = Some((est.values.clone(), method.clone()));
+        if let Ok(est) = &est {
+            estimates.push((method.clone(), est.values.clone(), m.is_baseline()));
         }
         // Baselines and known-biased comparisons are compared, never gated.
         let threshold = m.is_gated().then(|| s.accept.threshold(&method));
         rows.push(method_report(method, threshold, est, grader, reported, observed, t));
     }
-    Ok((rows, first))
+    Ok((rows, estimates))
 }
 
 /// The ungated rows: the naive baseline (the white-noise identification applied to

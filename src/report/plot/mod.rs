@@ -25,11 +25,12 @@ pub fn write_figure(path: &Path, fig: &Figure) -> std::io::Result<Vec<PathBuf>> 
     let mut files = vec![path.to_path_buf()];
     #[cfg(feature = "raster")]
     {
-        let png = super::raster::png(&svg).map_err(std::io::Error::other)?;
+        let (png, pdf) = rayon::join(|| super::raster::png(&svg), || super::raster::pdf(&svg));
+        let png = png.map_err(std::io::Error::other)?;
         let p = path.with_extension("png");
         write_atomic(&p, &png)?;
         files.push(p);
-        let pdf = super::raster::pdf(&svg).map_err(std::io::Error::other)?;
+        let pdf = pdf.map_err(std::io::Error::other)?;
         let p = path.with_extension("pdf");
         write_atomic(&p, &pdf)?;
         files.push(p);
