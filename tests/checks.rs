@@ -359,3 +359,38 @@ fn the_true_model_driven_by_the_sampled_force_reproduces_the_rig() {
     eprintln!("the true model's free run: RMS error {rel:.2e} of the response");
     assert!(rel < 0.01, "RMS error {rel} of the response");
 }
+
+/// Every method refused on measured data (the weak form alone, under a multisine read as
+/// first-order): the refusal is the report, written whole — no characteristics figure,
+/// which has nothing to draw, and the figures of what exists (issue 70: the report was lost
+/// to "the SVG does not parse").
+#[test]
+fn a_run_whose_every_method_is_refused_still_writes_its_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rig.csv");
+    std::fs::write(&path, multisine_table(200, 0.1, 7)).unwrap();
+    let model = Scenario::parse(MODEL, "rig.toml", "rig").unwrap();
+    let source = read_for(&path, model.data.as_ref().unwrap()).unwrap();
+    let data = measured(&model, vec![source]).unwrap();
+    let options = Options {
+        validate: false,
+        methods: vec![Method::Weak],
+        ..Options::default()
+    };
+    let r = identify(&Input::tables(model, data), &options).unwrap();
+    assert_eq!(r.methods[0].outcome, Outcome::Refused);
+    let out = dir.path().join("report");
+    std::fs::create_dir(&out).unwrap();
+    let files = fpkbench::report::write_all(&r, &out).unwrap();
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.contains(&"report.md".to_string()) && names.contains(&"spectrum.svg".to_string()),
+        "{names:?}"
+    );
+    assert!(!names.iter().any(|n| n.starts_with("characteristics")), "{names:?}");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("the force model is rejected") && !md.contains("characteristics.svg"));
+}

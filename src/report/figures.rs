@@ -25,7 +25,7 @@ pub struct Figure {
 pub static FIGURES: &[Figure] = &[
     Figure {
         name: "characteristics",
-        applies: |_| true,
+        applies: plot::characteristics::has_panels,
         write: plot::characteristics::plot_characteristics,
         caption: |_| {
             "Identified and true characteristics over the observed range of each link's relative displacement \

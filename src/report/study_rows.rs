@@ -130,12 +130,21 @@ impl RowSelection {
     }
 }
 
+/// A number written as JSON's `null` where it is NaN (as serde_json writes NaN: a
+/// coefficient graded by its curve has no relative error) read back as NaN.
+fn nan_from_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RowParameter {
     pub name: String,
+    #[serde(deserialize_with = "nan_from_null")]
     pub true_value: f64,
+    #[serde(deserialize_with = "nan_from_null")]
     pub estimate: f64,
     pub std_error: Option<f64>,
+    #[serde(deserialize_with = "nan_from_null")]
     pub rel_error: f64,
     /// Whether the 95 % interval holds the true value (`None` without an interval).
     pub covered: Option<bool>,
@@ -147,4 +156,29 @@ pub struct RowParameter {
     /// `integrator_bias`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub integrator_bias: Option<f64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A parameter without a relative error (NaN, written as `null`) reads back as NaN:
+    /// a study row with one stayed unreadable (`study --select-powers 3` on friction_sdof).
+    #[test]
+    fn a_parameter_without_a_relative_error_round_trips() {
+        let p = RowParameter {
+            name: "c1[ground-m1]".into(),
+            true_value: 0.5,
+            estimate: 1.087,
+            std_error: Some(0.027),
+            rel_error: f64::NAN,
+            covered: Some(false),
+            cramer_rao_std: None,
+            integrator_bias: None,
+        };
+        let json = serde_json::to_string(&p).unwrap();
+        assert!(json.contains("\"rel_error\":null"), "{json}");
+        let back: RowParameter = serde_json::from_str(&json).unwrap();
+        assert!(back.rel_error.is_nan() && back.estimate == p.estimate && back.true_value == p.true_value);
+    }
 }

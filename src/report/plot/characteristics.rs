@@ -60,6 +60,20 @@ pub(crate) fn observed(r: &Report, l: usize, kind: Characteristic) -> (&Histogra
 
 /// For every link and characteristic: truth and each method's estimate over the observed
 /// range, with the data's distribution beneath.
+/// Whether any characteristic has something to draw: nothing does when every method was
+/// refused and there is no truth (measured data), and the figure is then left out.
+pub fn has_panels(r: &Report) -> bool {
+    let Some(s) = r.scenario_def.as_ref() else {
+        return false;
+    };
+    let uf = unit(s.motion.units()[3]);
+    s.links.iter().enumerate().any(|(l, link)| {
+        [Characteristic::Stiffness, Characteristic::Damping]
+            .into_iter()
+            .any(|kind| characteristic_panels(r, l, link, kind, &uf).is_some())
+    })
+}
+
 pub fn plot_characteristics(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let s = r.scenario_def.as_ref().expect("scenario");
     let uf = unit(s.motion.units()[3]);
