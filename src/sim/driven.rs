@@ -166,11 +166,13 @@ pub fn free_run(
     let mut link = vec![0.0; n];
     let (mut kx, mut kv) = (vec![vec![0.0; n]; 4], vec![vec![0.0; n]; 4]);
     let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+    rec.at(0, 0, &mut f[2]);
     for k in 0..len - 1 {
         for s in 0..substeps {
-            for (c, fc) in f.iter_mut().enumerate() {
-                rec.at(k, 2 * s + c, fc);
-            }
+            // A sub-step's start is the last one's end: reconstructed once.
+            f.rotate_left(2);
+            rec.at(k, 2 * s + 1, &mut f[1]);
+            rec.at(k, 2 * s + 2, &mut f[2]);
             // Stage r at the sub-step's start (0), middle (1, 2) and end (3).
             for r in 0..4 {
                 let (back, scale) = match r {

@@ -24,10 +24,11 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let coef_of = coefficients_of(reported);
     let shape = Model::new(s);
     let records = Records::read(&test, &shape)?;
+    let names = shape.column_names();
     let columns: Vec<(String, f64)> = records
         .compared
         .iter()
-        .map(|&(i, _)| (shape.column_names()[shape.columns().x(i)].clone(), records.spread(i)))
+        .map(|&(i, _)| (names[shape.columns().x(i)].clone(), records.spread(i)))
         .collect();
     let substeps = test.steps_per_sample();
     let rows = id
