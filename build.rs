@@ -12,7 +12,9 @@ fn git(args: &[&str]) -> Option<String> {
 
 fn main() {
     let commit = git(&["rev-parse", "HEAD"]).map(|c| {
-        let dirty = git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+        // `--no-optional-locks`: the status must not refresh and rewrite `.git/index`, which
+        // this script watches; otherwise every build would make the next one rebuild the crate.
+        let dirty = git(&["--no-optional-locks", "status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
         if dirty {
             format!("{c}-dirty")
         } else {
