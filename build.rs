@@ -14,7 +14,8 @@ fn main() {
     let commit = git(&["rev-parse", "HEAD"]).map(|c| {
         // `--no-optional-locks`: the status must not refresh and rewrite `.git/index`, which
         // this script watches; otherwise every build would make the next one rebuild the crate.
-        let dirty = git(&["--no-optional-locks", "status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+        let dirty = git(&["--no-optional-locks", "status", "--porcelain", "--untracked-files=no"])
+            .is_some_and(|s| !s.is_empty());
         if dirty {
             format!("{c}-dirty")
         } else {

@@ -17,12 +17,19 @@ targets=("$@")
 corpus=fuzz/corpus
 mkdir -p "$corpus"/{scenario,log_reader,identify} fuzz/logs
 cp scenarios/*.toml "$corpus/scenario/"
-cargo build --release --quiet
+# The release binary seeds the corpora: FPKBENCH_BIN (CI passes the one `cargo test
+# --release` built, which saves a second build of the crate with other features), else a
+# fresh build.
+bin=${FPKBENCH_BIN:-}
+if [ -z "$bin" ]; then
+  cargo build --release --quiet
+  bin=target/release/fpkbench
+fi
 tmp=$(mktemp -d)
 sed -e 's/^record_length = .*/record_length = 30.0/' -e 's/^trajectories = .*/trajectories = 2/' \
     scenarios/sdof_duffing.toml > "$tmp/small.toml"
-target/release/fpkbench simulate "$tmp/small.toml" -o "$corpus/log_reader/plain.mcap" > /dev/null
-target/release/fpkbench simulate "$tmp/small.toml" -o "$corpus/log_reader/zstd.mcap" --compress zstd > /dev/null
+"$bin" simulate "$tmp/small.toml" -o "$corpus/log_reader/plain.mcap" > /dev/null
+"$bin" simulate "$tmp/small.toml" -o "$corpus/log_reader/zstd.mcap" --compress zstd > /dev/null
 python3 - "$corpus/identify" <<'PY'
 import random, struct, sys
 rng = random.Random(1)

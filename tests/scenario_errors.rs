@@ -615,3 +615,60 @@ fn a_rigs_sensors_that_make_no_sense() {
         "no sensor gives",
     );
 }
+
+/// The lab excitations (docs/excitations.md): another kind's key, a missing key, a band
+/// the sampling cannot hold, and a lab signal beside white noise are each refused where
+/// they are written.
+#[test]
+fn lab_excitations_refuse_what_their_kind_does_not_take() {
+    run_bad(
+        "multisine_sigma",
+        &bad(
+            "kind = \"white\"",
+            "kind = \"multisine\"\nrms = 1.0\nband = [0.0, 2.0]\nperiod = 10.0",
+        ),
+        24,
+        "excitation[0].sigma",
+        "takes rms, band, period, lines",
+    );
+    run_bad(
+        "band_limited_order",
+        &bad(
+            "kind = \"white\"\nsigma = 1.0",
+            "kind = \"band-limited\"\nsigma = 1.0\nband = [0.0, 2.0]",
+        ),
+        20,
+        "excitation[0].order",
+        "Butterworth",
+    );
+    run_bad(
+        "multisine_beyond_nyquist",
+        &bad(
+            "kind = \"white\"\nsigma = 1.0",
+            "kind = \"multisine\"\nrms = 1.0\nband = [0.0, 6.0]\nperiod = 10.0",
+        ),
+        22,
+        "excitation[0].band",
+        "Nyquist frequency 5 Hz",
+    );
+    run_bad(
+        "multisine_period",
+        &bad(
+            "kind = \"white\"\nsigma = 1.0",
+            "kind = \"multisine\"\nrms = 1.0\nband = [0.0, 2.0]\nperiod = 10.05",
+        ),
+        23,
+        "excitation[0].period",
+        "whole number (at least 2) of sample intervals",
+    );
+    run_bad(
+        "lab_beside_white",
+        &bad(
+            "acts_on = [\"m1\"]",
+            "acts_on = [\"m1\"]\n\n[[excitation]]\nkind = \"kanai-tajimi\"\nsigma = 1.0\nomega_g = 15.0\nzeta_g = 0.6\nacts_on = [\"m2\"]",
+        ),
+        20,
+        "excitation[0].kind",
+        "only lab excitations",
+    );
+}

@@ -646,3 +646,105 @@ fn a_refined_run_on_the_same_paths_measures_the_integrators_bias() {
         "Richardson {richardson:.5} against the recursion's {exact:.5} (coarse {coarse}, refined {refined})"
     );
 }
+
+/// A linear oscillator `m ẍ + c ẋ + k x = p(t)` under a lab excitation (scenario text).
+fn lab_sdof(excitation: &str, simulation: &str) -> Scenario {
+    let src = format!(
+        "name = \"lab\"\n[[mass]]\nname = \"m1\"\nvalue = 2.0\n[[link]]\nends = [\"ground\", \"m1\"]\n\
+         stiffness = {{ 1 = 800.0 }}\ndamping = {{ 1 = 4.0 }}\n[[excitation]]\nname = \"p\"\n{excitation}\n\
+         acts_on = [\"m1\"]\n[simulation]\n{simulation}\n"
+    );
+    Scenario::parse(&src, "lab.toml", "lab").unwrap()
+}
+
+/// `|H(ω)|²` of the oscillator of [`lab_sdof`].
+fn gain2(w: f64) -> f64 {
+    let (m, c, k) = (2.0, 4.0, 800.0);
+    1.0 / ((k - m * w * w).powi(2) + (c * w).powi(2))
+}
+
+/// Under a multisine the steady state over one period is deterministic whatever the
+/// phases: the mean square of `x` is `Σ |H(ω_k)|² A_k²/2` over the lines, that of `v` the
+/// same with `ω_k²`, the force's is `rms²`; the acceleration is the force balance. The
+/// Runge–Kutta scheme at 40 steps a resonance period leaves 1e-5.
+#[test]
+fn a_multisine_drives_the_exact_steady_state_response() {
+    let s = lab_sdof(
+        "kind = \"multisine\"\nrms = 3.0\nband = [1.0, 9.0]\nperiod = 4.0\nlines = \"odd\"",
+        "dt = 5e-3\nrecord_length = 4.0\nsample_interval = 0.01\nburn_in = 20.0\ntrajectories = 3\nseed = 4",
+    );
+    let fpkbench::scenario::Process::Lab(signal) = s.excitations[0].process else {
+        panic!()
+    };
+    let lines = signal.lines();
+    let (mut ex, mut ev) = (0.0, 0.0);
+    for &(k, a) in &lines {
+        let w = 2.0 * std::f64::consts::PI * k as f64 / 4.0;
+        ex += gain2(w) * a * a / 2.0;
+        ev += w * w * gain2(w) * a * a / 2.0;
+    }
+    let samples = samples_with_threads(&s, 2);
+    assert_eq!(samples.len(), 3 * 400);
+    for j in 0..3 {
+        let mine: Vec<&Vec<f64>> = samples.iter().filter(|r| r.0 == j).map(|r| &r.2).collect();
+        let ms = |c: usize| mine.iter().map(|r| r[c] * r[c]).sum::<f64>() / mine.len() as f64;
+        assert!(
+            (ms(0) / ex - 1.0).abs() < 1e-5,
+            "trajectory {j}: x² {} against {ex}",
+            ms(0)
+        );
+        assert!(
+            (ms(1) / ev - 1.0).abs() < 1e-5,
+            "trajectory {j}: v² {} against {ev}",
+            ms(1)
+        );
+        assert!((ms(3) / 9.0 - 1.0).abs() < 1e-9, "trajectory {j}: p² {}", ms(3));
+        for r in &mine {
+            let balance = (r[3] - 800.0 * r[0] - 4.0 * r[1]) / 2.0;
+            assert!((r[2] - balance).abs() < 1e-9 * balance.abs().max(1.0));
+        }
+    }
+    // Each trajectory its own realisation of the phases.
+    assert_ne!(samples[0].2[3], samples[1].2[3]);
+}
+
+/// Band-limited noise through the oscillator: the response's variance is
+/// `∫ |H(ω)|² S(ω) dω` (by quadrature). 64 trajectories of 200 s: over 12 seeds the
+/// relative error of the response's variance had sd 0.85 % (largest 1.6 %), the force's
+/// 0.43 %; 4 % and 2 % are allowed (≥ 4.5 sd). The samples are the same whatever the
+/// thread count.
+#[test]
+fn band_limited_noise_gives_the_response_variance_of_its_spectrum() {
+    let s = lab_sdof(
+        "kind = \"band-limited\"\nsigma = 10.0\nband = [0.0, 5.0]\norder = 4",
+        "dt = 5e-3\nrecord_length = 200.0\nsample_interval = 0.02\nburn_in = 10.0\ntrajectories = 64\nseed = 9",
+    );
+    let fpkbench::scenario::Process::Lab(signal) = s.excitations[0].process else {
+        panic!()
+    };
+    let (n, top) = (200_000, 2.0 * std::f64::consts::PI * 50.0);
+    let dw = top / n as f64;
+    let exact: f64 = (0..n)
+        .map(|i| {
+            let w = (i as f64 + 0.5) * dw;
+            2.0 * gain2(w) * signal.density(w).unwrap() * dw
+        })
+        .sum();
+    let m = moments(&s);
+    assert!(
+        (m.covariance(0, 0) / exact - 1.0).abs() < 0.04,
+        "x variance {} against {exact}",
+        m.covariance(0, 0)
+    );
+    let p = m.covariance(3, 3) / signal.rms().powi(2) - 1.0;
+    assert!(p.abs() < 0.02, "force variance off by {p:+.3}");
+    let bits =
+        |v: &[(u32, f64, Vec<f64>)]| -> Vec<u64> { v.iter().flat_map(|r| r.2.iter().map(|x| x.to_bits())).collect() };
+    let mut short = s.clone();
+    short.simulation.record_length = 10.0;
+    short.simulation.trajectories = 5;
+    assert_eq!(
+        bits(&samples_with_threads(&short, 1)),
+        bits(&samples_with_threads(&short, 2))
+    );
+}

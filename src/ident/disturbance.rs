@@ -141,7 +141,9 @@ pub fn force_row(s: &Scenario, st: &PaperStructure, row: &[f64]) -> [f64; 4] {
 pub fn force_problem(s: &Scenario, st: &PaperStructure, k1: f64) -> Result<Problem, IdentError> {
     let sigma = match s.excitations[st.measured].process {
         Process::White { sigma } => sigma,
-        Process::Filtered { .. } => 1.0,
+        // A lab signal is refused with the iterative procedure (scenario checks): 1 as for a
+        // filtered force.
+        Process::Filtered { .. } | Process::Lab(_) => 1.0,
     };
     let mut p = Problem::from_spec(&driven_spec(s, st, Process::White { sigma }), &[])?;
     if !p2_is_white(s, st) {

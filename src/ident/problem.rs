@@ -792,6 +792,9 @@ fn noise_sources(
         let intensity = match exc.process {
             Process::White { sigma } => sigma,
             Process::Filtered { .. } => filters.iter().find(|f| f.excitation == e).expect("checked").a,
+            // Read as its equivalent white noise, whose level the stage "excitation fit"
+            // sets from the measured spectrum: 1 until then.
+            Process::Lab(_) => 1.0,
         };
         let idx = unknowns.iter().position(|u| *u == Unknown::Intensity(e));
         white.push((exc.targets.clone(), intensity, idx));

@@ -35,6 +35,13 @@ impl Specification {
         let mut model = Model::new(s);
         // The identifier knows link forces of `u` and `w` alone (model::BoucWen).
         model.hysteresis.clear();
+        // A lab signal is read as its equivalent white noise (its level set from its
+        // measured spectrum by the stage "excitation fit").
+        for e in &mut model.excitations {
+            if matches!(e.process, Process::Lab(_)) {
+                e.process = Process::White { sigma: 1.0 };
+            }
+        }
         for il in links {
             if il.stiffness.is_some() {
                 model.clear(il.link, Characteristic::Stiffness);

@@ -7,6 +7,7 @@
 //! sampled every `Δ`, the fit uses the exact spectrum of the sampled process (an AR(1)
 //! with `φ = e^{−BΔ}`), which tends to (3.20) as `Δ → 0`, so aliasing does not bias `B`.
 
+use crate::stats::fft::fft;
 use std::f64::consts::PI;
 
 /// A one-sided view of a two-sided spectral density estimate.
@@ -32,44 +33,6 @@ pub struct OuFit {
     pub rms_log_residual: f64,
     /// Expected RMS of the log residual from the averaging alone, `≈ 1/√K`.
     pub expected_rms: f64,
-}
-
-/// In-place radix-2 complex FFT (`re`, `im` of length a power of two).
-fn fft(re: &mut [f64], im: &mut [f64]) {
-    let n = re.len();
-    let mut j = 0;
-    for i in 1..n {
-        let mut bit = n >> 1;
-        while j & bit != 0 {
-            j ^= bit;
-            bit >>= 1;
-        }
-        j |= bit;
-        if i < j {
-            re.swap(i, j);
-            im.swap(i, j);
-        }
-    }
-    let mut len = 2;
-    while len <= n {
-        let ang = -2.0 * PI / len as f64;
-        let (wr, wi) = (ang.cos(), ang.sin());
-        for start in (0..n).step_by(len) {
-            let (mut cr, mut ci) = (1.0, 0.0);
-            for k in 0..len / 2 {
-                let (a, b) = (start + k, start + k + len / 2);
-                let (tr, ti) = (re[b] * cr - im[b] * ci, re[b] * ci + im[b] * cr);
-                re[b] = re[a] - tr;
-                im[b] = im[a] - ti;
-                re[a] += tr;
-                im[a] += ti;
-                let nr = cr * wr - ci * wi;
-                ci = cr * wi + ci * wr;
-                cr = nr;
-            }
-        }
-        len <<= 1;
-    }
 }
 
 /// Streaming Welch estimate for one signal sampled every `dt` in several trajectories.
@@ -506,7 +469,9 @@ pub struct BandLevel {
     /// The response's band, rad/s: the bins holding all but [`BAND_TAIL`] of its variance
     /// at either end.
     pub band: (f64, f64),
-    /// The force's band, rad/s: where its density is within [`FORCE_BAND`] of the level.
+    /// The force's band, rad/s: where its density is within [`FORCE_BAND`] of the level;
+    /// its lower edge is 0 where the force keeps its level down to the lowest frequency
+    /// analysed (the data show no edge there).
     pub force_band: (f64, f64),
     /// The share of the system's gain outside the force's band (`∫|H|²` beyond its edges,
     /// over all of it): what a white force would have driven and this one does not. The
@@ -592,7 +557,7 @@ pub fn band_level(force: &Spectrum, response: &Spectrum) -> Option<BandLevel> {
     Some(BandLevel {
         density: driven / (inside + upper + lower),
         band: (omega[lo], omega[hi]),
-        force_band: (omega[fl], omega[fu]),
+        force_band: (if fl == 0 { 0.0 } else { omega[fl] }, omega[fu]),
         edge_share: (upper + lower) / (inside + upper + lower),
         rms_log_residual: rms,
         expected_rms: 1.0 / (force.segments as f64).sqrt(),

@@ -151,6 +151,7 @@ pub(crate) fn identify_disturbed(
             iterations[1].iteration.last(),
             ReportMethod::IteratedForce,
             &[],
+            &[],
         )
     });
     clock.lap("validation");

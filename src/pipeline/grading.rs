@@ -84,7 +84,16 @@ pub(crate) fn assemble(
         sample_interval_s: sim.sample_interval,
         trajectories: sim.trajectories,
         seed: sim.seed,
-        scheme: sim.scheme.name().to_string(),
+        // Lab excitations are integrated by their own scheme (sim::lab), whatever `scheme` says.
+        scheme: if s
+            .excitations
+            .iter()
+            .any(|e| matches!(e.process, crate::scenario::Process::Lab(_)))
+        {
+            "runge-kutta (lab excitations)".to_string()
+        } else {
+            sim.scheme.name().to_string()
+        },
         dt_s: sim.dt,
         timings_s: Timings {
             simulate: 0.0,

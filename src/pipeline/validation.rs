@@ -9,7 +9,7 @@ use crate::ident::{spectrum, Problem, Unknown};
 use crate::model::{Characteristic, Coefficient, Model, Term};
 use crate::report::{Misfit, PlotData, SpectrumComparison, Validation, ValidationRow};
 use crate::scenario::ReportMethod;
-use crate::scenario::{Process, Scenario};
+use crate::scenario::{Process, Scenario, Signal};
 use crate::sim::{simulate, SampleBatch, SampleSink, SimError};
 use crate::stats;
 use crate::stats::Histogram;
@@ -251,6 +251,7 @@ impl Distributions {
         values: &[f64],
         method: ReportMethod,
         spectra: &[bool],
+        bands: &[(usize, (f64, f64))],
     ) -> Validation {
         match validate(
             s,
@@ -260,6 +261,7 @@ impl Distributions {
             method.clone(),
             &self.marg,
             spectra,
+            bands,
         ) {
             Ok((val, m)) => {
                 self.model_marg = Some(m);
@@ -323,6 +325,7 @@ pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coeff
             match &mut model.excitations[e].process {
                 Process::White { sigma } => *sigma = 0.0,
                 Process::Filtered { a, .. } => *a = 0.0,
+                Process::Lab(signal) => *signal = signal.scaled(0.0),
             }
         }
     }
@@ -429,6 +432,35 @@ fn misfits(rows: &[ValidationRow]) -> Vec<Misfit> {
     out
 }
 
+/// Butterworth order of an equivalent white force re-simulated over its measured band.
+const BAND_ORDER: u32 = 8;
+
+/// Every force read as its equivalent white noise, where `bands` gives its measured band
+/// (Hz) and every excitation of `model` is one: made Gaussian noise of the identified level
+/// over that band (a Butterworth band of order [`BAND_ORDER`]), the force as the identifier
+/// read it — white where the response has its energy, and absent where the rig's input is.
+/// A white force beyond the band would drive the model where the data were never driven,
+/// and its spectrum there would reject a correct model (docs/methods.md, "Validation").
+fn over_their_bands(model: &mut Model, bands: &[(usize, (f64, f64))]) {
+    let band = |e: usize| bands.iter().find(|b| b.0 == e).map(|b| b.1);
+    let all = (0..model.excitations.len()).all(|e| {
+        band(e).is_some_and(|(lo, hi)| lo >= 0.0 && hi > lo && hi.is_finite())
+            && matches!(model.excitations[e].process, Process::White { .. })
+    });
+    if !all || model.excitations.is_empty() {
+        return;
+    }
+    for (e, x) in model.excitations.iter_mut().enumerate() {
+        if let (Process::White { sigma }, Some(band)) = (x.process, band(e)) {
+            x.process = Process::Lab(Signal::BandLimited {
+                sigma,
+                band,
+                order: BAND_ORDER,
+            });
+        }
+    }
+}
+
 /// Re-simulate the identified model with the same excitation (another seed) and compare
 /// std, kurtosis and spectrum of every response with the data's (the spectrum where
 /// `spectra[j]`, or `spectra` is empty).
@@ -441,8 +473,12 @@ pub(crate) fn validate(
     method: ReportMethod,
     data: &Marginals,
     spectra: &[bool],
+    bands: &[(usize, (f64, f64))],
 ) -> Result<(Validation, Marginals), SimError> {
-    let model = identified_model(s, problem, coef_of, values);
+    let mut model = identified_model(s, problem, coef_of, values);
+    if s.simulation.sensors.anti_alias.is_none() && s.simulation.sensors.bandwidth.is_none() {
+        over_their_bands(&mut model, bands);
+    }
     // The same run, another seed, at most 1e5 s of trajectory time: enough for std and
     // kurtosis to a few per cent.
     let mut sim = s.simulation.clone();

@@ -10,6 +10,7 @@ pub mod overrides;
 mod paper;
 mod raw;
 mod rig;
+mod signal;
 mod validate;
 
 use crate::model::{Characteristic, Term};
@@ -100,6 +101,7 @@ impl Scheme {
 /// Identification methods are named by the estimators' registry (`estimators/mod.rs`).
 pub use crate::estimators::Method;
 pub use rig::MassSensors;
+pub use signal::Signal;
 
 // ---------------------------------------------------------------------------------------
 // Raw TOML, spans kept.
@@ -182,6 +184,10 @@ pub enum Process {
     /// Ornstein–Uhlenbeck `dP = −B P dt + A dW` (3.20): spectral density `A²/(2π(B²+ω²))`,
     /// stationary variance `A²/(2B)`.
     Filtered { a: f64, b: f64 },
+    /// A signal a lab drives its rig with (docs/excitations.md): each trajectory one
+    /// realisation, simulated by `sim::lab`. The identifier knows it by its measured samples
+    /// only, and reads it as its equivalent white noise (`[identify] equivalent_white`).
+    Lab(Signal),
 }
 
 /// A random force acting, as one and the same process, on one or more masses.
@@ -824,6 +830,7 @@ impl Scenario {
         let std = |p: Process| match p {
             Process::White { sigma } => sigma / dt.sqrt(),
             Process::Filtered { a, b } => a / (2.0 * b).sqrt(),
+            Process::Lab(signal) => signal.rms(),
         };
         let reference = self
             .excitations
@@ -846,6 +853,7 @@ impl Scenario {
                 match &mut e.process {
                     Process::White { sigma } => *sigma *= k,
                     Process::Filtered { a, .. } => *a *= k,
+                    Process::Lab(signal) => *signal = signal.scaled(k),
                 }
             }
             index.push(Some(out.excitations.len()));
@@ -892,6 +900,8 @@ impl Scenario {
                     out.push((N::FilterGain(e.name.clone()), a));
                     out.push((N::Corner(e.name.clone()), b));
                 }
+                // Known to the identifier by its samples: no parameter of it is estimated.
+                Process::Lab(_) => {}
             }
         }
         out.into_iter().map(|(n, v)| (n.to_string(), v)).collect()

@@ -100,6 +100,9 @@ pub(crate) struct RawHysteresis {
 pub(crate) enum RawKind {
     White,
     Filtered,
+    Multisine,
+    BandLimited,
+    KanaiTajimi,
 }
 
 #[derive(Deserialize)]
@@ -115,6 +118,14 @@ pub(crate) struct RawExcitation {
     pub(super) acts_on: Spanned<Vec<Spanned<String>>>,
     #[serde(default = "yes")]
     pub(super) measured: bool,
+    // The lab signals' keys (docs/excitations.md).
+    pub(super) rms: Option<Spanned<f64>>,
+    pub(super) band: Option<Spanned<Vec<Spanned<f64>>>>,
+    pub(super) period: Option<Spanned<f64>>,
+    pub(super) lines: Option<Spanned<String>>,
+    pub(super) order: Option<Spanned<i64>>,
+    pub(super) omega_g: Option<Spanned<f64>>,
+    pub(super) zeta_g: Option<Spanned<f64>>,
 }
 
 pub(crate) fn yes() -> bool {

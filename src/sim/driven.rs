@@ -161,41 +161,16 @@ pub fn free_run(
     let (mut x, mut v) = (x0.to_vec(), v0.to_vec());
     let mut out = Vec::with_capacity(len * n);
     out.extend_from_slice(&x);
-    // Scratch: the force at the stage points, the stages' slopes and states.
+    // The force at the stage points: a sub-step's start is the last one's end.
     let mut f = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-    let mut link = vec![0.0; n];
-    let (mut kx, mut kv) = (vec![vec![0.0; n]; 4], vec![vec![0.0; n]; 4]);
-    let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+    let mut rk = Rk4::new(n);
     rec.at(0, 0, &mut f[2]);
     for k in 0..len - 1 {
         for s in 0..substeps {
-            // A sub-step's start is the last one's end: reconstructed once.
             f.rotate_left(2);
             rec.at(k, 2 * s + 1, &mut f[1]);
             rec.at(k, 2 * s + 2, &mut f[2]);
-            // Stage r at the sub-step's start (0), middle (1, 2) and end (3).
-            for r in 0..4 {
-                let (back, scale) = match r {
-                    0 => (None, 0.0),
-                    1 | 2 => (Some(r - 1), 0.5 * dt),
-                    _ => (Some(2), dt),
-                };
-                for i in 0..n {
-                    let (dx, dv) = back.map_or((0.0, 0.0), |b| (kx[b][i], kv[b][i]));
-                    xs[i] = x[i] + scale * dx;
-                    vs[i] = v[i] + scale * dv;
-                }
-                model.link_forces(&xs, &vs, &mut link);
-                let fr = &f[r.div_ceil(2)];
-                for i in 0..n {
-                    kx[r][i] = vs[i];
-                    kv[r][i] = (link[i] + fr[i]) * model.inv_mass[i];
-                }
-            }
-            for i in 0..n {
-                x[i] += dt / 6.0 * (kx[0][i] + 2.0 * kx[1][i] + 2.0 * kx[2][i] + kx[3][i]);
-                v[i] += dt / 6.0 * (kv[0][i] + 2.0 * kv[1][i] + 2.0 * kv[2][i] + kv[3][i]);
-            }
+            rk.step(model, &mut x, &mut v, &f, dt);
         }
         if let Some(i) = (0..n).find(|&i| !(x[i].abs() < super::DIVERGENCE_LIMIT && v[i].is_finite())) {
             return Err(FreeRunError::Diverged {
@@ -208,6 +183,59 @@ pub fn free_run(
         out.extend_from_slice(&x);
     }
     Ok(FreeRun { masses: n, x: out })
+}
+
+/// The classical fourth-order Runge–Kutta step of `M ẍ = −Σ s F_ℓ(u, w) + f(t)`, with its
+/// scratch (no allocation per step).
+pub(crate) struct Rk4 {
+    link: Vec<f64>,
+    kx: [Vec<f64>; 4],
+    kv: [Vec<f64>; 4],
+    xs: Vec<f64>,
+    vs: Vec<f64>,
+}
+
+impl Rk4 {
+    pub(crate) fn new(n: usize) -> Rk4 {
+        let z = || vec![0.0; n];
+        Rk4 {
+            link: z(),
+            kx: [z(), z(), z(), z()],
+            kv: [z(), z(), z(), z()],
+            xs: z(),
+            vs: z(),
+        }
+    }
+
+    /// One step of `dt` from `(x, v)`, the external force on every mass `f[0]` at the
+    /// step's start, `f[1]` at its middle and `f[2]` at its end.
+    pub(crate) fn step(&mut self, model: &Model, x: &mut [f64], v: &mut [f64], f: &[Vec<f64>; 3], dt: f64) {
+        let n = x.len();
+        // Stage r at the step's start (0), middle (1, 2) and end (3).
+        for r in 0..4 {
+            let (back, scale) = match r {
+                0 => (None, 0.0),
+                1 | 2 => (Some(r - 1), 0.5 * dt),
+                _ => (Some(2), dt),
+            };
+            for i in 0..n {
+                let (dx, dv) = back.map_or((0.0, 0.0), |b| (self.kx[b][i], self.kv[b][i]));
+                self.xs[i] = x[i] + scale * dx;
+                self.vs[i] = v[i] + scale * dv;
+            }
+            model.link_forces(&self.xs, &self.vs, &mut self.link);
+            let fr = &f[r.div_ceil(2)];
+            for i in 0..n {
+                self.kx[r][i] = self.vs[i];
+                self.kv[r][i] = (self.link[i] + fr[i]) * model.inv_mass[i];
+            }
+        }
+        let (kx, kv) = (&self.kx, &self.kv);
+        for i in 0..n {
+            x[i] += dt / 6.0 * (kx[0][i] + 2.0 * kx[1][i] + 2.0 * kx[2][i] + kx[3][i]);
+            v[i] += dt / 6.0 * (kv[0][i] + 2.0 * kv[1][i] + 2.0 * kv[2][i] + kv[3][i]);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -135,6 +135,7 @@ impl<const D: usize> LaneModel<D> {
                     lm.impulse_scale.push(0.0);
                     lm.is_white.push(false);
                 }
+                Process::Lab(_) => unreachable!("simulate runs a model with lab excitations by sim::lab"),
             }
         }
         let (nw, no) = (lm.white.len(), lm.ou.len());

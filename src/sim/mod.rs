@@ -22,6 +22,7 @@
 mod blocked;
 pub mod driven;
 pub(crate) mod filters;
+pub mod lab;
 mod lanes;
 mod normals;
 pub(crate) mod sensors;
@@ -70,6 +71,9 @@ pub enum SimError {
     /// (`filters::SensorFilter::new`).
     #[error("[measurement]: {0}")]
     Sensors(String),
+    /// The lab excitations cannot run on this simulation (module `lab`).
+    #[error("lab excitations: {0}")]
+    Lab(String),
     /// A stop was requested (`crate::interrupt`).
     #[error(transparent)]
     Interrupted(#[from] crate::interrupt::Interrupted),
@@ -201,6 +205,10 @@ pub fn simulate_stepping(
     progress: &(dyn Fn(u64) + Sync),
     stepping: Stepping,
 ) -> Result<RunStats, SimError> {
+    // Lab excitations are deterministic signals: integrated by their own scheme.
+    if lab::is_lab(model) {
+        return lab::simulate_lab(model, sim, sink, progress);
+    }
     let degree = (0..model.links())
         .map(|l| model.k_len[l].max(model.c_len[l]))
         .max()

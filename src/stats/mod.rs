@@ -1,7 +1,9 @@
 //! Accuracy metrics (docs/methods.md, accuracy): per-parameter relative errors, per-characteristic
 //! relative L2 errors under the observed density, and the dissipativity check (3.4) of
-//! identified characteristics over the observed ranges (3.16)–(3.17).
+//! identified characteristics over the observed ranges (3.16)–(3.17); and the discrete
+//! Fourier transform (`fft`).
 
+pub mod fft;
 mod histogram;
 
 pub use histogram::Histogram;

@@ -28,7 +28,20 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
             .is_some_and(|d| d.integrated_noise.iter().any(|n| n.column == *c))
     };
     let spectra: Vec<bool> = reported.columns.iter().map(|c| !integrated(c)).collect();
+    // The measured band of every force read as its equivalent white noise: re-simulated
+    // over it (validation::over_their_bands).
+    let bands: Vec<(usize, (f64, f64))> = id
+        .fitted
+        .iter()
+        .flat_map(|f| &f.white_reports)
+        .filter_map(|w| {
+            Some((
+                s.excitations.iter().position(|e| e.name == w.excitation)?,
+                w.force_band_hz,
+            ))
+        })
+        .collect();
     let dist = id.dist.as_mut().expect("the second pass makes the distributions");
-    id.validation = Some(dist.validate(noisy.as_ref().unwrap_or(s), reported, &values, method, &spectra));
+    id.validation = Some(dist.validate(noisy.as_ref().unwrap_or(s), reported, &values, method, &spectra, &bands));
     Ok(())
 }

@@ -68,7 +68,7 @@ pub(crate) fn check_identify(
         let key = "identify.equivalent_white";
         let k = excitation_index(loc, excitations, e, key)?;
         let x = &excitations[k];
-        let why = if !matches!(x.process, Process::White { .. }) {
+        let why = if !matches!(x.process, Process::White { .. } | Process::Lab(_)) {
             Some(
                 "is filtered: its spectrum is fitted by (3.20); an equivalent white noise is declared kind = \"white\"",
             )
@@ -83,6 +83,13 @@ pub(crate) fn check_identify(
             return Err(loc.at(e.span(), key, format!("excitation {:?} {why}", e.get_ref())));
         }
         equivalent_white.push(k);
+    }
+    // A lab signal is known to the identifier by its measured samples alone: it is read as
+    // its equivalent white noise, listed or not.
+    for (k, x) in excitations.iter().enumerate() {
+        if matches!(x.process, Process::Lab(_)) && !equivalent_white.contains(&k) {
+            equivalent_white.push(k);
+        }
     }
     let mut unknown_masses = Vec::new();
     for m in ident.and_then(|i| i.unknown_masses.as_ref()).into_iter().flatten() {

@@ -12,6 +12,7 @@ use toml::Spanned;
 
 mod data;
 mod identify;
+mod lab;
 mod measurement;
 pub(crate) use data::check_data;
 pub(crate) use identify::{check_accept, check_identify, inseparable};
@@ -220,6 +221,7 @@ impl Scenario {
             _ => check_simulation(&loc, &raw, &masses, &links)?,
         };
         simulation.sensors = check_measurement(&loc, &raw)?;
+        lab::check_lab_run(&loc, &raw, &excitations, &simulation, data.is_some())?;
         if raw.simulation.is_some() {
             check_filters_resolved(&loc, &raw, &excitations, simulation.dt)?;
         }
@@ -552,7 +554,13 @@ pub(crate) fn check_excitations(
             }
             acts_on.push(m);
         }
+        if matches!(*e.kind.get_ref(), RawKind::White | RawKind::Filtered) {
+            lab::refuse_signal_keys(loc, e, &key)?;
+        }
         let process = match *e.kind.get_ref() {
+            RawKind::Multisine | RawKind::BandLimited | RawKind::KanaiTajimi => {
+                Process::Lab(lab::check_signal(loc, e, &key)?)
+            }
             RawKind::White => {
                 if let Some(x) = e.a.as_ref().or(e.b.as_ref()) {
                     return Err(loc.at(

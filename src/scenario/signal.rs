@@ -1,0 +1,192 @@
+//! The excitations labs use (docs/excitations.md): a random-phase multisine, band-limited
+//! Gaussian noise and Kanai–Tajimi shaped noise, described by their parameters and their
+//! exact spectra. `sim::lab` generates their realisations and drives a model with them.
+
+use std::f64::consts::PI;
+
+/// The excitations labs use (docs/excitations.md); frequencies in Hz, levels in the
+/// force's unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Signal {
+    /// A random-phase multisine: equal amplitudes on the lines `k / period` inside `band`
+    /// (every line, or the odd ones), total RMS `rms`, repeating every `period` s; a new
+    /// realisation of the phases per trajectory.
+    Multisine {
+        rms: f64,
+        band: (f64, f64),
+        period: f64,
+        odd: bool,
+    },
+    /// Gaussian noise: white noise of two-sided density `σ²/2π` through a Butterworth
+    /// filter of order `order`, a low-pass at `band.1` when `band.0` is 0, else a band-pass.
+    BandLimited { sigma: f64, band: (f64, f64), order: u32 },
+    /// Gaussian noise through a Kanai–Tajimi filter (a ground of natural angular frequency
+    /// `omega_g` rad/s and damping ratio `zeta_g` over white noise of density `σ²/2π`).
+    KanaiTajimi { sigma: f64, omega_g: f64, zeta_g: f64 },
+}
+
+impl Signal {
+    /// The signal's name in a scenario (`kind = "…"`).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Signal::Multisine { .. } => "multisine",
+            Signal::BandLimited { .. } => "band-limited",
+            Signal::KanaiTajimi { .. } => "kanai-tajimi",
+        }
+    }
+
+    /// The multisine's lines: `(k, amplitude)`, the `k`-th harmonic of `1/period` (Hz) with
+    /// its cosine amplitude, equal for every line, `Σ amplitude²/2 = rms²`. Empty for the
+    /// noises, and for a band that holds no line of the period's grid.
+    pub fn lines(&self) -> Vec<(usize, f64)> {
+        let Signal::Multisine { rms, band, period, odd } = *self else {
+            return Vec::new();
+        };
+        let first = ((band.0 * period - 1e-9).ceil() as usize).max(1);
+        let last = (band.1 * period + 1e-9).floor() as usize;
+        let ks: Vec<usize> = (first..=last).filter(|k| !odd || k % 2 == 1).collect();
+        let amplitude = rms * (2.0 / ks.len().max(1) as f64).sqrt();
+        ks.into_iter().map(|k| (k, amplitude)).collect()
+    }
+
+    /// The two-sided spectral density at angular frequency `omega` (rad/s), per rad/s, of
+    /// a noise (`∫ S dω` over all `ω` is its variance); `None` for the multisine, whose
+    /// spectrum is its lines.
+    pub fn density(&self, omega: f64) -> Option<f64> {
+        let w = omega.abs();
+        match *self {
+            Signal::Multisine { .. } => None,
+            Signal::BandLimited { sigma, band, order } => {
+                Some(sigma * sigma / (2.0 * PI) * butterworth_gain2(band, order, w))
+            }
+            Signal::KanaiTajimi { sigma, omega_g, zeta_g } => {
+                let (g2, c) = (omega_g * omega_g, 2.0 * zeta_g * omega_g * w);
+                let gain = (g2 * g2 + c * c) / ((g2 - w * w).powi(2) + c * c);
+                Some(sigma * sigma / (2.0 * PI) * gain)
+            }
+        }
+    }
+
+    /// The standard deviation, in closed form: a multisine's `rms`; for the noises the
+    /// integral of the density (a Butterworth band of width `B` rad/s passes
+    /// `B·(π/2n)/sin(π/2n)` on each side; Kanai–Tajimi's is `π S₀ ω_g (1 + 4ζ_g²)/(2ζ_g)`).
+    pub fn rms(&self) -> f64 {
+        match *self {
+            Signal::Multisine { rms, .. } => rms,
+            Signal::BandLimited { sigma, band, order } => {
+                let width = 2.0 * PI * (band.1 - band.0);
+                let x = PI / (2.0 * order as f64);
+                (sigma * sigma / (2.0 * PI) * 2.0 * width * x / x.sin()).sqrt()
+            }
+            Signal::KanaiTajimi { sigma, omega_g, zeta_g } => {
+                let s0 = sigma * sigma / (2.0 * PI);
+                (PI * s0 * omega_g * (1.0 + 4.0 * zeta_g * zeta_g) / (2.0 * zeta_g)).sqrt()
+            }
+        }
+    }
+
+    /// The same signal `k` times as strong.
+    pub fn scaled(&self, k: f64) -> Signal {
+        let mut s = *self;
+        match &mut s {
+            Signal::Multisine { rms, .. } => *rms *= k,
+            Signal::BandLimited { sigma, .. } | Signal::KanaiTajimi { sigma, .. } => *sigma *= k,
+        }
+        s
+    }
+}
+
+/// `|H(iω)|²` of a Butterworth filter of order `n` over `band` (Hz): a low-pass at `band.1`
+/// when `band.0` is 0, else the band-pass made from it by `s → (s² + ω₀²)/(s B)`.
+fn butterworth_gain2(band: (f64, f64), n: u32, w: f64) -> f64 {
+    let (lo, hi) = (2.0 * PI * band.0, 2.0 * PI * band.1);
+    let x = if lo == 0.0 {
+        w / hi
+    } else if w == 0.0 {
+        return 0.0;
+    } else {
+        (w * w - lo * hi) / (w * (hi - lo))
+    };
+    1.0 / (1.0 + x.abs().powi(2 * n as i32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The closed-form variances against the density integrated numerically.
+    #[test]
+    fn the_closed_form_variances_are_the_densities_integrals() {
+        let signals = [
+            Signal::BandLimited {
+                sigma: 1.3,
+                band: (0.0, 3.0),
+                order: 2,
+            },
+            Signal::BandLimited {
+                sigma: 0.7,
+                band: (0.0, 5.0),
+                order: 6,
+            },
+            Signal::BandLimited {
+                sigma: 1.0,
+                band: (1.0, 4.0),
+                order: 1,
+            },
+            Signal::BandLimited {
+                sigma: 2.0,
+                band: (2.0, 2.5),
+                order: 4,
+            },
+            Signal::KanaiTajimi {
+                sigma: 1.0,
+                omega_g: 15.6,
+                zeta_g: 0.6,
+            },
+            Signal::KanaiTajimi {
+                sigma: 0.5,
+                omega_g: 5.0,
+                zeta_g: 0.2,
+            },
+        ];
+        for s in signals {
+            // ∫ over ω ≥ 0 on a substituted grid ω = tan(θ)·c, which reaches the tails.
+            let c = 2.0 * PI * 3.0;
+            let n = 400_000;
+            let integral: f64 = (0..n)
+                .map(|i| {
+                    let th = (i as f64 + 0.5) / n as f64 * PI / 2.0;
+                    s.density(c * th.tan()).unwrap() * c / th.cos().powi(2) * (PI / 2.0 / n as f64)
+                })
+                .sum();
+            let exact = s.rms().powi(2);
+            assert!(
+                (2.0 * integral - exact).abs() < 1e-4 * exact,
+                "{s:?}: ∫S = {} against the closed form {exact}",
+                2.0 * integral
+            );
+        }
+    }
+
+    #[test]
+    fn a_multisine_has_its_lines_and_level() {
+        let s = Signal::Multisine {
+            rms: 0.5,
+            band: (1.0, 3.0),
+            period: 2.0,
+            odd: false,
+        };
+        let lines = s.lines();
+        assert_eq!(lines.iter().map(|l| l.0).collect::<Vec<_>>(), [2, 3, 4, 5, 6]);
+        let power: f64 = lines.iter().map(|l| l.1 * l.1 / 2.0).sum();
+        assert!((power - 0.25).abs() < 1e-12);
+        let odd = Signal::Multisine {
+            rms: 0.5,
+            band: (0.0, 3.0),
+            period: 2.0,
+            odd: true,
+        };
+        assert_eq!(odd.lines().iter().map(|l| l.0).collect::<Vec<_>>(), [1, 3, 5]);
+        assert!(odd.density(1.0).is_none());
+    }
+}

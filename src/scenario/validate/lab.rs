@@ -1,0 +1,265 @@
+//! `[[excitation]]` of the lab kinds (docs/excitations.md): a random-phase multisine,
+//! band-limited Gaussian noise and Kanai–Tajimi noise — each kind's keys checked, the other
+//! kinds' keys refused on it, and the signal checked against the run it drives.
+
+use super::super::raw::{RawExcitation, RawKind, RawScenario};
+use super::super::{Excitation, Process, Signal, Simulation};
+use super::{finite_positive, Locator};
+use crate::scenario::ScenarioError;
+
+/// Highest Butterworth order.
+const MAX_ORDER: i64 = 16;
+
+/// The signal of a lab kind's `[[excitation]]` (`key` is `excitation[i]`).
+pub(crate) fn check_signal(loc: &Locator, e: &RawExcitation, key: &str) -> Result<Signal, ScenarioError> {
+    let kind = *e.kind.get_ref();
+    let name = match kind {
+        RawKind::Multisine => "multisine",
+        RawKind::BandLimited => "band-limited",
+        _ => "kanai-tajimi",
+    };
+    // The keys each kind takes; any other one written is refused with what the kind takes.
+    let takes: &[&str] = match kind {
+        RawKind::Multisine => &["rms", "band", "period", "lines"],
+        RawKind::BandLimited => &["sigma", "band", "order"],
+        _ => &["sigma", "omega_g", "zeta_g"],
+    };
+    let written = [
+        ("sigma", e.sigma.as_ref().map(|v| v.span())),
+        ("A", e.a.as_ref().map(|v| v.span())),
+        ("B", e.b.as_ref().map(|v| v.span())),
+        ("rms", e.rms.as_ref().map(|v| v.span())),
+        ("band", e.band.as_ref().map(|v| v.span())),
+        ("period", e.period.as_ref().map(|v| v.span())),
+        ("lines", e.lines.as_ref().map(|v| v.span())),
+        ("order", e.order.as_ref().map(|v| v.span())),
+        ("omega_g", e.omega_g.as_ref().map(|v| v.span())),
+        ("zeta_g", e.zeta_g.as_ref().map(|v| v.span())),
+    ];
+    for (k, span) in written {
+        if let Some(span) = span.filter(|_| !takes.contains(&k)) {
+            return Err(loc.at(
+                span,
+                format!("{key}.{k}"),
+                format!("kind = \"{name}\" takes {}, not `{k}`", takes.join(", ")),
+            ));
+        }
+    }
+    if !e.measured {
+        return Err(loc.at(
+            e.kind.span(),
+            format!("{key}.measured"),
+            "a lab excitation is the rig's input, and it is measured: an unmeasured disturbance is kind = \
+             \"white\" or \"filtered\"",
+        ));
+    }
+    let need = |k: &str, v: Option<&toml::Spanned<f64>>, what: &str| {
+        let v = v.ok_or_else(|| {
+            loc.at(
+                e.kind.span(),
+                format!("{key}.{k}"),
+                format!("kind = \"{name}\" needs `{k}` ({what}); it takes {}", takes.join(", ")),
+            )
+        })?;
+        finite_positive(loc, v, &format!("{key}.{k}"), what)
+    };
+    let band = || check_band(loc, e, key, name);
+    let signal = match kind {
+        RawKind::Multisine => {
+            let odd = match e.lines.as_ref().map(|l| (l.get_ref().as_str(), l.span())) {
+                None | Some(("all", _)) => false,
+                Some(("odd", _)) => true,
+                Some((other, span)) => {
+                    return Err(loc.at(
+                        span,
+                        format!("{key}.lines"),
+                        format!("lines = {other:?}: use \"all\" (every line of the band) or \"odd\""),
+                    ))
+                }
+            };
+            let period = need("period", e.period.as_ref(), "s, the time the multisine repeats in")?;
+            let s = Signal::Multisine {
+                rms: need("rms", e.rms.as_ref(), "the force's RMS")?,
+                band: band()?,
+                period,
+                odd,
+            };
+            if s.lines().is_empty() {
+                return Err(loc.at(
+                    e.band.as_ref().map_or(e.kind.span(), |b| b.span()),
+                    format!("{key}.band"),
+                    format!(
+                        "no line of the period's grid (every {:.6} Hz{}) lies in the band",
+                        1.0 / period,
+                        if odd { ", odd lines only" } else { "" }
+                    ),
+                ));
+            }
+            s
+        }
+        RawKind::BandLimited => {
+            let order = e.order.as_ref().ok_or_else(|| {
+                loc.at(
+                    e.kind.span(),
+                    format!("{key}.order"),
+                    format!("kind = \"band-limited\" needs the Butterworth filter's `order` (1 to {MAX_ORDER})"),
+                )
+            })?;
+            if !(1..=MAX_ORDER).contains(order.get_ref()) {
+                return Err(loc.at(
+                    order.span(),
+                    format!("{key}.order"),
+                    format!(
+                        "the Butterworth order must be 1 to {MAX_ORDER}, got {}",
+                        order.get_ref()
+                    ),
+                ));
+            }
+            Signal::BandLimited {
+                sigma: need(
+                    "sigma",
+                    e.sigma.as_ref(),
+                    "the white noise's intensity before the filter",
+                )?,
+                band: band()?,
+                order: *order.get_ref() as u32,
+            }
+        }
+        _ => Signal::KanaiTajimi {
+            sigma: need(
+                "sigma",
+                e.sigma.as_ref(),
+                "the white noise's intensity before the filter",
+            )?,
+            omega_g: need(
+                "omega_g",
+                e.omega_g.as_ref(),
+                "the filter's natural angular frequency, rad/s",
+            )?,
+            zeta_g: need("zeta_g", e.zeta_g.as_ref(), "the filter's damping ratio")?,
+        },
+    };
+    Ok(signal)
+}
+
+/// A white or filtered `[[excitation]]` with a lab signal's key: refused, naming the kinds
+/// that take it.
+pub(crate) fn refuse_signal_keys(loc: &Locator, e: &RawExcitation, key: &str) -> Result<(), ScenarioError> {
+    let written = [
+        ("rms", e.rms.as_ref().map(|v| v.span()), "multisine"),
+        ("band", e.band.as_ref().map(|v| v.span()), "multisine and band-limited"),
+        ("period", e.period.as_ref().map(|v| v.span()), "multisine"),
+        ("lines", e.lines.as_ref().map(|v| v.span()), "multisine"),
+        ("order", e.order.as_ref().map(|v| v.span()), "band-limited"),
+        ("omega_g", e.omega_g.as_ref().map(|v| v.span()), "kanai-tajimi"),
+        ("zeta_g", e.zeta_g.as_ref().map(|v| v.span()), "kanai-tajimi"),
+    ];
+    match written.into_iter().find_map(|(k, span, kinds)| Some((k, span?, kinds))) {
+        None => Ok(()),
+        Some((k, span, kinds)) => Err(loc.at(
+            span,
+            format!("{key}.{k}"),
+            format!("`{k}` belongs to the lab kind(s) {kinds} (docs/excitations.md), not to white or filtered noise"),
+        )),
+    }
+}
+
+/// `band = [low, high]` in Hz, `0 ≤ low < high` (a low of 0 makes a band-limited noise a
+/// low-pass).
+fn check_band(loc: &Locator, e: &RawExcitation, key: &str, name: &str) -> Result<(f64, f64), ScenarioError> {
+    let k = format!("{key}.band");
+    let b = e.band.as_ref().ok_or_else(|| {
+        loc.at(
+            e.kind.span(),
+            k.clone(),
+            format!("kind = \"{name}\" needs `band = [low, high]` in Hz"),
+        )
+    })?;
+    let v: Vec<f64> = b.get_ref().iter().map(|x| *x.get_ref()).collect();
+    match v[..] {
+        [lo, hi] if lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo => Ok((lo, hi)),
+        _ => Err(loc.at(
+            b.span(),
+            k,
+            format!("band must be [low, high] in Hz with 0 <= low < high, got {v:?}"),
+        )),
+    }
+}
+
+/// The lab excitations against the run: they drive a simulation (a model file's measured
+/// force is declared `kind = "white"` with `[identify] equivalent_white`), alone (the lab
+/// scheme integrates deterministic forces), a multisine repeats after whole sample
+/// intervals, and the sampled force does not alias (its band ends below the sampling's
+/// Nyquist frequency).
+pub(crate) fn check_lab_run(
+    loc: &Locator,
+    raw: &RawScenario,
+    excitations: &[Excitation],
+    sim: &Simulation,
+    measured_data: bool,
+) -> Result<(), ScenarioError> {
+    let lab: Vec<usize> = (0..excitations.len())
+        .filter(|&k| matches!(excitations[k].process, Process::Lab(_)))
+        .collect();
+    let Some(&first) = lab.first() else { return Ok(()) };
+    let at = |k: usize| raw.excitation[k].kind.span();
+    if measured_data {
+        return Err(loc.at(
+            at(first),
+            format!("excitation[{first}].kind"),
+            "a lab signal is simulated; the force of measured data is declared kind = \"white\" and listed in \
+             [identify] equivalent_white (docs/data.md)",
+        ));
+    }
+    if let Some(other) = (0..excitations.len()).find(|k| !lab.contains(k)) {
+        return Err(loc.at(
+            at(other),
+            format!("excitation[{other}].kind"),
+            "a scenario with lab excitations has only lab excitations (they are integrated as deterministic \
+             forces, without a noise increment)",
+        ));
+    }
+    if sim.sensors.anti_alias.is_some() || sim.sensors.bandwidth.is_some() {
+        return Err(loc.at(
+            at(first),
+            format!("excitation[{first}].kind"),
+            "[measurement]'s filters (anti_alias, bandwidth) are not simulated under lab excitations",
+        ));
+    }
+    let nyquist = 0.5 / sim.sample_interval;
+    for &k in &lab {
+        let Process::Lab(s) = excitations[k].process else {
+            unreachable!()
+        };
+        let high = match s {
+            Signal::Multisine { band, .. } | Signal::BandLimited { band, .. } => band.1,
+            Signal::KanaiTajimi { .. } => 0.0,
+        };
+        if high >= nyquist {
+            return Err(loc.at(
+                raw.excitation[k].band.as_ref().map_or(at(k), |b| b.span()),
+                format!("excitation[{k}].band"),
+                format!(
+                    "the band reaches {high} Hz, at or beyond the sampling's Nyquist frequency {nyquist} Hz \
+                     (sample_interval {} s): the logged force would alias",
+                    sim.sample_interval
+                ),
+            ));
+        }
+        if let Signal::Multisine { period, .. } = s {
+            let r = period / sim.sample_interval;
+            if (r - r.round()).abs() > 1e-6 * r || r.round() < 2.0 {
+                return Err(loc.at(
+                    raw.excitation[k].period.as_ref().map_or(at(k), |p| p.span()),
+                    format!("excitation[{k}].period"),
+                    format!(
+                        "the multisine's period must be a whole number (at least 2) of sample intervals, as a \
+                         lab's generator and acquisition share a clock: {period} s is {r} × {} s",
+                        sim.sample_interval
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
