@@ -644,3 +644,49 @@ fn a_displacement_sensors_noise_is_found_and_the_velocity_differenced_against_it
         assert!(z.abs() < 4.0, "clean, {name}: z = {z}");
     }
 }
+
+/// An ADC range of 1e-300 clips every sensor value to a subnormal number; the sensor-noise
+/// fit then met a 0/0 and nalgebra's SVD of it never returned (the run hung). Now every
+/// SVD is bounded (`ident::lsq::svd`): the run ends, with exit 2 and every method's reason.
+#[test]
+fn an_adc_range_of_1e_minus_300_ends_the_run_instead_of_hanging() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args([
+            "run",
+            "scenarios/sdof_duffing.toml",
+            "--out",
+            dir.path().to_str().unwrap(),
+        ])
+        .args([
+            "--set",
+            "measurement.displacement=0.01",
+            "--set",
+            "measurement.adc_bits=16",
+        ])
+        .args([
+            "--set",
+            "measurement.adc_range=1e-300",
+            "--set",
+            "simulation.record_length=50",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if std::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("the run did not end within 120 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(2), "{err}");
+    assert!(err.contains("weak"), "{err}");
+}

@@ -395,10 +395,10 @@ impl LocalLinear {
             }
         }
         let m = DMatrix::from_row_slice(r, r, &nrm);
-        m.svd(true, true)
-            .solve(&nalgebra::DVector::from_column_slice(&rhs), 1e-14)
+        super::lsq::svd(m, true, true)
+            .and_then(|s| s.solve(&nalgebra::DVector::from_column_slice(&rhs), 1e-14).ok())
             .map(|x| x.iter().copied().collect())
-            .unwrap_or_else(|_| vec![0.0; r])
+            .unwrap_or_else(|| vec![0.0; r])
     }
 
     /// The weight `W`: the inverse of the linearised model's conditional covariance over
@@ -579,8 +579,7 @@ fn sum(normals: &[Normal], r: usize) -> Normal {
 
 fn solve_normal(n: &Normal, r: usize) -> Option<Vec<f64>> {
     let m = DMatrix::from_row_slice(r, r, &n.n);
-    let x = m
-        .svd(true, true)
+    let x = super::lsq::svd(m, true, true)?
         .solve(&nalgebra::DVector::from_column_slice(&n.rhs), 1e-14)
         .ok()?;
     x.iter().all(|v| v.is_finite()).then(|| x.iter().copied().collect())

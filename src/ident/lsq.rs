@@ -2,10 +2,33 @@
 //! inverting the normal matrix), with rank, condition number, singular values and the
 //! weakest direction reported in every result.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Dyn, SymmetricEigen, SVD};
 
 /// Singular-value ratio below which columns count as linearly dependent (numerical rank).
 pub const RANK_TOL: f64 = 1e-9;
+
+/// Most iterations an SVD or a symmetric eigen-decomposition may take. A matrix of
+/// subnormal entries (data scaled by 1e-170, an ADC range of 1e-300) kept nalgebra's sweeps
+/// from ever converging; a well-scaled one of a few hundred columns takes a few thousand.
+pub const MAX_ITERATIONS: usize = 100_000;
+
+/// The SVD of `m`, or `None` where an entry is not finite or the iteration does not
+/// converge within [`MAX_ITERATIONS`]: every SVD of the identification goes through here,
+/// so none can hang (docs/reliability.md).
+pub fn svd(m: DMatrix<f64>, u: bool, v: bool) -> Option<SVD<f64, Dyn, Dyn>> {
+    if !m.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    SVD::try_new(m, u, v, f64::EPSILON, MAX_ITERATIONS)
+}
+
+/// The eigen-decomposition of the symmetric `m`, bounded as [`svd`] is.
+pub fn symmetric_eigen(m: DMatrix<f64>) -> Option<SymmetricEigen<f64, Dyn>> {
+    if !m.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    SymmetricEigen::try_new(m, f64::EPSILON, MAX_ITERATIONS)
+}
 
 /// Diagnostics of one least-squares solve.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -31,10 +54,10 @@ pub struct Diagnostics {
 /// diagnostics; `x` is the minimum-norm solution in scaled units when rank-deficient.
 pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>, Diagnostics) {
     let (rows, cols) = a.shape();
-    if !(a.iter().chain(b.iter()).all(|x| x.is_finite())) {
-        // The SVD of a non-finite matrix does not converge (or panics): report nothing
-        // determined. Callers check their equations first and say why (`Pieces::check_finite`).
-        return (
+    // Nothing determined: reported as rank 0. Callers check their equations first and say
+    // why (`Pieces::check_finite`).
+    let undetermined = || {
+        (
             DVector::from_element(cols, f64::NAN),
             Diagnostics {
                 rank: 0,
@@ -45,7 +68,10 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
                 singular_values: vec![f64::NAN; cols.min(rows)],
                 weakest_direction: vec![f64::NAN; cols],
             },
-        );
+        )
+    };
+    if !(a.iter().chain(b.iter()).all(|x| x.is_finite())) {
+        return undetermined();
     }
     // Unknown-magnitude scaling first (so directions are relative), then unit columns.
     let mut s = a.clone();
@@ -75,7 +101,9 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
     } else {
         (s, b.clone())
     };
-    let svd = s.svd(true, true);
+    let Some(svd) = svd(s, true, true) else {
+        return undetermined();
+    };
     let sv: Vec<f64> = svd.singular_values.iter().copied().collect();
     let mut order: Vec<usize> = (0..sv.len()).collect();
     order.sort_by(|&i, &j| sv[j].partial_cmp(&sv[i]).unwrap_or(std::cmp::Ordering::Equal));
@@ -122,4 +150,26 @@ pub fn solve(a: &DMatrix<f64>, b: &DVector<f64>, scale: &[f64]) -> (DVector<f64>
         weakest_direction: dir,
     };
     (x, diag)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Equations of subnormal magnitude (the moments of data scaled by 1e-170, or clipped
+    /// by an ADC range of 1e-300) once kept the SVD's sweeps from converging, and a run
+    /// hung; now the decomposition either converges or is reported as not converged.
+    #[test]
+    fn subnormal_equations_end_in_bounded_time() {
+        let a = DMatrix::from_fn(12, 4, |i, j| 1e-310 * (((i * 7 + j * 3) % 11) as f64 - 5.0));
+        let b = DVector::from_fn(12, |i, _| 1e-310 * (i as f64 - 6.0));
+        let (x, d) = solve(&a, &b, &[1.0; 4]);
+        assert!(x.len() == 4 && d.rank <= 4);
+        let _ = svd(a.clone(), true, true);
+        let _ = symmetric_eigen(a.transpose() * &a);
+        // Non-finite entries are refused before any sweep.
+        let mut bad = a;
+        bad[(0, 0)] = f64::NAN;
+        assert!(svd(bad, true, true).is_none());
+    }
 }

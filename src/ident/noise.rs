@@ -311,11 +311,9 @@ impl NoiseFloor {
                     };
                 }
             }
-            let bcoef = a
-                .clone()
-                .svd(true, true)
-                .solve(&b, 1e-12)
-                .unwrap_or_else(|_| DVector::zeros(POWERS.len()));
+            let bcoef = super::lsq::svd(a.clone(), true, true)
+                .and_then(|s| s.solve(&b, 1e-12).ok())
+                .unwrap_or_else(|| DVector::zeros(POWERS.len()));
             let signal_x = bcoef[0] * var_x;
             // −R''(0) = −2 a₂ = −2 b₂ sx² / h².
             let signal_v = -2.0 * bcoef[1] * var_x / (h * h);

@@ -486,7 +486,7 @@ pub fn weighting(residuals: nalgebra::DMatrix<f64>, counts: &[u64]) -> Option<na
             }
         }
     }
-    let eig = s.symmetric_eigen();
+    let eig = super::lsq::symmetric_eigen(s)?;
     let emax = eig.eigenvalues.max();
     if emax.is_nan() || emax <= 0.0 {
         return None;

@@ -289,7 +289,7 @@ fn fit(r: &[f64; LAGS + 1]) -> Option<(f64, f64, f64)> {
             a[(k - 1, c)] = (k as f64).powi(p);
         }
     }
-    let coef = a.svd(true, true).solve(&b, 1e-12).ok()?;
+    let coef = crate::ident::lsq::svd(a, true, true)?.solve(&b, 1e-12).ok()?;
     let signal = coef[0] * r[0];
     Some((r[0] - signal, signal, coef[1]))
 }
