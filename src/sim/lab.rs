@@ -21,7 +21,7 @@
 //! block of samples.
 
 use super::driven::Rk4;
-use super::sinks::{SampleBatch, SampleSink};
+use super::sinks::SampleSink;
 use super::{block_samples, divergence_cause, trajectory_seed, RunStats, SimError, DIVERGENCE_LIMIT};
 use crate::model::Model;
 use crate::scenario::{Process, Signal, Simulation};
@@ -275,24 +275,8 @@ pub fn simulate_lab(
                 Ok(out)
             })
             .collect::<Result<_, SimError>>()?;
-        // A batch the sink is done with is refilled (every value is overwritten).
-        let len = b * cols * per_k;
-        let mut batch = match sink.recycle() {
-            Some(mut r) if r.values.len() >= len => {
-                r.values.truncate(len);
-                r
-            }
-            _ => SampleBatch {
-                values: vec![0.0; len],
-                ..SampleBatch::default()
-            },
-        };
-        batch.columns = cols;
-        batch.trajectories = per_k;
-        batch.time.clear();
-        batch
-            .time
-            .extend((1..=b).map(|k| (done + k) as f64 * sim.sample_interval));
+        let times = (1..=b).map(|k| (done + k) as f64 * sim.sample_interval);
+        let mut batch = super::next_batch(sink, cols, per_k, times);
         for (j, o) in own.iter().enumerate() {
             for (kc, &y) in o.iter().enumerate() {
                 batch.values[kc * per_k + j] = y;

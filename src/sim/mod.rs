@@ -160,6 +160,29 @@ pub(crate) fn block_samples(steps_per_sample: usize, values_per_instant: usize, 
         .min(total.max(1))
 }
 
+/// The batch of the next block's instants `times`: one the sink has finished with, refilled
+/// as it is (every value is overwritten), or a new one of lazily zeroed memory, its pages
+/// first touched by whoever writes the samples into it.
+pub(crate) fn next_batch(
+    sink: &mut dyn SampleSink,
+    columns: usize,
+    trajectories: usize,
+    times: impl Iterator<Item = f64>,
+) -> SampleBatch {
+    let mut batch = sink.recycle().unwrap_or_default();
+    batch.time.clear();
+    batch.time.extend(times);
+    let len = batch.time.len() * columns * trajectories;
+    if batch.values.len() >= len {
+        batch.values.truncate(len);
+    } else {
+        batch.values = vec![0.0; len];
+    }
+    batch.columns = columns;
+    batch.trajectories = trajectories;
+    batch
+}
+
 /// Simulate every trajectory of `sim` and hand the samples to `sink`, block by block, in
 /// (time, trajectory) order. `progress` is called with the number of samples written so far.
 pub fn simulate(
@@ -297,24 +320,7 @@ pub(crate) fn simulate_padded<const D: usize>(
         let b = block.min(total - done);
         let t0 = done as f64 * interval;
         let per_k = sim.trajectories;
-        let len = b * cols * per_k;
-        // A batch the sink has finished with is refilled as it is (every value is
-        // overwritten); a new one is lazily zeroed memory, its pages first touched by the
-        // groups writing their samples, in parallel, straight into their parts of it.
-        let mut batch = match sink.recycle() {
-            Some(mut r) if r.values.len() >= len => {
-                r.values.truncate(len);
-                r
-            }
-            _ => SampleBatch {
-                values: vec![0.0; len],
-                ..SampleBatch::default()
-            },
-        };
-        batch.columns = cols;
-        batch.trajectories = per_k;
-        batch.time.clear();
-        batch.time.extend((1..=b).map(|k| (done + k) as f64 * interval));
+        let mut batch = next_batch(sink, cols, per_k, (1..=b).map(|k| (done + k) as f64 * interval));
         // Each group's lanes of each column at each instant: contiguous, so the batch
         // splits into disjoint slices, `b × cols` per group.
         let mut parts: Vec<Vec<&mut [f64]>> = groups.iter().map(|_| Vec::with_capacity(b * cols)).collect();
