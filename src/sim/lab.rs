@@ -9,8 +9,9 @@
 //! - a noise's lines have independent Gaussian cosine and sine amplitudes of variance
 //!   `2 S(ω_k) Δω` (`S` its two-sided density, `Δω` the grid's spacing): a Gaussian
 //!   process whose spectrum is `S` on the grid, exactly, up to the grid's Nyquist
-//!   frequency. Its period is the trajectory's whole length (burn-in and record), so it
-//!   does not repeat within a trajectory.
+//!   frequency. Its period is at least the trajectory's whole length (burn-in and record;
+//!   rounded up to a power of two of grid points), so it does not repeat within a
+//!   trajectory.
 //!
 //! The force is known at every stage point of the Runge–Kutta steps (the grid is half a
 //! step fine), so nothing is interpolated. The response is sampled at the sample
@@ -84,8 +85,11 @@ struct Grid {
 impl Grid {
     fn new(model: &Model, sim: &Simulation) -> Result<Grid, SimError> {
         let delta = sim.dt / sim.substeps as f64 / 2.0;
-        let whole =
-            2 * (sim.burn_in_steps() + sim.samples_per_trajectory() * sim.steps_per_sample()) * sim.substeps + 1;
+        // A noise's period: the trajectory's stage points, rounded up to a power of two (the
+        // radix-2 transform, in place, instead of Bluestein's three of twice the length).
+        let whole = (2 * (sim.burn_in_steps() + sim.samples_per_trajectory() * sim.steps_per_sample()) * sim.substeps
+            + 1)
+        .next_power_of_two();
         let points: Vec<usize> = model
             .excitations
             .iter()
