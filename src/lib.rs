@@ -39,6 +39,7 @@ pub mod estimators;
 pub mod ident;
 pub mod interrupt;
 pub mod io;
+pub mod method;
 pub mod model;
 pub mod pipeline;
 pub mod report;

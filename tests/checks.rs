@@ -172,15 +172,8 @@ fn a_multisine_force_read_as_first_order_is_refused_and_the_force_regression_sta
 #[test]
 fn an_ornstein_uhlenbeck_force_of_the_same_rig_is_not_rejected() {
     // dP = −B P dt + A dW, exact in each step, B = 20 1/s (near the mode's 31 rad/s).
-    let (a, b) = (200.0, 20.0);
-    let phi: f64 = (-b * STEP).exp();
-    let sd = a * ((1.0 - phi * phi) / (2.0 * b)).sqrt();
-    let mut u = Uniform(11);
-    let mut p = 0.0;
-    let table = rig_table(8, 60.0, |_| {
-        p = phi * p + sd * u.normal();
-        p
-    });
+    let b = 20.0;
+    let table = ou_table();
     let r = identify_table(&table);
     let f = &r.filters[0];
     let ratio = f.rms_log_residual / f.expected_rms_log_residual;
@@ -192,6 +185,46 @@ fn an_ornstein_uhlenbeck_force_of_the_same_rig_is_not_rejected() {
     let weak = row(&r, ReportMethod::Estimator(Method::Weak));
     assert_eq!(weak.outcome, Outcome::Estimated, "{:?}", weak.error);
     assert!((f.fitted_b / b - 1.0).abs() < 0.2, "B = {}", f.fitted_b);
+    // With its force modelled right, the weak form agrees with the force regression.
+    assert!(r.failed_checks.is_empty(), "{:?}", r.failed_checks);
+}
+
+/// The rig under an Ornstein–Uhlenbeck force, `dP = −B P dt + A dW` exact in each step,
+/// A = 200, B = 20 1/s (near the mode's 31 rad/s).
+fn ou_table() -> String {
+    let (a, b) = (200.0, 20.0);
+    let phi: f64 = (-b * STEP).exp();
+    let sd = a * ((1.0 - phi * phi) / (2.0 * b)).sqrt();
+    let mut u = Uniform(11);
+    let mut p = 0.0;
+    rig_table(8, 60.0, |_| {
+        p = phi * p + sd * u.normal();
+        p
+    })
+}
+
+#[test]
+fn a_coloured_force_declared_white_contradicts_the_force_regression_and_fails_the_run() {
+    // The OU force declared white at its low-frequency level σ = A/B: near the mode its
+    // density is (B² + ω²)/B² ≈ 3.5 times lower than declared, and the weak form's damping
+    // follows the declared level. The force regression reads the force itself.
+    let model = MODEL.replace(
+        "kind = \"filtered\"\nA = 1.0\nB = 1.0\n",
+        "kind = \"white\"\nsigma = 10.0\n",
+    );
+    let r = identify_with(&ou_table(), &model);
+    let weak = row(&r, ReportMethod::Estimator(Method::Weak));
+    assert_eq!(weak.outcome, Outcome::Estimated, "{:?}", weak.error);
+    assert_rig(row(&r, ReportMethod::Estimator(Method::ForceRegression)), 0.02, 0.1);
+    let failed: Vec<_> = r.failed_checks.iter().filter(|c| c.check == "agreement").collect();
+    assert_eq!(failed.len(), 1, "{:?}", r.failed_checks);
+    assert_eq!(failed[0].method, "weak");
+    assert!(
+        failed[0].message.contains("c1[ground-m1]") && failed[0].message.contains("force regression"),
+        "{}",
+        failed[0].message
+    );
+    assert!(!r.passed);
 }
 
 #[test]
@@ -211,6 +244,7 @@ fn a_multisine_flat_over_the_response_band_is_its_equivalent_white_noise() {
         "{level:?}"
     );
     assert_rig(row(&r, ReportMethod::Estimator(Method::Weak)), 0.03, 0.1);
+    assert!(r.failed_checks.is_empty(), "{:?}", r.failed_checks);
 }
 
 #[test]

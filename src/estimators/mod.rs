@@ -1,9 +1,8 @@
 //! Estimators as types. Each identification method is one type implementing [`Estimator`]:
 //! what it accumulates from the samples (in the pipeline's second pass, or a third one
-//! once the filters are fitted) and how it turns that into an [`Estimate`]. The registry
-//! at the bottom of this file is the one place a method is named: it defines [`Method`],
-//! its name (`FromStr`/`Display`, used by scenarios, the CLI, the Python binding, studies
-//! and reports), its kind and the constructor of its estimator.
+//! once the filters are fitted) and how it turns that into an [`Estimate`]. A method is
+//! named once, in the registry of `method.rs` ([`Method`], its name, kind and terms); the
+//! constructor of its estimator ([`Method::estimator`]) is made here from the same list.
 //!
 //! Adding a method is one file here and one line of the registry (docs/architecture.md).
 //! The numerics stay in `ident`; an estimator only holds accumulators and calls them.
@@ -22,8 +21,8 @@ use crate::ident::kernel::KernelOptions;
 use crate::ident::moments::RawMoments;
 use crate::ident::strong::GridOptions;
 use crate::ident::{Arenas, Estimate, IdentError, Problem};
+pub use crate::method::{Kind, Method, Terms};
 use crate::scenario::Scenario;
-use std::str::FromStr;
 use std::sync::Arc;
 
 /// How `strong` estimates the density.
@@ -150,16 +149,6 @@ pub trait Estimator: Accumulator {
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError>;
 }
 
-/// What a method is: an FPK estimator (the only kind a regression gate may hold), a
-/// baseline on the same samples, or an oracle bound that uses information the FPK
-/// methods never have.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
-    Fpk,
-    Baseline,
-    Oracle,
-}
-
 /// An estimator that cannot be built: its method's row reports why.
 pub(crate) fn refused(e: IdentError) -> Box<dyn Estimator> {
     struct Refused(IdentError);
@@ -174,47 +163,11 @@ pub(crate) fn refused(e: IdentError) -> Box<dyn Estimator> {
     Box::new(Refused(e))
 }
 
-/// Which characteristic terms an estimator takes: any [`crate::model::Term`] (through the
-/// generalised moments of [`crate::ident::Atom`]s), or only terms with a polynomial form.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Terms {
-    Any,
-    Polynomial,
-}
-
-macro_rules! registry {
-    ($( $(#[doc = $doc:literal])+ $variant:ident = $name:literal, $kind:ident, $terms:ident, $build:path; )+) => {
-        /// An identification method (`[identify] methods`, `--method`): one line of the
-        /// registry in `estimators/mod.rs`.
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-        pub enum Method {
-            $( $(#[doc = $doc])+ $variant, )+
-        }
-
+/// The constructor part of the registry (`method.rs`): each method's estimator, made by
+/// the `build` of the module its registry line names.
+macro_rules! constructors {
+    ($( $(#[doc = $doc:literal])+ $variant:ident = $name:literal, $kind:ident, $terms:ident, $module:ident; )+) => {
         impl Method {
-            /// Every method, in the registry's order.
-            pub const REGISTERED: &'static [Method] = &[$(Method::$variant),+];
-
-            /// The name scenarios, the CLI, Python and reports use.
-            pub fn name(self) -> &'static str {
-                match self { $(Method::$variant => $name,)+ }
-            }
-
-            /// An FPK estimator, a baseline or an oracle.
-            pub fn kind(self) -> Kind {
-                match self { $(Method::$variant => Kind::$kind,)+ }
-            }
-
-            /// One line on what it is (the first line of its registry entry's doc).
-            pub fn help(self) -> &'static str {
-                match self { $(Method::$variant => [$($doc),+][0].trim(),)+ }
-            }
-
-            /// Which terms it takes.
-            pub fn terms(self) -> Terms {
-                match self { $(Method::$variant => Terms::$terms,)+ }
-            }
-
             /// Its estimator, ready for the second pass (one that reports why not where
             /// the problem has terms it does not take).
             pub fn estimator(self, setup: &Setup) -> Box<dyn Estimator> {
@@ -235,116 +188,17 @@ macro_rules! registry {
                         names.join(", ")
                     )));
                 }
-                match self { $(Method::$variant => $build(setup),)+ }
+                match self { $(Method::$variant => $module::build(setup),)+ }
             }
         }
     };
 }
 
-registry! {
-    /// Weak form: stationarity of test-function expectations from raw moments (docs/theory.md §5).
-    Weak = "weak", Fpk, Any, weak::build;
-    /// Strong form: the paper's FPK residual (3.8) point by point, from kernel estimates of the
-    /// density and its fluxes (or the paper's histogram, `StrongDensity::Histogram`).
-    Strong = "strong", Fpk, Any, strong::build;
-    /// Strong form with the joint density replaced by the product of its marginals (3.21).
-    StrongMarginals = "strong-marginals", Fpk, Any, marginals::build;
-    /// Baseline (not FPK): regression of velocity increments on the drift (Euler pseudo-likelihood).
-    Increments = "increments", Baseline, Any, increments::build;
-    /// Baseline (not FPK): binned conditional mean increments (Kramers–Moyal), then the drift.
-    KramersMoyal = "kramers-moyal", Baseline, Polynomial, kramers_moyal::build;
-    /// Baseline (not FPK): the local-linearisation (Shoji–Ozaki) quasi-likelihood of the sample
-    /// pairs, exact in the interval for a linear system.
-    LocalLinear = "local-linear", Baseline, Polynomial, local_linear::build;
-    /// Oracle bound (not FPK): the equation error with the measured excitation forces.
-    ForceRegression = "force-regression", Oracle, Any, force_regression::build;
-}
-
-impl Method {
-    /// The methods a regression gate may hold: the FPK estimators, but for the paper's
-    /// product-of-marginals simplification (3.21), which is known to miss (by about 95 %
-    /// on the shipped two-mass and bushing cases) and is reported to show what it costs,
-    /// as a comparison: a gate on it would call a known failure "within".
-    pub fn gated() -> impl Iterator<Item = Method> {
-        Method::REGISTERED.iter().copied().filter(|m| m.is_gated())
-    }
-
-    /// Whether a regression gate holds it ([`Method::gated`]).
-    pub fn is_gated(self) -> bool {
-        self.kind() == Kind::Fpk && self != Method::StrongMarginals
-    }
-
-    /// Whether it is compared, never gated (a baseline or an oracle).
-    pub fn is_baseline(self) -> bool {
-        self.kind() != Kind::Fpk
-    }
-
-    /// Every name, for messages: `weak, strong, …`.
-    pub fn names() -> String {
-        Method::REGISTERED
-            .iter()
-            .map(|m| m.name())
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-}
-
-impl FromStr for Method {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Method, String> {
-        Method::REGISTERED
-            .iter()
-            .copied()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| format!("unknown method {s:?}: the methods are {}", Method::names()))
-    }
-}
-
-impl std::fmt::Display for Method {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.pad(self.name())
-    }
-}
-
-impl<'de> serde::Deserialize<'de> for Method {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Method, D::Error> {
-        let s = String::deserialize(d)?;
-        s.parse().map_err(|_| {
-            let names: Vec<String> = Method::REGISTERED.iter().map(|m| format!("`{}`", m.name())).collect();
-            serde::de::Error::custom(format!("unknown method `{s}`, expected one of {}", names.join(", ")))
-        })
-    }
-}
-
-impl serde::Serialize for Method {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.name())
-    }
-}
+crate::method::registry!(constructors);
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn every_method_round_trips_through_its_name() {
-        for &m in Method::REGISTERED {
-            assert_eq!(m.name().parse::<Method>(), Ok(m));
-            assert_eq!(m.to_string(), m.name());
-            assert!(!m.help().is_empty() && !m.help().contains('\n'), "{m}: {:?}", m.help());
-        }
-        let err = "Weak".parse::<Method>().unwrap_err();
-        assert!(err.contains("weak, strong, strong-marginals"), "{err}");
-        let names: std::collections::BTreeSet<_> = Method::REGISTERED.iter().map(|m| m.name()).collect();
-        assert_eq!(names.len(), Method::REGISTERED.len(), "a name is registered twice");
-    }
-
-    #[test]
-    fn only_fpk_estimators_are_gated() {
-        let gated: Vec<_> = Method::gated().collect();
-        assert_eq!(gated, [Method::Weak, Method::Strong]);
-        assert!(Method::ForceRegression.is_baseline() && Method::Increments.is_baseline());
-    }
 
     /// On a problem with terms entered as atoms (the way of a term without a polynomial
     /// form), the weak and strong forms estimate and every method that evaluates

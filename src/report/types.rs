@@ -561,7 +561,7 @@ pub struct Timings {
 /// A check of the method's own premises that failed (docs/methods.md, "Checks").
 #[derive(Debug, Clone, Serialize)]
 pub struct FailedCheck {
-    /// `dissipativity` or `validation`.
+    /// `dissipativity`, `validation` or `agreement` (docs/methods.md, "Checks").
     pub check: &'static str,
     /// The method whose result failed it.
     pub method: String,

@@ -100,8 +100,8 @@ impl Scheme {
 }
 
 /// Identification methods are named by the estimators' registry (`estimators/mod.rs`).
-pub use crate::estimators::Method;
-pub use rig::MassSensors;
+pub use crate::method::Method;
+pub use rig::{MassSensors, MIN_OVERSAMPLING};
 pub use signal::Signal;
 
 // ---------------------------------------------------------------------------------------

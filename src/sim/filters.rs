@@ -6,9 +6,9 @@
 //! An analogue filter acts on the continuous signal before it is sampled. The simulator
 //! stands in for it by sampling the motion `R` times faster than the log (`R`, the
 //! oversampling, is the smallest divisor of the integration steps per sample that is at
-//! least [`MIN_OVERSAMPLING`]), running the filters at that rate (bilinear transform with
-//! the corners prewarped, so they sit exactly where stated), and keeping every `R`-th
-//! output. The fast samples are the simulator's own (interval-mean accelerations and
+//! least [`crate::scenario::MIN_OVERSAMPLING`]), running the filters at that rate
+//! (bilinear transform with the corners prewarped, so they sit exactly where stated), and
+//! keeping every `R`-th output. The fast samples are the simulator's own (interval-mean accelerations and
 //! white-force impulses over the fast interval), so a white force cell's logged variance is
 //! exactly `σ²/h_fast · Σ g_n²` over the filter's impulse response `g`.
 //!
@@ -20,9 +20,6 @@
 //! corners.
 
 use crate::scenario::Sensors;
-
-/// The fast rate is at least this many times the log's.
-pub const MIN_OVERSAMPLING: usize = 8;
 
 /// One second-order section, transposed direct form II: `y = b0 u + s1`,
 /// `s1' = b1 u − a1 y + s2`, `s2' = b2 u − a2 y`.
@@ -99,17 +96,11 @@ pub(crate) struct SensorFilter {
 impl SensorFilter {
     /// The filters `sensors` state for a log sampled every `interval` s with `steps`
     /// integration steps per sample; `None` without filters. `Err`: the steps cannot
-    /// carry the filters (fewer than [`MIN_OVERSAMPLING`]), or a corner is beyond what the
-    /// fast rate resolves (a fifth of it).
+    /// carry the filters, or a corner is beyond what the fast rate resolves
+    /// (`Sensors::filter_oversampling`).
     pub(crate) fn new(sensors: &Sensors, interval: f64, steps: usize) -> Result<Option<SensorFilter>, String> {
-        if sensors.anti_alias.is_none() && sensors.bandwidth.is_none() {
+        let Some(oversampling) = sensors.filter_oversampling(interval, steps)? else {
             return Ok(None);
-        }
-        let Some(oversampling) = (MIN_OVERSAMPLING..=steps).find(|r| steps.is_multiple_of(*r)) else {
-            return Err(format!(
-                "the filters run on the motion sampled at least {MIN_OVERSAMPLING} times faster than the log, and \
-                 a sample interval is {steps} integration steps: make dt at most sample_interval / {MIN_OVERSAMPLING}"
-            ));
         };
         let fast = oversampling as f64 / interval;
         let mut sections = Vec::new();
@@ -117,14 +108,6 @@ impl SensorFilter {
             sections.extend(butterworth(aa.order, aa.corner / oversampling as f64));
         }
         if let Some(b) = sensors.bandwidth {
-            if b * 5.0 > fast {
-                return Err(format!(
-                    "a sensor bandwidth of {b} Hz is beyond what the simulation resolves (the filters run at \
-                     {fast} Hz and resolve up to a fifth of it, {} Hz): a sensor that fast is ideal here, leave \
-                     `bandwidth` out, or make dt smaller",
-                    fast / 5.0
-                ));
-            }
             sections.extend(butterworth(2, b / fast));
         }
         Ok(Some(SensorFilter { sections, oversampling }))

@@ -1,20 +1,40 @@
 //! Stage "verdict": the checks of the method's own premises, which fail a run (exit 1)
 //! whatever its gates say (docs/methods.md, "Checks"):
-//! - **dissipativity**: a gated FPK estimate whose stiffness or damping is not dissipative
-//!   over the observed range (3.4), (3.16)–(3.17) describes a system with no stationary
-//!   density, which the method assumed to identify it;
+//! - **dissipativity**: an FPK estimate (of a method a gate may hold, graded or not: measured
+//!   data carry no gate) whose stiffness or damping is not dissipative over the observed
+//!   range (3.4), (3.16)–(3.17) describes a system with no stationary density, which the
+//!   method assumed to identify it;
 //! - **validation**, on measured data (where no truth grades the estimates): the identified
 //!   model re-simulated does not reproduce the data's distributions and spectra. On
 //!   simulations the gates grade the estimates against the truth, and the validation's
 //!   verdict stays a finding (a hysteretic truth or an unmeasured disturbance is expected
-//!   to miss).
+//!   to miss);
+//! - **agreement**, on measured data where the force regression ran beside a gated FPK
+//!   estimate: a coefficient of the FPK estimate differs from the regression's on the same
+//!   samples by more than [`AGREEMENT_SE`] combined standard errors and [`AGREEMENT_SHARE`]
+//!   of the regression's value. Both read the same model; the regression reads the measured
+//!   force itself, the FPK estimate only the force's spectral model, so one of them does
+//!   not describe the data (most often the force is not the noise declared, and the density
+//!   the FPK estimate stands on does not follow from it).
 
 use super::super::PipelineError;
 use super::Identification;
-use crate::report::{FailedCheck, Outcome};
+use crate::method::Method;
+use crate::report::{FailedCheck, MethodReport, Outcome};
+use crate::scenario::ReportMethod;
+
+/// Combined standard errors a coefficient's difference must exceed to fail the agreement
+/// check: for unbiased estimates the chance of one such difference is about 6·10⁻⁵.
+pub const AGREEMENT_SE: f64 = 4.0;
+
+/// Share of the force regression's value a difference must also exceed: above the two
+/// methods' known systematic differences on a right model (the weak form's −2 % on the
+/// stiffness under a band edge at three times the mode, the regression's −10 % on the
+/// damping from derived accelerations at coarse sampling; docs/methods.md, "Checks").
+pub const AGREEMENT_SHARE: f64 = 0.15;
 
 pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
-    for row in id.rows.iter().filter(|r| r.gated && r.outcome == Outcome::Estimated) {
+    for row in id.rows.iter().filter(|r| fpk_estimate(r)) {
         for d in row.dissipativity.iter().filter(|d| !d.holds) {
             id.failed_checks.push(FailedCheck {
                 check: "dissipativity",
@@ -35,6 +55,65 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
                 message: v.verdict().unwrap_or_default(),
             });
         }
+        agreement(id);
     }
     Ok(())
+}
+
+/// Whether a row is an estimate of a gated FPK method — whether or not a truth grades it
+/// (measured data have none, and their rows carry no gate).
+fn fpk_estimate(row: &MethodReport) -> bool {
+    matches!(row.method, ReportMethod::Estimator(m) if m.is_gated()) && row.outcome == Outcome::Estimated
+}
+
+/// The agreement check: every gated FPK estimate's coefficients against the force
+/// regression's on the same samples.
+fn agreement(id: &mut Identification) {
+    let estimated = |m: &MethodReport| m.outcome == Outcome::Estimated;
+    let Some(regression) = id
+        .rows
+        .iter()
+        .find(|r| r.method == ReportMethod::Estimator(Method::ForceRegression) && estimated(r))
+    else {
+        return;
+    };
+    let mut failed = Vec::new();
+    for row in id.rows.iter().filter(|r| fpk_estimate(r)) {
+        let differences: Vec<String> =
+            row.parameters
+                .iter()
+                .filter_map(|p| {
+                    let q = regression.parameters.iter().find(|q| q.name == p.name)?;
+                    let (d, se) = (p.estimate - q.estimate, p.std_error.hypot(q.std_error));
+                    (se.is_finite() && d.abs() > AGREEMENT_SE * se && d.abs() > AGREEMENT_SHARE * q.estimate.abs())
+                        .then(|| {
+                            format!(
+                                "{} {:.5e} ± {:.2e} against {:.5e} ± {:.2e} ({:+.1} %, {:.1} standard errors)",
+                                p.name,
+                                p.estimate,
+                                p.std_error,
+                                q.estimate,
+                                q.std_error,
+                                100.0 * d / q.estimate.abs(),
+                                d.abs() / se
+                            )
+                        })
+                })
+                .collect();
+        if !differences.is_empty() {
+            failed.push(FailedCheck {
+                check: "agreement",
+                method: row.method.to_string(),
+                message: format!(
+                    "the estimate contradicts the force regression on the same samples: {} — both read the \
+                     same model, the regression with the measured force, this estimate with the force's spectral \
+                     model, so one of them does not describe these data: a force that is not the white or \
+                     filtered noise declared, an offset in a measured column (`[data] remove_mean`), or a term \
+                     the model lacks",
+                    differences.join("; ")
+                ),
+            });
+        }
+    }
+    id.failed_checks.extend(failed);
 }

@@ -168,7 +168,8 @@ fn check_anti_alias(loc: &Locator, m: &RawMeasurement) -> Result<Option<AntiAlia
 }
 
 /// The sensors' filters are a simulated rig's (measured data carry theirs already), and
-/// the simulation's steps must carry them (`sim::filters::SensorFilter::new`).
+/// the simulation's steps must carry them (`Sensors::filter_oversampling`, as the simulator
+/// will run them).
 pub(crate) fn check_sensor_filters(
     loc: &Locator,
     raw: &RawScenario,
@@ -189,7 +190,8 @@ pub(crate) fn check_sensor_filters(
              filters already: leave anti_alias and bandwidth out of a model file",
         ));
     }
-    crate::sim::filters::SensorFilter::new(&sim.sensors, sim.sample_interval, sim.steps_per_sample() * sim.substeps)
+    sim.sensors
+        .filter_oversampling(sim.sample_interval, sim.steps_per_sample() * sim.substeps)
         .map(|_| ())
         .map_err(|e| loc.at(span, key, e))
 }
