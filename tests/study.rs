@@ -80,6 +80,24 @@ fn shards_give_the_rows_of_one_run_and_merge_refuses_conflicts() {
     whole.sort_by_key(|r| (r.item.index, r.method.clone()));
     assert_eq!(whole.len(), 8);
     assert_eq!(whole, parts, "the same rows whatever the sharding");
+    // Two shards of three: the merge says which items are missing and refuses, unless
+    // --partial, which summarizes what is there and says so.
+    let two = |extra: &[&str]| {
+        let out = tmp.path().join("ab");
+        let mut args = vec!["study", "merge", a.to_str().unwrap(), b.to_str().unwrap()];
+        args.extend(["--out", out.to_str().unwrap()]);
+        args.extend(extra);
+        (fpk(&args), out)
+    };
+    let (o, ab) = two(&[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("1 of the study's 4 items are missing (items 2)"), "{err}");
+    assert!(!ab.join("summary.json").exists(), "no summary that looks complete");
+    let (o, ab) = two(&["--partial"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(ab.join("summary.md")).unwrap();
+    assert!(md.contains("**Partial**: 1 of the study's 4 items are missing"), "{md}");
     // A re-run does nothing new.
     let o = fpk(&["study", &file, "--out", one.to_str().unwrap()]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("4 already done"));

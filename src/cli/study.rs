@@ -150,6 +150,10 @@ pub enum Merge {
         /// `reference`).
         #[arg(long)]
         reference: Option<String>,
+        /// Summarize even when items of the study are missing (a shard not run or not
+        /// copied): the summary says which. Without it such a merge is refused (exit 2).
+        #[arg(long)]
+        partial: bool,
     },
 }
 
@@ -188,7 +192,15 @@ fn item_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
 
 /// summary.json, summary.md, study.html and study.svg (.png, .pdf) of `rows` into `dir` (with the paired
 /// differences from `reference`, if given).
-fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) -> anyhow::Result<()> {
+/// The summary of `rows` in `dir`; `note` (a partial merge's) goes under the title and into
+/// summary.json.
+fn write_summary(
+    name: &str,
+    rows: &[Row],
+    dir: &Path,
+    reference: Option<&str>,
+    note: Option<&str>,
+) -> anyhow::Result<()> {
     let summary = summarize(rows);
     let paired = reference.map_or(Vec::new(), |r| study::paired(rows, r));
     if let Some(r) = reference {
@@ -198,9 +210,14 @@ fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) 
     }
     write_atomic(
         &dir.join("summary.json"),
-        serde_json::to_string_pretty(&serde_json::json!({ "summary": summary, "paired": paired }))?.as_bytes(),
+        serde_json::to_string_pretty(&serde_json::json!({ "summary": summary, "paired": paired, "note": note }))?
+            .as_bytes(),
     )?;
-    let markdown = study_markdown(name, rows.len(), &summary, &paired);
+    let mut markdown = study_markdown(name, rows.len(), &summary, &paired);
+    if let Some(n) = note {
+        let title = markdown.find("\n\n").map_or(0, |i| i + 2);
+        markdown.insert_str(title, &format!("{n}\n\n"));
+    }
     plot_study(&summary, rows, &dir.join("study.svg")).map_err(|e| anyhow::anyhow!("study.svg: {e}"))?;
     write_atomic(&dir.join("summary.md"), markdown.as_bytes())?;
     let html = fpkbench::report::html::page(&format!("fpkbench study: {name}"), &markdown, dir)?;
@@ -222,8 +239,14 @@ fn write_summary(name: &str, rows: &[Row], dir: &Path, reference: Option<&str>) 
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    if let Some(Merge::Merge { dirs, out, reference }) = &args.merge {
-        merge(dirs, out.as_deref(), reference.as_deref())?;
+    if let Some(Merge::Merge {
+        dirs,
+        out,
+        reference,
+        partial,
+    }) = &args.merge
+    {
+        merge(dirs, out.as_deref(), reference.as_deref(), *partial)?;
         return Ok(ExitCode::SUCCESS);
     }
     let Some(study) = study_of(&args)? else {
@@ -299,7 +322,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let files = item_files(&dir)?;
     if files.len() == all.len() {
         let rows = gather(&files).map_err(|e| anyhow::anyhow!(e))?;
-        write_summary(&study.name, &rows, &dir, study.file.reference.as_deref())?;
+        write_summary(&study.name, &rows, &dir, study.file.reference.as_deref(), None)?;
     } else {
         eprintln!(
             "{} of {} items are in {}; the summary is written when all are (or by `fpkbench study merge`)",
@@ -326,8 +349,8 @@ fn declares_select(scenario: &Path, set: &[String]) -> bool {
 }
 
 /// `fpkbench study merge`: the summary of the items in `dirs`, written to `out` (the first
-/// folder when not given).
-fn merge(dirs: &[PathBuf], out: Option<&Path>, reference: Option<&str>) -> anyhow::Result<()> {
+/// folder when not given); refused where items of the study are missing, unless `partial`.
+fn merge(dirs: &[PathBuf], out: Option<&Path>, reference: Option<&str>, partial: bool) -> anyhow::Result<()> {
     let files = dirs
         .iter()
         .map(|d| item_files(d))
@@ -343,10 +366,37 @@ fn merge(dirs: &[PathBuf], out: Option<&Path>, reference: Option<&str>) -> anyho
         );
     }
     let rows = gather(&files).map_err(|e| anyhow::anyhow!(e))?;
+    let note = match study::missing_items(&rows) {
+        None => {
+            eprintln!(
+                "these rows do not record how many items their study has (written by an older fpkbench): \
+                 whether a shard is missing cannot be told"
+            );
+            None
+        }
+        Some((_, missing)) if missing.is_empty() => None,
+        Some((of, missing)) => {
+            let what = format!(
+                "{} of the study's {of} items are missing (items {})",
+                missing.len(),
+                study::item_list(&missing)
+            );
+            if !partial {
+                anyhow::bail!(
+                    "{what}: a shard was not run or not copied here; run it (fpkbench study STUDY.toml \
+                     --shard I/N) and merge again, or summarize what is here with --partial"
+                );
+            }
+            eprintln!("partial summary: {what}");
+            Some(format!(
+                "**Partial**: {what}; the statistics are over the items present."
+            ))
+        }
+    };
     let dir = out.map_or_else(|| dirs[0].clone(), Path::to_path_buf);
     std::fs::create_dir_all(&dir).map_err(|e| at(&dir, "creating the summary folder", e))?;
     let name = dir.file_name().and_then(|n| n.to_str()).unwrap_or("study").to_string();
-    write_summary(&name, &rows, &dir, reference)?;
+    write_summary(&name, &rows, &dir, reference, note.as_deref())?;
     Ok(())
 }
 

@@ -208,10 +208,15 @@ impl Study {
                             sensor_noise,
                             seed_index: s,
                             seed,
+                            of: 0,
                         });
                     }
                 }
             }
+        }
+        let n = out.len();
+        for i in &mut out {
+            i.of = n;
         }
         out
     }
@@ -505,6 +510,26 @@ pub fn shard_from(
 
 /// Rows gathered from item files: duplicates of one item and method must agree exactly
 /// (the same study run twice); a conflict or a row of another study is refused.
+/// The items of the study that `rows` lack: the study's item count and the missing
+/// items' numbers; `None` where the rows do not record the count (written before it was).
+pub fn missing_items(rows: &[Row]) -> Option<(usize, Vec<usize>)> {
+    let of = rows.iter().map(|r| r.item.of).max().filter(|&n| n > 0)?;
+    let mut present = vec![false; of];
+    for r in rows.iter().filter(|r| r.item.index < of) {
+        present[r.item.index] = true;
+    }
+    Some((of, (0..of).filter(|&i| !present[i]).collect()))
+}
+
+/// `missing` item numbers as a short list: the first ten, then how many more.
+pub fn item_list(missing: &[usize]) -> String {
+    let shown: Vec<String> = missing.iter().take(10).map(|i| i.to_string()).collect();
+    match missing.len() {
+        n if n > 10 => format!("{}, … ({} more)", shown.join(", "), n - 10),
+        _ => shown.join(", "),
+    }
+}
+
 pub fn gather(files: &[PathBuf]) -> Result<Vec<Row>, String> {
     let mut rows: Vec<Row> = Vec::new();
     let mut study: Option<String> = None;
@@ -582,6 +607,7 @@ mod tests {
                 sensor_noise: None,
                 seed_index: index,
                 seed: index as u64,
+                of: 0,
             },
             method: method.into(),
             outcome: Outcome::Estimated,

@@ -20,6 +20,10 @@ pub struct Item {
     pub sensor_noise: Option<f64>,
     pub seed_index: usize,
     pub seed: u64,
+    /// How many items the whole study has (0 in rows written before it was recorded), so
+    /// that a merge can tell a missing shard.
+    #[serde(default)]
+    pub of: usize,
 }
 
 impl Item {
