@@ -10,10 +10,10 @@
 
 use criterion::{Criterion, Throughput};
 use fpkbench::ident::data::StationaryData;
-use fpkbench::ident::kernel::{FluxLattice, KernelOptions};
 use fpkbench::ident::moments::RawMoments;
 use fpkbench::ident::poly::Compiled;
-use fpkbench::ident::strong::{DensityGrid, GridOptions};
+use fpkbench::ident::strong_histogram::{DensityGrid, GridOptions};
+use fpkbench::ident::strong_kernel::{FluxLattice, KernelOptions};
 use fpkbench::ident::{weak, Problem};
 use fpkbench::sim::{simulate, Collect};
 use fpkbench::{Model, Scenario};

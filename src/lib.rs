@@ -43,6 +43,7 @@ pub mod method;
 pub mod model;
 pub mod pipeline;
 pub mod report;
+#[warn(missing_docs)]
 pub mod scenario;
 pub mod sim;
 pub mod stats;

@@ -72,7 +72,7 @@ fn sdof_density(y: &[f64]) -> f64 {
 
 /// Exact SDOF Duffing density (linear damping) on a grid of `bins²` cells over ±4.5 std.
 fn sdof_strong_errors(bins: usize) -> Vec<f64> {
-    use fpkbench::ident::strong::DensityGrid;
+    use fpkbench::ident::strong_histogram::DensityGrid;
     let s = sdof_duffing("");
     let p = Problem::new(&s).unwrap();
     let mom = sdof_exact(6);
@@ -528,7 +528,7 @@ fn a_strong_form_from_too_few_cells_is_flagged_and_the_grid_follows_the_sample_c
 /// SDOF Duffing density: the relative errors of the three unknowns at kernel width
 /// `smoothing` (standard deviations).
 fn sdof_kernel_errors(smoothing: f64) -> Vec<f64> {
-    use fpkbench::ident::kernel::{FluxLattice, KernelOptions};
+    use fpkbench::ident::strong_kernel::{FluxLattice, KernelOptions};
     let s = sdof_duffing("");
     let p = Problem::new(&s).unwrap();
     let mom = sdof_exact(6);
@@ -564,7 +564,7 @@ fn kernel_strong_form_with_jackknife_groups_equals_the_form_without() {
     // their sum; without, into the record's `f64` lattice directly. Both must give the same
     // estimates up to `f32` rounding: far below the standard errors (a group lost or counted
     // twice would move them by about a quarter of one).
-    use fpkbench::ident::kernel::{FluxLattice, KernelOptions};
+    use fpkbench::ident::strong_kernel::{FluxLattice, KernelOptions};
     let s = sdof_duffing("");
     let p = Problem::new(&s).unwrap();
     let mom = sdof_exact(6);
@@ -611,7 +611,7 @@ fn kernel_strong_form_with_jackknife_groups_equals_the_form_without() {
 fn marginals_only_grid_gives_the_joint_grids_product_of_marginals_bit_for_bit() {
     // `strong-marginals` needs the marginals only: a grid that skips the joint histogram
     // (and its batches' copies) must give the same estimate and standard errors exactly.
-    use fpkbench::ident::strong::{DensityGrid, GridOptions};
+    use fpkbench::ident::strong_histogram::{DensityGrid, GridOptions};
     let s = sdof_duffing("");
     let p = Problem::new(&s).unwrap();
     let mom = sdof_exact(6);

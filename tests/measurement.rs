@@ -528,7 +528,7 @@ fn a_force_cells_noise_floor_is_taken_out_of_the_spectral_fit() {
 /// The SDOF Duffing oscillator (32 × 3125 s every 0.1 s) behind an anti-alias filter at
 /// 0.4 of the sampling rate (fourth-order Butterworth, 4 Hz, eight times the oscillator's
 /// frequency): the filter takes the white-forced velocity's tail above 4 Hz out, 1.3 % of
-/// its variance (`sim::filters`, `white_velocity_loss`). Put back into the weak form's
+/// its variance (`sim::sensor_filters`, `white_velocity_loss`). Put back into the weak form's
 /// moments, every estimate is within 4 standard errors of the truth (seeds 1–3: |z| at
 /// most 2.8); with `sensor_noise = "ignore"` nothing is put back, the velocity's lost
 /// variance reads as softer stiffness (k1 −0.8 to −1.2 %, z from −3.9 to −6.2), and every

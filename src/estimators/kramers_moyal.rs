@@ -4,7 +4,7 @@
 use super::{refused, Context, Estimator, Setup};
 use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::baseline::{self, KramersMoyal};
-use crate::ident::strong::GridOptions;
+use crate::ident::strong_histogram::GridOptions;
 use crate::ident::{Estimate, IdentError};
 
 pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {

@@ -17,9 +17,9 @@ mod weak;
 
 use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::data::StationaryData;
-use crate::ident::kernel::KernelOptions;
 use crate::ident::moments::RawMoments;
-use crate::ident::strong::GridOptions;
+use crate::ident::strong_histogram::GridOptions;
+use crate::ident::strong_kernel::KernelOptions;
 use crate::ident::{Arenas, Estimate, IdentError, Problem};
 pub use crate::method::{Kind, Method, Terms};
 use crate::scenario::Scenario;
@@ -29,11 +29,11 @@ use std::sync::Arc;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum StrongDensity {
     /// Gaussian kernel estimates of the density and of every probability flux
-    /// (`ident::kernel`, docs/methods.md).
+    /// (`ident::strong_kernel`, docs/methods.md).
     #[default]
     Kernel,
     /// The paper's procedure as written: a histogram and central differences
-    /// (`ident::strong`).
+    /// (`ident::strong_histogram`).
     Histogram,
 }
 

@@ -1,23 +1,23 @@
 //! The strong form: the paper's FPK residual (3.8) point by point, least squares
 //! (3.13)–(3.15). By default from kernel estimates of the density and of its probability
-//! fluxes on a lattice (`ident::kernel`); with [`StrongDensity::Histogram`] from the
-//! paper's histogram and central differences (`ident::strong`).
+//! fluxes on a lattice (`ident::strong_kernel`); with [`StrongDensity::Histogram`] from the
+//! paper's histogram and central differences (`ident::strong_histogram`).
 
 use super::{refused, Context, Estimator, Setup, StrongDensity};
 use crate::ident::accumulate::{Accumulator, Sample};
-use crate::ident::kernel::FluxLattice;
-use crate::ident::strong::{self, DensityGrid};
+use crate::ident::strong_histogram::{self, DensityGrid};
+use crate::ident::strong_kernel::FluxLattice;
 use crate::ident::{self, Estimate, IdentError, Problem};
 
 pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
     match setup.settings.density {
-        StrongDensity::Kernel => Box::new(Kernel {
+        StrongDensity::Kernel => Box::new(KernelStrong {
             // Without filtered forces the problem is known now, and the lattice fills in
             // the second pass; with them, once the filters are fitted.
             lattice: setup.whitened.is_none().then(|| lattice(setup, setup.structure)),
         }),
         StrongDensity::Histogram => match grid(setup, true) {
-            Ok(g) => Box::new(Histogram {
+            Ok(g) => Box::new(HistogramStrong {
                 grid: g,
                 marginals: false,
             }),
@@ -39,7 +39,7 @@ fn lattice(setup: &Setup, problem: &Problem) -> Result<FluxLattice, IdentError> 
 pub(super) fn grid(setup: &Setup, joint: bool) -> Result<DensityGrid, IdentError> {
     let (dim, count) = (setup.structure.density_dim(), setup.total.count);
     if !setup.settings.grid.is_set() {
-        strong::applicable(dim, count).map_err(IdentError::NotApplicable)?;
+        strong_histogram::applicable(dim, count).map_err(IdentError::NotApplicable)?;
     }
     let g = DensityGrid::new(setup.structure, setup.total, setup.settings.grid.resolve(dim, count))?;
     Ok(if joint { g } else { g.marginals_only() }.with_batches(setup.data.batch_count()))
@@ -51,12 +51,12 @@ fn bilinear_refused() -> IdentError {
     )
 }
 
-struct Kernel {
+struct KernelStrong {
     /// `None` until the filters are fitted (filtered forces only).
     lattice: Option<Result<FluxLattice, IdentError>>,
 }
 
-impl Accumulator for Kernel {
+impl Accumulator for KernelStrong {
     fn push(&mut self, s: &Sample) {
         let Sample { batch, row, .. } = *s;
         if let Some(Ok(l)) = self.lattice.as_mut() {
@@ -71,7 +71,7 @@ impl Accumulator for Kernel {
     }
 }
 
-impl Estimator for Kernel {
+impl Estimator for KernelStrong {
     fn needs_pass(&mut self, problem: &Problem, setup: &Setup) -> bool {
         if self.lattice.is_some() {
             return false;
@@ -96,12 +96,12 @@ impl Estimator for Kernel {
 
 /// The histogram forms: the paper's strong form as written, or (`marginals`) the product
 /// of the marginal densities (3.21).
-pub(super) struct Histogram {
+pub(super) struct HistogramStrong {
     pub(super) grid: DensityGrid,
     pub(super) marginals: bool,
 }
 
-impl Accumulator for Histogram {
+impl Accumulator for HistogramStrong {
     fn push(&mut self, s: &Sample) {
         let Sample { batch, row, .. } = *s;
         self.grid.push_in(batch, row);
@@ -112,7 +112,7 @@ impl Accumulator for Histogram {
     }
 }
 
-impl Estimator for Histogram {
+impl Estimator for HistogramStrong {
     fn estimate(&self, cx: &Context) -> Result<Estimate, IdentError> {
         if cx.bilinear {
             return Err(bilinear_refused());

@@ -2,7 +2,7 @@
 //! batches, and identifiability measured (rank, singular values, spread over batches)
 //! before any number is reported (`docs/theory.md` §6).
 
-use super::{data, kernel, lsq, moments, strong, weak, IdentError, Pieces, Problem};
+use super::{data, lsq, moments, strong_histogram, strong_kernel, weak, IdentError, Pieces, Problem};
 use crate::model::UnknownName;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -261,7 +261,7 @@ pub(crate) fn efficient_weight(
 /// `marginals`, from the product of its marginals (3.21).
 pub fn identify_strong(
     problem: &Problem,
-    grid: &strong::DensityGrid,
+    grid: &strong_histogram::DensityGrid,
     marginals: bool,
     typical: &[f64],
 ) -> Result<Estimate, IdentError> {
@@ -275,7 +275,7 @@ pub fn identify_strong(
     // Standard errors: the jackknife over the weak form's batches (the grid without each).
     let method = if marginals { "strong-marginals" } else { "strong" };
     let replicates: Vec<Vec<f64>> = {
-        let grids: Vec<strong::DensityGrid> = grid.leave_one_out().collect();
+        let grids: Vec<strong_histogram::DensityGrid> = grid.leave_one_out().collect();
         grids
             .par_iter()
             .map(|g| {
@@ -295,7 +295,7 @@ pub fn identify_strong(
             problem.unknowns.len()
         ));
     }
-    let default_bins = strong::GridOptions::auto(grid.dim, u64::MAX).bins;
+    let default_bins = strong_histogram::GridOptions::auto(grid.dim, u64::MAX).bins;
     if grid.options.bins < default_bins {
         warnings.push(format!(
             "the grid is coarser than the default ({} bins per dimension against {default_bins}) for want of samples: \
@@ -351,10 +351,10 @@ pub fn identify_strong(
 }
 
 /// The strong-form estimate from kernel estimates of the density and its fluxes
-/// ([`kernel`], the default `strong`).
+/// ([`strong_kernel`], the default `strong`).
 pub fn identify_kernel(
     problem: &Problem,
-    lattice: &kernel::FluxLattice,
+    lattice: &strong_kernel::FluxLattice,
     typical: &[f64],
 ) -> Result<Estimate, IdentError> {
     let (pc, replicates, rows) = lattice.pieces(problem);

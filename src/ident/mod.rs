@@ -6,7 +6,7 @@
 //!   unknown, the drift split into a known part and unknown features, human-readable names;
 //! - the **accumulators and residuals** that turn data into the pieces of a residual that
 //!   is linear in the coefficients — the weak form ([`weak`], from raw moments), the strong
-//!   form ([`kernel`] from kernel estimates of the density and its fluxes, [`strong`] from
+//!   form ([`strong_kernel`] from kernel estimates of the density and its fluxes, [`strong_histogram`] from
 //!   the paper's histogram), the baselines ([`baseline`]);
 //! - **least squares with diagnostics** ([`lsq`]) and Gauss–Newton for unknown masses and
 //!   intensities, with identifiability measured, never assumed.
@@ -31,7 +31,6 @@ pub mod baseline;
 pub mod data;
 pub mod disturbance;
 pub mod fisher;
-pub mod kernel;
 pub mod local_linear;
 pub mod lsq;
 pub mod moments;
@@ -39,7 +38,8 @@ pub mod noise;
 pub mod poly;
 pub mod select;
 pub mod spectrum;
-pub mod strong;
+pub mod strong_histogram;
+pub mod strong_kernel;
 pub mod weak;
 
 use crate::model::UnknownName;

@@ -2,7 +2,8 @@
 //! both sequences (the paper's spectral single-mass step and the measured-force step),
 //! with their accuracy at every step. See `docs/theory.md` §4.
 
-use super::grading::{assemble, method_report, Grader};
+use super::assemble::assemble;
+use super::grading::{method_report, Grader};
 use super::source::Input;
 use super::spectra::ForceSpectra;
 use super::stages::Clock;

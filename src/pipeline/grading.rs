@@ -1,16 +1,12 @@
 //! Grading an estimate against the truth: per-parameter and per-curve errors over the
-//! observed ranges (`docs/methods.md`, accuracy), dissipativity (3.4), and the report's
-//! assembly.
+//! observed ranges (`docs/methods.md`, accuracy) and dissipativity (3.4), each method's
+//! report row. The report itself is put together in `assemble.rs`.
 
-use super::source::Input;
 use crate::ident::data::Observed;
 use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
 use crate::model::{Characteristic, Coefficient, Term, Truth};
-use crate::report::{
-    Curve, FilterReport, IterationReport, MethodReport, Outcome, Parameter, PlotData, Provenance, Records, Report,
-    Timings, Validation,
-};
+use crate::report::{CurveReport, MethodReport, Outcome, Parameter};
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
 use std::collections::BTreeMap;
@@ -31,93 +27,6 @@ impl<'a> Grader<'a> {
             scenario: &info.scenario,
             truth: Truth::from_pairs(&info.truth).map_err(super::PipelineError::Truth)?,
         })
-    }
-}
-
-/// The report of an identification of `input`; passed when there is a gated method and
-/// every gated method passed.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn assemble(
-    input: &Input,
-    grader: &Grader,
-    samples: u64,
-    start: Instant,
-    filters: Vec<FilterReport>,
-    methods: Vec<MethodReport>,
-    validation: Option<Validation>,
-    iterations: Vec<IterationReport>,
-    plot: PlotData,
-) -> Report {
-    let info = &input.info;
-    let s = &info.scenario;
-    let sim = &s.simulation;
-    let applicable = || methods.iter().filter(|r| r.gated && r.not_applicable.is_none());
-    let passed = match applicable().next() {
-        Some(_) => applicable().all(|r| r.passed == Some(true)),
-        // Nothing graded (measured data without a truth, or a hysteretic truth that no
-        // one-argument model has): every method gave an estimate.
-        None => {
-            (input.measured().is_some() || s.links.iter().any(|l| l.hysteresis.is_some()))
-                && methods.iter().all(|r| r.error.is_none())
-        }
-    };
-    let identify_s = start.elapsed().as_secs_f64();
-    let records = input.measured().map(|m| {
-        let lengths: Vec<f64> = m.lengths.iter().map(|&n| n as f64 * m.sample_interval).collect();
-        Records {
-            count: lengths.len(),
-            total_s: lengths.iter().sum(),
-            shortest_s: lengths.iter().copied().fold(f64::INFINITY, f64::min),
-            longest_s: lengths.iter().copied().fold(0.0, f64::max),
-        }
-    });
-    Report {
-        provenance: Provenance::of_scenario(&s.source),
-        scenario: s.name.clone(),
-        log: info.path.display().to_string(),
-        record_length_s: sim.record_length,
-        total_record_s: records
-            .as_ref()
-            .map_or(sim.record_length * sim.trajectories as f64, |r| r.total_s),
-        samples,
-        expected_samples: input.expected_samples(),
-        sample_interval_s: sim.sample_interval,
-        trajectories: sim.trajectories,
-        seed: sim.seed,
-        // Lab excitations are integrated by their own scheme (sim::lab), whatever `scheme` says.
-        scheme: if s
-            .excitations
-            .iter()
-            .any(|e| matches!(e.process, crate::scenario::Process::Lab(_)))
-        {
-            "runge-kutta (lab excitations)".to_string()
-        } else {
-            sim.scheme.name().to_string()
-        },
-        dt_s: sim.dt,
-        timings_s: Timings {
-            simulate: 0.0,
-            identify: identify_s,
-            total: identify_s,
-            stages: Vec::new(),
-        },
-        data_notes: input.measured().map(|m| m.notes.clone()).unwrap_or_default(),
-        records,
-        filters,
-        white_levels: Vec::new(),
-        sensor_noise: None,
-        selection: None,
-        profile: None,
-        methods,
-        validation,
-        prediction: None,
-        integrator_bias: None,
-        iterations,
-        passed,
-        failed_checks: Vec::new(),
-        plot,
-        scenario_def: Some(s.clone()),
-        truth: grader.truth.clone(),
     }
 }
 
@@ -225,7 +134,7 @@ pub(crate) fn fill_accuracy(
             };
             worst = worst.max(e);
             let terms_covariance = terms_covariance(&est, coef_of, covariance, l, kind);
-            rep.curves.push(Curve {
+            rep.curves.push(CurveReport {
                 link: s.links[l].name.clone(),
                 kind: kind.name(),
                 rel_l2_error: e,

@@ -10,13 +10,13 @@
 //! filters. The numerics live in `ident` and `sim`; this module only wires them to the
 //! samples and to the report types.
 
+mod assemble;
 pub mod bias;
 mod disturbed;
 mod grading;
 mod identify;
 mod pass;
 mod profile;
-mod rig;
 mod sensors;
 mod source;
 mod spectra;
@@ -167,7 +167,7 @@ pub fn identify_log(path: &Path, options: &Options) -> Result<Report, PipelineEr
 /// a truncated log still holds), measured tables, or a simulation in memory.
 pub fn identify(input: &Input, options: &Options) -> Result<Report, PipelineError> {
     let start = Instant::now();
-    match rig::through_sensors(input)? {
+    match sensors::rig::through_sensors(input)? {
         Some(sensors) => identify_info(&sensors, options, start),
         None => identify_info(input, options, start),
     }

@@ -36,16 +36,16 @@ pub struct Parameter {
     pub cramer_rao_std: Option<f64>,
 }
 
-/// [`Curve::norm`]: a characteristic's L2 error under the observed density of its
+/// [`CurveReport::norm`]: a characteristic's L2 error under the observed density of its
 /// argument (every term a power), or evenly over the observed range.
 pub const NORM_DENSITY: &str = "observed density";
-/// [`Curve::norm`]: evenly over the observed range (a term that is not a power).
+/// [`CurveReport::norm`]: evenly over the observed range (a term that is not a power).
 pub const NORM_RANGE: &str = "observed range";
 
 /// One identified characteristic against the true one, over the observed range of its
 /// argument.
 #[derive(Debug, Clone, Serialize)]
-pub struct Curve {
+pub struct CurveReport {
     /// The link, e.g. `ground-m1`.
     pub link: String,
     /// `stiffness` or `damping`.
@@ -65,7 +65,7 @@ pub struct Curve {
     pub dof: usize,
 }
 
-impl Curve {
+impl CurveReport {
     /// The 95 % pointwise interval's half-width of the identified characteristic at `z`:
     /// `t(0.975, dof) · √(gᵀ Σ g)` with `g` the terms at `z`; `None` without a covariance.
     pub fn half_width_95(&self, z: f64) -> Option<f64> {
@@ -210,7 +210,7 @@ pub struct MethodReport {
     /// Every unknown's estimate (empty when the method gave none).
     pub parameters: Vec<Parameter>,
     /// Every identified characteristic against the truth.
-    pub curves: Vec<Curve>,
+    pub curves: Vec<CurveReport>,
     /// The largest relative error over the parameters and curves (NaN without a truth or an
     /// estimate).
     pub worst_rel_error: f64,

@@ -10,7 +10,7 @@ mod level;
 pub mod overrides;
 mod paper;
 mod raw;
-mod rig;
+mod sensors;
 mod signal;
 mod validate;
 
@@ -25,20 +25,34 @@ pub enum ScenarioError {
     /// The file could not be read at all.
     #[error("{path}: cannot read scenario: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// Why it could not be read.
         #[source]
         source: std::io::Error,
     },
     /// A `--set KEY=VALUE` that cannot be applied (no line: it is not in the file).
     #[error("{path}: --set {key}: {message}")]
-    Override { path: String, key: String, message: String },
+    Override {
+        /// The scenario file.
+        path: String,
+        /// The key of the override.
+        key: String,
+        /// What is wrong with it.
+        message: String,
+    },
     /// A syntax error, a wrong type, an unknown key or an invalid value.
     #[error("{path}:{line}:{column}: `{key}`: {message}")]
     Invalid {
+        /// The file.
         path: String,
+        /// 1-based line.
         line: usize,
+        /// 1-based column.
         column: usize,
+        /// The dotted key, e.g. `link[2].stiffness`.
         key: String,
+        /// What is wrong, and what is allowed.
         message: String,
     },
 }
@@ -48,7 +62,9 @@ pub enum ScenarioError {
 #[serde(rename_all = "kebab-case")]
 pub enum Motion {
     #[default]
+    /// Translations: m, kg, N.
     Translational,
+    /// Rotations: rad, kg·m², N·m.
     Rotational,
 }
 
@@ -82,6 +98,7 @@ pub enum Scheme {
 }
 
 impl Scheme {
+    /// The word a scenario writes (`scheme = "…"`).
     pub fn name(self) -> &'static str {
         match self {
             Scheme::SemiImplicit => "semi-implicit",
@@ -101,7 +118,7 @@ impl Scheme {
 
 /// Identification methods are named by the estimators' registry (`estimators/mod.rs`).
 pub use crate::method::Method;
-pub use rig::{MassSensors, MIN_OVERSAMPLING};
+pub use sensors::{Adc, AntiAlias, MassSensors, NoiseScale, Sensors, MIN_OVERSAMPLING};
 pub use signal::Signal;
 
 // ---------------------------------------------------------------------------------------
@@ -110,6 +127,7 @@ pub use signal::Signal;
 /// A point mass (or rotational inertia).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mass {
+    /// The name links and excitations refer to.
     pub name: String,
     /// kg (translational) or kg·m² (rotational).
     pub value: f64,
@@ -118,7 +136,9 @@ pub struct Mass {
 /// One end of a link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum End {
+    /// The ground (fixed).
     Ground,
+    /// The mass of this index.
     Mass(usize),
 }
 
@@ -126,6 +146,7 @@ pub enum End {
 /// (powers in the paper's (3.3)), each term once, sorted by term.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Curve {
+    /// `(term, coefficient)`, each term once, sorted by term.
     pub terms: Vec<(Term, f64)>,
 }
 
@@ -136,6 +157,7 @@ impl Curve {
             terms: terms.iter().map(|&(p, c)| (Term::Power(p), c)).collect(),
         }
     }
+    /// `Σ c_t t(z)`.
     pub fn eval(&self, z: f64) -> f64 {
         self.terms.iter().map(|&(t, c)| c * t.value(z)).sum()
     }
@@ -154,6 +176,7 @@ impl Curve {
             .max()
             .unwrap_or(0)
     }
+    /// Whether it has no terms.
     pub fn is_empty(&self) -> bool {
         self.terms.is_empty()
     }
@@ -166,11 +189,14 @@ impl Curve {
 /// A spring and/or damper between a mass and the ground or another mass.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Link {
+    /// `ground-m1` style, from its ends.
     pub name: String,
     /// The force `K(u) + C(w)` with `u = x_a − x_b` acts against `ends[0]` and, reversed,
     /// against `ends[1]`.
     pub ends: [End; 2],
+    /// `K(u)`, of the relative displacement `u`.
     pub stiffness: Curve,
+    /// `C(w)`, of the relative velocity `w`.
     pub damping: Curve,
     /// A hysteretic force beside `K(u) + C(w)` (`hysteresis = { … }`): simulated, never
     /// identified (the method's link forces have one argument each).
@@ -181,10 +207,18 @@ pub struct Link {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Process {
     /// `P dt = σ dW`: two-sided spectral density `σ²/2π`.
-    White { sigma: f64 },
+    White {
+        /// The intensity σ (force·s^½).
+        sigma: f64,
+    },
     /// Ornstein–Uhlenbeck `dP = −B P dt + A dW` (3.20): spectral density `A²/(2π(B²+ω²))`,
     /// stationary variance `A²/(2B)`.
-    Filtered { a: f64, b: f64 },
+    Filtered {
+        /// The white noise's intensity `A`.
+        a: f64,
+        /// The corner `B`, 1/s.
+        b: f64,
+    },
     /// A signal a lab drives its rig with (docs/excitations.md): each trajectory one
     /// realisation, simulated by `sim::lab`. The identifier knows it by its measured samples
     /// only, and reads it as its equivalent white noise (`[identify] equivalent_white`).
@@ -194,98 +228,14 @@ pub enum Process {
 /// A random force acting, as one and the same process, on one or more masses.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Excitation {
+    /// The name its force column `p_<name>` carries.
     pub name: String,
+    /// Its random process.
     pub process: Process,
+    /// The masses it acts on (indices), with the same force.
     pub acts_on: Vec<usize>,
     /// An unmeasured excitation is a disturbance the identifier is never told about.
     pub measured: bool,
-}
-
-/// How `[measurement]`'s noise levels are read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
-#[serde(rename_all = "kebab-case")]
-pub enum NoiseScale {
-    /// Fractions of each channel's standard deviation (the simulator takes it over the
-    /// first block of samples, every trajectory's).
-    #[default]
-    Relative,
-    /// In the channel's unit (m, m/s, or rad, rad/s).
-    Absolute,
-}
-
-/// `[measurement]`: the sensors — white Gaussian noise, independent between channels and
-/// instants, on every mass's measured displacement and velocity (docs/measurement.md).
-/// The simulator adds it to the logged samples; a model file of measured data states what
-/// is known of its sensors.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Sensors {
-    pub scale: NoiseScale,
-    /// Noise level on every displacement (0: none).
-    pub displacement: f64,
-    /// Noise level on every velocity (0: none).
-    pub velocity: f64,
-    /// Noise level on every acceleration, if the accelerations are sensors of the rig
-    /// (then the ADC converts them too).
-    pub acceleration: Option<f64>,
-    /// Noise level on every excitation force (force cells), likewise.
-    pub force: Option<f64>,
-    /// Per log column, the noise's standard deviation in its unit, when it is known
-    /// channel by channel (a validation re-simulates measured data with the noise
-    /// estimated from them); empty: the levels above.
-    pub columns: Vec<f64>,
-    /// The analogue-to-digital converter of every displacement and velocity channel (and
-    /// acceleration and force channel with a level above):
-    /// `2^bits` levels over `±range` (in the channel's std for relative noise, else in its
-    /// unit); values beyond the range are clipped to it, and counted.
-    pub adc: Option<Adc>,
-    /// The anti-alias low-pass before the ADC, on every logged channel.
-    pub anti_alias: Option<AntiAlias>,
-    /// Every sensor's bandwidth, Hz: a second-order Butterworth low-pass at it.
-    pub bandwidth: Option<f64>,
-    /// `sensors`: per mass, what the rig measures; `None`: every displacement and velocity.
-    pub rig: Option<Vec<MassSensors>>,
-}
-
-/// An anti-alias filter: a Butterworth low-pass of `order` with its −3 dB corner at
-/// `corner` × the sampling rate.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AntiAlias {
-    pub corner: f64,
-    pub order: u32,
-}
-
-/// An ADC: `2^bits` levels over `±range`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Adc {
-    pub bits: u32,
-    pub range: f64,
-}
-
-impl Sensors {
-    /// The noise variance a channel gets from these sensors at `level`: `(level·unit)²`
-    /// plus the ADC's rounding `q²/12` for its step `q = 2·range·unit/2^bits`, where
-    /// `unit` is the channel's own std `std` for relative levels and 1 for absolute ones.
-    pub fn noise_variance(&self, level: f64, std: f64) -> f64 {
-        let unit = match self.scale {
-            NoiseScale::Absolute => 1.0,
-            NoiseScale::Relative => std,
-        };
-        let rounding = self.adc.map_or(0.0, |a| {
-            let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
-            q * q / 12.0
-        });
-        (level * unit).powi(2) + rounding
-    }
-
-    /// Whether any channel has noise.
-    pub fn noisy(&self) -> bool {
-        self.displacement > 0.0
-            || self.velocity > 0.0
-            || self.acceleration.is_some_and(|a| a > 0.0)
-            || self.force.is_some_and(|f| f > 0.0)
-            || self.columns.iter().any(|&s| s > 0.0)
-            || self.adc.is_some()
-    }
 }
 
 /// `[identify] sensor_noise`: what the identification does about sensor noise.
@@ -319,6 +269,7 @@ pub struct Simulation {
     pub trajectories: usize,
     /// Master seed; trajectory `j` uses a generator seeded from `(seed, j)`.
     pub seed: u64,
+    /// The integration scheme.
     pub scheme: Scheme,
     /// Internal integration steps per `dt` (default 1).
     pub substeps: usize,
@@ -422,6 +373,7 @@ pub const MAX_STEPS: f64 = 1e13;
 /// Unknown coefficients of one link in `[identify.links.NAME]`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IdentifyLink {
+    /// The link (index).
     pub link: usize,
     /// Terms of the stiffness model to identify; `None`: the stiffness is known.
     pub stiffness: Option<Vec<Term>>,
@@ -432,10 +384,12 @@ pub struct IdentifyLink {
 /// `[identify]`: what the identifier is asked to find and how.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Identify {
+    /// The identification methods, in the order reported.
     pub methods: Vec<Method>,
     /// Per link; links not listed are known. Default when the section has no `links`:
     /// every link's stiffness and damping unknown with the true powers.
     pub links: Vec<IdentifyLink>,
+    /// Masses whose value is unknown (indices).
     pub unknown_masses: Vec<usize>,
     /// Excitations whose intensity (`sigma`, or `A`) is unknown.
     pub unknown_intensities: Vec<usize>,
@@ -470,11 +424,15 @@ pub struct Identify {
 /// "Terms").
 #[derive(Debug, Clone, PartialEq)]
 pub struct Profile {
+    /// The link (index).
     pub link: usize,
+    /// Its stiffness or damping.
     pub kind: Characteristic,
     /// The term as `[identify.links]` lists it.
     pub term: Term,
+    /// The positions' range, in the term's unit.
     pub range: (f64, f64),
+    /// How many positions are tried, evenly over the range.
     pub points: usize,
 }
 
@@ -586,6 +544,7 @@ pub struct Disturbance {
     /// Disturbance levels of `fpkbench sweep`: standard deviation of the unmeasured force
     /// over that of the measured one (0 = no disturbance).
     pub sweep: Vec<f64>,
+    /// The paper's two-mass structure in this scenario.
     pub structure: PaperStructure,
 }
 
@@ -594,10 +553,15 @@ pub struct Disturbance {
 /// ground by `K2`, `C2` and driven by the one measured force `P2`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PaperStructure {
+    /// The free mass `m1`.
     pub free: usize,
+    /// The driven mass `m2`.
     pub driven: usize,
+    /// The coupling link `k1`.
     pub coupling: usize,
+    /// The driven mass's ground link `K2`, `C2`.
     pub ground: usize,
+    /// The measured force `P2`.
     pub measured: usize,
 }
 
@@ -700,12 +664,12 @@ impl PartialEq<&str> for ReportMethod {
 }
 
 impl Accept {
-    /// The threshold of report method `method`.
     /// Whether `method`'s threshold is the uncalibrated default.
     pub fn is_default(&self, method: &ReportMethod) -> bool {
         !self.calibrated && !self.methods.contains_key(&method.name())
     }
 
+    /// The threshold of report method `method`.
     pub fn threshold(&self, method: &ReportMethod) -> f64 {
         self.methods
             .get(&method.name())
@@ -755,14 +719,23 @@ pub struct DataMapping {
 /// A checked scenario.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
+    /// The scenario's name (file stem by default).
     pub name: String,
+    /// One line on what it is.
     pub description: String,
+    /// Translational or rotational coordinates.
     pub motion: Motion,
+    /// The masses, in order.
     pub masses: Vec<Mass>,
+    /// The links, in order.
     pub links: Vec<Link>,
+    /// The excitations, in order.
     pub excitations: Vec<Excitation>,
+    /// `[simulation]`.
     pub simulation: Simulation,
+    /// `[identify]`.
     pub identify: Identify,
+    /// `[accept]`.
     pub accept: Accept,
     /// `[data]`: a model file for measured data (`identify --model --data`); its
     /// `[simulation]` is then taken from the data, and the coefficients to identify need

@@ -12,17 +12,35 @@ pub enum Signal {
     /// (every line, or the odd ones), total RMS `rms`, repeating every `period` s; a new
     /// realisation of the phases per trajectory.
     Multisine {
+        /// RMS of the whole signal.
         rms: f64,
+        /// The band of the lines, Hz.
         band: (f64, f64),
+        /// The period, s.
         period: f64,
+        /// Only the odd lines.
         odd: bool,
     },
     /// Gaussian noise: white noise of two-sided density `σ²/2π` through a Butterworth
     /// filter of order `order`, a low-pass at `band.1` when `band.0` is 0, else a band-pass.
-    BandLimited { sigma: f64, band: (f64, f64), order: u32 },
+    BandLimited {
+        /// The white noise's intensity before the filter.
+        sigma: f64,
+        /// The pass band, Hz (a low-pass when it starts at 0).
+        band: (f64, f64),
+        /// The Butterworth order, 1–16.
+        order: u32,
+    },
     /// Gaussian noise through a Kanai–Tajimi filter (a ground of natural angular frequency
     /// `omega_g` rad/s and damping ratio `zeta_g` over white noise of density `σ²/2π`).
-    KanaiTajimi { sigma: f64, omega_g: f64, zeta_g: f64 },
+    KanaiTajimi {
+        /// The white noise's intensity.
+        sigma: f64,
+        /// The ground's natural angular frequency, rad/s.
+        omega_g: f64,
+        /// The ground's damping ratio.
+        zeta_g: f64,
+    },
 }
 
 impl Signal {

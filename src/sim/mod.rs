@@ -21,10 +21,10 @@
 
 mod blocked;
 pub mod driven;
-pub(crate) mod filters;
 pub mod lab;
 mod lanes;
 mod normals;
+pub(crate) mod sensor_filters;
 pub(crate) mod sensors;
 mod shaped;
 mod sinks;
@@ -68,7 +68,7 @@ pub enum SimError {
     #[error("writing samples failed")]
     Sink(#[source] Box<dyn std::error::Error + Send + Sync>),
     /// The sensors' filters cannot run on this simulation's steps
-    /// (`filters::SensorFilter::new`).
+    /// (`sensor_sensor_filters::SensorFilter::new`).
     #[error("[measurement]: {0}")]
     Sensors(String),
     /// The lab excitations cannot run on this simulation (module `lab`).
@@ -298,9 +298,9 @@ pub(crate) fn simulate_padded<const D: usize>(
 
     let mut sensors = sensors::SensorNoise::new(model, &sim.sensors, sim.seed);
     let channels = sensors::channels(model, &sim.sensors);
-    // The sensors' filters run on the motion sampled `r` times faster (module `filters`):
+    // The sensors' filters run on the motion sampled `r` times faster (module `sensor_filters`):
     // each group keeps its lanes' filter states and a block of fast samples.
-    let filter = filters::SensorFilter::new(&sim.sensors, interval, steps).map_err(SimError::Sensors)?;
+    let filter = sensor_filters::SensorFilter::new(&sim.sensors, interval, steps).map_err(SimError::Sensors)?;
     let r = filter.as_ref().map_or(1, |f| f.oversampling);
     let block = (block_samples(steps / r, cols * sim.trajectories, total * r) / r).max(1);
     let mut filtering: Vec<Filtering> = match &filter {
@@ -371,7 +371,7 @@ fn run_filtered_group<const D: usize>(
     g: &mut Group,
     model: &Model,
     lm: &LaneModel<D>,
-    f: &filters::SensorFilter,
+    f: &sensor_filters::SensorFilter,
     channels: &[sensors::Channel],
     w: &mut Filtering,
     (b, steps, interval, t0): (usize, usize, f64, f64),
@@ -521,7 +521,7 @@ mod filter_tests {
         let plain = sdof("");
         let filtered = sdof("anti_alias = 0.4\nanti_alias_order = 4");
         let sim = &filtered.simulation;
-        let f = filters::SensorFilter::new(&sim.sensors, sim.sample_interval, sim.steps_per_sample())
+        let f = sensor_filters::SensorFilter::new(&sim.sensors, sim.sample_interval, sim.steps_per_sample())
             .unwrap()
             .unwrap();
         assert_eq!(f.oversampling, 10);

@@ -128,8 +128,8 @@ fn the_weak_form_through_atoms_matches_the_polynomial_form() {
 #[test]
 fn the_strong_forms_through_atoms_match_the_polynomial_form() {
     use crate::ident::data::StationaryData;
-    use crate::ident::kernel::{FluxLattice, KernelOptions};
-    use crate::ident::strong::{DensityGrid, GridOptions};
+    use crate::ident::strong_histogram::{DensityGrid, GridOptions};
+    use crate::ident::strong_kernel::{FluxLattice, KernelOptions};
     use crate::ident::{identify_kernel, identify_strong, weak};
     let (s, samples) = first_link_known("duffing2dof", 1250.0);
     let spec = Specification::from_scenario(&s);

@@ -38,7 +38,8 @@ mod verdict;
 
 pub(crate) use plan::Comparison;
 
-use super::grading::{assemble, Grader};
+use super::assemble::assemble;
+use super::grading::Grader;
 use super::source::Input;
 use super::spectra::ForceSpectra;
 use super::validation::Distributions;

@@ -1,7 +1,7 @@
 //! `characteristics.svg`: identified against true characteristics over the observed ranges.
 //! The truth is a thin black line drawn on top, so every estimate stays visible beneath
 //! it; each FPK estimate carries its 95 % pointwise band (from the jackknife's covariance of
-//! its coefficients, [`crate::report::Curve::half_width_95`]). The y-range is set by the
+//! its coefficients, [`crate::report::CurveReport::half_width_95`]). The y-range is set by the
 //! truth and the FPK estimators that are meant to be right; baselines and deliberately
 //! wrong models (naive white noise, product of marginals, comparison models) are dashed
 //! and clipped, with an arrow where they leave the range. Under each characteristic a

@@ -8,7 +8,7 @@ use super::characteristics::{observed, words};
 use super::{histogram_strip, write_figure};
 use crate::model::{Characteristic, Term};
 use crate::report::figure::{color, padded, unit, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK};
-use crate::report::{Curve, MethodReport, Report};
+use crate::report::{CurveReport, MethodReport, Report};
 use crate::scenario::ReportMethod;
 use crate::stats;
 use std::path::{Path, PathBuf};
@@ -78,7 +78,7 @@ fn main_method(r: &Report) -> Option<&MethodReport> {
 }
 
 /// The comparison models' estimates of one characteristic.
-fn compared<'a>(r: &'a Report, link: &str, kind: Characteristic) -> Vec<(&'a MethodReport, &'a Curve)> {
+fn compared<'a>(r: &'a Report, link: &str, kind: Characteristic) -> Vec<(&'a MethodReport, &'a CurveReport)> {
     r.methods
         .iter()
         .filter(|m| matches!(m.method, ReportMethod::Compare(_)))
@@ -92,7 +92,7 @@ fn compared<'a>(r: &'a Report, link: &str, kind: Characteristic) -> Vec<(&'a Met
 }
 
 /// The main method's curve of one characteristic.
-fn main_curve<'a>(r: &'a Report, link: &str, kind: Characteristic) -> Option<(&'a MethodReport, &'a Curve)> {
+fn main_curve<'a>(r: &'a Report, link: &str, kind: Characteristic) -> Option<(&'a MethodReport, &'a CurveReport)> {
     let m = main_method(r)?;
     let c = m.curves.iter().find(|c| c.link == link && c.kind == kind.name())?;
     Some((m, c))

@@ -13,10 +13,10 @@ use toml::Spanned;
 mod data;
 mod identify;
 mod lab;
-mod measurement;
+mod sensors;
 pub(crate) use data::check_data;
 pub(crate) use identify::{check_accept, check_identify, inseparable};
-use measurement::{check_measurement, check_sensor_filters};
+use sensors::{check_measurement, check_sensor_filters};
 
 /// Byte-offset → line/column and key lookup for error messages.
 pub(crate) struct Locator<'a> {

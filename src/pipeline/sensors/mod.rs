@@ -1,6 +1,9 @@
-//! Sensor noise in the identification (docs/measurement.md): which displacement–velocity
+//! The sensors in the identification (docs/measurement.md): which displacement–velocity
 //! pairs the samples measure, their noise estimated in the first pass, and the weak
-//! form's moments corrected as `[identify] sensor_noise` asks.
+//! form's moments corrected as `[identify] sensor_noise` asks; a simulated rig read
+//! through its sensors ([`rig`]).
+
+pub(crate) mod rig;
 
 use super::source::Input;
 use crate::estimators::Method;
@@ -427,7 +430,7 @@ pub(crate) struct FilterLoss {
 const NOISE_SHARE_WARNING: f64 = 0.25;
 
 /// The velocity tail the sensors' filters take from masses under white forces (module
-/// `sim::filters`, `white_velocity_loss`), computed from the stated filters, intensities
+/// `sim::sensor_filters`, `white_velocity_loss`), computed from the stated filters, intensities
 /// and masses; `None` without filters. It is put back only where every white force on the
 /// mass is measured, of known intensity, and acts on that mass alone (a force on two masses
 /// gives their tails a covariance the per-channel correction does not carry), and the mass
@@ -437,7 +440,7 @@ pub(crate) fn filter_loss(s: &Scenario, structure: &Problem) -> Option<FilterLos
     if s.data.is_some() {
         return None;
     }
-    let filter = crate::sim::filters::SensorFilter::new(
+    let filter = crate::sim::sensor_filters::SensorFilter::new(
         &sim.sensors,
         sim.sample_interval,
         sim.steps_per_sample() * sim.substeps,

@@ -4,7 +4,7 @@
 //! The paper's residual (3.8) in a point `y` is
 //! `−Σ_j ∂(g_j f)/∂y_j + ½ Σ Q_im ∂²f/∂v_i∂v_m` with the drift's parts `g_j` (the free
 //! drift `v` of each displacement, the known and the unit forces of each velocity). The
-//! plain procedure (module [`super::strong`], `--density histogram`) estimates `f` by a
+//! plain procedure (module [`super::strong_histogram`], `--density histogram`) estimates `f` by a
 //! histogram and multiplies by `g_j` at the cell centre. Here every product `g_j f` is
 //! estimated *itself*, by the same Gaussian kernel smoothing as `f`:
 //!

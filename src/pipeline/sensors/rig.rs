@@ -7,8 +7,8 @@
 //! are the clean states, kept for diagnostics; the identification never reads them. The
 //! model keeps the scenario's values, so the report grades the estimates against them.
 
-use super::{Input, PipelineError};
 use crate::io::table::{measured, Table};
+use crate::pipeline::{Input, PipelineError};
 use crate::scenario::{DataMapping, Scenario};
 use std::collections::BTreeMap;
 use std::path::PathBuf;

@@ -1,0 +1,166 @@
+//! `[measurement]`, the sensors between the motion and the samples (docs/measurement.md):
+//! their noise levels, ADC and filters ([`Sensors`]), and, with `sensors`, what each mass's
+//! sensors give on a simulated rig ([`MassSensors`]; without it a simulation logs and
+//! identifies every mass's displacement and velocity). Also the rate at which the
+//! sensors' filters run (`anti_alias`, `bandwidth`): the scenario's checks and the
+//! simulator's filters (`sim::sensor_filters`) take it from here, so both refuse the same
+//! settings.
+//!
+//! The measurement chain has one name in every layer: `scenario::sensors` (what the
+//! sensors are), `scenario::validate::sensors` (their checks), `sim::sensors` and
+//! `sim::sensor_filters` (what they do to a simulated motion), `pipeline::sensors` (what
+//! the identification does about them) — apart from `io::measured`, a lab's own tables.
+
+use serde::Deserialize;
+
+/// How `[measurement]`'s noise levels are read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum NoiseScale {
+    /// Fractions of each channel's standard deviation (the simulator takes it over the
+    /// first block of samples, every trajectory's).
+    #[default]
+    Relative,
+    /// In the channel's unit (m, m/s, or rad, rad/s).
+    Absolute,
+}
+
+/// `[measurement]`: the sensors — white Gaussian noise, independent between channels and
+/// instants, on every mass's measured displacement and velocity (docs/measurement.md).
+/// The simulator adds it to the logged samples; a model file of measured data states what
+/// is known of its sensors.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Sensors {
+    /// Whether the levels are fractions of each channel's std or in its unit.
+    pub scale: NoiseScale,
+    /// Noise level on every displacement (0: none).
+    pub displacement: f64,
+    /// Noise level on every velocity (0: none).
+    pub velocity: f64,
+    /// Noise level on every acceleration, if the accelerations are sensors of the rig
+    /// (then the ADC converts them too).
+    pub acceleration: Option<f64>,
+    /// Noise level on every excitation force (force cells), likewise.
+    pub force: Option<f64>,
+    /// Per log column, the noise's standard deviation in its unit, when it is known
+    /// channel by channel (a validation re-simulates measured data with the noise
+    /// estimated from them); empty: the levels above.
+    pub columns: Vec<f64>,
+    /// The analogue-to-digital converter of every displacement and velocity channel (and
+    /// acceleration and force channel with a level above):
+    /// `2^bits` levels over `±range` (in the channel's std for relative noise, else in its
+    /// unit); values beyond the range are clipped to it, and counted.
+    pub adc: Option<Adc>,
+    /// The anti-alias low-pass before the ADC, on every logged channel.
+    pub anti_alias: Option<AntiAlias>,
+    /// Every sensor's bandwidth, Hz: a second-order Butterworth low-pass at it.
+    pub bandwidth: Option<f64>,
+    /// `sensors`: per mass, what the rig measures; `None`: every displacement and velocity.
+    pub rig: Option<Vec<MassSensors>>,
+}
+
+/// An anti-alias filter: a Butterworth low-pass of `order` with its −3 dB corner at
+/// `corner` × the sampling rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AntiAlias {
+    /// The −3 dB corner, a fraction of the sampling rate.
+    pub corner: f64,
+    /// The Butterworth order, 1–8.
+    pub order: u32,
+}
+
+/// An ADC: `2^bits` levels over `±range`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Adc {
+    /// Bits of the converter.
+    pub bits: u32,
+    /// Its range `±range` (in the channel's std for relative levels, else in its unit).
+    pub range: f64,
+}
+
+impl Sensors {
+    /// The noise variance a channel gets from these sensors at `level`: `(level·unit)²`
+    /// plus the ADC's rounding `q²/12` for its step `q = 2·range·unit/2^bits`, where
+    /// `unit` is the channel's own std `std` for relative levels and 1 for absolute ones.
+    pub fn noise_variance(&self, level: f64, std: f64) -> f64 {
+        let unit = match self.scale {
+            NoiseScale::Absolute => 1.0,
+            NoiseScale::Relative => std,
+        };
+        let rounding = self.adc.map_or(0.0, |a| {
+            let q = 2.0 * a.range * unit / (1u64 << a.bits) as f64;
+            q * q / 12.0
+        });
+        (level * unit).powi(2) + rounding
+    }
+
+    /// Whether any channel has noise.
+    pub fn noisy(&self) -> bool {
+        self.displacement > 0.0
+            || self.velocity > 0.0
+            || self.acceleration.is_some_and(|a| a > 0.0)
+            || self.force.is_some_and(|f| f > 0.0)
+            || self.columns.iter().any(|&s| s > 0.0)
+            || self.adc.is_some()
+    }
+}
+
+/// The sensors' filters run on the motion sampled at least this many times faster than
+/// the log.
+pub const MIN_OVERSAMPLING: usize = 8;
+
+impl Sensors {
+    /// Fast samples per logged sample at which the sensors' filters run, for a log sampled
+    /// every `interval` s with `steps` integration steps per sample: the smallest divisor
+    /// of `steps` that is at least [`MIN_OVERSAMPLING`]; `None` without filters. `Err`: the
+    /// steps cannot carry the filters, or a bandwidth is beyond what the fast rate
+    /// resolves (a fifth of it).
+    pub fn filter_oversampling(&self, interval: f64, steps: usize) -> Result<Option<usize>, String> {
+        if self.anti_alias.is_none() && self.bandwidth.is_none() {
+            return Ok(None);
+        }
+        let Some(oversampling) = (MIN_OVERSAMPLING..=steps).find(|r| steps.is_multiple_of(*r)) else {
+            return Err(format!(
+                "the filters run on the motion sampled at least {MIN_OVERSAMPLING} times faster than the log, and \
+                 a sample interval is {steps} integration steps: make dt at most sample_interval / {MIN_OVERSAMPLING}"
+            ));
+        };
+        let fast = oversampling as f64 / interval;
+        if let Some(b) = self.bandwidth {
+            if b * 5.0 > fast {
+                return Err(format!(
+                    "a sensor bandwidth of {b} Hz is beyond what the simulation resolves (the filters run at \
+                     {fast} Hz and resolve up to a fifth of it, {} Hz): a sensor that fast is ideal here, leave \
+                     `bandwidth` out, or make dt smaller",
+                    fast / 5.0
+                ));
+            }
+        }
+        Ok(Some(oversampling))
+    }
+}
+
+/// One mass's sensors: which of its quantities the rig measures. `force`: the cells of the
+/// excitations acting on it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MassSensors {
+    /// The mass's displacement.
+    pub displacement: bool,
+    /// Its velocity.
+    pub velocity: bool,
+    /// Its acceleration.
+    pub acceleration: bool,
+    /// The force cells of the excitations acting on it.
+    pub force: bool,
+}
+
+impl MassSensors {
+    /// The words a scenario writes, in order.
+    pub const WORDS: [&'static str; 4] = ["displacement", "velocity", "acceleration", "force"];
+
+    /// Whether the rig gives the mass's whole state (its displacement and velocity), so the
+    /// log's samples are read as they are.
+    pub fn whole_state(&self) -> bool {
+        self.displacement && self.velocity
+    }
+}
