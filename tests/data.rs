@@ -310,6 +310,14 @@ fn bad_data_are_refused_naming_the_file_row_and_column() {
             with_line(5, "0,0.5,0.1"),
             vec!["line 6", "3 fields where the header has 4"],
         ),
+        (
+            // A table in units 1e170 times too large: its moments leave the floating-point
+            // range (it ran into "the unknowns cannot be separated" after every pass).
+            "values of order 1e-170",
+            MODEL.to_string() + "[data.scale]\nx_m1 = 1e-170\n",
+            good.clone(),
+            vec!["column \"x_m1\"", "a unit of order 1", "[data.scale]"],
+        ),
     ];
     for (what, model, csv, expect) in cases {
         let (code, err, wrote) = run_data(&model, &csv);

@@ -645,11 +645,12 @@ fn a_displacement_sensors_noise_is_found_and_the_velocity_differenced_against_it
     }
 }
 
-/// An ADC range of 1e-300 clips every sensor value to a subnormal number; the sensor-noise
-/// fit then met a 0/0 and nalgebra's SVD of it never returned (the run hung). Now every
-/// SVD is bounded (`ident::lsq::svd`): the run ends, with exit 2 and every method's reason.
+/// An ADC range of 1e-300 clipped every sensor value to a subnormal number; the sensor-noise
+/// fit then met a 0/0 and nalgebra's SVD of it never returned (the run hung). Every SVD is
+/// bounded now (`ident::lsq::svd`, tested there), and such a range is refused before
+/// anything runs, naming the key (exit 2).
 #[test]
-fn an_adc_range_of_1e_minus_300_ends_the_run_instead_of_hanging() {
+fn an_adc_range_of_1e_minus_300_is_refused_before_the_run() {
     let dir = tempfile::tempdir().unwrap();
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_fpkbench"))
         .args([
@@ -688,5 +689,9 @@ fn an_adc_range_of_1e_minus_300_ends_the_run_instead_of_hanging() {
     let mut err = String::new();
     std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
     assert_eq!(status.code(), Some(2), "{err}");
-    assert!(err.contains("weak"), "{err}");
+    assert!(
+        err.contains("measurement.adc_range") && err.contains("clips most of its samples"),
+        "{err}"
+    );
+    assert!(!dir.path().join("run.mcap").exists(), "nothing simulated");
 }

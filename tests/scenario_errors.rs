@@ -550,6 +550,34 @@ fn sensor_filters_out_of_range() {
     );
 }
 
+/// ADC ranges the identification cannot read are refused before anything runs: one that
+/// clips nearly everything, a step that rounds nearly everything to zero, an absolute
+/// range whose values leave the floating-point range when raised to powers.
+#[test]
+fn adc_ranges_the_identification_cannot_read_are_refused() {
+    run_bad(
+        "adc_clips_all",
+        &format!("{GOOD}[measurement]\ndisplacement = 0.01\nadc_bits = 16\nadc_range = 1e-300\n"),
+        32,
+        "measurement.adc_range",
+        "±1e-300 of the channel's standard deviation clips most of its samples",
+    );
+    run_bad(
+        "adc_step_too_coarse",
+        &format!("{GOOD}[measurement]\ndisplacement = 0.01\nadc_bits = 2\nadc_range = 5.0\n"),
+        32,
+        "measurement.adc_range",
+        "rounds most samples to zero",
+    );
+    run_bad(
+        "adc_absolute_tiny",
+        &format!("{GOOD}[measurement]\nnoise = \"absolute\"\ndisplacement = 0.01\nadc_bits = 16\nadc_range = 1e-40\n"),
+        33,
+        "measurement.adc_range",
+        "units of order 1",
+    );
+}
+
 #[test]
 fn given_sensor_noise_needs_a_measurement_section() {
     run_bad(

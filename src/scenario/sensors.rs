@@ -105,6 +105,12 @@ impl Sensors {
     }
 }
 
+/// The spread a measured quantity's values may have in the identification's units (a
+/// table column's middle half after `[data.scale]`, an absolute ADC range): moments of
+/// degree 12 of values outside it leave the range of `f64` (1e±300), and with them every
+/// estimate.
+pub const MAGNITUDE: (f64, f64) = (1e-25, 1e25);
+
 /// The sensors' filters run on the motion sampled at least this many times faster than
 /// the log.
 pub const MIN_OVERSAMPLING: usize = 8;

@@ -5,7 +5,7 @@
 
 use super::{key, GAP, OUTLIER};
 use crate::io::table::{err, DataError, Labels, Source};
-use crate::scenario::DataMapping;
+use crate::scenario::{DataMapping, MAGNITUDE};
 use std::collections::HashMap;
 
 /// Places per record where the time step may change (gaps, and where a split record's
@@ -337,7 +337,8 @@ pub(super) fn scan(source: &Source, c: &Columns, d: &DataMapping) -> Result<Scan
     }
 }
 
-/// No mapped column constant, and none with a value over [`OUTLIER`] interquartile ranges
+/// No mapped column constant, none whose spread is outside [`MAGNITUDE`], and none with a
+/// value over [`OUTLIER`] interquartile ranges
 /// from its median (its first row and how many such values found by a second read of
 /// that column).
 pub(super) fn check_values(source: &Source, c: &Columns, s: &Scanned) -> Result<(), DataError> {
@@ -360,6 +361,23 @@ pub(super) fn check_values(source: &Source, c: &Columns, s: &Scanned) -> Result<
         }
         let [q1, median, q3] = col.quartiles();
         let iqr = q3 - q1;
+        let spread = iqr * c.mapped[j].1.abs();
+        if iqr > 0.0 && !(MAGNITUDE.0..=MAGNITUDE.1).contains(&spread) {
+            return Err(err(
+                path,
+                format!(
+                    "column {name:?}: its middle half spans {} (scaled by [data.scale]): the identification's \
+                     moments raise the values to powers of 12 and more, which leave the floating-point range for \
+                     values outside {:e}…{:e}: give the column a unit of order 1 with [data.scale] (e.g. \
+                     {name} = {:e})",
+                    sig6(spread),
+                    MAGNITUDE.0,
+                    MAGNITUDE.1,
+                    sig6(c.mapped[j].1 / spread)
+                ),
+            )
+            .in_column(name));
+        }
         let distance = |x: f64| (x - median).abs() / iqr;
         if iqr <= 0.0 || (distance(col.low.0) <= OUTLIER && distance(col.high.0) <= OUTLIER) {
             continue;

@@ -49,9 +49,11 @@ pub(crate) fn check_measurement(loc: &Locator, raw: &RawScenario) -> Result<Sens
                 NoiseScale::Relative => "the channel's standard deviations, e.g. 5",
                 NoiseScale::Absolute => "the channel's unit",
             };
+            let range = finite_positive(loc, r, "measurement.adc_range", unit)?;
+            check_adc_range(loc, r.span(), m.noise, bits as u32, range)?;
             Some(Adc {
                 bits: bits as u32,
-                range: finite_positive(loc, r, "measurement.adc_range", unit)?,
+                range,
             })
         }
         (Some(b), None) => {
@@ -267,4 +269,42 @@ fn check_rig(loc: &Locator, raw: &RawScenario, m: &RawMeasurement) -> Result<Opt
         ));
     }
     Ok(Some(rig.into_iter().flatten().collect()))
+}
+
+/// An ADC's range the identification can read: relative to the channel's std, at least half
+/// of it (below, most samples clip and what is left is their sign) and with a step of at
+/// most one std (above, most samples round to zero); absolute, within [`MAGNITUDE`] of the
+/// channel's unit. (A range of 1e-300 std once made every value subnormal.)
+fn check_adc_range(
+    loc: &Locator,
+    span: std::ops::Range<usize>,
+    scale: NoiseScale,
+    bits: u32,
+    range: f64,
+) -> Result<(), ScenarioError> {
+    let step = 2.0 * range / (1u64 << bits) as f64;
+    let shown = if (1e-3..1e6).contains(&range) {
+        range.to_string()
+    } else {
+        format!("{range:e}")
+    };
+    let why = match scale {
+        NoiseScale::Relative if range < 0.5 => format!(
+            "an ADC whose full scale is ±{shown} of the channel's standard deviation clips most of its samples \
+             (over 60 % of a Gaussian channel's below ±0.5): what is left is their sign, not the motion; a range of \
+             4–6 clips a few in 10⁵–10⁹, 1–3 makes a clipping study"
+        ),
+        NoiseScale::Relative if step > 1.0 => format!(
+            "the ADC's step 2·range/2^bits = {step} standard deviations rounds most samples to zero: more bits or a \
+             smaller range"
+        ),
+        NoiseScale::Absolute if !(MAGNITUDE.0..=MAGNITUDE.1).contains(&range) => format!(
+            "a full scale of ±{shown} in the channel's unit: values that small or large leave the floating-point \
+             range when the identification raises them to powers of 12 and more; give the quantities units of \
+             order 1 (the range within {:e}…{:e})",
+            MAGNITUDE.0, MAGNITUDE.1
+        ),
+        _ => return Ok(()),
+    };
+    Err(loc.at(span, "measurement.adc_range", why))
 }
