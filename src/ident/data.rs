@@ -144,13 +144,21 @@ impl StationaryData {
         trajectories: usize,
         batches: usize,
     ) -> StationaryData {
+        let (first, layout) = Self::plan(problem, degree, trajectories);
+        StationaryData::from_accumulator(problem, first, layout, record_length, batches)
+    }
+
+    /// What [`StationaryData::new`] allocates: the moments of one fine batch and the layout.
+    fn plan(problem: &Problem, degree: u32, trajectories: usize) -> (RawMoments, FineLayout) {
         let wanted = if degree == super::weak::moment_degree(problem) {
             super::weak::BATCHES_PER_EQUATION * super::weak::equation_count(problem)
         } else {
             MIN_FINE_BATCHES
         };
-        let layout = FineLayout::for_batches(wanted, trajectories);
-        StationaryData::from_accumulator(problem, accumulator(problem, degree), layout, record_length, batches)
+        (
+            accumulator(problem, degree),
+            FineLayout::for_batches(wanted, trajectories),
+        )
     }
 
     /// The moments the weak forms of `problem` and of every one of `also` read (problems
@@ -163,6 +171,25 @@ impl StationaryData {
         trajectories: usize,
         batches: usize,
     ) -> StationaryData {
+        let (first, layout) = Self::plan_weak_forms(problem, also, trajectories);
+        StationaryData::from_accumulator(problem, first, layout, record_length, batches)
+    }
+
+    /// The bytes the weak forms' moments of `problem` and `also` take over their fine
+    /// batches (what [`StationaryData::for_weak_forms`], or [`StationaryData::new`] at the
+    /// weak form's degree without `also`, allocates), known before anything is allocated:
+    /// a structure selection over many high powers can ask for more than the machine has.
+    pub fn weak_forms_bytes(problem: &Problem, also: &[&Problem], trajectories: usize) -> u64 {
+        let (first, layout) = match also.is_empty() {
+            true => Self::plan(problem, super::weak::moment_degree(problem), trajectories),
+            false => Self::plan_weak_forms(problem, also, trajectories),
+        };
+        (first.sums.len() * layout.count() * std::mem::size_of::<f64>()) as u64
+    }
+
+    /// What [`StationaryData::for_weak_forms`] allocates: the moments of one fine batch and
+    /// the layout.
+    fn plan_weak_forms(problem: &Problem, also: &[&Problem], trajectories: usize) -> (RawMoments, FineLayout) {
         let mut wanted = super::weak::required_moments(problem);
         let mut degree = super::weak::moment_degree(problem);
         for p in also {
@@ -176,8 +203,7 @@ impl StationaryData {
             super::weak::BATCHES_PER_EQUATION * super::weak::equation_count(problem),
             trajectories,
         );
-        let first = RawMoments::with_monomials(problem.dim(), degree, &wanted);
-        StationaryData::from_accumulator(problem, first, layout, record_length, batches)
+        (RawMoments::with_monomials(problem.dim(), degree, &wanted), layout)
     }
 
     /// Every raw moment up to `degree` (for several problems over the same state).

@@ -64,6 +64,26 @@ pub enum PipelineError {
     /// A stop was requested (`crate::interrupt`).
     #[error(transparent)]
     Interrupted(#[from] crate::interrupt::Interrupted),
+    /// The identification would need more memory than it may take ([`memory_budget`]).
+    #[error("{0}")]
+    Memory(String),
+}
+
+/// The memory an identification may plan for: `FPKBENCH_MEMORY_BUDGET` (bytes) where set,
+/// else half the machine's (`MemTotal` of /proc/meminfo), else 8 GiB.
+pub fn memory_budget() -> u64 {
+    if let Some(b) = std::env::var("FPKBENCH_MEMORY_BUDGET")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+    {
+        return b;
+    }
+    let total_kib = std::fs::read_to_string("/proc/meminfo").ok().and_then(|m| {
+        m.lines()
+            .find(|l| l.starts_with("MemTotal:"))
+            .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+    });
+    total_kib.map_or(8 << 30, |k| k * 1024 / 2)
 }
 
 /// Settings of an identification.

@@ -68,6 +68,31 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
                 .filter_map(|c| c.problem.as_ref().ok()),
         )
         .collect();
+    // The first pass's largest tables, known before they are allocated: a selection over
+    // many high powers can ask for more than the machine has.
+    let need = StationaryData::weak_forms_bytes(&structure, &also, sim.trajectories);
+    let budget = super::super::memory_budget();
+    if need > budget {
+        return Err(PipelineError::Memory(format!(
+            "the weak form's moments of {} ({} unknowns, moments to degree {}) would take {:.1} GB over their \
+             fine batches, more than the {:.1} GB an identification may take (half this machine's memory, or \
+             FPKBENCH_MEMORY_BUDGET): ask for fewer or lower powers{}",
+            if select.is_some() {
+                "the candidate model"
+            } else {
+                "the model"
+            },
+            structure.unknowns.len(),
+            weak::moment_degree(&structure),
+            need as f64 / 1e9,
+            budget as f64 / 1e9,
+            if select.is_some() {
+                " (--select-powers, [identify.select])"
+            } else {
+                ""
+            }
+        )));
+    }
     let data = match also.is_empty() {
         false => {
             StationaryData::for_weak_forms(&structure, &also, sim.record_length, sim.trajectories, options.batches)
