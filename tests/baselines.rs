@@ -9,7 +9,7 @@ use fpkbench::pipeline::{identify_log, Options};
 use fpkbench::scenario::Method;
 use fpkbench::Scenario;
 
-mod common;
+use crate::common;
 
 const K: f64 = 4.0;
 const C: f64 = 0.4;

@@ -267,7 +267,7 @@ fn a_multisine_whose_band_ends_inside_the_resonance_is_not_read_as_white() {
 /// The study behind the edge limit (docs/methods.md, "The force model"): the rig under a
 /// multisine flat from 0.1 Hz to `edge` times its 5 Hz mode, four seeds each, its force
 /// read as white. Run with
-/// `cargo test --release --test checks -- --ignored band_edge --nocapture`.
+/// `cargo test --release --test suite -- --ignored band_edge --nocapture`.
 #[test]
 #[ignore]
 fn band_edge_study() {

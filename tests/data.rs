@@ -9,7 +9,7 @@ use fpkbench::Scenario;
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 
 /// The SDOF Duffing model for its own exported log: the link to identify has no values.
 const MODEL: &str = r#"

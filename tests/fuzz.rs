@@ -10,7 +10,7 @@
 //! Each case runs under a watchdog: a case that takes longer than [`HANG`] fails the test
 //! as a hang. No case may panic.
 
-mod common;
+use crate::common;
 
 use common::{fresh_log, records, small_scenario, write_records, Layout};
 use fpkbench::io::log::{read_info, read_samples};

@@ -2,7 +2,7 @@
 //! still be read — never a panic, an abort, a hang or an allocation beyond the file's size.
 //! Each damaged log is made here from a fresh one.
 
-mod common;
+use crate::common;
 
 use common::{fresh_log, records, small_scenario, write_records, Layout};
 use fpkbench::io::log::{read_info, read_samples, LogError};

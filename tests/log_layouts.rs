@@ -3,7 +3,7 @@
 //! chunk size, summary, indexes, statistics, repeated records, where the description
 //! records go, an extra topic), then read by the library and by the command line.
 
-mod common;
+use crate::common;
 
 use common::{fresh_log, relayout, small_scenario, Layout};
 use fpkbench::io::log::{read_info, read_samples};
