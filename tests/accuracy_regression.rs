@@ -144,12 +144,7 @@ const GATES: &[Gate] = &[
 
 #[test]
 fn every_scenario_meets_its_accuracy_gate_at_reduced_length() {
-    let mut files: Vec<_> = std::fs::read_dir("scenarios")
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
+    let files = crate::common::files_in("scenarios", ".toml");
     assert!(!files.is_empty());
     let mut failures = Vec::new();
     for file in files {

@@ -3,6 +3,7 @@
 //! file and command; every document over 150 lines opens with its contents. (The docs'
 //! commands themselves are run by `tests/docs/run_examples.py` in CI.)
 
+use crate::common::files_in;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -10,13 +11,7 @@ use std::process::Command;
 /// The markdown files a reader meets: the README, docs/, and the folders' indexes.
 fn documents() -> Vec<PathBuf> {
     let mut docs = vec![PathBuf::from("README.md"), PathBuf::from("CHANGELOG.md")];
-    let mut in_docs: Vec<PathBuf> = std::fs::read_dir("docs")
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "md"))
-        .collect();
-    in_docs.sort();
-    docs.extend(in_docs);
+    docs.extend(files_in("docs", ".md"));
     for index in ["data/README.md", "models/README.md", "studies/README.md"] {
         docs.push(PathBuf::from(index));
     }
@@ -128,37 +123,35 @@ fn every_relative_link_and_anchor_resolves() {
     assert!(broken.is_empty(), "broken links:\n{}", broken.join("\n"));
 }
 
-fn files_in(dir: &str, ext: &str) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(ext))
-        .collect();
-    names.sort();
-    names
+/// The names of the files of `dir` ending in `ext`, sorted.
+fn names_in(dir: &str, ext: &str) -> Vec<String> {
+    files_in(dir, ext)
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect()
 }
 
 #[test]
 fn the_readme_lists_every_shipped_scenario_study_model_and_table() {
     let readme = std::fs::read_to_string("README.md").unwrap();
     let mut missing = Vec::new();
-    for name in files_in("scenarios", ".toml") {
+    for name in names_in("scenarios", ".toml") {
         if !readme.contains(&format!("| `{name}` |")) {
             missing.push(format!("scenarios/{name} (a row of the scenario table)"));
         }
     }
-    for name in files_in("studies", ".toml") {
+    for name in names_in("studies", ".toml") {
         let stem = name.trim_end_matches(".toml");
         if !readme.contains(&format!("`{stem}`")) {
             missing.push(format!("studies/{name}"));
         }
     }
-    for name in files_in("models", ".toml") {
+    for name in names_in("models", ".toml") {
         if !readme.contains(&format!("`{name}`")) {
             missing.push(format!("models/{name}"));
         }
     }
-    for name in files_in("data", ".csv") {
+    for name in names_in("data", ".csv") {
         if !readme.contains(&format!("data/{name}")) {
             missing.push(format!("data/{name}"));
         }
@@ -167,7 +160,7 @@ fn the_readme_lists_every_shipped_scenario_study_model_and_table() {
     // The folders' indexes list their files too.
     for (dir, ext) in [("studies", ".toml"), ("models", ".toml"), ("data", ".csv")] {
         let index = std::fs::read_to_string(format!("{dir}/README.md")).unwrap();
-        for name in files_in(dir, ext) {
+        for name in names_in(dir, ext) {
             assert!(index.contains(&format!("`{name}`")), "{dir}/README.md lacks {name}");
         }
     }

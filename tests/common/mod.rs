@@ -194,3 +194,14 @@ pub fn write_records(r: &Records, dst: &Path, layout: Layout) {
 pub fn relayout(src: &Path, dst: &Path, layout: Layout) {
     write_records(&records(src), dst, layout);
 }
+
+/// The files of `dir` whose names end in `ext` (e.g. `".toml"`), sorted by path.
+pub fn files_in(dir: &str, ext: &str) -> Vec<std::path::PathBuf> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.to_string_lossy().ends_with(ext))
+        .collect();
+    files.sort();
+    files
+}

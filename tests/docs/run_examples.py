@@ -26,8 +26,6 @@ not show when the markdown is rendered) changes how the block runs:
                                             must occur, so a stale directive fails; `\n` in either
                                             is a line break
     <!-- example: edit: PATH: OLD => NEW -->  the same in a file of the scratch directory
-    <!-- example: root: REASON -->         run in the project root, not the scratch directory
-                                            (a cargo command, which builds this tree)
     <!-- example: exit: N (REASON) -->     the block is expected to exit with status N
     <!-- example: timeout: SECONDS -->     the time limit (default 300 s)
 """
@@ -47,7 +45,7 @@ ROOT = Path(__file__).resolve().parents[2]
 COPIED = ["scenarios", "models", "studies", "data", "docs/slurm", "tests/interop"]
 RUN_LANGS = {"sh": "sh", "bash": "sh", "python": "python"}
 FENCE = re.compile(r"^(```+|~~~+)\s*([A-Za-z0-9_+-]*)")
-DIRECTIVE = re.compile(r"^<!--\s*example:\s*(skip|file|sub|edit|root|exit|timeout):\s*(.*?)\s*-->\s*$")
+DIRECTIVE = re.compile(r"^<!--\s*example:\s*(skip|file|sub|edit|exit|timeout):\s*(.*?)\s*-->\s*$")
 
 
 class Block:
@@ -151,11 +149,10 @@ def run_block(block, work, env):
         script = work / f".example-{block.line}.py"
         script.write_text(text, encoding="utf-8")
         cmd = ["python3", str(script)]
-    cwd = ROOT if block.first("root") is not None else work
     started = time.monotonic()
     # A session of its own, so that a block over its limit is stopped with everything it
     # started (a cargo build, a study's threads).
-    proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE,
+    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, start_new_session=True)
     try:
         stdout, _ = proc.communicate(timeout=limit)
