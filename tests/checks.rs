@@ -6,7 +6,7 @@
 
 use fpkbench::io::table::{measured, read_for};
 use fpkbench::pipeline::{identify, Input, Options};
-use fpkbench::report::{Outcome, Report};
+use fpkbench::report::{MethodOutcome, Outcome, Report};
 use fpkbench::scenario::{Method, ReportMethod};
 use fpkbench::Scenario;
 use std::fmt::Write;
@@ -118,7 +118,7 @@ fn row(r: &Report, m: ReportMethod) -> &fpkbench::report::MethodReport {
 
 /// A method's k1 and c1 against the rig's, within `k1_tol` and `c1_tol` (relative).
 fn assert_rig(m: &fpkbench::report::MethodReport, k1_tol: f64, c1_tol: f64) {
-    assert_eq!(m.outcome, Outcome::Estimated, "{:?}", m.error);
+    assert_eq!(m.outcome, MethodOutcome::Estimated);
     let value = |name: &str| m.parameters.iter().find(|p| p.name == name).unwrap().estimate;
     let (k1, c1) = (value("k1[ground-m1]"), value("c1[ground-m1]"));
     assert!((k1 / K1 - 1.0).abs() < k1_tol, "{}: k1 = {k1}", m.method);
@@ -157,8 +157,8 @@ fn a_multisine_force_read_as_first_order_is_refused_and_the_force_regression_sta
     let ratio = f.rms_log_residual / f.expected_rms_log_residual;
     assert!(ratio > 3.0, "the first-order fit misses by {ratio:.2}× the averaging");
     let weak = row(&r, ReportMethod::Estimator(Method::Weak));
-    assert_eq!(weak.outcome, Outcome::Refused, "{:?}", weak.error);
-    let why = weak.error.as_deref().unwrap();
+    assert_eq!(weak.outcome.kind(), Outcome::Refused, "{:?}", weak.outcome);
+    let why = weak.outcome.error().unwrap();
     assert!(
         why.contains("force model is rejected") && why.contains("shaker"),
         "{why}"
@@ -183,7 +183,7 @@ fn an_ornstein_uhlenbeck_force_of_the_same_rig_is_not_rejected() {
         "the first-order fit misses an OU force by {ratio:.2}× the averaging"
     );
     let weak = row(&r, ReportMethod::Estimator(Method::Weak));
-    assert_eq!(weak.outcome, Outcome::Estimated, "{:?}", weak.error);
+    assert_eq!(weak.outcome, MethodOutcome::Estimated);
     assert!((f.fitted_b / b - 1.0).abs() < 0.2, "B = {}", f.fitted_b);
     // With its force modelled right, the weak form agrees with the force regression.
     assert!(r.failed_checks.is_empty(), "{:?}", r.failed_checks);
@@ -214,7 +214,7 @@ fn a_coloured_force_declared_white_contradicts_the_force_regression_and_fails_th
     );
     let r = identify_with(&ou_table(), &model);
     let weak = row(&r, ReportMethod::Estimator(Method::Weak));
-    assert_eq!(weak.outcome, Outcome::Estimated, "{:?}", weak.error);
+    assert_eq!(weak.outcome, MethodOutcome::Estimated);
     assert_rig(row(&r, ReportMethod::Estimator(Method::ForceRegression)), 0.02, 0.1);
     let failed: Vec<_> = r.failed_checks.iter().filter(|c| c.check == "agreement").collect();
     assert_eq!(failed.len(), 1, "{:?}", r.failed_checks);
@@ -255,12 +255,12 @@ fn a_multisine_whose_band_ends_inside_the_resonance_is_not_read_as_white() {
     let level = &r.white_levels[0];
     assert!(!level.accepted, "{level:?}");
     let weak = row(&r, ReportMethod::Estimator(Method::Weak));
-    assert_eq!(weak.outcome, Outcome::Refused, "{:?}", weak.error);
-    let why = weak.error.as_deref().unwrap();
+    assert_eq!(weak.outcome.kind(), Outcome::Refused, "{:?}", weak.outcome);
+    let why = weak.outcome.error().unwrap();
     assert!(why.contains("ends where the system still responds"), "{why}");
     assert_eq!(
         row(&r, ReportMethod::Estimator(Method::ForceRegression)).outcome,
-        Outcome::Estimated
+        MethodOutcome::Estimated
     );
 }
 
@@ -412,7 +412,7 @@ fn a_run_whose_every_method_is_refused_still_writes_its_report() {
         ..Options::default()
     };
     let r = identify(&Input::tables(model, data), &options).unwrap();
-    assert_eq!(r.methods[0].outcome, Outcome::Refused);
+    assert_eq!(r.methods[0].outcome.kind(), Outcome::Refused);
     let out = dir.path().join("report");
     std::fs::create_dir(&out).unwrap();
     let files = fpkbench::report::write_all(&r, &out).unwrap();
@@ -427,4 +427,31 @@ fn a_run_whose_every_method_is_refused_still_writes_its_report() {
     assert!(!names.iter().any(|n| n.starts_with("characteristics")), "{names:?}");
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("the force model is rejected") && !md.contains("characteristics.svg"));
+}
+
+#[test]
+fn a_velocity_held_over_a_stretch_of_one_record_fails_the_run_naming_it() {
+    // The OU rig's table, which passes every check, with record 1's velocity held at its
+    // value at t = 10 s for 20 s (a logger repeating a stopped sensor's last reading).
+    let mut held: Option<String> = None;
+    let mut csv = String::new();
+    for line in ou_table().lines() {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        if f[0] == "1" && (10.0..30.0).contains(&f[1].parse::<f64>().unwrap()) {
+            f[3] = held.get_or_insert_with(|| f[3].clone()).clone();
+        }
+        csv += &(f.join(",") + "\n");
+    }
+    let r = identify_table(&csv);
+    let dead: Vec<_> = r.failed_checks.iter().filter(|c| c.check == "dead stretch").collect();
+    assert_eq!(dead.len(), 1, "{:?}", r.failed_checks);
+    assert!(
+        dead[0].message.starts_with(&format!(
+            "v_m1 (column \"v\") holds {} for ",
+            held.unwrap().parse::<f64>().unwrap()
+        )) && dead[0].message.contains(" samples (33 % of record 2) from t = 10"),
+        "{}",
+        dead[0].message
+    );
+    assert!(!r.passed);
 }

@@ -53,7 +53,7 @@ fn log_of(s: &Scenario, path: &Path) {
 
 fn estimates(r: &Report, method: &str) -> Vec<f64> {
     let m = r.methods.iter().find(|m| m.method == method).unwrap();
-    assert!(m.error.is_none(), "{method}: {:?}", m.error);
+    assert!(m.outcome.error().is_none(), "{method}: {:?}", m.outcome);
     m.parameters.iter().map(|p| p.estimate).collect()
 }
 

@@ -348,7 +348,7 @@ fn the_identifier_survives_arbitrary_sample_values() {
             if let Some(report) = report {
                 for m in &report.methods {
                     prop_assert!(
-                        m.error.is_some() || m.parameters.iter().all(|p| p.estimate.is_finite()),
+                        m.outcome.error().is_some() || m.parameters.iter().all(|p| p.estimate.is_finite()),
                         "{}: a non-finite estimate without an error",
                         m.method
                     );

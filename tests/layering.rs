@@ -120,3 +120,28 @@ fn the_scan_finds_an_upward_path_and_skips_comments_and_tests() {
         [(3, "pipeline".to_string()), (3, "estimators".to_string())]
     );
 }
+
+/// Lines a source file of the library, the binary or the tests may have: a file longer
+/// than this holds more than one thing (docs/architecture.md; functions are held to 150
+/// lines by clippy's `too_many_lines`, clippy.toml).
+const MAX_FILE_LINES: usize = 900;
+
+#[test]
+fn no_source_file_is_longer_than_its_limit() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    for dir in ["src", "tests", "benches"] {
+        rust_files(&root.join(dir), &mut files);
+    }
+    let long: Vec<String> = files
+        .iter()
+        .filter_map(|f| {
+            let n = std::fs::read_to_string(f).unwrap().lines().count();
+            (n > MAX_FILE_LINES).then(|| format!("{} ({n} lines)", f.strip_prefix(root).unwrap().display()))
+        })
+        .collect();
+    assert!(
+        long.is_empty(),
+        "over {MAX_FILE_LINES} lines, split by what each part is for: {long:?}"
+    );
+}

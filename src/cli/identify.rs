@@ -5,7 +5,7 @@ use fpkbench::io::output::{refuse_same_file, FolderLock, Staging};
 use fpkbench::model::Term;
 use fpkbench::pipeline::{identify, GridSettings, Input, Options, Settings, StrongDensity};
 use fpkbench::report;
-use fpkbench::report::{MethodReport, Outcome, Report};
+use fpkbench::report::{MethodReport, Report};
 use fpkbench::scenario::{Method, Select};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -209,14 +209,14 @@ pub fn finish(report: &Report, args: &IdentifyArgs, staged: Option<(FolderLock, 
     let undecided: Vec<&MethodReport> = report
         .methods
         .iter()
-        .filter(|m| m.gated && matches!(m.outcome, Outcome::Refused | Outcome::Failed))
+        .filter(|m| m.gated && m.outcome.error().is_some())
         .collect();
     for m in &undecided {
         eprintln!(
             "{} {}: {}",
             m.method,
-            m.outcome.name(),
-            m.error.as_deref().unwrap_or("no reason given")
+            m.outcome.kind().name(),
+            m.outcome.error().unwrap_or("no reason given")
         );
     }
     if args.verbose {

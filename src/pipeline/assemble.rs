@@ -26,14 +26,18 @@ pub(crate) fn assemble(
     let info = &input.info;
     let s = &info.scenario;
     let sim = &s.simulation;
-    let applicable = || methods.iter().filter(|r| r.gated && r.not_applicable.is_none());
+    let applicable = || {
+        methods
+            .iter()
+            .filter(|r| r.gated && r.outcome.not_applicable().is_none())
+    };
     let passed = match applicable().next() {
         Some(_) => applicable().all(|r| r.passed == Some(true)),
         // Nothing graded (measured data without a truth, or a hysteretic truth that no
         // one-argument model has): every method gave an estimate.
         None => {
             (input.measured().is_some() || s.links.iter().any(|l| l.hysteresis.is_some()))
-                && methods.iter().all(|r| r.error.is_none())
+                && methods.iter().all(|r| r.outcome.error().is_none())
         }
     };
     let identify_s = start.elapsed().as_secs_f64();

@@ -6,7 +6,7 @@ use crate::ident::data::Observed;
 use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
 use crate::model::{Characteristic, Coefficient, Term, Truth};
-use crate::report::{CurveReport, MethodReport, Outcome, Parameter};
+use crate::report::{CurveReport, MethodOutcome, MethodReport, Parameter};
 use crate::scenario::{ReportMethod, Scenario};
 use crate::stats;
 use std::collections::BTreeMap;
@@ -242,7 +242,7 @@ pub(crate) fn method_report(
     let threshold_default = threshold.is_some() && g.scenario.accept.is_default(&method);
     let mut rep = MethodReport {
         method,
-        outcome: Outcome::Estimated,
+        outcome: MethodOutcome::Estimated,
         gated: threshold.is_some(),
         parameters: Vec::new(),
         curves: Vec::new(),
@@ -250,25 +250,21 @@ pub(crate) fn method_report(
         threshold,
         threshold_default,
         passed: threshold.map(|_| false),
-        not_applicable: None,
         warnings: Vec::new(),
         diagnostics: None,
         weakly_determined: false,
         facts: BTreeMap::new(),
         dissipativity: Vec::new(),
-        error: None,
         seconds: 0.0,
         selected: None,
     };
     match est {
         Err(IdentError::NotApplicable(why)) => {
-            rep.outcome = Outcome::NotApplicable;
-            rep.not_applicable = Some(why);
+            rep.outcome = MethodOutcome::NotApplicable(why);
             rep.passed = None;
         }
         Err(e) => {
-            rep.outcome = Outcome::of_error(&e);
-            rep.error = Some(e.to_string());
+            rep.outcome = MethodOutcome::of_error(&e);
         }
         Ok(e) => {
             fill_accuracy(

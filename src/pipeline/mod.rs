@@ -17,6 +17,7 @@ mod grading;
 mod identify;
 mod pass;
 mod profile;
+mod sample_checks;
 mod sensors;
 mod source;
 mod spectra;

@@ -287,10 +287,10 @@ fn rows_of(study: &str, item: &Item, r: &Report, simulate_s: f64, item_s: f64) -
             study: study.to_string(),
             item: *item,
             method: m.method.name(),
-            outcome: m.outcome,
+            outcome: m.outcome.kind(),
             samples: r.samples,
-            error: m.error.clone().or_else(|| m.not_applicable.clone()),
-            worst_rel_error: m.error.is_none().then_some(m.worst_rel_error),
+            error: m.outcome.error().or(m.outcome.not_applicable()).map(str::to_string),
+            worst_rel_error: m.outcome.error().is_none().then_some(m.worst_rel_error),
             parameters: m
                 .parameters
                 .iter()

@@ -4,25 +4,16 @@
 //! is made from the same text ([`super::html`]), folding the blocks after `<!-- fold: … -->`.
 
 use super::figures::image;
-use super::text::{decimals, fixed, fmt_err, iteration_summary, GATE_MEANING};
+use super::text::{fmt_err, iteration_summary, GATE_MEANING};
 use super::{MethodReport, Report, Validation};
-
-/// A number for a table cell: `—` when not finite.
-fn num(x: f64, digits: usize) -> String {
-    if x.is_finite() {
-        format!("{x:.digits$}")
-    } else {
-        "—".into()
-    }
-}
 
 /// One method's line in the verdict list.
 fn verdict(m: &MethodReport) -> String {
-    if let Some(why) = &m.not_applicable {
+    if let Some(why) = m.outcome.not_applicable() {
         return format!("**{}**: not applicable — {why}", m.method);
     }
-    if let Some(e) = &m.error {
-        return format!("**{}**: {}, no estimate — {e}", m.method, m.outcome.name());
+    if let Some(e) = m.outcome.error() {
+        return format!("**{}**: {}, no estimate — {e}", m.method, m.outcome.kind().name());
     }
     let kind = if m.threshold_default {
         "default gate (not calibrated: the scenario's [accept] sets none)"
@@ -49,41 +40,10 @@ fn verdict(m: &MethodReport) -> String {
     s
 }
 
-/// The estimates of one method: value, standard error, 95 % interval, error.
+/// The estimates of one method: value, standard error, 95 % interval, error, and the
+/// efficiency against the Cramér–Rao bound where there is one.
 fn parameter_table(m: &MethodReport, motion: crate::scenario::Motion) -> String {
-    // The Cramér–Rao bound of continuous observation, where it applies, beside the
-    // standard error it bounds.
-    let bound = m.parameters.iter().any(|p| p.cramer_rao_std.is_some());
-    let mut s = String::from(if bound {
-        "| parameter | unit | true | estimate | std. error | CR bound | 95 % interval | differs from 0 | error |\n|---|---|---:|---:|---:|---:|---|---|---:|\n"
-    } else {
-        "| parameter | unit | true | estimate | std. error | 95 % interval | differs from 0 | error |\n|---|---|---:|---:|---:|---|---|---:|\n"
-    });
-    for p in &m.parameters {
-        let d = decimals(p.std_error);
-        let ci = p
-            .ci95
-            .map_or("—".into(), |[lo, hi]| format!("[{}, {}]", fixed(lo, d), fixed(hi, d)));
-        let zero = match p.differs_from_zero {
-            Some(true) => "yes",
-            Some(false) => "no",
-            None => "—",
-        };
-        let cr = if bound {
-            format!(" {} |", p.cramer_rao_std.map_or("—".into(), |b| fixed(b, d)))
-        } else {
-            String::new()
-        };
-        s += &format!(
-            "| `{}` | {} | {} | {} | {} |{cr} {ci} | {zero} | {} |\n",
-            p.name,
-            crate::report::plot::iteration::parameter_unit(&p.name, motion),
-            num(p.true_value, 4),
-            fixed(p.estimate, d),
-            fixed(p.std_error, d),
-            fmt_err(p.rel_error)
-        );
-    }
+    let mut s = super::table::estimates(m, motion).markdown();
     if let Some(e) = super::text::efficiency(m) {
         s += &format!("\n{e}.\n");
     }
@@ -200,28 +160,19 @@ pub fn markdown(r: &Report) -> String {
 /// One method's estimates, curves and diagnostics.
 fn method_section(m: &MethodReport, motion: crate::scenario::Motion) -> String {
     let mut s = format!("### {}\n\n", m.method);
-    if let Some(why) = &m.not_applicable {
+    if let Some(why) = m.outcome.not_applicable() {
         return s + &format!("Not applicable: {why}\n\n");
     }
-    if let Some(e) = &m.error {
-        return s + &format!("No estimate ({}): {e}\n\n", m.outcome.name());
+    if let Some(e) = m.outcome.error() {
+        return s + &format!("No estimate ({}): {e}\n\n", m.outcome.kind().name());
     }
     s += &parameter_table(m, motion);
     if let Some(why) = super::text::no_std_errors(m) {
         s += &format!("\nNo standard errors: {why}.\n");
     }
     if !m.curves.is_empty() {
-        s += "\n| characteristic | relative L2 error (observed density) | observed range |\n|---|---:|---|\n";
-        for c in &m.curves {
-            s += &format!(
-                "| {} {} | {} | [{:.4}, {:.4}] |\n",
-                c.link,
-                c.kind,
-                fmt_err(c.rel_l2_error),
-                c.range[0],
-                c.range[1]
-            );
-        }
+        s += "\n";
+        s += &super::table::curves(m).markdown();
     }
     s += &format!("\n<!-- fold: diagnostics of {} -->\n", m.method);
     if let Some(d) = &m.diagnostics {
@@ -261,23 +212,7 @@ fn sensor_noise_section(n: &super::SensorNoiseReport) -> String {
         s += &format!("Not estimated: {why}.\n\n");
     }
     if !n.channels.is_empty() {
-        s += "| channel | noise std | ± | of the signal's std | simulated | taken out |\n|---|---:|---:|---:|---:|---:|\n";
-        for c in &n.channels {
-            s += &format!(
-                "| {} | {:.4e} | {:.1e} | {:.2} %{} | {} | {} |\n",
-                c.column,
-                c.std,
-                c.std_se,
-                100.0 * c.std / c.signal_std,
-                if c.detected { "" } else { " (none detected)" },
-                c.simulated_std.map_or("—".to_string(), |v| format!("{v:.4e}")),
-                if c.corrected_std > 0.0 {
-                    format!("{:.4e}", c.corrected_std)
-                } else {
-                    "—".to_string()
-                }
-            );
-        }
+        s += &super::table::sensor_noise(n).markdown();
         s += "\n";
     }
     for note in &n.notes {
@@ -293,13 +228,8 @@ fn sensor_noise_section(n: &super::SensorNoiseReport) -> String {
 fn filters_section(r: &Report) -> String {
     let mut s = String::new();
     if !r.filters.is_empty() {
-        s += "## Filtered excitations\n\n| excitation | used | A | B | fitted A | fitted B | true A | true B |\n|---|---|---:|---:|---:|---:|---:|---:|\n";
-        for f in &r.filters {
-            s += &format!(
-                "| {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |\n",
-                f.excitation, f.used, f.a, f.b, f.fitted_a, f.fitted_b, f.true_a, f.true_b
-            );
-        }
+        s += "## Filtered excitations\n\n";
+        s += &super::table::filters(r).markdown();
         s += "\n";
         s += &image(r, "spectrum");
     }
@@ -339,25 +269,10 @@ fn iterations_section(r: &Report) -> String {
 fn integrator_bias_section(b: &crate::report::IntegratorBias) -> String {
     let mut s = format!(
         "## Integrator bias\n\nRichardson's estimate: the same Brownian paths simulated at h = {:.3e} s and at h/2 \
-         and identified alike; with weak order {} the bias at h is (estimate at h − at h/2) / (1 − 2^−{}).\n\n\
-         | method | parameter | estimate | bias | std. error | bias / s.e. |\n|---|---|---:|---:|---:|---:|\n",
+         and identified alike; with weak order {} the bias at h is (estimate at h − at h/2) / (1 − 2^−{}).\n\n",
         b.step_s, b.order, b.order
     );
-    for m in &b.methods {
-        for p in &m.parameters {
-            s += &format!(
-                "| {} | {} | {:.6e} | {:.3e} | {:.3e} | {}{:.2}{} |\n",
-                m.method,
-                p.name,
-                p.estimate,
-                p.bias,
-                p.std_error,
-                if p.exceeds { "**" } else { "" },
-                p.bias / p.std_error,
-                if p.exceeds { "**" } else { "" }
-            );
-        }
-    }
+    s += &super::table::integrator_bias(b).markdown();
     let exceeding = b.exceeding();
     s += &if exceeding.is_empty() {
         "\nEvery bias is below a quarter of its standard error.\n\n".to_string()
@@ -384,24 +299,7 @@ fn validation_section(r: &Report, v: &Validation) -> String {
     match &v.error {
         Some(e) => s += &format!("{e}\n\n"),
         None => {
-            s += "| response | data std | model std | difference ± s.e. | data kurtosis | model kurtosis | spectrum RMS ln ratio (averaging alone) | peak ω data / model (rad/s) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
-            for row in &v.rows {
-                let (spec, peak) = row.spectrum.as_ref().map_or(("–".into(), "–".into()), |c| {
-                    (
-                        format!("{:.3} ({:.3})", c.rms_log_difference, c.averaging_alone),
-                        format!("{:.3} / {:.3}", c.data_peak_rad_s, c.model_peak_rad_s),
-                    )
-                });
-                s += &format!(
-                    "| {} | {:.5} | {:.5} | {} | {:.3} | {:.3} | {spec} | {peak} |\n",
-                    row.variable,
-                    row.data_std,
-                    row.model_std,
-                    row.std_difference(),
-                    row.data_kurtosis,
-                    row.model_kurtosis
-                );
-            }
+            s += &super::table::validation(v).markdown();
             s += "\nThe difference of the stds with its standard error from the sampling of both (the spread \
                   between trajectory groups); the spectra are compared over the band that holds 99 % of the data's \
                   variance.\n\n";

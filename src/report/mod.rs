@@ -7,14 +7,17 @@ pub mod figure;
 pub mod figures;
 pub mod html;
 mod markdown;
+mod method_report;
 pub mod plot;
 #[cfg(feature = "raster")]
 pub mod raster;
 mod selection;
 pub mod study;
+pub(crate) mod table;
 pub mod text;
 #[warn(missing_docs)]
 pub mod types;
+pub use method_report::*;
 
 pub use markdown::markdown;
 pub use plot::{

@@ -1,6 +1,7 @@
 //! The console report: tables of estimates, errors, diagnostics and validation.
 
-use crate::report::types::{MethodReport, Validation};
+use crate::report::types::Validation;
+use crate::report::MethodReport;
 use crate::report::Report;
 use crate::scenario::{Method, ReportMethod};
 
@@ -35,7 +36,7 @@ pub(crate) fn fixed(x: f64, d: usize) -> String {
 }
 
 /// `estimate ± std_error`, with `°` when the 95 % interval contains 0.
-fn fmt_estimate(p: &crate::report::Parameter) -> String {
+pub(crate) fn fmt_estimate(p: &crate::report::Parameter) -> String {
     let zero = if p.differs_from_zero == Some(false) { "°" } else { "" };
     let d = decimals(p.std_error);
     if p.std_error.is_finite() {
@@ -55,7 +56,7 @@ fn sig(x: f64) -> String {
 }
 
 /// Width of one method's estimate column.
-const EST_W: usize = 22;
+pub(crate) const EST_W: usize = 22;
 
 /// The terminal's width: tables keep within it (methods side by side only as far as they
 /// fit; the full tables are in report.md), and longer prose lines are wrapped.
@@ -334,68 +335,6 @@ pub(crate) fn fmt_seconds(t: f64) -> String {
     }
 }
 
-/// One table of `methods` side by side: per parameter its unit, true value, and each
-/// method's estimate ± standard error and error.
-fn methods_table(r: &Report, methods: &[&MethodReport]) -> String {
-    let mut s = String::new();
-    let motion = r.scenario_def.as_ref().map_or(Default::default(), |d| d.motion);
-    let unit = |n: &crate::model::UnknownName| crate::report::plot::iteration::parameter_unit(n, motion);
-    s += &format!("| {:<18} | {:<10} | {:>10} |", "parameter", "unit", "true");
-    let widths: Vec<usize> = methods
-        .iter()
-        .map(|m| EST_W.max(format!("{} ± std. error", m.method).chars().count()))
-        .collect();
-    for (m, w) in methods.iter().zip(&widths) {
-        s += &format!(
-            " {:<w$} | {:>9} |",
-            format!("{} ± std. error", m.method),
-            "error",
-            w = *w
-        );
-    }
-    s += "\n|";
-    s += &"-".repeat(20);
-    s += "|";
-    s += &"-".repeat(12);
-    s += "|";
-    s += &"-".repeat(12);
-    s += "|";
-    for w in &widths {
-        s += &"-".repeat(w + 2);
-        s += "|";
-        s += &"-".repeat(11);
-        s += "|";
-    }
-    s += "\n";
-    let names: Vec<(String, String)> = methods
-        .iter()
-        .find(|m| !m.parameters.is_empty())
-        .map(|m| {
-            m.parameters
-                .iter()
-                .map(|p| (p.name.to_string(), unit(&p.name)))
-                .collect()
-        })
-        .unwrap_or_default();
-    for (k, (name, unit)) in names.iter().enumerate() {
-        let t = methods
-            .iter()
-            .find_map(|m| m.parameters.get(k))
-            .map(|p| p.true_value)
-            .unwrap_or(f64::NAN);
-        let t = if t.is_finite() { format!("{t:.4}") } else { "—".into() };
-        s += &format!("| {name:<18} | {unit:<10} | {t:>10} |");
-        for (m, w) in methods.iter().zip(&widths) {
-            match m.parameters.get(k) {
-                Some(p) => s += &format!(" {:<w$} | {:>9} |", fmt_estimate(p), fmt_err(p.rel_error), w = *w),
-                None => s += &format!(" {:<w$} | {:>9} |", "—", "—", w = *w),
-            }
-        }
-        s += "\n";
-    }
-    s
-}
-
 /// Per parameter and method: the estimate ± standard error and its error, with the legend;
 /// the methods side by side as far as they fit in [`WIDTH`] columns, the rest in further
 /// tables below.
@@ -414,7 +353,11 @@ fn parameter_table(r: &Report) -> String {
         groups.last_mut().expect("a group").push(m);
         used += w;
     }
-    let tables: Vec<String> = groups.iter().map(|g| methods_table(r, g)).collect();
+    let motion = r.scenario_def.as_ref().map_or(Default::default(), |d| d.motion);
+    let tables: Vec<String> = groups
+        .iter()
+        .map(|g| super::table::side_by_side(g, motion).text())
+        .collect();
     let mut s = tables.join("\n");
     s += "\nerrors are relative to the truth (a coefficient whose true value is 0: to its characteristic's scale under the \
           observed density); std. error: delete-one jackknife over the record's batches; 95 % interval: ± t(0.975) std. errors";
@@ -439,11 +382,11 @@ fn parameter_table(r: &Report) -> String {
 /// One method's outcome, gate, diagnostics, warnings, curves, facts and dissipativity.
 fn method_lines(m: &MethodReport) -> String {
     let mut s = format!("{}: ", m.method);
-    if let Some(why) = &m.not_applicable {
+    if let Some(why) = m.outcome.not_applicable() {
         return s + &format!("NOT APPLICABLE: {why}\n");
     }
-    if let Some(e) = &m.error {
-        return s + &format!("{}: {e}\n", m.outcome.name().to_uppercase());
+    if let Some(e) = m.outcome.error() {
+        return s + &format!("{}: {e}\n", m.outcome.kind().name().to_uppercase());
     }
     match (m.threshold, m.passed) {
         (Some(t), Some(ok)) => {
@@ -517,10 +460,10 @@ fn marginals_comparison(r: &Report) -> String {
     if let (Some(j), Some(m)) = (
         r.methods
             .iter()
-            .find(|m| m.method == ReportMethod::Estimator(Method::Strong) && m.error.is_none()),
+            .find(|m| m.method == ReportMethod::Estimator(Method::Strong) && m.outcome.error().is_none()),
         r.methods
             .iter()
-            .find(|m| m.method == ReportMethod::Estimator(Method::StrongMarginals) && m.error.is_none()),
+            .find(|m| m.method == ReportMethod::Estimator(Method::StrongMarginals) && m.outcome.error().is_none()),
     ) {
         let worst = m.parameters.iter().max_by(|a, b| a.rel_error.total_cmp(&b.rel_error));
         s +=
@@ -550,36 +493,7 @@ fn validation(v: &Validation) -> String {
         s += &format!("  {e}\n");
     } else {
         // Compact (the full table, stds and kurtoses apart, is in report.md).
-        s += &format!(
-            "| {:<10} | {:>10} | {:>16} | {:>13} | {:>13} | {:>13} |\n",
-            "response", "data std", "diff ± s.e.", "kurt d/m", "spec rms ln", "peak ω d/m"
-        );
-        s += &format!(
-            "|{}|{}|{}|{}|{}|{}|\n",
-            "-".repeat(12),
-            "-".repeat(12),
-            "-".repeat(18),
-            "-".repeat(15),
-            "-".repeat(15),
-            "-".repeat(15)
-        );
-        for row in &v.rows {
-            s += &format!(
-                "| {:<10} | {:>10.5} | {:>16} | {:>13} | {:>13} | {:>13} |\n",
-                row.variable,
-                row.data_std,
-                row.std_difference(),
-                format!("{:.3}/{:.3}", row.data_kurtosis, row.model_kurtosis),
-                row.spectrum.as_ref().map_or("-".into(), |c| format!(
-                    "{:.3} ({:.3})",
-                    c.rms_log_difference, c.averaging_alone
-                )),
-                row.spectrum.as_ref().map_or("-".into(), |c| format!(
-                    "{:.3}/{:.3}",
-                    c.data_peak_rad_s, c.model_peak_rad_s
-                )),
-            );
-        }
+        s += &super::table::validation(v).text();
         s += "  diff: model std / data std − 1, ± its standard error from the sampling of both (the spread between \
               trajectory groups); kurt: kurtosis of data / model; spec rms ln: RMS of ln(S_model/S_data) over the \
               band holding 99 % of the data's variance, (in brackets) what the averaging alone gives; peak ω in rad/s.\n";
@@ -597,32 +511,7 @@ fn integrator_bias(b: &crate::report::IntegratorBias) -> String {
          (estimate at h − at h/2) / (1 − 2^−{})):\n",
         b.step_s, b.order, b.order
     );
-    for m in &b.methods {
-        s += &format!(
-            "| {:<22} | {:>13} | {:>11} | {:>11} | {:>8} |\n|{}|{}|{}|{}|{}|\n",
-            m.method.to_string(),
-            "estimate",
-            "bias",
-            "std. error",
-            "bias/se",
-            "-".repeat(24),
-            "-".repeat(15),
-            "-".repeat(13),
-            "-".repeat(13),
-            "-".repeat(10)
-        );
-        for p in &m.parameters {
-            s += &format!(
-                "| {:<22} | {:>13.6e} | {:>11.3e} | {:>11.3e} | {:>7.2}{} |\n",
-                p.name,
-                p.estimate,
-                p.bias,
-                p.std_error,
-                p.bias / p.std_error,
-                if p.exceeds { "!" } else { " " }
-            );
-        }
-    }
+    s += &super::table::integrator_bias(b).text();
     let exceeding = b.exceeding();
     if exceeding.is_empty() {
         s += "  every bias is below a quarter of its standard error: the integrator does not limit these estimates.\n";
@@ -654,36 +543,31 @@ pub(crate) fn iteration_summary(r: &crate::report::IterationReport) -> String {
     );
     // Two tables to keep within the terminal's width: the estimates and worst error per
     // step, then the fit of P3s and the changes.
-    let w: Vec<usize> = it.names.iter().map(|n| n.to_string().chars().count().max(9)).collect();
-    s += &format!("| {:>4} |", "step");
-    for (n, w) in it.names.iter().zip(&w) {
-        s += &format!(" {n:>w$} |");
+    let mut values = super::table::Table::new().right("step").min_width(4);
+    for n in &it.names {
+        values = values.right(n.to_string()).min_width(9);
     }
-    s += &format!(" {:>9} |\n|{}|", "worst", "-".repeat(6));
-    for w in &w {
-        s += &format!("{}|", "-".repeat(w + 2));
-    }
-    s += &format!("{}|\n| {:>4} |", "-".repeat(11), "true");
-    for (t, w) in r.truth.iter().zip(&w) {
-        s += &format!(" {:>w$} |", sig(*t));
-    }
-    s += &format!(" {:>9} |\n", "");
-    for (k, st) in it.steps.iter().enumerate() {
-        s += &format!("| {:>4} |", st.step);
-        for (v, w) in st.values.iter().zip(&w) {
-            s += &format!(" {:>w$} |", sig(*v));
-        }
-        s += &format!(" {:>9} |\n", fmt_err(r.step_worst_rel_error[k]));
-    }
-    s += &format!(
-        "\n| {:>4} | {:>22} | {:>28} |\n|{}|{}|{}|\n",
-        "step",
-        "P3s fit A, B",
-        "change k1 / K2 / C2",
-        "-".repeat(6),
-        "-".repeat(24),
-        "-".repeat(30)
+    values = values.right("worst").min_width(9);
+    values.row(
+        std::iter::once("true".to_string())
+            .chain(r.truth.iter().map(|t| sig(*t)))
+            .chain([String::new()]),
     );
+    for (k, st) in it.steps.iter().enumerate() {
+        values.row(
+            std::iter::once(st.step.to_string())
+                .chain(st.values.iter().map(|v| sig(*v)))
+                .chain([fmt_err(r.step_worst_rel_error[k])]),
+        );
+    }
+    s += &values.text();
+    let mut fits = super::table::Table::new()
+        .right("step")
+        .min_width(4)
+        .right("P3s fit A, B")
+        .min_width(22)
+        .right("change k1 / K2 / C2")
+        .min_width(28);
     for st in &it.steps {
         let fit = st.p3_fit.map(|f| format!("{:.3}, {:.3}", f.a, f.b)).unwrap_or_default();
         let changes = st
@@ -692,8 +576,10 @@ pub(crate) fn iteration_summary(r: &crate::report::IterationReport) -> String {
             .map(|(_, c)| format!("{c:.1e}"))
             .collect::<Vec<_>>()
             .join(" / ");
-        s += &format!("| {:>4} | {fit:>22} | {changes:>28} |\n", st.step);
+        fits.row([st.step.to_string(), fit, changes]);
     }
+    s += "\n";
+    s += &fits.text();
     s += &format!(
         "stopped by {} after {} steps (max {}, tolerance {:.1e} relative); successive differences {} (the paper's \
          criterion): the sequence {} — which says nothing about how close it is to the truth\n",

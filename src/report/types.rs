@@ -1,12 +1,11 @@
 //! The result types of a run, serialised as `report.json` (fields in `docs/methods.md`).
 
-use crate::ident::{disturbance, lsq::Diagnostics, spectrum};
+use super::MethodReport;
+use crate::ident::{disturbance, spectrum};
 use crate::model::{Term, Truth, UnknownName};
 use crate::scenario::{ReportMethod, Scenario};
-use crate::stats;
 use crate::stats::Histogram;
-use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use serde::Serialize;
 
 /// One unknown's estimate in a method's report, with its uncertainty and, where there is a
 /// truth, its error.
@@ -152,100 +151,6 @@ pub struct WhiteLevelReport {
     /// within 3 times the averaging's) and driving nearly all of the system's gain (the
     /// edge share within its limit).
     pub accepted: bool,
-}
-
-/// What a method made of the data: each method's outcome is its own (docs/methods.md,
-/// "Outcomes and exit codes").
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Outcome {
-    /// Estimates with standard errors (or the reason they have none).
-    Estimated,
-    /// The data cannot decide: the unknowns cannot be separated (rank, singular values) or
-    /// there are too few samples. No estimates are given.
-    Refused,
-    /// The method does not apply to this problem (e.g. a density lattice in too many
-    /// dimensions): not a failure.
-    NotApplicable,
-    /// The method failed on these data (e.g. a non-finite result).
-    Failed,
-}
-
-impl Outcome {
-    /// The outcome of an identification that ended with `e`.
-    pub fn of_error(e: &crate::ident::IdentError) -> Outcome {
-        use crate::ident::IdentError as E;
-        match e {
-            E::NotApplicable(_) => Outcome::NotApplicable,
-            E::NotIdentifiable { .. }
-            | E::Symmetric { .. }
-            | E::Inseparable(_)
-            | E::TooLittleData(_)
-            | E::ForceModelRejected(_) => Outcome::Refused,
-            _ => Outcome::Failed,
-        }
-    }
-
-    /// The name reports and study rows use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Outcome::Estimated => "estimated",
-            Outcome::Refused => "refused",
-            Outcome::NotApplicable => "not-applicable",
-            Outcome::Failed => "failed",
-        }
-    }
-}
-
-/// One method's row of a report: its outcome, estimates, curves, gate and diagnostics
-/// (docs/methods.md, "Outcomes and exit codes").
-#[derive(Debug, Clone, Serialize)]
-pub struct MethodReport {
-    /// The estimator, baseline or comparison model this row is about.
-    pub method: ReportMethod,
-    /// Estimated, refused, not applicable or failed.
-    pub outcome: Outcome,
-    /// Whether this method has an acceptance gate (baselines and comparisons do not).
-    pub gated: bool,
-    /// Every unknown's estimate (empty when the method gave none).
-    pub parameters: Vec<Parameter>,
-    /// Every identified characteristic against the truth.
-    pub curves: Vec<CurveReport>,
-    /// The largest relative error over the parameters and curves (NaN without a truth or an
-    /// estimate).
-    pub worst_rel_error: f64,
-    /// The regression gate on `worst_rel_error` (mean + 4 sd over seeds, set in the
-    /// scenario's `[accept]`); `None` for baselines and comparisons.
-    pub threshold: Option<f64>,
-    /// Whether `threshold` is the 5 % default of a scenario without `[accept]`
-    /// `worst_rel_error`, which no spread over seeds calibrated.
-    pub threshold_default: bool,
-    /// Whether the worst error is within the gate; `None` when not gated or not applicable.
-    pub passed: Option<bool>,
-    /// Why the method does not apply to this problem (e.g. a density grid in too many
-    /// dimensions): not a failure, and not counted by the gates.
-    pub not_applicable: Option<String>,
-    /// Warnings about the estimate's reliability (e.g. too few usable cells per unknown).
-    pub warnings: Vec<String>,
-    /// The least squares' conditioning and the method's own diagnostics.
-    pub diagnostics: Option<Diagnostics>,
-    /// Whether the smallest singular value is so small against the largest that some
-    /// combination of unknowns is poorly determined by the data.
-    pub weakly_determined: bool,
-    /// What the method did, as label and text (moments, test functions, grid, weighting).
-    pub facts: BTreeMap<String, String>,
-    /// Per characteristic: whether the estimate is dissipative over the observed range
-    /// ((3.4), (3.16)–(3.17)).
-    pub dissipativity: Vec<stats::Dissipativity>,
-    /// Why the method gave no estimate when it was refused or failed (then `passed` is
-    /// false).
-    pub error: Option<String>,
-    /// The method's wall-clock time (s).
-    pub seconds: f64,
-    /// With structure selection: the terms selected, which this method identified
-    /// (docs/selection.md).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub selected: Option<Vec<String>>,
 }
 
 /// Structure selection: what was chosen from the candidates and the evidence.

@@ -56,6 +56,8 @@ pub struct Measured {
     pub lengths: Vec<usize>,
     /// Per column of the layout: whether the samples hold it (mapped or derived).
     pub present: Vec<bool>,
+    /// (the layout's column, the table's column name) of every mapped quantity.
+    pub table_columns: Vec<(usize, String)>,
     /// What the reading did that a user should know (e.g. derived velocities).
     pub notes: Vec<String>,
     /// The table columns whose mean was taken out (`[data] remove_mean`), with that mean in
@@ -444,6 +446,7 @@ pub fn measured_with(
         sample_interval,
         lengths,
         present,
+        table_columns: mapped.clone(),
         notes,
         removed_means,
         motion_frequency: f64::NAN,

@@ -1,7 +1,8 @@
 //! Stage "first pass": the plan's accumulators over every sample — the weak form's raw
 //! moments per batch and the links' observed ranges, the naive row's and the comparison
 //! models' moments, the profile positions' moments, the noise floor's lagged products and
-//! the filtered forces' lag-1 correlations.
+//! the filtered forces' lag-1 correlations, and the checks of measured samples for a rig's
+//! faults.
 
 use super::super::pass;
 use super::super::PipelineError;
@@ -20,6 +21,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     list.append(&mut own);
     list.push(&mut id.forces);
     list.push(&mut id.profile_candidates);
+    list.push(&mut id.sample_checks);
     pass::run(id.input, batching, &mut list)?;
     Ok(())
 }

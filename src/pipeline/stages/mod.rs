@@ -134,6 +134,8 @@ pub(crate) struct Identification<'a> {
     pub naive_data: Option<StationaryData>,
     /// The measured filtered forces' spectra.
     pub forces: ForceSpectra,
+    /// The checks of measured samples for a rig's faults (first pass).
+    pub sample_checks: Vec<Box<dyn super::sample_checks::SampleCheck>>,
     /// The sensor-noise estimator, where the samples may carry noise.
     pub floor: Option<NoiseFloor>,
     pub profiled: Option<ProfileReport>,

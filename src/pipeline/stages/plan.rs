@@ -134,6 +134,7 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         comparisons,
         declared_own,
         profile_candidates,
+        sample_checks: super::super::sample_checks::all(input),
         data,
         naive_data,
         forces,

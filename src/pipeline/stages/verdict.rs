@@ -1,5 +1,7 @@
-//! Stage "verdict": the checks of the method's own premises, which fail a run (exit 1)
-//! whatever its gates say (docs/methods.md, "Checks"):
+//! Stage "verdict": the checks of the method's own premises and of the measured samples,
+//! which fail a run (exit 1) whatever its gates say (docs/methods.md, "Checks"):
+//! - the first pass's **checks of the samples** for a rig's faults (`pipeline::sample_checks`,
+//!   e.g. a dead stretch: a column that holds one value over a long stretch of a record);
 //! - **dissipativity**: an FPK estimate (of a method a gate may hold, graded or not: measured
 //!   data carry no gate) whose stiffness or damping is not dissipative over the observed
 //!   range (3.4), (3.16)–(3.17) describes a system with no stationary density, which the
@@ -20,8 +22,21 @@
 use super::super::PipelineError;
 use super::Identification;
 use crate::method::Method;
-use crate::report::{FailedCheck, MethodReport, Outcome};
+use crate::report::{FailedCheck, MethodReport};
 use crate::scenario::ReportMethod;
+
+/// The log's columns as a message names them: with measured data, the table's column
+/// beside a mapped quantity (`v_m1 (column "omega")`).
+fn column_labels(id: &Identification) -> Vec<String> {
+    let mapped = id.input.measured().map_or(&[][..], |m| &m.table_columns[..]);
+    let columns = &id.input.info.columns;
+    (0..columns.len())
+        .map(|k| match mapped.iter().find(|c| c.0 == k) {
+            Some((_, name)) => format!("{} (column {name:?})", columns[k]),
+            None => columns[k].clone(),
+        })
+        .collect()
+}
 
 /// Combined standard errors a coefficient's difference must exceed to fail the agreement
 /// check: for unbiased estimates the chance of one such difference is about 6·10⁻⁵.
@@ -34,6 +49,16 @@ pub const AGREEMENT_SE: f64 = 4.0;
 pub const AGREEMENT_SHARE: f64 = 0.15;
 
 pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
+    let columns = column_labels(id);
+    for check in &id.sample_checks {
+        for message in check.findings(&columns) {
+            id.failed_checks.push(FailedCheck {
+                check: check.name(),
+                method: "data".into(),
+                message,
+            });
+        }
+    }
     for row in id.rows.iter().filter(|r| fpk_estimate(r)) {
         for d in row.dissipativity.iter().filter(|d| !d.holds) {
             id.failed_checks.push(FailedCheck {
@@ -63,13 +88,13 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
 /// Whether a row is an estimate of a gated FPK method — whether or not a truth grades it
 /// (measured data have none, and their rows carry no gate).
 fn fpk_estimate(row: &MethodReport) -> bool {
-    matches!(row.method, ReportMethod::Estimator(m) if m.is_gated()) && row.outcome == Outcome::Estimated
+    matches!(row.method, ReportMethod::Estimator(m) if m.is_gated()) && row.outcome.is_estimated()
 }
 
 /// The agreement check: every gated FPK estimate's coefficients against the force
 /// regression's on the same samples.
 fn agreement(id: &mut Identification) {
-    let estimated = |m: &MethodReport| m.outcome == Outcome::Estimated;
+    let estimated = |m: &MethodReport| m.outcome.is_estimated();
     let Some(regression) = id
         .rows
         .iter()

@@ -74,7 +74,7 @@ pub fn has_comparisons(r: &Report) -> bool {
 fn main_method(r: &Report) -> Option<&MethodReport> {
     r.methods
         .iter()
-        .find(|m| super::characteristics::sets_range(m) && m.error.is_none())
+        .find(|m| super::characteristics::sets_range(m) && m.outcome.error().is_none())
 }
 
 /// The comparison models' estimates of one characteristic.

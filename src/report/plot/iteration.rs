@@ -51,7 +51,7 @@ pub fn plot_iteration(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> 
     let estimates = |method: &ReportMethod| {
         r.methods
             .iter()
-            .find(|m| m.method == *method && m.error.is_none())
+            .find(|m| m.method == *method && m.outcome.error().is_none())
             .map(|m| m.parameters.iter().map(|p| p.estimate).collect::<Vec<f64>>())
     };
     // Reference lines: (stroke, label, estimates): each sequence's bound, in its colour,

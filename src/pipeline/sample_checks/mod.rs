@@ -1,0 +1,30 @@
+//! Checks of measured samples themselves for a rig's faults, made while the first pass
+//! reads them (docs/methods.md, "Checks"): each is an
+//! [`Accumulator`](crate::ident::accumulate::Accumulator) that, once the pass is over,
+//! names what it found. The verdict stage turns every finding into a failed check (exit 1):
+//! an estimate made from a stuck sensor's record is not an estimate of the rig.
+//!
+//! A new check is one file here implementing [`SampleCheck`] and one line in [`all`].
+
+mod dead_stretches;
+
+use crate::ident::accumulate::Accumulator;
+
+/// A check of the samples, run in the first pass.
+pub(crate) trait SampleCheck: Accumulator + Send {
+    /// Its name in `report.json`'s `failed_checks`.
+    fn name(&self) -> &'static str;
+    /// What it found once the pass is over, one message per fault: the column, the record
+    /// and the time, and what may cause it. `columns` are the log's column names.
+    fn findings(&self, columns: &[String]) -> Vec<String>;
+}
+
+/// Every check that applies to the samples of `input` (measured tables only: a
+/// simulation's samples have no rig).
+pub(crate) fn all(input: &super::Input) -> Vec<Box<dyn SampleCheck>> {
+    if input.measured().is_none() {
+        return Vec::new();
+    }
+    let width = input.info.columns.len();
+    vec![Box::new(dead_stretches::DeadStretches::new(width))]
+}
