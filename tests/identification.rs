@@ -665,3 +665,50 @@ fn xorshift_uniform(mut state: u64) -> impl FnMut() -> f64 {
         ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
     }
 }
+
+/// Every method's estimates, standard errors and curves, and the validation's rows, bit
+/// for bit the same on one thread and on three: the pass driver runs a pass's accumulators
+/// in parallel, each over every sample in order, and nothing is summed across threads.
+#[test]
+fn an_identification_gives_the_same_numbers_whatever_the_thread_count() {
+    use fpkbench::pipeline::{identify_log, Options};
+    use fpkbench::scenario::Method;
+    let dir = tempfile::tempdir().unwrap();
+    let s = crate::common::small_scenario(400.0, 8);
+    let log = dir.path().join("run.mcap");
+    crate::common::fresh_log(&s, &log);
+    let options = Options {
+        methods: vec![
+            Method::Weak,
+            Method::Strong,
+            Method::StrongMarginals,
+            Method::Increments,
+            Method::KramersMoyal,
+            Method::ForceRegression,
+        ],
+        ..Options::default()
+    };
+    let numbers = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let r = pool.install(|| identify_log(&log, &options).unwrap());
+        let mut bits: Vec<u64> = Vec::new();
+        for m in &r.methods {
+            assert!(m.outcome.is_estimated(), "{}: {:?}", m.method, m.outcome);
+            for p in &m.parameters {
+                bits.extend([p.estimate.to_bits(), p.std_error.to_bits()]);
+            }
+            bits.extend(m.curves.iter().map(|c| c.rel_l2_error.to_bits()));
+        }
+        for row in &r.validation.as_ref().expect("validated").rows {
+            bits.extend([
+                row.data_std.to_bits(),
+                row.model_std.to_bits(),
+                row.data_kurtosis.to_bits(),
+            ]);
+        }
+        bits
+    };
+    let one = numbers(1);
+    assert!(one.len() > 30, "{} numbers", one.len());
+    assert_eq!(one, numbers(3));
+}

@@ -20,8 +20,10 @@ pub struct Sample<'r> {
 }
 
 /// A computation over the samples of one pass: `push` for every sample, in the source's
-/// order (a trajectory's samples in time order), then `finish` once.
-pub trait Accumulator {
+/// order (a trajectory's samples in time order), then `finish` once. `Send`: the pass
+/// driver runs the accumulators of one pass on threads of their own, each over every
+/// sample in order.
+pub trait Accumulator: Send {
     /// One sample.
     fn push(&mut self, sample: &Sample);
     /// The pass is over: flush what is buffered.
@@ -67,7 +69,7 @@ impl<A: Accumulator> Accumulator for Vec<A> {
 /// subset of the columns, a derived force), or a sum too small for a type of its own.
 pub struct Each<F>(pub F);
 
-impl<F: FnMut(&Sample)> Accumulator for Each<F> {
+impl<F: FnMut(&Sample) + Send> Accumulator for Each<F> {
     fn push(&mut self, sample: &Sample) {
         (self.0)(sample)
     }
