@@ -466,9 +466,10 @@ pub struct Timings {
 /// A check of the method's own premises that failed (docs/methods.md, "Checks").
 #[derive(Debug, Clone, Serialize)]
 pub struct FailedCheck {
-    /// `dissipativity`, `validation` or `agreement` (docs/methods.md, "Checks").
+    /// `dissipativity`, `validation`, `agreement` or a check of the samples (`dead stretch`)
+    /// (docs/methods.md, "Checks").
     pub check: &'static str,
-    /// The method whose result failed it.
+    /// The method whose result failed it (`data` for a check of the samples).
     pub method: String,
     /// What failed, and why it matters.
     pub message: String,

@@ -11,7 +11,7 @@ mod dead_stretches;
 use crate::ident::accumulate::Accumulator;
 
 /// A check of the samples, run in the first pass.
-pub(crate) trait SampleCheck: Accumulator + Send {
+pub(crate) trait SampleCheck: Accumulator {
     /// Its name in `report.json`'s `failed_checks`.
     fn name(&self) -> &'static str;
     /// What it found once the pass is over, one message per fault: the column, the record
