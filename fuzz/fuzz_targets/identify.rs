@@ -68,7 +68,7 @@ fuzz_target!(|data: &[u8]| {
         let out = std::env::temp_dir().join(format!("fpkbench-fuzz-identify-{}", std::process::id()));
         fpkbench::report::write_all(&report, &out).unwrap();
         for m in &report.methods {
-            assert!(m.error.is_some() || m.parameters.iter().all(|p| p.estimate.is_finite()));
+            assert!(m.outcome.error().is_some() || m.parameters.iter().all(|p| p.estimate.is_finite()));
         }
     }
 });
