@@ -45,11 +45,6 @@ impl BoucWen {
     pub fn z_max(&self) -> f64 {
         (self.a / (self.beta + self.gamma)).powf(1.0 / self.n)
     }
-
-    /// The largest force the element gives, `k_z·z_max`.
-    pub fn force_max(&self) -> f64 {
-        self.stiffness * self.z_max()
-    }
 }
 
 #[cfg(test)]
@@ -92,13 +87,5 @@ mod tests {
             assert!((u - 15.0).abs() < 1e-6);
             assert!(work > 0.1, "n {n}: loop work {work}");
         }
-        let bw = BoucWen {
-            stiffness: 2.0,
-            a: 1.0,
-            beta: 0.5,
-            gamma: 0.5,
-            n: 1.0,
-        };
-        assert_eq!(bw.force_max(), 2.0);
     }
 }
