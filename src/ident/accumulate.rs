@@ -23,6 +23,13 @@ pub struct Sample<'r> {
 /// order (a trajectory's samples in time order), then `finish` once. `Send`: the pass
 /// driver runs the accumulators of one pass on threads of their own, each over every
 /// sample in order.
+///
+/// What an accumulator needs of a sample is the [`Sample`]: its record, time, batch and
+/// columns. What it needs of an earlier pass (the first pass's means and spreads for a
+/// grid, the fitted filters for a lattice of fluxes) it takes in its constructor, so it
+/// cannot be built before the pass that gives them: that is what orders the passes, and
+/// an accumulator whose needs are met by the first pass runs in the first pass
+/// (docs/architecture.md, "Stages and passes").
 pub trait Accumulator: Send {
     /// One sample.
     fn push(&mut self, sample: &Sample);

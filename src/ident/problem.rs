@@ -12,6 +12,8 @@ use crate::scenario::{Process, Scenario};
 use nalgebra::{DMatrix, DVector};
 use std::cell::RefCell;
 
+#[cfg(test)]
+mod augmented_drift;
 mod forces;
 #[cfg(test)]
 mod tests;
@@ -306,7 +308,8 @@ impl Problem {
 
     /// Drift of mass `i`'s noise variable (`v̇_i` white, `ȧ_i` augmented) at state `y` with
     /// the unknown coefficients `theta` (masses and intensities at their nominal values).
-    pub fn noise_drift(&self, i: usize, y: &[f64], theta: &[f64]) -> f64 {
+    #[cfg(test)]
+    fn noise_drift(&self, i: usize, y: &[f64], theta: &[f64]) -> f64 {
         let j = self.noise_var[i];
         let free: f64 = self
             .free_drift

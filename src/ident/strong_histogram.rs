@@ -194,11 +194,6 @@ impl DensityGrid {
         self
     }
 
-    /// Whether per-batch counts are kept.
-    pub fn has_batches(&self) -> bool {
-        self.batches.is_some()
-    }
-
     /// Add one sample of batch `batch` (also to that batch's counts, if kept);
     /// [`DensityGrid::finish`] after the last.
     ///

@@ -449,11 +449,6 @@ impl FluxLattice {
         Ok(l)
     }
 
-    /// Jackknife groups kept (0: none, the lattice is too large).
-    pub fn group_count(&self) -> usize {
-        self.groups.as_ref().map_or(0, |g| g.total.len())
-    }
-
     /// Add one sample of batch `batch` (`row`: the log's columns); [`FluxLattice::finish`]
     /// after the last.
     ///

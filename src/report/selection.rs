@@ -3,6 +3,7 @@
 //! inclusion over jackknife replicates and the elimination path; and a term's profiled
 //! position (`[identify.profile]`, docs/scenario.md "Terms").
 
+use super::table::Table;
 use super::{ProfileReport, SelectionReport};
 
 /// The profile's headline: the position chosen, its interval, the truth where known.
@@ -47,23 +48,28 @@ pub fn profile_lines(p: &ProfileReport) -> Vec<String> {
 /// report.md's section of a profile: the table of `J` per position.
 pub fn profile_section(p: &ProfileReport) -> String {
     let j_min = p.points.iter().filter_map(|x| x.j).fold(f64::INFINITY, f64::min);
-    let mut s = format!(
-        "## Profile\n\n{}\n\n| position | J | J − J_min | dof |\n|---:|---:|---:|---:|\n",
-        profile_headline(p)
-    );
+    let mut table = Table::new()
+        .right("position")
+        .right("J")
+        .right("J − J_min")
+        .right("dof");
     for x in &p.points {
-        match x.j {
-            Some(j) => s += &format!("| {} | {:.1} | {:.1} | {} |\n", x.position, j, j - j_min, x.dof),
-            None => {
-                s += &format!(
-                    "| {} | refused: {} | | |\n",
-                    x.position,
-                    x.refused.as_deref().unwrap_or("")
-                )
-            }
-        }
+        table.row(match x.j {
+            Some(j) => [
+                x.position.to_string(),
+                format!("{j:.1}"),
+                format!("{:.1}", j - j_min),
+                x.dof.to_string(),
+            ],
+            None => [
+                x.position.to_string(),
+                format!("refused: {}", x.refused.as_deref().unwrap_or("")),
+                String::new(),
+                String::new(),
+            ],
+        });
     }
-    s + "\n"
+    format!("## Profile\n\n{}\n\n{}\n", profile_headline(p), table.markdown())
 }
 
 /// The candidates with an inclusion frequency strictly between 0 and 1, or at odds with
@@ -175,10 +181,13 @@ pub fn selection_section(r: &SelectionReport, image: &str) -> String {
         "The {}; its model is the row `weak [STLSQ selection]`.\n\n",
         baseline(r)
     );
-    out += &format!(
-        "| candidate | selected | selected by the {} jackknife replicates | STLSQ |\n|---|:---:|---:|:---:|\n",
-        s.replicates
-    );
+    let replicates = format!("selected by the {} jackknife replicates", s.replicates);
+    let mut table = Table::new()
+        .left("candidate")
+        .center("selected")
+        .right(replicates)
+        .center("STLSQ");
+    let mark = |yes: bool| if yes { "yes" } else { "—" }.to_string();
     for (((n, &sel), &f), &t) in s
         .candidates
         .iter()
@@ -186,47 +195,55 @@ pub fn selection_section(r: &SelectionReport, image: &str) -> String {
         .zip(&s.inclusion)
         .zip(&s.thresholded.selected)
     {
-        out += &format!(
-            "| {n} | {} | {:.0} % | {} |\n",
-            if sel { "yes" } else { "—" },
-            100.0 * f,
-            if t { "yes" } else { "—" }
-        );
+        table.row([n.to_string(), mark(sel), format!("{:.0} %", 100.0 * f), mark(t)]);
     }
+    out += &table.markdown();
     if !s.runners_up.is_empty() {
-        out += "\n| runner-up | terms | criterion | against the selected |\n|---|---:|---:|---:|\n";
-        out += &format!(
-            "| (selected) | {} | {:.1} | 0 |\n",
-            s.selected.iter().filter(|&&x| x).count(),
-            s.criterion
-        );
+        let mut table = Table::new()
+            .left("runner-up")
+            .right("terms")
+            .right("criterion")
+            .right("against the selected");
+        let selected = s.selected.iter().filter(|&&x| x).count();
+        table.row([
+            "(selected)".to_string(),
+            selected.to_string(),
+            format!("{:.1}", s.criterion),
+            "0".into(),
+        ]);
         for x in &s.runners_up {
-            out += &format!(
-                "| {} | {} | {:.1} | {:+.1} |\n",
-                x.change,
-                x.terms,
-                x.criterion,
-                x.criterion - s.criterion
-            );
+            table.row([
+                x.change.to_string(),
+                x.terms.to_string(),
+                format!("{:.1}", x.criterion),
+                format!("{:+.1}", x.criterion - s.criterion),
+            ]);
         }
+        out += "\n";
+        out += &table.markdown();
     }
     out += "\nBackward elimination (each step drops the term whose loss raises J least while \
             every leading term stays odd; a model whose leading coefficient is not positive, or \
-            that has no stationary density, cannot be selected):\n\n| terms | dropped | J | criterion |\n|---:|---|---:|---:|\n";
+            that has no stationary density, cannot be selected):\n\n";
+    let mut table = Table::new()
+        .right("terms")
+        .left("dropped")
+        .right("J")
+        .right("criterion");
     for st in &s.path {
-        out += &format!(
-            "| {} | {} | {:.1} | {} |\n",
-            st.terms,
+        table.row([
+            st.terms.to_string(),
             st.dropped
                 .as_ref()
                 .map_or("(all candidates)".to_string(), |d| d.to_string()),
-            st.j,
+            format!("{:.1}", st.j),
             if st.admissible {
                 format!("{:.1}", st.criterion)
             } else {
                 "not admissible".to_string()
-            }
-        );
+            },
+        ]);
     }
+    out += &table.markdown();
     out + "\n"
 }

@@ -8,6 +8,7 @@
 use super::figure::{color, log_range, Axis, Color, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
 use super::plot::write_figure;
 use super::study_rows::{Configuration, Paired, Row, Summary};
+use super::table::Table;
 use std::path::{Path, PathBuf};
 
 fn pct(x: f64) -> String {
@@ -49,27 +50,22 @@ fn error_bar(p: &mut Panel, x: f64, [lo, hi]: [f64; 2], half: f64, col: Color) {
 /// Tables longer than this are folded on the page (`<details>`), closed until opened.
 const FOLD_ROWS: usize = 30;
 
-/// The configuration's cells of a table row, the sensor noise level's only in a study over
-/// noise levels (`noisy`).
-fn configuration_cells(c: &Configuration, noisy: bool) -> String {
-    let noise = match (noisy, c.sensor_noise) {
-        (true, Some(n)) => format!(" {} % |", 100.0 * n),
-        (true, None) => " – |".into(),
-        (false, _) => String::new(),
-    };
-    format!("| {} | {} |{noise}", c.record_length, c.sample_interval)
+/// A table whose first columns are the configuration's, the sensor noise level's only in a
+/// study over noise levels (`noisy`), then the method's.
+fn configuration_table(noisy: bool) -> Table {
+    let t = Table::new().right("record length (s)").right("interval (s)");
+    let t = if noisy { t.right("sensor noise (of std)") } else { t };
+    t.left("method")
 }
 
-/// The configuration's header cells and their alignment row.
-fn configuration_header(noisy: bool) -> (&'static str, &'static str) {
+/// The configuration's and the method's cells of a table row.
+fn configuration_cells(c: &Configuration, method: &str, noisy: bool) -> Vec<String> {
+    let mut cells = vec![c.record_length.to_string(), c.sample_interval.to_string()];
     if noisy {
-        (
-            "| record length (s) | interval (s) | sensor noise (of std) |",
-            "|---:|---:|---:|",
-        )
-    } else {
-        ("| record length (s) | interval (s) |", "|---:|---:|")
+        cells.push(c.sensor_noise.map_or("–".into(), |n| format!("{} %", 100.0 * n)));
     }
+    cells.push(method.to_string());
+    cells
 }
 
 /// The summary as a markdown page (with the paired differences from a reference method,
@@ -96,21 +92,29 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
           problem) or failed (the item could not be run). The error statistics are over the estimated \
           items; the refusal rate is refused / (estimated + refused).\n\n";
     let noisy = summary.iter().any(|x| x.configuration.sensor_noise.is_some());
-    let (head, align) = configuration_header(noisy);
-    s += &format!(
-        "{head} method | estimated | refused | refusal rate | n/a | failed | median | q1 | q3 | max | mean | sd | coverage | s per item |\n\
-         {align}---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
-    );
+    let mut table = configuration_table(noisy);
+    for title in [
+        "estimated",
+        "refused",
+        "refusal rate",
+        "n/a",
+        "failed",
+        "median",
+        "q1",
+        "q3",
+        "max",
+    ] {
+        table = table.right(title);
+    }
+    let mut table = table.right("mean").right("sd").right("coverage").right("s per item");
     for x in summary {
-        s += &format!(
-            "{} {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
-            configuration_cells(&x.configuration, noisy),
-            x.method,
-            x.items,
-            x.refused,
+        let mut cells = configuration_cells(&x.configuration, &x.method, noisy);
+        cells.extend([
+            x.items.to_string(),
+            x.refused.to_string(),
             x.refusal_rate().map_or("–".into(), |r| format!("{:.0} %", 100.0 * r)),
-            x.not_applicable,
-            x.failed,
+            x.not_applicable.to_string(),
+            x.failed.to_string(),
             pct(x.worst_median),
             pct(x.worst_q1),
             pct(x.worst_q3),
@@ -118,38 +122,45 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
             pct(x.worst_mean),
             pct(x.worst_sd),
             coverage(x.coverage, x.coverage_ci, 1),
-            x.item_s_median
-        );
+            format!("{:.2}", x.item_s_median),
+        ]);
+        table.row(cells);
     }
+    s += &table.markdown();
     if summary.iter().any(|x| x.selection.is_some()) {
         s += "\n## Structure selection\n\nPer configuration and method, over the items with a selection \
               (docs/selection.md): how often the selected model was exactly the true structure among the \
               candidates, how often a true term was dropped (items, and share of all true terms), how often \
               a term the truth lacks was kept (items, and terms per item), and the terms most often wrong.\n\n";
-        s += &format!(
-            "{head} method | items | exact structure | true term dropped (items) | true terms dropped | false term kept (items) | false terms per item | wrong most often |\n\
-             {align}---|---:|---:|---:|---:|---:|---:|---|\n"
-        );
+        let mut table = configuration_table(noisy).right("items").right("exact structure");
+        for title in [
+            "true term dropped (items)",
+            "true terms dropped",
+            "false term kept (items)",
+        ] {
+            table = table.right(title);
+        }
+        let mut table = table.right("false terms per item").left("wrong most often");
         for x in summary {
             let Some(sel) = &x.selection else { continue };
             let wrong: Vec<String> = sel.mistakes.iter().take(4).map(|(n, k)| format!("{n} ({k})")).collect();
-            s += &format!(
-                "{} {} | {} | {:.0} % | {:.0} % | {:.1} % | {:.0} % | {:.2} | {} |\n",
-                configuration_cells(&x.configuration, noisy),
-                x.method,
-                sel.items,
-                100.0 * sel.exact,
-                100.0 * sel.true_dropped_items,
-                100.0 * sel.true_dropped_terms,
-                100.0 * sel.false_kept_items,
-                sel.false_kept_per_item,
+            let mut cells = configuration_cells(&x.configuration, &x.method, noisy);
+            cells.extend([
+                sel.items.to_string(),
+                format!("{:.0} %", 100.0 * sel.exact),
+                format!("{:.0} %", 100.0 * sel.true_dropped_items),
+                format!("{:.1} %", 100.0 * sel.true_dropped_terms),
+                format!("{:.0} %", 100.0 * sel.false_kept_items),
+                format!("{:.2}", sel.false_kept_per_item),
                 if wrong.is_empty() {
                     "–".to_string()
                 } else {
                     wrong.join(", ")
-                }
-            );
+                },
+            ]);
+            table.row(cells);
         }
+        s += &table.markdown();
     }
     s += "\n## Parameters\n\n";
     // A long table folded (report.html shows its title; report.md its comment is unseen).
@@ -161,61 +172,68 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
     let with_bias = summary
         .iter()
         .any(|x| x.parameters.iter().any(|p| p.integrator_bias_share.is_some()));
-    let (bias_head, bias_align) = match with_bias {
-        true => (" integrator bias / std. error |", "---:|"),
-        false => ("", ""),
-    };
-    s += &format!(
-        "{head} method | parameter | bias | spread | coverage of 95 % intervals | std. error / spread | efficiency \
-         |{bias_head}\n{align}---|---|---:|---:|---:|---:|---:|{bias_align}\n"
-    );
+    let mut table = configuration_table(noisy)
+        .left("parameter")
+        .right("bias")
+        .right("spread");
+    table = table
+        .right("coverage of 95 % intervals")
+        .right("std. error / spread")
+        .right("efficiency");
+    if with_bias {
+        table = table.right("integrator bias / std. error");
+    }
     let ratio = |r: Option<f64>| r.map_or("–".to_string(), |r| format!("{r:.2}"));
     for x in summary {
         for p in &x.parameters {
-            s += &format!(
-                "{} {} | {} | {:+.2} % | {:.2} % | {} | {} | {} |\n",
-                configuration_cells(&x.configuration, noisy),
-                x.method,
-                p.name,
-                100.0 * p.bias,
-                100.0 * p.spread,
+            let mut cells = configuration_cells(&x.configuration, &x.method, noisy);
+            cells.extend([
+                p.name.clone(),
+                format!("{:+.2} %", 100.0 * p.bias),
+                format!("{:.2} %", 100.0 * p.spread),
                 coverage(p.coverage, p.coverage_ci, 0),
                 ratio(p.std_error_ratio),
                 match (p.efficiency, p.efficiency_ci) {
                     (Some(e), Some([lo, hi])) => format!("{e:.2} [{lo:.2}, {hi:.2}]"),
                     (e, _) => ratio(e),
-                }
-            );
+                },
+            ]);
             if with_bias {
-                s.pop();
-                s += &match p.integrator_bias_share {
-                    Some(b) if b.abs() > super::BIAS_SHARE => format!(" **{b:+.2}** |\n"),
-                    Some(b) => format!(" {b:+.2} |\n"),
-                    None => " – |\n".to_string(),
-                };
+                cells.push(match p.integrator_bias_share {
+                    Some(b) if b.abs() > super::BIAS_SHARE => format!("**{b:+.2}**"),
+                    Some(b) => format!("{b:+.2}"),
+                    None => "–".to_string(),
+                });
             }
+            table.row(cells);
         }
     }
+    s += &table.markdown();
     if let Some(first) = paired.first() {
         s += &format!(
             "\n## Paired differences from `{}`\n\nOn the same samples: `(θ̂ − θ̂_{0}) / sd`, with `sd` the seed \
              standard deviation of `{0}`'s estimate; mean, standard deviation and largest magnitude over the \
-             items.\n\n{head} method | parameter | sd of {0} | mean | sd | max abs |\n\
-             {align}---|---|---:|---:|---:|---:|\n",
+             items.\n\n",
             first.reference
         );
+        let table = configuration_table(noisy).left("parameter");
+        let mut table = table
+            .right(format!("sd of {}", first.reference))
+            .right("mean")
+            .right("sd")
+            .right("max abs");
         for p in paired {
-            s += &format!(
-                "{} {} | {} | {:.5} | {:+.2} | {:.2} | {:.2} |\n",
-                configuration_cells(&p.configuration, noisy),
-                p.method,
-                p.parameter,
-                p.reference_sd,
-                p.mean,
-                p.sd,
-                p.max_abs
-            );
+            let mut cells = configuration_cells(&p.configuration, &p.method, noisy);
+            cells.extend([
+                p.parameter.clone(),
+                format!("{:.5}", p.reference_sd),
+                format!("{:+.2}", p.mean),
+                format!("{:.2}", p.sd),
+                format!("{:.2}", p.max_abs),
+            ]);
+            table.row(cells);
         }
+        s += &table.markdown();
     }
     s
 }

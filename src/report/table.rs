@@ -12,6 +12,8 @@ pub enum Align {
     Left,
     /// Numbers.
     Right,
+    /// Marks: yes or a dash.
+    Center,
 }
 
 /// One column: its title, alignment and how the terminal shows it.
@@ -73,6 +75,18 @@ impl Table {
         self
     }
 
+    /// A column of marks, centred.
+    pub fn center(mut self, title: impl Into<String>) -> Table {
+        self.columns.push(Column {
+            title: title.into(),
+            short: None,
+            align: Align::Center,
+            min_width: 0,
+            shown: Shown::Both,
+        });
+        self
+    }
+
     /// The last column's title on the terminal.
     pub fn short(mut self, title: impl Into<String>) -> Table {
         self.last().short = Some(title.into());
@@ -125,10 +139,10 @@ impl Table {
         let mut s = line(&|k| self.columns[k].title.clone());
         s += "|";
         for &k in &shown {
-            s += if self.columns[k].align == Align::Right {
-                "---:|"
-            } else {
-                "---|"
+            s += match self.columns[k].align {
+                Align::Left => "---|",
+                Align::Right => "---:|",
+                Align::Center => ":---:|",
             };
         }
         s += "\n";
@@ -165,6 +179,10 @@ impl Table {
                 s += &match self.columns[k].align {
                     Align::Left => format!(" {text}{pad} |"),
                     Align::Right => format!(" {pad}{text} |"),
+                    Align::Center => {
+                        let (before, after) = pad.split_at(pad.len() / 2);
+                        format!(" {before}{text}{after} |")
+                    }
                 };
             }
             s + "\n"
