@@ -455,3 +455,35 @@ fn a_velocity_held_over_a_stretch_of_one_record_fails_the_run_naming_it() {
     );
     assert!(!r.passed);
 }
+
+#[test]
+fn a_velocity_a_sample_late_in_one_record_fails_the_run_naming_it() {
+    // The OU rig's table, which passes every check, with record 2's velocity one row late
+    // against its displacement (a logger buffering one channel).
+    let mut csv = String::new();
+    let mut previous: Option<String> = None;
+    for line in ou_table().lines() {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        if f[0] == "1" {
+            let now = f[3].clone();
+            f[3] = previous.replace(now.clone()).unwrap_or(now);
+        }
+        csv += &(f.join(",") + "\n");
+    }
+    let r = identify_table(&csv);
+    let lags: Vec<_> = r.failed_checks.iter().filter(|c| c.check == "lag").collect();
+    assert!(!lags.is_empty() && !r.passed, "{:?}", r.failed_checks);
+    assert!(
+        lags[0]
+            .message
+            .starts_with("v_m1 (column \"v\") lags the central difference of x_m1 (column \"x\") by +1.0")
+            && lags[0].message.contains(" in record 2 "),
+        "{}",
+        lags[0].message
+    );
+    // The clean table has no lag anywhere.
+    assert!(identify_table(&ou_table())
+        .failed_checks
+        .iter()
+        .all(|c| c.check != "lag"));
+}

@@ -92,6 +92,16 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
           problem) or failed (the item could not be run). The error statistics are over the estimated \
           items; the refusal rate is refused / (estimated + refused).\n\n";
     let noisy = summary.iter().any(|x| x.configuration.sensor_noise.is_some());
+    s += &summary_table(summary, noisy);
+    s += &selection_table(summary, noisy);
+    s += &parameters_table(summary, noisy);
+    s += &paired_table(paired, noisy);
+    s
+}
+
+/// The main table: per configuration and method, the outcomes and the worst error.
+fn summary_table(summary: &[Summary], noisy: bool) -> String {
+    let mut s = String::new();
     let mut table = configuration_table(noisy);
     for title in [
         "estimated",
@@ -127,6 +137,12 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
         table.row(cells);
     }
     s += &table.markdown();
+    s
+}
+
+/// The structure selection's table, where items made one.
+fn selection_table(summary: &[Summary], noisy: bool) -> String {
+    let mut s = String::new();
     if summary.iter().any(|x| x.selection.is_some()) {
         s += "\n## Structure selection\n\nPer configuration and method, over the items with a selection \
               (docs/selection.md): how often the selected model was exactly the true structure among the \
@@ -162,6 +178,12 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
         }
         s += &table.markdown();
     }
+    s
+}
+
+/// Per parameter: bias, spread, coverage, standard errors, efficiency and the integrator's bias.
+fn parameters_table(summary: &[Summary], noisy: bool) -> String {
+    let mut s = String::new();
     s += "\n## Parameters\n\n";
     // A long table folded (report.html shows its title; report.md its comment is unseen).
     let rows: usize = summary.iter().map(|x| x.parameters.len()).sum();
@@ -209,6 +231,12 @@ pub fn study_markdown(name: &str, rows: usize, summary: &[Summary], paired: &[Pa
         }
     }
     s += &table.markdown();
+    s
+}
+
+/// The paired differences from the reference method, where the study names one.
+fn paired_table(paired: &[Paired], noisy: bool) -> String {
+    let mut s = String::new();
     if let Some(first) = paired.first() {
         s += &format!(
             "\n## Paired differences from `{}`\n\nOn the same samples: `(θ̂ − θ̂_{0}) / sd`, with `sd` the seed \

@@ -679,7 +679,7 @@ impl Accept {
 }
 
 /// `[data]` of a model file: where the model's quantities are in a measured table.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct DataMapping {
     /// The time column (s), if the table has one.
     pub time: Option<String>,

@@ -4,9 +4,13 @@
 //! names what it found. The verdict stage turns every finding into a failed check (exit 1):
 //! an estimate made from a stuck sensor's record is not an estimate of the rig.
 //!
+//! The checks: [`dead_stretches`] (a column that stands still inside a record) and
+//! [`lags`] (a measured derivative delayed against its quantity).
+//!
 //! A new check is one file here implementing [`SampleCheck`] and one line in [`all`].
 
 mod dead_stretches;
+mod lags;
 
 use crate::ident::accumulate::Accumulator;
 
@@ -22,9 +26,25 @@ pub(crate) trait SampleCheck: Accumulator {
 /// Every check that applies to the samples of `input` (measured tables only: a
 /// simulation's samples have no rig).
 pub(crate) fn all(input: &super::Input) -> Vec<Box<dyn SampleCheck>> {
-    if input.measured().is_none() {
+    let Some(data) = input.measured() else {
         return Vec::new();
-    }
+    };
     let width = input.info.columns.len();
-    vec![Box::new(dead_stretches::DeadStretches::new(width))]
+    vec![
+        Box::new(dead_stretches::DeadStretches::new(width)),
+        Box::new(lags::Lags::new(measured_pairs(input, data), data.sample_interval)),
+    ]
+}
+
+/// The pairs of a quantity and its derivative (displacement and velocity, velocity and
+/// acceleration) whose columns are both measured, not derived.
+fn measured_pairs(input: &super::Input, data: &crate::io::table::Measured) -> Vec<lags::Pair> {
+    let layout = crate::model::Model::new(&input.info.scenario).columns();
+    let measured = |c: usize| data.present.get(c).copied().unwrap_or(false) && !data.derived(c);
+    let masses = input.info.scenario.masses.len();
+    (0..masses)
+        .flat_map(|i| [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))])
+        .filter(|&(q, d)| measured(q) && measured(d))
+        .map(|(quantity, derivative)| lags::Pair { quantity, derivative })
+        .collect()
 }
