@@ -700,3 +700,33 @@ fn lab_excitations_refuse_what_their_kind_does_not_take() {
         "only lab excitations",
     );
 }
+
+#[test]
+fn an_alternative_model_with_no_terms_is_refused_where_it_is_written() {
+    // Before: validated, simulated, then "the scenario has no unknowns" (issue 70).
+    let text = format!("{GOOD}\n[identify.compare.alt]\nlinks = {{}}\n");
+    let line = text.lines().position(|l| l == "[identify.compare.alt]").unwrap() + 1;
+    run_bad(
+        "compare_without_terms",
+        &text,
+        line,
+        "identify.compare.alt.links",
+        "identifies no term",
+    );
+}
+
+#[test]
+fn a_profile_without_its_range_is_named_at_the_profile() {
+    // Before: "`identify`: missing field `range`", at the [identify] table (issue 70).
+    let shipped = std::fs::read_to_string("scenarios/clearance2dof.toml").unwrap();
+    assert!(shipped.contains("range = [0.075, 0.225]\n"));
+    let text = shipped.replace("range = [0.075, 0.225]\n", "");
+    let line = text.lines().position(|l| l == "[identify.profile]").unwrap() + 1;
+    run_bad(
+        "profile_without_range",
+        &text,
+        line,
+        "identify.profile.range",
+        "missing: give the positions to try",
+    );
+}

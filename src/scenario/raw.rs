@@ -167,7 +167,9 @@ pub(crate) struct RawIdentify {
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawProfile {
     pub(super) parameter: Spanned<String>,
-    pub(super) range: Spanned<Vec<f64>>,
+    /// Optional here so that a missing range is named at `[identify.profile]`, not at its
+    /// parent table (serde's own error).
+    pub(super) range: Option<Spanned<Vec<f64>>>,
     pub(super) points: Option<Spanned<i64>>,
 }
 

@@ -38,7 +38,20 @@ pub(crate) fn check_identify(
     let mut compare = Vec::new();
     for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
         let key = format!("identify.compare.{name}.links");
-        compare.push((name.clone(), identify_links(loc, links, &c.get_ref().links, &key)?));
+        let alternative = identify_links(loc, links, &c.get_ref().links, &key)?;
+        let no_terms = |t: &Option<Vec<_>>| t.as_ref().is_none_or(Vec::is_empty);
+        if alternative
+            .iter()
+            .all(|l| no_terms(&l.stiffness) && no_terms(&l.damping))
+        {
+            return Err(loc.at(
+                c.span(),
+                &key,
+                "an alternative model identifies no term: give it at least one link with the powers or terms \
+                 to identify (e.g. links.ground-m1 = { stiffness = [1] }), or leave the alternative out",
+            ));
+        }
+        compare.push((name.clone(), alternative));
     }
     let filtered = |list: Option<&Vec<Spanned<String>>>, key: &str| -> Result<Vec<usize>, ScenarioError> {
         let mut out = Vec::new();
@@ -198,8 +211,15 @@ fn check_profile(
              [identify.disturbance]",
         ));
     }
-    let bad_range = |why: String| loc.at(r.range.span(), "identify.profile.range", why);
-    let &[a, b] = r.range.get_ref().as_slice() else {
+    let Some(range) = &r.range else {
+        return Err(loc.at(
+            raw.span(),
+            "identify.profile.range",
+            "missing: give the positions to try as range = [lowest, highest]",
+        ));
+    };
+    let bad_range = |why: String| loc.at(range.span(), "identify.profile.range", why);
+    let &[a, b] = range.get_ref().as_slice() else {
         return Err(bad_range("give the range as [lowest, highest]".into()));
     };
     if a >= b || term.at_position(a).is_none() || term.at_position(b).is_none() {
