@@ -265,8 +265,17 @@ impl Admissibility {
     }
 
     /// Whether every characteristic's highest term is odd (whatever the coefficients): the
-    /// models the elimination path passes through.
+    /// models the elimination path keeps to once it reaches them.
+    #[cfg(test)]
     fn odd_leading(&self, set: &[usize]) -> bool {
+        self.even_leading(set) == 0
+    }
+
+    /// How far `set` is from every leading term odd: the sum, over the characteristics
+    /// whose highest term is not odd, of that term's degree plus one. A path that starts
+    /// from candidates with an even highest power (`--select-powers 2`) may pass through
+    /// drops that lower it until it is 0, and from then on keeps it 0.
+    fn even_leading(&self, set: &[usize]) -> u32 {
         let mut highest: Vec<[Option<Term>; 2]> = (self.links.iter())
             .map(|l| [&l.stiffness, &l.damping].map(|c| c.terms.iter().map(|t| t.0).max_by_key(|t| t.degree())))
             .collect();
@@ -277,7 +286,10 @@ impl Admissibility {
                 *slot = Some(c.term);
             }
         }
-        highest.iter().flatten().flatten().all(|t| t.is_odd())
+        (highest.iter().flatten().flatten())
+            .filter(|t| !t.is_odd())
+            .map(|t| t.degree() + 1)
+            .sum()
     }
 
     fn admits(&self, set: &[usize], theta: &[f64]) -> bool {
@@ -365,15 +377,18 @@ impl<'a> Search<'a> {
         };
         let mut path = vec![(None, at.clone())];
         while !at.set.is_empty() {
-            // The drop that raises J least among those that keep every leading term odd
+            // The drop that raises J least among those that keep every leading term odd, or
+            // bring an even leading term closer to odd where the candidates start with one
             // (a negative leading coefficient may still be passed through: the model is
             // then recorded as not admissible, and never chosen).
+            let even = self.admissibility.even_leading(&at.set);
             let next = at
                 .set
                 .par_iter()
                 .filter_map(|&drop| {
                     let set: Vec<usize> = at.set.iter().copied().filter(|&i| i != drop).collect();
-                    self.admissibility.odd_leading(&set).then_some(())?;
+                    let after = self.admissibility.even_leading(&set);
+                    (after == 0 || after < even).then_some(())?;
                     self.try_set(set).map(|t| (drop, t))
                 })
                 .min_by(|a, b| a.1.j.total_cmp(&b.1.j));
@@ -674,9 +689,14 @@ mod tests {
 
     /// One mass on one link to ground with candidates u, u², u³ and w, w², w³.
     fn one_link() -> Admissibility {
+        one_link_up_to(3)
+    }
+
+    /// One ground link whose stiffness and damping candidates are the powers 1..=`max`.
+    fn one_link_up_to(max: u32) -> Admissibility {
         let mut coefficients = Vec::new();
         for kind in [Characteristic::Stiffness, Characteristic::Damping] {
-            for p in 1..=3 {
+            for p in 1..=max {
                 coefficients.push(Coefficient {
                     link: 0,
                     kind,
@@ -768,5 +788,20 @@ mod tests {
             assert!(adm.admits(&best.set, &fitted));
             assert!(!best.set.contains(&2), "{:?}", best.set);
         }
+    }
+
+    #[test]
+    fn candidates_whose_highest_power_is_even_still_reach_the_odd_models_below() {
+        // Powers 1 and 2 (`--select-powers 2`): the path starts from k2 and c2 leading,
+        // drops them, and selects the linear truth (before: "no model among the candidates
+        // has a stationary density", the path never leaving its start).
+        let adm = one_link_up_to(2);
+        assert_eq!((adm.even_leading(&[0, 1, 2, 3]), adm.even_leading(&[0, 2])), (6, 0));
+        let theta = [10.0, 0.0, 0.5, 0.0];
+        let eq = exact(&theta, 40);
+        let s = Search::new(&eq, &adm, 40).unwrap();
+        let (best, path) = s.choose(4).expect("a model with a stationary density");
+        assert_eq!(best.set, vec![0, 2]);
+        assert!(path.len() >= 3, "{}", path.len());
     }
 }

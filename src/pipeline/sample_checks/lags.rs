@@ -79,6 +79,20 @@ pub(crate) struct Lags {
 }
 
 impl Lags {
+    /// The check of every pair of `input`'s measured table whose quantity and derivative
+    /// (displacement and velocity, velocity and acceleration) are both measured, not
+    /// derived.
+    pub(crate) fn of(input: &crate::pipeline::Input, data: &crate::io::table::Measured) -> Lags {
+        let layout = crate::model::Model::new(&input.info.scenario).columns();
+        let measured = |c: usize| data.present.get(c).copied().unwrap_or(false) && !data.derived(c);
+        let pairs = (0..input.info.scenario.masses.len())
+            .flat_map(|i| [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))])
+            .filter(|&(q, d)| measured(q) && measured(d))
+            .map(|(quantity, derivative)| Pair { quantity, derivative })
+            .collect();
+        Lags::new(pairs, data.sample_interval)
+    }
+
     /// The check of `pairs` at sample interval `h`.
     pub(crate) fn new(pairs: Vec<Pair>, h: f64) -> Lags {
         Lags {

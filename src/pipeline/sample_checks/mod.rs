@@ -32,19 +32,6 @@ pub(crate) fn all(input: &super::Input) -> Vec<Box<dyn SampleCheck>> {
     let width = input.info.columns.len();
     vec![
         Box::new(dead_stretches::DeadStretches::new(width)),
-        Box::new(lags::Lags::new(measured_pairs(input, data), data.sample_interval)),
+        Box::new(lags::Lags::of(input, data)),
     ]
-}
-
-/// The pairs of a quantity and its derivative (displacement and velocity, velocity and
-/// acceleration) whose columns are both measured, not derived.
-fn measured_pairs(input: &super::Input, data: &crate::io::table::Measured) -> Vec<lags::Pair> {
-    let layout = crate::model::Model::new(&input.info.scenario).columns();
-    let measured = |c: usize| data.present.get(c).copied().unwrap_or(false) && !data.derived(c);
-    let masses = input.info.scenario.masses.len();
-    (0..masses)
-        .flat_map(|i| [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))])
-        .filter(|&(q, d)| measured(q) && measured(d))
-        .map(|(quantity, derivative)| lags::Pair { quantity, derivative })
-        .collect()
 }
