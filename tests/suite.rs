@@ -26,6 +26,7 @@ mod log_damage;
 mod log_layouts;
 mod measurement;
 mod outcomes;
+mod periodic;
 mod scenario_errors;
 mod selection;
 mod simulation;

@@ -81,7 +81,8 @@ fn augmented_drift_matches_finite_differences_of_a_noiseless_trajectory() {
     let p = Problem::new(&sc).unwrap();
     assert_eq!(p.layout, crate::ident::Layout::Augmented);
     let b = [3.0, 7.0];
-    let theta: Vec<f64> = crate::zoo::true_values(&sc, &p);
+    let truth = Truth::from_pairs(&sc.truth()).expect("a scenario's own truth parses");
+    let theta: Vec<f64> = p.true_values(&truth);
     let h = 1e-4;
     let mut s = [0.3, -0.2, -0.1, 0.4, 2.0, -1.5];
     let mut worst: f64 = 0.0;

@@ -1,0 +1,159 @@
+//! Measured records that repeat one realisation of a periodic excitation (docs/data.md,
+//! "Periodic records"): found and averaged period by period before the reading.
+
+use fpkbench::io::table::{measured, read_table};
+use fpkbench::pipeline::{identify, Input, Options};
+use fpkbench::Scenario;
+use std::process::Command;
+
+use crate::common;
+
+fn export(log: &std::path::Path, format: &str, out: &std::path::Path) {
+    let st = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args([
+            "export",
+            log.to_str().unwrap(),
+            "--format",
+            format,
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+}
+
+/// A multisine rig measured period by period, each period a record: the twin of
+/// scenarios/silverbox_twin.toml, two realisations of three periods, the displacement with
+/// sensor noise at 5 % of its spread (new in every period). The records of one realisation
+/// are found and averaged period by period (docs/data.md, "Periodic records"): the
+/// identification reads two records, and gives bit for bit what it gives on the periods
+/// averaged by hand.
+#[test]
+fn periods_of_one_realisation_are_found_and_averaged() {
+    use fpkbench::io::table::Table;
+    let dir = tempfile::tempdir().unwrap();
+    let twin = std::fs::read_to_string("scenarios/silverbox_twin.toml").unwrap();
+    let mut s = Scenario::parse(&twin, "silverbox_twin.toml", "twin").unwrap();
+    let (periods, n) = (3usize, 8192usize);
+    s.simulation.record_length = periods as f64 * 13.4217728;
+    s.simulation.trajectories = 2;
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&s, &log);
+    let file = dir.path().join("run.npy");
+    export(&log, "npy", &file);
+    let t = read_table(&file, &[]).unwrap();
+    // The log holds the trajectories' samples in blocks, interleaved: each in time order.
+    let col = |name: &str| &t.columns[t.names.iter().position(|c| c == name).unwrap()];
+    let mut order: Vec<usize> = (0..t.rows()).collect();
+    order.sort_by(|&a, &b| col("trajectory")[a].total_cmp(&col("trajectory")[b]));
+    let sorted = |name: &str| -> Vec<f64> { order.iter().map(|&k| col(name)[k]).collect() };
+    let (x, u) = (&sorted("x_m1"), &sorted("p_u"));
+    assert_eq!(x.len(), 2 * periods * n);
+    let spread = (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+    // Gaussian noise (Box–Muller on a xorshift stream), new in every sample.
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut uniform = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    let y: Vec<f64> = x
+        .iter()
+        .map(|v| v + 0.05 * spread * (-2.0 * uniform().ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos())
+        .collect();
+    let time: Vec<f64> = (0..x.len()).map(|k| (k % n + 1) as f64 * 1.6384e-3).collect();
+    let names = ["record", "t", "p_u", "y"].map(String::from).to_vec();
+    let periods_table = Table {
+        path: "periods.csv".into(),
+        names: names.clone(),
+        columns: vec![
+            (0..x.len()).map(|k| (k / n) as f64).collect(),
+            time.clone(),
+            u.clone(),
+            y.clone(),
+        ],
+        record_labels: None,
+    };
+    // By hand: each realisation's periods averaged, sample by sample, in the table's order.
+    let weight = 1.0 / periods as f64;
+    let averaged = |v: &[f64]| -> Vec<f64> {
+        (0..2 * n)
+            .map(|k| {
+                let (r, k) = (k / n, k % n);
+                (0..periods).fold(0.0, |s, p| s + weight * v[(r * periods + p) * n + k])
+            })
+            .collect()
+    };
+    let by_hand = Table {
+        path: "averaged.csv".into(),
+        names,
+        columns: vec![
+            (0..2 * n).map(|k| ((k / n) * periods) as f64).collect(),
+            time[..2 * n].to_vec(),
+            averaged(u),
+            averaged(&y),
+        ],
+        record_labels: None,
+    };
+    let model_text = r#"
+name = "twin-periods"
+[[mass]]
+name = "m1"
+value = 1.0
+[[link]]
+ends = ["ground", "m1"]
+[[excitation]]
+name = "u"
+kind = "white"
+acts_on = ["m1"]
+[identify]
+methods = ["weak", "force-regression"]
+equivalent_white = ["u"]
+[identify.links.ground-m1]
+stiffness = [1, 2, 3]
+damping = [1]
+[data]
+time = "t"
+record = "record"
+derive = true
+[data.columns]
+x_m1 = "y"
+p_u = "p_u"
+"#;
+    let model = Scenario::parse(model_text, "model.toml", "m").unwrap();
+    let found = measured(&model, vec![periods_table.into()]).unwrap();
+    assert_eq!(found.lengths, vec![n, n], "two realisations of one period each");
+    let note = found
+        .notes
+        .iter()
+        .find(|n| n.starts_with("periodic records"))
+        .expect("a note");
+    assert!(note.contains("records 1–3; 4–6"), "{note}");
+    let plain = measured(&model, vec![by_hand.into()]).unwrap();
+    assert!(plain.notes.iter().all(|n| !n.starts_with("periodic records")));
+    let options = Options {
+        validate: false,
+        methods: vec![
+            fpkbench::scenario::Method::Weak,
+            fpkbench::scenario::Method::ForceRegression,
+        ],
+        ..Options::default()
+    };
+    let a = identify(&Input::tables(model.clone(), found), &options).unwrap();
+    let b = identify(&Input::tables(model, plain), &options).unwrap();
+    for (ma, mb) in a.methods.iter().zip(&b.methods) {
+        let (ea, eb) = (
+            ma.parameters
+                .iter()
+                .map(|p| (p.estimate, p.std_error))
+                .collect::<Vec<_>>(),
+            mb.parameters
+                .iter()
+                .map(|p| (p.estimate, p.std_error))
+                .collect::<Vec<_>>(),
+        );
+        assert_eq!(ea, eb, "{}", ma.method);
+    }
+}
