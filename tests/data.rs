@@ -57,21 +57,6 @@ fn estimates(r: &fpkbench::report::Report) -> Vec<(String, f64, f64)> {
         .collect()
 }
 
-fn export(log: &Path, format: &str, out: &Path) {
-    let st = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
-        .args([
-            "export",
-            log.to_str().unwrap(),
-            "--format",
-            format,
-            "-o",
-            out.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
-}
-
 #[test]
 fn a_log_exported_to_csv_and_npy_gives_the_logs_estimates() {
     let dir = tempfile::tempdir().unwrap();
@@ -81,7 +66,7 @@ fn a_log_exported_to_csv_and_npy_gives_the_logs_estimates() {
     let model = Scenario::parse(MODEL, "model.toml", "m").unwrap();
     for format in ["csv", "npy"] {
         let file = dir.path().join(format!("run.{format}"));
-        export(&log, format, &file);
+        common::export(&log, format, &file);
         let info = Input::tables(model.clone(), measured(&model, vec![source(&model, &file)]).unwrap());
         let r = identify(&info, &options()).unwrap();
         // No truth for the stiffness: nothing graded, and the run counts as done.
@@ -352,7 +337,7 @@ fn velocities_can_be_derived_from_displacements_even_at_coarse_sampling() {
         let log = dir.path().join("run.mcap");
         common::fresh_log(&s, &log);
         let csv = dir.path().join("run.csv");
-        export(&log, "csv", &csv);
+        common::export(&log, "csv", &csv);
         let data = measured(&model, vec![source(&model, &csv)]).unwrap();
         let note = data
             .notes
@@ -383,7 +368,7 @@ fn bushing_rig(dir: &Path, fraction: f64) -> (std::path::PathBuf, std::path::Pat
     let log = dir.join("run.mcap");
     common::fresh_log(&s, &log);
     let csv = dir.join("export.csv");
-    export(&log, "csv", &csv);
+    common::export(&log, "csv", &csv);
     let t = read_table(&csv, &[]).unwrap();
     let col = |n: &str| &t.columns[t.names.iter().position(|x| x == n).unwrap()];
     let mut rig = String::from("run,time,angle_deg,omega,alpha,moment\n");
@@ -471,7 +456,7 @@ fn units_that_do_not_fit_together_are_refused_naming_the_column_and_factor() {
     let log = dir.path().join("run.mcap");
     common::fresh_log(&s, &log);
     let csv = dir.path().join("run.csv");
-    export(&log, "csv", &csv);
+    common::export(&log, "csv", &csv);
     let t = read_table(&csv, &[]).unwrap();
     let mut degrees = t.clone();
     let k = degrees.names.iter().position(|n| n == "x_m1").unwrap();
@@ -515,7 +500,7 @@ fn json_messages_of_an_mcap_file_from_another_tool_are_read_by_topic() {
     let log = dir.path().join("run.mcap");
     common::fresh_log(&common::small_scenario(312.5, 32), &log);
     let csv = dir.path().join("run.csv");
-    export(&log, "csv", &csv);
+    common::export(&log, "csv", &csv);
     let t = read_table(&csv, &[]).unwrap();
     let col = |n: &str| t.columns[t.names.iter().position(|x| x == n).unwrap()].clone();
     let (traj, time, x, v) = (col("trajectory"), col("t"), col("x_m1"), col("v_m1"));
@@ -610,7 +595,7 @@ fn accelerations_can_be_derived_from_velocities_for_filtered_forces() {
     let log = dir.path().join("run.mcap");
     common::fresh_log(&s, &log);
     let csv = dir.path().join("export.csv");
-    export(&log, "csv", &csv);
+    common::export(&log, "csv", &csv);
     let text = std::fs::read_to_string("models/bushing.toml")
         .unwrap()
         .replace("time = \"time\"", "time = \"t\"")
@@ -690,7 +675,7 @@ fn validation_spectra_tell_a_wrong_model_from_the_right_one() {
     let log = dir.path().join("run.mcap");
     common::fresh_log(&common::small_scenario(312.5, 32), &log);
     let file = dir.path().join("run.npy");
-    export(&log, "npy", &file);
+    common::export(&log, "npy", &file);
     let table = read_table(&file, &[]).unwrap();
     let with_validation = Options {
         validate: true,
@@ -766,7 +751,7 @@ fn unequal_records_are_reported_as_they_are_not_as_a_simulation() {
     let log = dir.path().join("run.mcap");
     common::fresh_log(&common::small_scenario(312.5, 32), &log);
     let file = dir.path().join("run.csv");
-    export(&log, "csv", &file);
+    common::export(&log, "csv", &file);
     let text = std::fs::read_to_string(&file).unwrap();
     let mut lines = text.lines();
     let mut cut = String::from(lines.next().unwrap());
@@ -814,7 +799,7 @@ fn the_order_of_independent_records_does_not_change_the_estimates() {
     let log = dir.path().join("run.mcap");
     common::fresh_log(&common::small_scenario(312.5, 32), &log);
     let file = dir.path().join("sorted.csv");
-    export(&log, "csv", &file);
+    common::export(&log, "csv", &file);
     let text = std::fs::read_to_string(&file).unwrap();
     let mut lines: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
     let header = lines.remove(0);
@@ -883,7 +868,7 @@ fn a_csv_table_streams_in_memory_that_does_not_grow_with_it() {
         let log = dir.path().join(format!("run{record}.mcap"));
         common::fresh_log(&common::small_scenario(record, 32), &log);
         let csv = dir.path().join(format!("run{record}.csv"));
-        export(&log, "csv", &csv);
+        common::export(&log, "csv", &csv);
         std::fs::remove_file(&log).unwrap();
         peaks.push(identify_peak_kb(&model, &csv));
     }

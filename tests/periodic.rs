@@ -4,24 +4,8 @@
 use fpkbench::io::table::{measured, read_table};
 use fpkbench::pipeline::{identify, Input, Options};
 use fpkbench::Scenario;
-use std::process::Command;
 
 use crate::common;
-
-fn export(log: &std::path::Path, format: &str, out: &std::path::Path) {
-    let st = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
-        .args([
-            "export",
-            log.to_str().unwrap(),
-            "--format",
-            format,
-            "-o",
-            out.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
-}
 
 /// A multisine rig measured period by period, each period a record: the twin of
 /// scenarios/silverbox_twin.toml, two realisations of three periods, the displacement with
@@ -41,7 +25,7 @@ fn periods_of_one_realisation_are_found_and_averaged() {
     let log = dir.path().join("run.mcap");
     common::fresh_log(&s, &log);
     let file = dir.path().join("run.npy");
-    export(&log, "npy", &file);
+    common::export(&log, "npy", &file);
     let t = read_table(&file, &[]).unwrap();
     // The log holds the trajectories' samples in blocks, interleaved: each in time order.
     let col = |name: &str| &t.columns[t.names.iter().position(|c| c == name).unwrap()];

@@ -205,3 +205,19 @@ pub fn files_in(dir: &str, ext: &str) -> Vec<std::path::PathBuf> {
     files.sort();
     files
 }
+
+/// `fpkbench export LOG --format FORMAT -o OUT`, through the binary (exit 0 asserted).
+pub fn export(log: &Path, format: &str, out: &Path) {
+    let st = std::process::Command::new(env!("CARGO_BIN_EXE_fpkbench"))
+        .args([
+            "export",
+            log.to_str().unwrap(),
+            "--format",
+            format,
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+}

@@ -20,7 +20,8 @@ not show when the markdown is rendered) changes how the block runs:
                                             step CI runs as its own phase)
     <!-- example: file: NAME -->           not run: the block is written to NAME in the
                                             scratch directory before any block runs (a script
-                                            another block calls)
+                                            another block calls; in any language, e.g. a
+                                            model file in ```toml)
     <!-- example: sub: OLD => NEW -->      replace the text OLD with NEW before running (to
                                             shorten a study: `--seeds 50 => --seeds 2`); OLD
                                             must occur, so a stale directive fails; `\n` in either
@@ -85,6 +86,9 @@ def blocks_of(doc):
             j -= 1
         if lang in RUN_LANGS:
             found.append(Block(doc, start + 1, RUN_LANGS[lang], "\n".join(body) + "\n", directives))
+        elif directives and all(kind == "file" for kind, _ in directives):
+            # A file another block reads (a model file, a table): written, never run.
+            found.append(Block(doc, start + 1, "file", "\n".join(body) + "\n", directives))
         elif directives:
             sys.exit(f"{doc.relative_to(ROOT)}:{start + 1}: example directives above a "
                      f"```{lang} block, which is never run")

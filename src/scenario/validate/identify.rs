@@ -35,24 +35,7 @@ pub(crate) fn check_identify(
             })
             .collect::<Vec<_>>(),
     };
-    let mut compare = Vec::new();
-    for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
-        let key = format!("identify.compare.{name}.links");
-        let alternative = identify_links(loc, links, &c.get_ref().links, &key)?;
-        let no_terms = |t: &Option<Vec<_>>| t.as_ref().is_none_or(Vec::is_empty);
-        if alternative
-            .iter()
-            .all(|l| no_terms(&l.stiffness) && no_terms(&l.damping))
-        {
-            return Err(loc.at(
-                c.span(),
-                &key,
-                "an alternative model identifies no term: give it at least one link with the powers or terms \
-                 to identify (e.g. links.ground-m1 = { stiffness = [1] }), or leave the alternative out",
-            ));
-        }
-        compare.push((name.clone(), alternative));
-    }
+    let compare = compare_models(loc, links, ident)?;
     let filtered = |list: Option<&Vec<Spanned<String>>>, key: &str| -> Result<Vec<usize>, ScenarioError> {
         let mut out = Vec::new();
         for e in list.into_iter().flatten() {
@@ -295,6 +278,33 @@ fn check_methods(loc: &Locator, methods: Option<&Spanned<Vec<Method>>>) -> Resul
             Ok(seen)
         }
     }
+}
+
+/// `[identify.compare.NAME]`: each alternative model's links, each identifying a term.
+fn compare_models(
+    loc: &Locator,
+    links: &[Link],
+    ident: Option<&RawIdentify>,
+) -> Result<Vec<(String, Vec<IdentifyLink>)>, ScenarioError> {
+    let mut compare = Vec::new();
+    for (name, c) in ident.and_then(|i| i.compare.as_ref()).into_iter().flatten() {
+        let key = format!("identify.compare.{name}.links");
+        let alternative = identify_links(loc, links, &c.get_ref().links, &key)?;
+        let no_terms = |t: &Option<Vec<_>>| t.as_ref().is_none_or(Vec::is_empty);
+        if alternative
+            .iter()
+            .all(|l| no_terms(&l.stiffness) && no_terms(&l.damping))
+        {
+            return Err(loc.at(
+                c.span(),
+                &key,
+                "an alternative model identifies no term: give it at least one link with the powers or terms \
+                 to identify (e.g. links.ground-m1 = { stiffness = [1] }), or leave the alternative out",
+            ));
+        }
+        compare.push((name.clone(), alternative));
+    }
+    Ok(compare)
 }
 
 /// The links of `[identify.links]` (or a comparison's, under `prefix`) with the terms to
