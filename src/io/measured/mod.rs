@@ -373,7 +373,8 @@ fn difference(rows: &mut [f64], ring: usize, w: usize, h: f64, step: Step, stenc
 /// (files, or the record column), check the time base and every value, derive what the
 /// model file asks to, and check the units of the mapped columns against each other.
 /// Records that repeat one realisation (a periodic excitation's periods) are averaged
-/// period by period first ([`periods`]), and the notes say so.
+/// period by period first (`periods.rs`, docs/data.md "Periodic records"), and the notes
+/// say so.
 pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, DataError> {
     let d = model.data.as_ref().expect("a model file");
     let (sources, repeated) = periods::average_repeated(sources, d)?;

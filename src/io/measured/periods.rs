@@ -178,10 +178,10 @@ pub fn average_repeated(sources: Vec<Source>, d: &DataMapping) -> Result<(Vec<So
                 continue;
             }
             let c = correlation(&a.head, &b.head);
-            if c >= SAME && of[j] == j {
-                of[j] = of[i];
-                within = within.min(c);
-            } else if c >= SAME {
+            if c >= SAME {
+                if of[j] == j {
+                    of[j] = of[i];
+                }
                 within = within.min(c);
             } else {
                 between = between.max(c.abs());

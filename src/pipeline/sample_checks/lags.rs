@@ -106,6 +106,9 @@ impl Lags {
 impl Accumulator for Lags {
     fn push(&mut self, s: &Sample) {
         let (r, n) = (s.trajectory as usize, self.pairs.len());
+        if n == 0 {
+            return;
+        }
         if self.records.len() <= r {
             self.records
                 .resize(r + 1, (0, vec![[0.0; 2]; RING * n], vec![Sums::default(); n]));
@@ -161,7 +164,10 @@ impl SampleCheck for Lags {
             let Some(&(first, lag, peak, zero)) = lagged.first() else {
                 continue;
             };
-            let records: Vec<String> = lagged.iter().map(|x| (x.0 + 1).to_string()).collect();
+            let mut records: Vec<String> = lagged.iter().take(10).map(|x| (x.0 + 1).to_string()).collect();
+            if lagged.len() > 10 {
+                records.push(format!("and {} more", lagged.len() - 10));
+            }
             let which = if lagged.len() == self.records.len() {
                 format!("every record ({})", self.records.len())
             } else {
