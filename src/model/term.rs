@@ -249,15 +249,31 @@ fn sign(z: f64) -> f64 {
 impl fmt::Display for Term {
     /// The term as a name writes it after `k` or `c`: `3` in `k3[ground-m1]`, `gap(0.05)` in
     /// `kgap(0.05)[m1-m2]`. A position is written as Rust writes the shortest decimal that
-    /// reads back to the same number.
+    /// reads back to the same number, in exponent form far from 1 (`gap(1e20)`, not 21
+    /// digits), which reads back the same too.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Term::Power(p) => write!(f, "{p}"),
             Term::SignedPower(p) => write!(f, "abs{p}"),
             Term::Sign => write!(f, "sign"),
-            Term::DeadZone(g) => write!(f, "gap({})", g.0),
-            Term::Tanh(z0) => write!(f, "tanh({})", z0.0),
-            Term::Hinge(a) => write!(f, "hinge({})", a.0),
+            Term::DeadZone(g) => write!(f, "gap({})", Position(g.0)),
+            Term::Tanh(z0) => write!(f, "tanh({})", Position(z0.0)),
+            Term::Hinge(a) => write!(f, "hinge({})", Position(a.0)),
+        }
+    }
+}
+
+/// A term's position as its name writes it: the shortest decimal that reads back to the
+/// same number, in exponent form beyond 1e6 or below 1e-4 in magnitude.
+struct Position(f64);
+
+impl fmt::Display for Position {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let x = self.0;
+        if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+            write!(f, "{x:e}")
+        } else {
+            write!(f, "{x}")
         }
     }
 }
@@ -361,9 +377,20 @@ mod tests {
 
     #[test]
     fn a_term_reads_back_what_it_writes() {
-        for t in every_kind() {
+        let l = |x: f64| Level::new(x).unwrap();
+        let far = [
+            Term::DeadZone(l(1e20)),
+            Term::Hinge(l(-2.5e-7)),
+            Term::Tanh(l(123456.7)),
+        ];
+        for t in every_kind().into_iter().chain(far) {
             assert_eq!(t.to_string().parse::<Term>(), Ok(t), "{t}");
         }
+        // Far from 1 in exponent form, not 21 digits; near it as a decimal.
+        assert_eq!(
+            far.map(|t| t.to_string()),
+            ["gap(1e20)", "hinge(-2.5e-7)", "tanh(123456.7)"]
+        );
         for bad in [
             "",
             "0",
