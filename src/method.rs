@@ -22,6 +22,9 @@ macro_rules! registry {
             Strong = "strong", Fpk, Any, strong;
             /// Strong form with the joint density replaced by the product of its marginals (3.21).
             StrongMarginals = "strong-marginals", Fpk, Any, marginals;
+            /// Weak form with the measured forces as inputs, so no model of their spectrum (docs/methods.md).
+            /// It takes any band-limited force (a multisine, band-limited noise) and an unknown mass.
+            WeakMeasuredForce = "weak-measured-force", Fpk, Polynomial, weak_measured_force;
             /// Baseline (not FPK): regression of velocity increments on the drift (Euler pseudo-likelihood).
             Increments = "increments", Baseline, Any, increments;
             /// Baseline (not FPK): binned conditional mean increments (Kramers–Moyal), then the drift.
@@ -112,6 +115,12 @@ impl Method {
         self.kind() != Kind::Fpk
     }
 
+    /// Whether it reads the measured forces themselves, so needs no model of their
+    /// spectrum (a force model the data reject refuses every other method).
+    pub fn reads_measured_force(self) -> bool {
+        matches!(self, Method::ForceRegression | Method::WeakMeasuredForce)
+    }
+
     /// Every name, for messages: `weak, strong, …`.
     pub fn names() -> String {
         Method::REGISTERED
@@ -175,7 +184,7 @@ mod tests {
     #[test]
     fn only_fpk_estimators_are_gated() {
         let gated: Vec<_> = Method::gated().collect();
-        assert_eq!(gated, [Method::Weak, Method::Strong]);
+        assert_eq!(gated, [Method::Weak, Method::Strong, Method::WeakMeasuredForce]);
         assert!(Method::ForceRegression.is_baseline() && Method::Increments.is_baseline());
     }
 }

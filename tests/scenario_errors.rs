@@ -295,7 +295,7 @@ fn iterated_force_gate_needs_the_disturbance_procedure() {
         &text,
         31,
         "accept.methods.iterated-force",
-        "the gated methods are weak, strong\n",
+        "the gated methods are weak, strong, weak-measured-force\n",
     );
 }
 

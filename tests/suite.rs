@@ -24,6 +24,7 @@ mod layering;
 mod log;
 mod log_damage;
 mod log_layouts;
+mod measured_force;
 mod measurement;
 mod outcomes;
 mod periodic;

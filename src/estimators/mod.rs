@@ -14,9 +14,10 @@ mod local_linear;
 mod marginals;
 mod strong;
 mod weak;
+mod weak_measured_force;
 
 use crate::ident::accumulate::{Accumulator, Sample};
-use crate::ident::data::StationaryData;
+use crate::ident::data::{Deconvolution, StationaryData};
 use crate::ident::moments::RawMoments;
 use crate::ident::strong_histogram::GridOptions;
 use crate::ident::strong_kernel::KernelOptions;
@@ -108,6 +109,9 @@ pub struct Setup<'a> {
     /// Whether the samples are measured data (an fpkbench log holds a white force as its
     /// mean over the sample interval; measured data hold values at the sample instants).
     pub measured: bool,
+    /// What was taken out of the first pass's moments (sensor noise, less a filter's loss
+    /// put back): for an estimator with moments of its own.
+    pub deconvolution: Option<&'a Deconvolution>,
 }
 
 impl Setup<'_> {
@@ -230,6 +234,7 @@ mod tests {
             settings: &settings,
             arenas: &arenas,
             measured: false,
+            deconvolution: None,
         };
         let typical = problem.typical(&total);
         let cx = Context {

@@ -132,6 +132,15 @@ pub struct StationaryData {
     noise_replicates: Vec<Option<Vec<f64>>>,
 }
 
+/// What a sensor-noise correction takes out of moments ([`StationaryData::deconvolve`]):
+/// per log column the variance (the noise, less what a filter's loss puts back), and per
+/// coarse batch what its jackknife replicate takes out instead.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Deconvolution {
+    pub by_column: Vec<f64>,
+    pub replicates: Vec<Option<Vec<f64>>>,
+}
+
 impl StationaryData {
     /// `degree`: highest moment degree; `record_length`: time span of `t` per trajectory;
     /// `trajectories`: how many the record has; `batches`: coarse time batches for
@@ -424,6 +433,14 @@ impl StationaryData {
             super::noise::deconvolve_powers(&mut powers[0], su);
             super::noise::deconvolve_powers(&mut powers[1], sw);
         }
+    }
+
+    /// [`StationaryData::deconvolve`] by `d`: its replicates where these moments have as
+    /// many coarse batches (the same trajectory groups and time windows), else the whole
+    /// record's correction alone.
+    pub fn deconvolve_by(&mut self, d: &Deconvolution) {
+        let same = d.replicates.len() == self.batch_count();
+        self.deconvolve(&d.by_column, if same { &d.replicates } else { &[] });
     }
 
     pub fn samples(&self) -> u64 {

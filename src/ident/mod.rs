@@ -33,6 +33,7 @@ pub mod disturbance;
 pub mod fisher;
 pub mod local_linear;
 pub mod lsq;
+pub mod measured_force;
 pub mod moments;
 pub mod noise;
 pub mod poly;

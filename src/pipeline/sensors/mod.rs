@@ -7,7 +7,7 @@ pub(crate) mod rig;
 
 use super::source::Input;
 use crate::estimators::Method;
-use crate::ident::data::StationaryData;
+use crate::ident::data::{Deconvolution, StationaryData};
 use crate::ident::noise::{ChannelNoise, NoiseFloor, Pair};
 use crate::ident::Problem;
 use crate::io::table::{differentiate, DifferencedNoise, IntegratedNoise, Measured};
@@ -72,7 +72,7 @@ pub(crate) fn correct(
     data: &mut StationaryData,
     also: Option<&mut StationaryData>,
     loss: Option<&FilterLoss>,
-) -> (SensorNoiseReport, Vec<f64>) {
+) -> (SensorNoiseReport, Vec<f64>, Option<Deconvolution>) {
     let handling = s.identify.sensor_noise;
     let (channels, replicates, not_estimated) = match floor.estimate_with_replicates() {
         Ok((c, r)) => (c, r, None),
@@ -118,6 +118,10 @@ pub(crate) fn correct(
     if let Some(l) = loss {
         notes.push(l.note.clone());
     }
+    let applied = corrected.then(|| Deconvolution {
+        by_column: by_column.clone(),
+        replicates: replicates.clone(),
+    });
     if corrected {
         data.deconvolve(&by_column, &replicates);
         // The naive row's problem batches its samples its own way: its replicates keep
@@ -163,7 +167,7 @@ pub(crate) fn correct(
         filter_loss: loss.map_or_else(Vec::new, |l| l.rows.clone()),
     };
     let noise_taken_out = corrected && noise_only.iter().any(|&v| v > 0.0);
-    (report, if noise_taken_out { noise_only } else { Vec::new() })
+    (report, if noise_taken_out { noise_only } else { Vec::new() }, applied)
 }
 
 /// The measured displacement–velocity pairs' channels: the noise each shows, and what is
@@ -597,7 +601,9 @@ pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodRepor
     let weak = |m: &MethodReport| {
         matches!(
             m.method,
-            ReportMethod::Estimator(Method::Weak) | ReportMethod::WeakWhiteNaive | ReportMethod::Compare(_)
+            ReportMethod::Estimator(Method::Weak | Method::WeakMeasuredForce)
+                | ReportMethod::WeakWhiteNaive
+                | ReportMethod::Compare(_)
         )
     };
     if let Some(most) = n.filter_loss.iter().max_by(|a, b| a.std.total_cmp(&b.std)) {

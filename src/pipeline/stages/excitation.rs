@@ -35,8 +35,8 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         .collect();
     let rejected = (!why.is_empty()).then(|| {
         why.join("; ")
-            + ". Every method that needs the force model is refused; the force regression, which uses the \
-               measured force itself, stands"
+            + ". Every method that needs the force model is refused; those that read the measured force itself \
+               (weak-measured-force, force-regression) stand"
     });
     id.fitted = Some(Fitted {
         filters,
@@ -110,7 +110,8 @@ fn rejected(reports: &[FilterReport]) -> Option<String> {
             format!(
                 "the first-order spectrum (3.20) fitted to {} misses it by an RMS log ratio of {:.3}, {:.0} times \
                  what averaging alone gives ({:.3}; the limit is {REJECT} times): the force is not an \
-                 Ornstein–Uhlenbeck process (a band-limited or multisine input is not: flat over the \
+                 Ornstein–Uhlenbeck process (a band-limited or multisine input is not: the method \
+                 weak-measured-force reads it from its column with no model of its spectrum; flat over the \
                  response's band, it can be read as its equivalent white noise, kind = \"white\" with \
                  [identify] equivalent_white = [{:?}])",
                 f.excitation,

@@ -142,6 +142,8 @@ pub(crate) struct Identification<'a> {
     pub sensor_noise: Option<SensorNoiseReport>,
     /// The noise variance taken out of each log column.
     pub taken_out: Vec<f64>,
+    /// What was taken out of the first pass's moments, for the estimators with their own.
+    pub deconvolution: Option<crate::ident::data::Deconvolution>,
     pub selected: Option<Selected>,
     /// The first pass's moments over all samples (after corrections).
     pub total: Option<RawMoments>,

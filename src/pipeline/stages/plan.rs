@@ -142,6 +142,7 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         profiled: None,
         sensor_noise: None,
         taken_out: Vec::new(),
+        deconvolution: None,
         selected: None,
         total: None,
         estimators: Vec::new(),

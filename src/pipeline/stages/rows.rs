@@ -134,7 +134,7 @@ fn estimator_rows(
         crate::interrupt::check()?;
         let t = Instant::now();
         let est = match rejected {
-            Some(why) if *m != Method::ForceRegression => Err(IdentError::ForceModelRejected(why.to_string())),
+            Some(why) if !m.reads_measured_force() => Err(IdentError::ForceModelRejected(why.to_string())),
             _ => estimator.estimate(cx),
         };
         let method = ReportMethod::Estimator(*m);

@@ -24,6 +24,7 @@ pub(super) fn setup<'a>(id: &'a Identification) -> Setup<'a> {
         settings: &id.options.estimators,
         arenas: &id.options.arenas,
         measured: id.input.measured().is_some(),
+        deconvolution: id.deconvolution.as_ref(),
     }
 }
 

@@ -11,7 +11,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let loss = filter_loss(s, &id.structure);
     match (id.floor.as_ref(), &loss) {
         (Some(f), _) => {
-            let (report, taken_out) = correct(
+            let (report, taken_out, deconvolution) = correct(
                 f,
                 s,
                 id.input.measured(),
@@ -22,6 +22,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
             );
             id.sensor_noise = Some(report);
             id.taken_out = taken_out;
+            id.deconvolution = deconvolution;
         }
         (None, Some(l)) => {
             id.sensor_noise = Some(put_back_filter_loss(l, s, &mut id.data, id.naive_data.as_mut()));

@@ -130,12 +130,23 @@ fn agreement(id: &mut Identification) {
                 check: "agreement",
                 method: row.method.to_string(),
                 message: format!(
-                    "the estimate contradicts the force regression on the same samples: {} — both read the \
-                     same model, the regression with the measured force, this estimate with the force's spectral \
-                     model, so one of them does not describe these data: a force that is not the white or \
-                     filtered noise declared, an offset in a measured column (`[data] remove_mean`), or a term \
-                     the model lacks",
-                    differences.join("; ")
+                    "the estimate contradicts the force regression on the same samples: {} — {}",
+                    differences.join("; "),
+                    match row.method {
+                        ReportMethod::Estimator(m) if m.reads_measured_force() => {
+                            "both read the same model and the measured force, the regression through the \
+                             acceleration differentiated from the samples, this estimate through the stationarity of \
+                             the state's moments, so one of them does not describe these data: an acceleration the \
+                             sampling or the sensors' noise bias, an offset in a measured column (`[data] \
+                             remove_mean`), or a term the model lacks"
+                        }
+                        _ => {
+                            "both read the same model, the regression with the measured force, this estimate with \
+                             the force's spectral model, so one of them does not describe these data: a force that is \
+                             not the white or filtered noise declared, an offset in a measured column (`[data] \
+                             remove_mean`), or a term the model lacks"
+                        }
+                    }
                 ),
             });
         }
