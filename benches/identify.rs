@@ -5,11 +5,15 @@
 //! evaluate per sample) one state at a time against 64 states at once, as a ratio; and
 //! structure selection among 30 candidates (powers 1..5 on every stiffness and damping)
 //! against the weak form's estimate of the 30-term candidate model from the same moments
-//! (target: selection ≤ 2× that estimate, docs/selection.md).
+//! (target: selection ≤ 2× that estimate, docs/selection.md); and the Fisher information of
+//! the Cramér–Rao bound, an auxiliary of the second pass, against the weak form's moments
+//! on the same samples (target: no dearer than the estimator it serves).
 //! Run: `cargo bench --bench identify` (add `-- --quick` for a cheap pass).
 
 use criterion::{Criterion, Throughput};
+use fpkbench::ident::accumulate::Accumulator;
 use fpkbench::ident::data::StationaryData;
+use fpkbench::ident::fisher::FisherInformation;
 use fpkbench::ident::moments::RawMoments;
 use fpkbench::ident::poly::Compiled;
 use fpkbench::ident::strong_histogram::{DensityGrid, GridOptions};
@@ -200,6 +204,9 @@ fn benches(f: &Fixture, one: &rayon::ThreadPool) {
             black_box(acc)
         })
     });
+    g.bench_function("Fisher information, 1 thread", |b| {
+        b.iter(|| black_box(fisher(p, full_rows)))
+    });
     g.bench_function("selection among 30 candidates", |b| {
         b.iter(|| black_box(fpkbench::ident::select::select(candidates, cdata).unwrap().criterion))
     });
@@ -208,6 +215,16 @@ fn benches(f: &Fixture, one: &rayon::ThreadPool) {
     });
     g.finish();
     cr.final_summary();
+}
+
+/// The Fisher information of every sample and its bound for a path of 1 s.
+fn fisher(p: &Problem, rows: &[(u32, f64, Vec<f64>)]) -> Option<Vec<f64>> {
+    let mut fi = FisherInformation::new(p).unwrap();
+    for (_, _, r) in rows {
+        fi.push(r);
+    }
+    fi.finish();
+    fi.bound(1.0)
 }
 
 /// Ratios measured in one run.
@@ -266,6 +283,9 @@ fn ratios(f: &Fixture, one: &rayon::ThreadPool) {
     }
     let blocked = t.elapsed().as_secs_f64();
     let t = Instant::now();
+    black_box(fisher(p, full_rows));
+    let fisher_time = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     let chosen = black_box(fpkbench::ident::select::select(candidates, cdata).unwrap());
     let selection = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -296,6 +316,11 @@ fn ratios(f: &Fixture, one: &rayon::ThreadPool) {
         "drift parts ({width} polynomials), 64 at once  {:>10.2}x the rate one state at a time ({:.3e} states/s)",
         one_by_one / blocked,
         (block_rows.len() / 4) as f64 / blocked
+    );
+    println!(
+        "Fisher information (Cramér–Rao), 1 thread  {:>10.2}x the weak form's moments' time ({:.3e} samples/s; target <= 1)",
+        fisher_time * weak_rate / n as f64,
+        n as f64 / fisher_time
     );
     println!(
         "selection among {} candidates              {:>10.2}x the candidate model's weak estimate ({:.3} s against {:.3} s; target <= 2)",

@@ -68,7 +68,8 @@ pub struct Args {
     #[arg(long = "set", requires = "scenario")]
     pub set: Vec<String>,
     /// Structure selection on every item (with --scenario; docs/selection.md): the
-    /// scenario's unknown terms are candidates, as `run --select`.
+    /// candidates of the scenario's own `[identify.select]`, else its unknown terms, as
+    /// `run --select`.
     #[arg(long, requires = "scenario")]
     pub select: bool,
     /// Structure selection with the candidate powers 1..=N on every link's stiffness and

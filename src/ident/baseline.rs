@@ -210,7 +210,7 @@ fn add_block(normal: &mut Normal, lanes: usize, parts: &[f64], target: &[f64], s
 /// `Σ_l a_l b_l` over eight running sums (vectorised; the same value on every CPU, as
 /// nothing is contracted into a fused multiply–add), then the sums added in a fixed order.
 #[inline(always)]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     const K: usize = 8;
     let mut acc = [0.0; K];
     let (ca, cb) = (a.chunks_exact(K), b.chunks_exact(K));

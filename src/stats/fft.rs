@@ -1,13 +1,14 @@
-//! The discrete Fourier transform: an in-place radix-2 FFT for lengths that are powers of
-//! two (the Welch estimates of `ident::spectrum`) and Bluestein's chirp-z transform for
-//! any length (the lab excitations of `sim::lab`, whose period is whatever the rig's is).
+//! The discrete Fourier transform of the lab excitations (`sim::lab`, whose period is
+//! whatever the rig's is): an in-place radix-2 FFT for lengths that are powers of two and
+//! Bluestein's chirp-z transform for any length. (The Welch estimates of `ident::spectrum`,
+//! a hot loop, use the maintained real-input FFT of `realfft` instead.)
 //!
 //! Convention: `X[k] = Σ_n x[n] e^{−2πi kn/N}` (forward), no scaling.
 
 use std::f64::consts::PI;
 
 /// In-place radix-2 complex FFT (`re`, `im` of length a power of two).
-pub fn fft(re: &mut [f64], im: &mut [f64]) {
+fn fft(re: &mut [f64], im: &mut [f64]) {
     let n = re.len();
     debug_assert!(n.is_power_of_two() && im.len() == n);
     let mut j = 0;
