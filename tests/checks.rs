@@ -487,3 +487,34 @@ fn a_velocity_a_sample_late_in_one_record_fails_the_run_naming_it() {
         .iter()
         .all(|c| c.check != "lag"));
 }
+
+/// A displacement sensor that saturates at 1.5 of its std, its limit jittering by ±10⁻⁴
+/// std (no two clipped samples equal): the run fails the clipping check naming the
+/// column; the clean table passes it.
+#[test]
+fn a_jittering_clipped_channel_fails_the_run() {
+    let clean = ou_table();
+    let x: Vec<f64> = clean
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect();
+    let sd = (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+    let mut u = Uniform(5);
+    let mut csv = String::new();
+    for (k, line) in clean.lines().enumerate() {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        if k > 0 && x[k - 1] > 1.5 * sd {
+            f[2] = format!("{}", 1.5 * sd + 1e-4 * sd * (2.0 * u.next() - 1.0));
+        }
+        csv += &(f.join(",") + "\n");
+    }
+    let r = identify_table(&csv);
+    let clipped: Vec<_> = r.failed_checks.iter().filter(|c| c.check == "clipping").collect();
+    assert!(!clipped.is_empty() && !r.passed, "{:?}", r.failed_checks);
+    assert!(clipped[0].message.contains("x_m1"), "{}", clipped[0].message);
+    assert!(identify_table(&clean)
+        .failed_checks
+        .iter()
+        .all(|c| c.check != "clipping"));
+}

@@ -95,7 +95,47 @@ pub struct NoiseFloor {
     /// Per channel (displacement, velocity of each pair): the smallest and largest value
     /// so far and how many samples hold each exactly (a clipped sensor repeats them).
     extremes: Vec<[(f64, u64); 2]>,
+    /// Per channel and side, the most extreme values seen (largest, and negated smallest):
+    /// a clipped sensor whose limit jitters piles its samples up just inside it.
+    tails: Vec<[Tail; 2]>,
 }
+
+/// The [`Tail::KEPT`] largest values of a stream, ascending.
+#[derive(Debug, Clone)]
+struct Tail(Vec<f64>);
+
+impl Tail {
+    const KEPT: usize = 64;
+
+    fn new() -> Tail {
+        Tail(Vec::with_capacity(Self::KEPT))
+    }
+
+    #[inline]
+    fn push(&mut self, y: f64) {
+        let full = self.0.len() == Self::KEPT;
+        if full && y <= self.0[0] || y.is_nan() {
+            return;
+        }
+        if full {
+            self.0.remove(0);
+        }
+        let at = self.0.partition_point(|&v| v < y);
+        self.0.insert(at, y);
+    }
+
+    /// How many of the kept values lie within `width` of the largest.
+    fn near_top(&self, width: f64) -> u64 {
+        let top = self.0.last().copied().unwrap_or(f64::NAN);
+        self.0.iter().filter(|&&v| top - v <= width).count() as u64
+    }
+}
+
+/// A pile-up at a channel's limit counts the samples within this fraction of the
+/// channel's standard deviation of its extreme: a continuous record's next-to-largest
+/// value lies a few tenths of a standard deviation below its largest, so more than a few
+/// within a thousandth is a limit (jittering or not), not the signal's tail.
+const PILE_UP: f64 = 1e-3;
 
 /// One sensor's noise as estimated.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -111,8 +151,9 @@ pub struct ChannelNoise {
     pub variance_std_error: f64,
     /// The noise-free signal's standard deviation.
     pub signal_std: f64,
-    /// Samples that hold exactly the channel's smallest or largest value, where that is
-    /// more than one of each: a clipped sensor or ADC repeats its limits.
+    /// Samples that hold the channel's smallest or largest value, exactly or within a
+    /// thousandth of its standard deviation (counted to 64), where that is more than one
+    /// of each: a clipped sensor or ADC repeats its limits, or piles up at a jittering one.
     pub at_limits: u64,
 }
 
@@ -139,6 +180,7 @@ impl NoiseFloor {
             batches: vec![Sums::new(p); batches.max(1)],
             gaps: 0,
             extremes: vec![[(f64::INFINITY, 0), (f64::NEG_INFINITY, 0)]; 2 * p],
+            tails: (0..2 * p).map(|_| [Tail::new(), Tail::new()]).collect(),
         }
     }
 
@@ -182,6 +224,10 @@ impl NoiseFloor {
                         (*at, *n) = (y, 1);
                     }
                 }
+            }
+            for (t, y) in self.tails[2 * q..2 * q + 2].iter_mut().zip([x, v]) {
+                t[0].push(-y);
+                t[1].push(y);
             }
             let sums = &mut s.products[q];
             sums[0][0] += x * x;
@@ -262,11 +308,23 @@ impl NoiseFloor {
                     variance,
                     variance_std_error: cov.get(k).map_or(f64::NAN, |r| r[k].sqrt()),
                     signal_std: signal.max(0.0).sqrt(),
-                    at_limits: self.extremes[k].iter().map(|&(_, n)| n).filter(|&n| n > 1).sum(),
+                    at_limits: self.at_limits(k, signal.max(0.0).sqrt()),
                 }
             })
             .collect();
         Ok((channels, by_batch))
+    }
+
+    /// Channel `k`'s samples at its limits: per side, those holding the extreme exactly
+    /// or within [`PILE_UP`] standard deviations `std` of it (at most [`Tail::KEPT`]),
+    /// where more than one does.
+    fn at_limits(&self, k: usize, std: f64) -> u64 {
+        self.extremes[k]
+            .iter()
+            .zip(&self.tails[k])
+            .map(|(&(_, exact), tail)| exact.max(tail.near_top(PILE_UP * std)))
+            .filter(|&n| n > 1)
+            .sum()
     }
 
     /// Per channel (displacement, velocity of each pair): the noise variance and the
@@ -355,6 +413,57 @@ mod tests {
     use super::super::moments::RawMoments;
     use super::super::poly::var;
     use super::*;
+
+    /// A clipped channel whose limit jitters by ±10⁻⁴ of its standard deviation (no two
+    /// clipped samples equal) is counted at its limits, as one that repeats its limit
+    /// exactly is; the same record unclipped has one sample at each extreme.
+    #[test]
+    fn a_jittering_limit_is_counted_as_clipping() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        // An AR(2) oscillator's displacement and its difference, unit-scale.
+        let (mut x, mut x1) = (0.0f64, 0.0f64);
+        let rows: Vec<[f64; 2]> = (0..200_000)
+            .map(|_| {
+                let e = (-2.0 * uniform().ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos();
+                let next = 1.9 * x - 0.95 * x1 + 0.1 * e;
+                (x1, x) = (x, next);
+                [x, x - x1]
+            })
+            .collect();
+        let std = (rows.iter().map(|r| r[0] * r[0]).sum::<f64>() / rows.len() as f64).sqrt();
+        let limit = 1.5 * std;
+        let counted = |clip: bool, jitter: &mut dyn FnMut() -> f64| {
+            let pair = Pair {
+                columns: [0, 1],
+                state: [0, 1],
+                names: ["x".into(), "v".into()],
+            };
+            let mut floor = NoiseFloor::new(vec![pair], 0.01, 4);
+            for (k, r) in rows.iter().enumerate() {
+                let x = if clip && r[0] > limit {
+                    limit + 1e-4 * std * (2.0 * jitter() - 1.0)
+                } else {
+                    r[0]
+                };
+                floor.push(0, k as f64 * 0.01, k * 4 / rows.len(), &[x, r[1]]);
+            }
+            let (channels, _) = floor.estimate_with_replicates().unwrap();
+            channels[0].at_limits
+        };
+        let mut jitter = uniform;
+        assert!(counted(true, &mut jitter) > 60, "a jittering limit is clipping");
+        assert_eq!(
+            counted(false, &mut jitter),
+            0,
+            "a continuous record's extremes are single"
+        );
+    }
 
     /// Gaussian moments: `E[z^b]` for `z ~ N(μ, s²)`, by the recursion
     /// `E[z^b] = μ E[z^{b−1}] + (b−1) s² E[z^{b−2}]`.

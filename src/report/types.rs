@@ -290,8 +290,9 @@ pub struct ChannelNoiseReport {
     /// A simulation's sensors: the noise it was given (relative levels times the
     /// estimated signal std), for comparison.
     pub simulated_std: Option<f64>,
-    /// Samples that sit exactly at the channel's smallest or largest value, counted where
-    /// more than one does (a clipped sensor or ADC).
+    /// Samples that sit at the channel's smallest or largest value, exactly or within a
+    /// thousandth of its standard deviation (counted to 64), counted where more than one
+    /// does (a clipped sensor or ADC, its limit steady or jittering).
     pub at_limits: u64,
 }
 

@@ -591,7 +591,8 @@ pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodRepor
     if !clipped.is_empty() {
         for m in methods.iter_mut() {
             m.warnings.push(format!(
-                "samples sit exactly at their channel's smallest or largest value: {} — a clipped sensor or ADC, \
+                "samples sit at their channel's smallest or largest value (exactly, or piled up within a thousandth of \
+                 its std): {} — a clipped sensor or ADC, \
                  which biases every moment (docs/measurement.md)",
                 clipped.join(", ")
             ));

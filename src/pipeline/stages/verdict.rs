@@ -11,12 +11,16 @@
 //!   simulations the gates grade the estimates against the truth, and the validation's
 //!   verdict stays a finding (a hysteretic truth or an unmeasured disturbance is expected
 //!   to miss);
+//! - **clipping**, on measured data: a channel whose samples pile up at its smallest or
+//!   largest value (a sensor's or converter's limit, steady or jittering: more than
+//!   `CLIPPED` samples there) biases every moment, and nothing undoes it;
 //! - **agreement**, on measured data where the force regression ran beside a gated FPK
 //!   estimate: a coefficient of the FPK estimate differs from the regression's on the same
 //!   samples by more than [`AGREEMENT_SE`] combined standard errors and [`AGREEMENT_SHARE`]
 //!   of the regression's value. Both read the same model; the regression reads the measured
-//!   force itself, the FPK estimate only the force's spectral model, so one of them does
-//!   not describe the data (most often the force is not the noise declared, and the density
+//!   force sample by sample, the FPK estimate the stationary moments (with the force's
+//!   spectral model, or with the measured force as an input), so one of them does not
+//!   describe the data (most often the force is not the noise declared, and the density
 //!   the FPK estimate stands on does not follow from it).
 
 use super::super::PipelineError;
@@ -80,9 +84,33 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
                 message: v.verdict().unwrap_or_default(),
             });
         }
+        clipping(id);
         agreement(id);
     }
     Ok(())
+}
+
+/// The clipping check: every channel of measured data whose samples pile up at a limit.
+fn clipping(id: &mut Identification) {
+    let Some(noise) = &id.sensor_noise else { return };
+    let clipped: Vec<String> = noise
+        .channels
+        .iter()
+        .filter(|c| c.at_limits > super::super::sensors::CLIPPED)
+        .map(|c| format!("{} ({} samples)", c.column, c.at_limits))
+        .collect();
+    if !clipped.is_empty() {
+        id.failed_checks.push(FailedCheck {
+            check: "clipping",
+            method: "data".into(),
+            message: format!(
+                "samples pile up at a channel's smallest or largest value (exactly, or within a thousandth of its \
+                 std): {} — a clipped sensor or converter, which biases every moment and which no correction \
+                 undoes: measure with a range that holds the signal (docs/measurement.md)",
+                clipped.join(", ")
+            ),
+        });
+    }
 }
 
 /// Whether a row is an estimate of a gated FPK method — whether or not a truth grades it
