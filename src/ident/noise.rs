@@ -133,8 +133,10 @@ impl Tail {
 
 /// A pile-up at a channel's limit counts the samples within this fraction of the
 /// channel's standard deviation of its extreme: a continuous record's next-to-largest
-/// value lies a few tenths of a standard deviation below its largest, so more than a few
-/// within a thousandth is a limit (jittering or not), not the signal's tail.
+/// value lies a few tenths of a standard deviation below its largest, so a full tail
+/// ([`Tail::KEPT`] values) within a thousandth is a limit (jittering or not), not the
+/// signal's tail. (A noise-free periodic record puts one peak a period there: fewer than
+/// [`Tail::KEPT`] periods are not counted.)
 const PILE_UP: f64 = 1e-3;
 
 /// One sensor's noise as estimated.
@@ -315,14 +317,18 @@ impl NoiseFloor {
         Ok((channels, by_batch))
     }
 
-    /// Channel `k`'s samples at its limits: per side, those holding the extreme exactly
-    /// or within [`PILE_UP`] standard deviations `std` of it (at most [`Tail::KEPT`]),
-    /// where more than one does.
+    /// Channel `k`'s samples at its limits: per side, those holding the extreme exactly,
+    /// or [`Tail::KEPT`] when every kept value lies within [`PILE_UP`] standard deviations
+    /// `std` of it; where more than one does.
     fn at_limits(&self, k: usize, std: f64) -> u64 {
+        let kept = Tail::KEPT as u64;
         self.extremes[k]
             .iter()
             .zip(&self.tails[k])
-            .map(|(&(_, exact), tail)| exact.max(tail.near_top(PILE_UP * std)))
+            .map(|(&(_, exact), tail)| {
+                let near = tail.near_top(PILE_UP * std);
+                exact.max(if near == kept { near } else { 0 })
+            })
             .filter(|&n| n > 1)
             .sum()
     }
@@ -457,7 +463,7 @@ mod tests {
             channels[0].at_limits
         };
         let mut jitter = uniform;
-        assert!(counted(true, &mut jitter) > 60, "a jittering limit is clipping");
+        assert_eq!(counted(true, &mut jitter), 64, "a jittering limit is clipping");
         assert_eq!(
             counted(false, &mut jitter),
             0,

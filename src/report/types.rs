@@ -290,9 +290,9 @@ pub struct ChannelNoiseReport {
     /// A simulation's sensors: the noise it was given (relative levels times the
     /// estimated signal std), for comparison.
     pub simulated_std: Option<f64>,
-    /// Samples that sit at the channel's smallest or largest value, exactly or within a
-    /// thousandth of its standard deviation (counted to 64), counted where more than one
-    /// does (a clipped sensor or ADC, its limit steady or jittering).
+    /// Samples that sit at the channel's smallest or largest value, counted where more
+    /// than one does: exactly, or 64 where the 64 most extreme all lie within a thousandth
+    /// of its standard deviation (a clipped sensor or ADC, its limit steady or jittering).
     pub at_limits: u64,
 }
 
