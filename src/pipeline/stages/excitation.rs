@@ -36,7 +36,8 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let rejected = (!why.is_empty()).then(|| {
         why.join("; ")
             + ". Every method that needs the force model is refused; those that read the measured force itself \
-               (weak-measured-force, force-regression) stand"
+               (weak-measured-force, force-regression) stand: list them in [identify] methods (or --method) \
+               where they are not"
     });
     id.fitted = Some(Fitted {
         filters,
