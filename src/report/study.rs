@@ -11,11 +11,16 @@ use super::study_rows::{Configuration, Paired, Row, Summary};
 use super::table::Table;
 use std::path::{Path, PathBuf};
 
+/// A share in percent to two decimals; one under 0.005 % but not 0 (an exact case, such
+/// as whole periods of a periodic steady state) in exponent form, not as `0.00 %`.
 fn pct(x: f64) -> String {
-    if x.is_finite() {
-        format!("{:.2} %", 100.0 * x)
-    } else {
+    let p = 100.0 * x;
+    if !x.is_finite() {
         "–".into()
+    } else if p != 0.0 && p.abs() < 0.005 {
+        format!("{p:.1e} %")
+    } else {
+        format!("{p:.2} %")
     }
 }
 
@@ -724,4 +729,16 @@ pub fn plot_methods(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::
         fig.row(240.0, vec![Some(c)]);
     }
     write_figure(path, &fig)
+}
+
+#[cfg(test)]
+mod tests {
+    /// Shares print to two decimals; a tiny one that is not 0 keeps its size.
+    #[test]
+    fn a_tiny_share_is_not_printed_as_zero() {
+        assert_eq!(super::pct(0.0123), "1.23 %");
+        assert_eq!(super::pct(0.0), "0.00 %");
+        assert_eq!(super::pct(4.6e-6), "4.6e-4 %");
+        assert_eq!(super::pct(f64::NAN), "–");
+    }
 }
