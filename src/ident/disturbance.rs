@@ -236,30 +236,8 @@ pub fn force_bound_problem(s: &Scenario, st: &PaperStructure) -> Result<Problem,
             e.process = Process::White { sigma: 1.0 };
         }
     }
-    let mut p = Problem::from_spec(&w, &w.given_filters())?;
-    // Every excitation is measured, so noise source k is excitation k.
-    p.white = std::mem::take(&mut p.white)
-        .into_iter()
-        .enumerate()
-        .filter(|(e, _)| !filtered.contains(e))
-        .map(|(_, source)| source)
-        .collect();
-    if !p.atoms.is_empty() {
-        return Err(IdentError::Unsupported(
-            "terms without a polynomial form together with measured inputs are not supported".into(),
-        ));
-    }
-    let log = Columns::new(s.masses.len(), s.excitations.len());
-    let first = p.dim();
-    for (k, &e) in filtered.iter().enumerate() {
-        for &i in &s.excitations[e].acts_on {
-            p.known_force[i].add(&Poly::linear(&[(first + k, 1.0)]), 1.0);
-        }
-        p.columns.push(log.force(e));
-        p.state_names.push(format!("P_{}", s.excitations[e].name));
-    }
-    p.inputs = filtered.len();
-    Ok(p)
+    let p = Problem::from_spec(&w, &w.given_filters())?;
+    super::measured_force::problem(&p, &filtered)
 }
 
 /// The `k1` equation of (4.7): the step-0 specification with `K2`, `C2` fixed at `values`

@@ -9,9 +9,11 @@
 //! whatever the force's process is: the force's own dynamics act on the force's variables,
 //! of which `ψ` does not depend (the paper's measured-force step (4.11) is this equation
 //! for one mass). It is linear in the coefficients over `m_i`, and the measured force
-//! enters through the moments `E[∂ψ/∂v_i · F_i]` with the known factor `1/m_i` — so unlike
-//! the white-noise reading it fixes the scale: a mass left unknown is identified, not a
-//! symmetry (docs/theory.md §6).
+//! enters through the moments `E[∂ψ/∂v_i · F_i]` with the known factor `1/m_i`, so it fixes
+//! the coefficients' scale. It does not fix a mass left unknown against the stiffness:
+//! one-time moments of a linear system give only `k E[x²] − m E[v²] = E[xF]` (rank
+//! deficient), of a nonlinear one weakly (docs/methods.md, "The weak form with the measured
+//! force").
 //!
 //! It holds for a force whose samples are its values at the sample instants, band-limited
 //! well inside the sampling's band (a multisine, band-limited noise, a filtered force); a
