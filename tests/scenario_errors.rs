@@ -86,6 +86,19 @@ fn negative_mass() {
     );
 }
 
+/// Only an unknown mass of a model file may leave its value out (docs/data.md, "A rig in
+/// volts"); a simulation's mass needs one.
+#[test]
+fn mass_without_value() {
+    run_bad(
+        "mass_without_value",
+        &bad("value = 2.0\n", ""),
+        7,
+        "mass[1].value",
+        "only an unknown mass of a model file",
+    );
+}
+
 #[test]
 fn duplicate_mass_name() {
     run_bad(

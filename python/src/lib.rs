@@ -338,7 +338,7 @@ fn identify_table(
     interruptible(py, progress, &|| p.now(input.get()), || {
         let data = measured(&model, vec![table.into()])?;
         let read = Input::tables(model, data);
-        pipeline::preflight(&read.info.scenario, None).map_err(|e| Failure {
+        pipeline::preflight(&read.info.scenario, None, &[]).map_err(|e| Failure {
             message: format!("{label}: {e}"),
             ..Failure::from(e)
         })?;
@@ -369,7 +369,7 @@ fn run_scenario(
     };
     let input = std::sync::OnceLock::<Input>::new();
     interruptible(py, progress, &|| p.now(input.get()), || {
-        pipeline::preflight(&s, None).map_err(|e| Failure {
+        pipeline::preflight(&s, None, &[]).map_err(|e| Failure {
             message: format!("{label}: {e}"),
             ..Failure::from(e)
         })?;

@@ -262,7 +262,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             (Input::log(info), vec![log.clone()])
         }
         (None, Some(model)) => (
-            measured_input(model, &args.data, args.identify.selection().as_ref())?,
+            measured_input(
+                model,
+                &args.data,
+                args.identify.selection().as_ref(),
+                &args.identify.methods,
+            )?,
             args.data.clone(),
         ),
         (None, None) => unreachable!("clap requires one"),
@@ -305,7 +310,12 @@ fn files_in_short(files: &[std::path::PathBuf]) -> String {
 }
 
 /// The model file and its measured data, checked before any identification.
-fn measured_input(model: &Path, data: &[PathBuf], select: Option<&Select>) -> anyhow::Result<Input> {
+fn measured_input(
+    model: &Path,
+    data: &[PathBuf],
+    select: Option<&Select>,
+    methods: &[Method],
+) -> anyhow::Result<Input> {
     let scenario = fpkbench::Scenario::from_file(model)?;
     let Some(mapping) = &scenario.data else {
         anyhow::bail!(
@@ -319,7 +329,7 @@ fn measured_input(model: &Path, data: &[PathBuf], select: Option<&Select>) -> an
         .collect::<Result<Vec<_>, _>>()?;
     let measured = fpkbench::io::table::measured(&scenario, tables)?;
     let input = Input::tables(scenario, measured);
-    fpkbench::pipeline::preflight(&input.info.scenario, select)
+    fpkbench::pipeline::preflight(&input.info.scenario, select, methods)
         .map_err(|e| anyhow::anyhow!("{}: {e}", model.display()))?;
     fpkbench::pipeline::check_measured(&input).map_err(|e| anyhow::anyhow!("{}: {e}", data[0].display()))?;
     Ok(input)

@@ -33,7 +33,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let scenario = Scenario::from_file_with(&args.scenario, &args.set)?;
     // Unknowns no data could separate are refused before the simulation, not after it.
-    if let Err(why) = fpkbench::pipeline::preflight(&scenario, args.identify.selection().as_ref()) {
+    if let Err(why) =
+        fpkbench::pipeline::preflight(&scenario, args.identify.selection().as_ref(), &args.identify.methods)
+    {
         anyhow::bail!("{}: {why}", args.scenario.display());
     }
     let dir = args

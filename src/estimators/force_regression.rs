@@ -6,7 +6,7 @@
 use super::{refused, Context, Estimator, Setup};
 use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::baseline::{self, DriftRule, Increments};
-use crate::ident::{Estimate, IdentError};
+use crate::ident::{Estimate, IdentError, Problem};
 use crate::scenario::{Process, Scenario, Scheme};
 
 /// The increment regression with the forces as known drift.
@@ -24,29 +24,39 @@ pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
         Some(p) => p,
         None => setup.structure,
     };
+    match regression(setup, problem) {
+        Ok(r) => Box::new(ForceRegression(r)),
+        Err(e) => refused(e),
+    }
+}
+
+/// The force regression of `problem` (the mechanical one: a filtered force is measured
+/// like a white one) on `setup`'s samples, or why it cannot run: a force not measured.
+pub(crate) fn regression(setup: &Setup, problem: &Problem) -> Result<Increments, IdentError> {
     // fpkbench logs a white force as its mean over the sample interval; measured data and
     // filtered forces hold values at the sample instants.
     let interval_means: Vec<bool> = setup
         .scenario
         .excitations
         .iter()
-        .map(|e| !setup.measured && matches!(e.process, Process::White { .. }))
+        .map(|e| setup.measured.is_none() && matches!(e.process, Process::White { .. }))
         .collect();
-    let rule = if setup.measured {
-        DriftRule::GaussLegendre
-    } else {
-        own_step(setup.scenario)
+    let rule = match setup.measured {
+        // Measured forces and accelerations at the same instants: the equation of motion
+        // there, where no interval mean of a force is needed.
+        Some(present) if (0..problem.n).all(|i| present[problem.model.columns().a(i)]) => DriftRule::Instant,
+        Some(_) => DriftRule::GaussLegendre,
+        None => own_step(setup.scenario),
     };
-    match baseline::applicable(problem).and_then(|()| baseline::force_columns(problem, &interval_means)) {
-        Ok(columns) => Box::new(ForceRegression(Increments::with_forces(
-            problem,
-            setup.sample_interval(),
-            setup.data.batch_count(),
-            columns,
-            rule,
-        ))),
-        Err(e) => refused(e),
-    }
+    baseline::applicable(problem, true)?;
+    let columns = baseline::force_columns(problem, &interval_means)?;
+    Ok(Increments::with_forces(
+        problem,
+        setup.sample_interval(),
+        setup.data.batch_count(),
+        columns,
+        rule,
+    ))
 }
 
 /// The Euler step's own rule where fpkbench's log of `scenario` holds every integration

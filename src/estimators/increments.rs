@@ -7,7 +7,7 @@ use crate::ident::baseline::{self, Increments};
 use crate::ident::{Estimate, IdentError};
 
 pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
-    match baseline::applicable(setup.structure) {
+    match baseline::applicable(setup.structure, false) {
         Ok(()) => Box::new(Increments::new(
             setup.structure,
             setup.sample_interval(),

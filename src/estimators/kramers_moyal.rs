@@ -8,7 +8,7 @@ use crate::ident::strong_histogram::GridOptions;
 use crate::ident::{Estimate, IdentError};
 
 pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
-    if let Err(e) = baseline::applicable(setup.structure) {
+    if let Err(e) = baseline::applicable(setup.structure, false) {
         return refused(e);
     }
     let dim = setup.structure.dim();

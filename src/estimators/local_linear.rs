@@ -8,7 +8,7 @@ use crate::ident::local_linear::LocalLinear;
 use crate::ident::{Estimate, IdentError};
 
 pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
-    match baseline::applicable(setup.structure) {
+    match baseline::applicable(setup.structure, false) {
         Ok(()) => Box::new(LocalLinear::new(
             setup.structure,
             setup.sample_interval(),

@@ -16,6 +16,8 @@ mod strong;
 mod weak;
 mod weak_measured_force;
 
+pub(crate) use force_regression::regression as force_regression;
+
 use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::data::{Deconvolution, StationaryData};
 use crate::ident::moments::RawMoments;
@@ -106,9 +108,10 @@ pub struct Setup<'a> {
     pub settings: &'a Settings,
     /// The tables kept between identifications, for the accumulators that take them.
     pub arenas: &'a Arc<Arenas>,
-    /// Whether the samples are measured data (an fpkbench log holds a white force as its
-    /// mean over the sample interval; measured data hold values at the sample instants).
-    pub measured: bool,
+    /// Measured data: per log column, whether the samples hold it (mapped or derived);
+    /// `None` for an fpkbench log, which holds a white force as its mean over the sample
+    /// interval where measured data hold values at the sample instants.
+    pub measured: Option<&'a [bool]>,
     /// What was taken out of the first pass's moments (sensor noise, less a filter's loss
     /// put back): for an estimator with moments of its own.
     pub deconvolution: Option<&'a Deconvolution>,
@@ -233,7 +236,7 @@ mod tests {
             total: &total,
             settings: &settings,
             arenas: &arenas,
-            measured: false,
+            measured: None,
             deconvolution: None,
         };
         let typical = problem.typical(&total);

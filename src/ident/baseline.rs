@@ -21,11 +21,13 @@
 
 use super::estimate::{estimate, solve_replicates};
 use super::{prefetch, Estimate, IdentError, Pieces, Problem, Unknown};
-use multiversion::multiversion;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
+mod normal;
 mod pairs;
+pub(super) use normal::dot;
+use normal::Normal;
 pub(super) use pairs::{DriftParts, Pairs};
 
 /// A multiplicative hash of a grid cell's index (Fibonacci hashing): the cell map is hit
@@ -49,8 +51,10 @@ impl Hasher for CellHasher {
 
 /// Why a baseline cannot run on `problem`, if it cannot: it regresses velocity increments,
 /// so it needs white-noise forcing (no filtered excitations, no measured inputs) and
-/// unknown coefficients only (a mass or an intensity is not in the drift's linear part).
-pub fn applicable(problem: &Problem) -> Result<(), IdentError> {
+/// unknown coefficients only (a mass or an intensity is not in the drift's linear part) —
+/// but for the force regression (`forces`), where a mass is: with the force measured,
+/// `m_i Δv_i/h` against the force fixes it (the mass rows of the normal equations, `baseline/normal.rs`).
+pub fn applicable(problem: &Problem, forces: bool) -> Result<(), IdentError> {
     if !problem.filters.is_empty() || problem.inputs > 0 {
         return Err(IdentError::NotApplicable(
             "the increment baselines regress the velocity's drift, which filtered forces make unobserved \
@@ -58,172 +62,14 @@ pub fn applicable(problem: &Problem) -> Result<(), IdentError> {
                 .into(),
         ));
     }
-    if let Some(u) = problem.unknowns.iter().find(|u| !matches!(u, Unknown::Coefficient(_))) {
+    let allowed = |u: &Unknown| matches!(u, Unknown::Coefficient(_)) || (forces && matches!(u, Unknown::Mass(_)));
+    if let Some(u) = problem.unknowns.iter().find(|u| !allowed(u)) {
         return Err(IdentError::NotApplicable(format!(
-            "the increment baselines estimate the drift's coefficients only, not {u:?}"
+            "the increment baselines estimate the drift's coefficients{} only, not {u:?}",
+            if forces { " and the masses" } else { "" }
         )));
     }
     Ok(())
-}
-
-/// The normal equations of a weighted linear least-squares fit of the velocity equations,
-/// kept per mass over the unknowns acting on it ([`Normal::pieces`]: as [`Pieces`] with
-/// one row per unknown, row `R` being `Σ w μ_i b_iR · residual_i`).
-#[derive(Clone)]
-struct Normal {
-    /// Unknowns and masses.
-    r: usize,
-    n: usize,
-    /// Per mass: the unknowns whose unit force on it is not identically zero (an unknown
-    /// acts on the one or two masses its link joins), ascending.
-    acting: Vec<Vec<usize>>,
-    /// Per mass, `1 / m_i`.
-    mu: Vec<f64>,
-    /// Per unknown: `−Σ f target`.
-    t0: Vec<f64>,
-    /// Per mass and acting unknown: `Σ f known`.
-    a: Vec<Vec<f64>>,
-    /// Per mass: the upper triangle of `Σ f unit` over its acting unknowns, row by row.
-    b: Vec<Vec<f64>>,
-    /// Scratch: one mass's unit forces of its acting unknowns.
-    unit: Vec<f64>,
-}
-
-impl Normal {
-    fn new(problem: &Problem) -> Normal {
-        let (n, r) = (problem.n, problem.unknowns.len());
-        let acting: Vec<Vec<usize>> = (0..n)
-            .map(|i| {
-                (0..r)
-                    .filter(|&row| !problem.unit_force[row][i].terms.is_empty())
-                    .collect()
-            })
-            .collect();
-        Normal {
-            r,
-            n,
-            mu: problem.model.mass.iter().map(|m| 1.0 / m).collect(),
-            t0: vec![0.0; r],
-            a: acting.iter().map(|u| vec![0.0; u.len()]).collect(),
-            b: acting.iter().map(|u| vec![0.0; u.len() * (u.len() + 1) / 2]).collect(),
-            unit: vec![0.0; r],
-            acting,
-        }
-    }
-
-    /// One equation per mass: `target_i ≈ μ_i (known_i + Σ_r θ_r unit_ir)`, weight `w`.
-    /// Only the unknowns acting on mass `i` enter its terms (the others' unit forces are
-    /// identically zero there).
-    fn add(&mut self, w: f64, target: &[f64], known: &[f64], unit: &[f64]) {
-        let n = self.n;
-        for (i, acting) in self.acting.iter().enumerate() {
-            let m = acting.len();
-            let u = &mut self.unit[..m];
-            for (u, &row) in u.iter_mut().zip(acting) {
-                *u = unit[row * n + i];
-            }
-            let (a, b, wmu) = (&mut self.a[i], &mut self.b[i], w * self.mu[i]);
-            let mut at = 0;
-            for k in 0..m {
-                let f = wmu * u[k];
-                if f != 0.0 {
-                    self.t0[acting[k]] -= f * target[i];
-                    a[k] += f * known[i];
-                    // Symmetric in (row, col): the upper triangle, the rest in `pieces`.
-                    for (b, &v) in b[at..at + m - k].iter_mut().zip(&u[k..]) {
-                        *b += f * v;
-                    }
-                }
-                at += m - k;
-            }
-        }
-    }
-
-    /// A block of pairs of one batch, each with weight 1: `parts[k * lanes + l]` is part
-    /// `k` of pair `l` (the known force per mass, then the unit force per unknown and
-    /// mass, [`DriftParts`]' order) and `target[i * stride + l]` pair `l`'s target on mass
-    /// `i`. Each entry gains `μ_i Σ_l (…)`, the sum over the block along the lanes
-    /// ([`dot`]); the same equations as [`Normal::add`] pair by pair, up to the order of
-    /// the additions.
-    fn add_block(&mut self, lanes: usize, parts: &[f64], target: &[f64], stride: usize) {
-        add_block(self, lanes, parts, target, stride);
-    }
-
-    /// The equations as [`Pieces`] (both triangles).
-    fn pieces(&self) -> Pieces {
-        let (n, r) = (self.n, self.r);
-        let mut p = Pieces::new(r, n, r);
-        p.t0.copy_from_slice(&self.t0);
-        for (i, acting) in self.acting.iter().enumerate() {
-            let mut at = 0;
-            for (k, &row) in acting.iter().enumerate() {
-                p.a[row * n + i] = self.a[i][k];
-                for &col in &acting[k..] {
-                    let v = self.b[i][at];
-                    p.b[(row * n + i) * r + col] = v;
-                    p.b[(col * n + i) * r + row] = v;
-                    at += 1;
-                }
-            }
-        }
-        p
-    }
-
-    fn merge(&mut self, other: &Normal, sign: f64) {
-        let pairs = self
-            .a
-            .iter_mut()
-            .chain(self.b.iter_mut())
-            .zip(other.a.iter().chain(&other.b));
-        for (x, y) in std::iter::once((&mut self.t0, &other.t0)).chain(pairs) {
-            for (x, y) in x.iter_mut().zip(y) {
-                *x += sign * y;
-            }
-        }
-    }
-}
-
-/// [`Normal::add_block`], compiled for the vector units at hand.
-#[multiversion(targets(
-    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
-    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
-))]
-fn add_block(normal: &mut Normal, lanes: usize, parts: &[f64], target: &[f64], stride: usize) {
-    let n = normal.n;
-    let lane = |k: usize| &parts[k * lanes..(k + 1) * lanes];
-    for (i, acting) in normal.acting.iter().enumerate() {
-        let (a, b, mu) = (&mut normal.a[i], &mut normal.b[i], normal.mu[i]);
-        let (known, tgt) = (lane(i), &target[i * stride..i * stride + lanes]);
-        let mut at = 0;
-        for (k, &row) in acting.iter().enumerate() {
-            let u = lane(n + row * n + i);
-            normal.t0[row] -= mu * dot(u, tgt);
-            a[k] += mu * dot(u, known);
-            for &col in &acting[k..] {
-                b[at] += mu * dot(u, lane(n + col * n + i));
-                at += 1;
-            }
-        }
-    }
-}
-
-/// `Σ_l a_l b_l` over eight running sums (vectorised; the same value on every CPU, as
-/// nothing is contracted into a fused multiply–add), then the sums added in a fixed order.
-#[inline(always)]
-pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    const K: usize = 8;
-    let mut acc = [0.0; K];
-    let (ca, cb) = (a.chunks_exact(K), b.chunks_exact(K));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for j in 0..K {
-            acc[j] += x[j] * y[j];
-        }
-    }
-    for (j, (x, y)) in ra.iter().zip(rb).enumerate() {
-        acc[j] += x * y;
-    }
-    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
 }
 
 /// Where the force regression takes the drift over a sample interval.
@@ -237,6 +83,15 @@ pub enum DriftRule {
     /// regression checks that the simulator and the identifier evaluate every term alike.
     /// `semi_implicit`: the log's displacement is the step's midpoint.
     EulerStep { semi_implicit: bool },
+    /// At each sample instant, `m_i a_i = F_i + K_i(y) + Σ_r θ_r b_ir(y)` with the
+    /// acceleration and the force the data hold there (measured, or derived by exact
+    /// differences): no interval mean of a force is needed. The mean of a band-limited
+    /// force over an interval, from its samples at the ends (the trapezoid rule), is
+    /// `cos(ωh/2)` where it should be `sin(ωh/2)/(ωh/2)` at its frequency `ω` — 38 % off at
+    /// 200 Hz sampled at 610 Hz — an error correlated with the force itself, which biases a
+    /// mass estimated against the force by 10 % on the Silverbox twin (docs/methods.md,
+    /// "Baselines").
+    Instant,
 }
 
 /// Sample pairs of one batch an [`Increments`] gathers before it evaluates their drifts
@@ -245,12 +100,15 @@ const BLOCK: usize = 64;
 
 /// Pairs of one batch waiting for [`Increments::add_block`]: each pair's states at its
 /// start and end (variable-major, `[j * BLOCK + pair]`) and its targets `Δv_i/h` (− the
-/// forces; mass-major, `[i * BLOCK + pair]`).
+/// forces over a known mass; mass-major, `[i * BLOCK + pair]`); the force regression's
+/// force on each mass of unknown mass over the interval (mass-major), which joins its
+/// known force instead.
 #[derive(Clone)]
 struct PairBlock {
     start: Vec<f64>,
     end: Vec<f64>,
     target: Vec<f64>,
+    force: Vec<f64>,
     len: usize,
 }
 
@@ -273,6 +131,8 @@ pub struct Increments {
     velocity_of: Vec<Option<usize>>,
     /// Force regression: where it takes the drift over an interval.
     rule: DriftRule,
+    /// Per mass, whether it is an unknown (force regression: [`Normal`]'s mass rows).
+    mass_unknown: Vec<bool>,
     /// The sample in problem order, the atoms' values after the state (then, for the force
     /// regression, the instant-valued force on each mass).
     y: Vec<f64>,
@@ -304,6 +164,7 @@ impl Increments {
             batches: vec![Normal::new(problem); batches.max(1)],
             forces: None,
             rule: DriftRule::GaussLegendre,
+            mass_unknown: (0..n).map(|i| problem.unknowns.contains(&Unknown::Mass(i))).collect(),
             velocity_of: problem
                 .columns
                 .iter()
@@ -321,6 +182,7 @@ impl Increments {
                     start: vec![0.0; d * BLOCK],
                     end: vec![0.0; d * BLOCK],
                     target: vec![0.0; n * BLOCK],
+                    force: vec![0.0; n * BLOCK],
                     len: 0,
                 };
                 batches.max(1)
@@ -382,10 +244,32 @@ impl Increments {
                 self.y[d + i] = cols.iter().filter(|(_, mean)| !mean).map(|&(c, _)| row[c]).sum();
             }
         }
-        let (y, h, forces) = (&self.y, self.pairs.h, &self.forces);
+        let (y, h, forces, mass_unknown) = (&self.y, self.pairs.h, &self.forces, &self.mass_unknown);
         let b = batch.min(self.blocks.len() - 1);
         let block = &mut self.blocks[b];
         let l = block.len;
+        if self.rule == DriftRule::Instant {
+            // One equation per sample: the state, the acceleration and the force at its instant.
+            let layout = p.model.columns();
+            for j in 0..d {
+                block.start[j * BLOCK + l] = y[j];
+            }
+            for i in 0..p.n {
+                let force = y[d + i];
+                let mut g = row[layout.a(i)];
+                if mass_unknown[i] {
+                    block.force[i * BLOCK + l] = force;
+                } else {
+                    g -= force / p.model.mass[i];
+                }
+                block.target[i * BLOCK + l] = g;
+            }
+            block.len += 1;
+            if block.len == BLOCK {
+                self.add_block(b);
+            }
+            return;
+        }
         let mut paired = false;
         self.pairs.step(trajectory, t, y, |y0| {
             paired = true;
@@ -400,7 +284,12 @@ impl Increments {
                     // The force's mean over the interval: as logged, or the trapezoid rule
                     // on its values at the two ends (their bridge's mean is linear).
                     let mean: f64 = forces[i].iter().filter(|(_, mean)| *mean).map(|&(c, _)| row[c]).sum();
-                    g -= (mean + 0.5 * (y0[d + i] + y[d + i])) / p.model.mass[i];
+                    let force = mean + 0.5 * (y0[d + i] + y[d + i]);
+                    if mass_unknown[i] {
+                        block.force[i * BLOCK + l] = force;
+                    } else {
+                        g -= force / p.model.mass[i];
+                    }
                 }
                 block.target[i * BLOCK + l] = g;
             }
@@ -436,7 +325,7 @@ impl Increments {
                 to[j * lanes..(j + 1) * lanes].copy_from_slice(&from[j * BLOCK..j * BLOCK + lanes]);
             }
         };
-        let parts: &[f64] = if self.forces.is_none() {
+        let parts: &mut [f64] = if self.forces.is_none() || self.rule == DriftRule::Instant {
             pack(&block.start, &mut self.at);
             self.parts.parts.eval_block(&self.at[..d * lanes], lanes, values);
             values
@@ -511,6 +400,15 @@ impl Increments {
             }
             sum
         };
+        // A mass of unknown mass: its force joins its known force (the instrument of its row).
+        for i in (0..p.n).filter(|&i| self.mass_unknown[i] && self.forces.is_some()) {
+            for (k, f) in parts[i * lanes..(i + 1) * lanes]
+                .iter_mut()
+                .zip(&block.force[i * BLOCK..])
+            {
+                *k += f;
+            }
+        }
         self.batches[b].add_block(lanes, parts, &block.target, BLOCK);
         self.used += lanes as u64;
         self.blocks[b].len = 0;
@@ -526,15 +424,27 @@ impl Increments {
             (None, _) => "Δv/h on the drift at the interval's start (Euler–Maruyama pseudo-likelihood)",
             (Some(_), DriftRule::GaussLegendre) => "Δv/h − F̄/m on the drift's mean over the interval (3-point Gauss–Legendre, displacements by cubic Hermite), the forces measured (an oracle)",
             (Some(_), DriftRule::EulerStep { .. }) => "Δv/h − F̄/m on the drift at the integration step's start, as the simulator took it (the log holds every step; exact up to rounding), the forces measured (an oracle)",
+            (Some(_), DriftRule::Instant) => "the acceleration − F/m on the drift at each sample instant, the acceleration and the forces as the data hold them there (an oracle)",
         };
-        let facts = vec![
-            ("pairs".into(), format!("{} consecutive sample pairs", self.used)),
+        let mut facts = vec![
+            match self.rule {
+                DriftRule::Instant => ("samples".into(), format!("{} sample instants", self.used)),
+                _ => ("pairs".into(), format!("{} consecutive sample pairs", self.used)),
+            },
             ("regression".into(), format!("{regression}, h = {} s", self.pairs.h)),
             (
                 "standard errors".into(),
                 format!("delete-one jackknife over {} batches", self.batches.len()),
             ),
         ];
+        if self.mass_unknown.iter().any(|&u| u) {
+            facts.push((
+                "masses".into(),
+                "each unknown mass by its equation's residual times its known force (the measured force and \
+                 the known terms): an instrument, zero in expectation at the true values"
+                    .into(),
+            ));
+        }
         solve_batches(&self.problem, self.name(), &self.batches, typical, facts, self.used)
     }
 }

@@ -49,7 +49,7 @@ impl FisherInformation {
     /// coefficients only (as the increment baselines need), and noise on every mass (a
     /// mass without noise would be observed exactly: an infinite information).
     pub fn new(problem: &Problem) -> Result<FisherInformation, String> {
-        applicable(problem).map_err(|e| e.to_string())?;
+        applicable(problem, false).map_err(|e| e.to_string())?;
         let n = problem.n;
         let mu: Vec<f64> = problem.model.mass.iter().map(|m| 1.0 / m).collect();
         let mut s = DMatrix::<f64>::zeros(n, n);

@@ -242,6 +242,7 @@ impl Admissibility {
                 .map(|(name, &value)| Mass {
                     name: name.clone(),
                     value,
+                    valued: true,
                 })
                 .collect(),
             links: (0..m.link_names.len())
@@ -708,6 +709,7 @@ mod tests {
             masses: vec![Mass {
                 name: "m1".into(),
                 value: 1.0,
+                valued: true,
             }],
             links: vec![Link {
                 name: "ground-m1".into(),

@@ -316,6 +316,7 @@ mod tests {
         Mass {
             name: name.into(),
             value: 1.0,
+            valued: true,
         }
     }
 

@@ -5,6 +5,7 @@
 use super::disturbed::identify_disturbed;
 use super::source::Input;
 use super::{Options, PipelineError};
+use crate::estimators::Method;
 use crate::ident::Specification;
 use crate::ident::{Filter, IdentError, Problem};
 use crate::model::Quantity;
@@ -27,12 +28,19 @@ pub(crate) fn placeholder_filters(s: &Scenario) -> Vec<Filter> {
 
 /// What can be refused from the scenario alone, before any simulation or reading: unknowns
 /// no data can separate (parallel links, exact symmetries of the stationary density) and
-/// problems the identifier does not support.
-pub fn preflight(s: &Scenario, select: Option<&Select>) -> Result<(), IdentError> {
+/// problems the identifier does not support. `methods` are the methods to run (empty: the
+/// scenario's): a symmetry of the force model refuses the run only when none of them
+/// reads the measured force (the plan stage's `structure_of`).
+pub fn preflight(s: &Scenario, select: Option<&Select>, methods: &[Method]) -> Result<(), IdentError> {
     s.check_separable().map_err(IdentError::Inseparable)?;
     let select = selection(s, select)?;
     if s.identify.disturbance.is_none() {
-        Problem::from_spec(&accumulated(s, select.as_ref()), &placeholder_filters(s))?;
+        let methods = if methods.is_empty() {
+            &s.identify.methods
+        } else {
+            methods
+        };
+        super::stages::structure_of(&accumulated(s, select.as_ref()), &placeholder_filters(s), methods)?;
     }
     Ok(())
 }
@@ -74,8 +82,9 @@ pub fn check_measured(input: &Input) -> Result<(), String> {
     };
     let info = &input.info;
     let s = &info.scenario;
-    let structure =
-        Problem::from_spec(&Specification::from_scenario(s), &placeholder_filters(s)).map_err(|e| e.to_string())?;
+    // The columns and unknowns only: a symmetry is the preflight's to refuse.
+    let structure = Problem::from_spec_unchecked(&Specification::from_scenario(s), &placeholder_filters(s))
+        .map_err(|e| e.to_string())?;
     let mut needed: Vec<(usize, &str)> = structure
         .columns
         .iter()

@@ -13,6 +13,7 @@
 mod assemble;
 pub mod bias;
 mod disturbed;
+mod force_scale;
 mod grading;
 mod identify;
 mod pass;

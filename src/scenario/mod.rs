@@ -131,6 +131,10 @@ pub struct Mass {
     pub name: String,
     /// kg (translational) or kg·m² (rotational).
     pub value: f64,
+    /// Whether the file gives the value: an unknown mass of a model file may leave it out
+    /// (a rig in volts, whose "mass" is a gain's inverse), and then `value` is 1, only a
+    /// start for its estimate ([`crate::ident::Problem::solve`] scales it), and no truth.
+    pub valued: bool,
 }
 
 /// One end of a link.
@@ -800,7 +804,7 @@ impl Scenario {
         use crate::model::{Characteristic, ParameterName as N};
         let mut out = Vec::new();
         for m in &self.masses {
-            out.push((N::Mass(m.name.clone()), m.value));
+            out.push((N::Mass(m.name.clone()), if m.valued { m.value } else { f64::NAN }));
         }
         for l in &self.links {
             for (kind, poly) in [

@@ -70,7 +70,7 @@ pub(crate) struct RawData {
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawMass {
     pub(super) name: Spanned<String>,
-    pub(super) value: Spanned<f64>,
+    pub(super) value: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]

@@ -27,7 +27,10 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let levels: Vec<(usize, f64)> = white.iter().filter_map(|&(e, sigma, _)| Some((e, sigma?))).collect();
     let white_reports: Vec<WhiteLevelReport> = white.into_iter().map(|(_, _, r)| r).collect();
     id.spec = with_levels(&id.spec, &levels);
-    let problem = Problem::from_spec(&id.spec, &filters)?;
+    let problem = match id.symmetric {
+        None => Problem::from_spec(&id.spec, &filters)?,
+        Some(_) => Problem::from_spec_unchecked(&id.spec, &filters)?,
+    };
     let typical = problem.typical(id.total.as_ref().expect("set in the second pass"));
     let why: Vec<String> = rejected(&reports)
         .into_iter()

@@ -36,7 +36,7 @@ mod sensors;
 mod validation;
 mod verdict;
 
-pub(crate) use plan::Comparison;
+pub(crate) use plan::{structure_of, Comparison};
 
 use super::assemble::assemble;
 use super::grading::Grader;
@@ -119,6 +119,9 @@ pub(crate) struct Identification<'a> {
     pub spec: Specification,
     /// `spec`'s problem over the placeholder filters.
     pub structure: Problem,
+    /// The exact symmetry of the force model, where the methods that read the measured
+    /// force go on without it (`plan::structure_of`): every other method is refused with it.
+    pub symmetric: Option<crate::ident::IdentError>,
     /// With filtered forces: the problem with each taken as white.
     pub naive_structure: Option<Problem>,
     /// The `[identify.compare]` models.
@@ -150,6 +153,8 @@ pub(crate) struct Identification<'a> {
     pub estimators: Vec<(Method, Box<dyn Estimator>)>,
     pub dist: Option<Distributions>,
     pub fisher: Option<FisherInformation>,
+    /// The masses the measured forces imply (measured data, every force measured).
+    pub force_scale: Option<super::force_scale::ForceScale>,
     pub fitted: Option<Fitted>,
     /// One row per method and comparison.
     pub rows: Vec<MethodReport>,

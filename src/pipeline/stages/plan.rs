@@ -29,9 +29,12 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
     let filtered: Vec<usize> = placeholder.iter().map(|f| f.excitation).collect();
     let select = selection(s, options.select.as_ref())?;
     let spec = accumulated(s, select.as_ref());
-    let structure = Problem::from_spec(&spec, &placeholder)?;
+    let (structure, symmetric) = structure_of(&spec, &placeholder, &methods)?;
     let naive_structure = (!filtered.is_empty())
-        .then(|| Problem::from_spec(&spec.whitened(&placeholder), &[]))
+        .then(|| match symmetric {
+            None => Problem::from_spec(&spec.whitened(&placeholder), &[]),
+            Some(_) => Problem::from_spec_unchecked(&spec.whitened(&placeholder), &[]),
+        })
         .transpose()?;
     // With a selection, the first pass also gathers the moments of the declared model it
     // is compared with, and those of the `[identify.compare]` models over the same atoms; a
@@ -130,6 +133,7 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         select,
         spec,
         structure,
+        symmetric,
         naive_structure,
         comparisons,
         declared_own,
@@ -148,6 +152,7 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         estimators: Vec::new(),
         dist: None,
         fisher: None,
+        force_scale: None,
         fitted: None,
         rows: Vec::new(),
         first: None,
@@ -157,6 +162,25 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         prediction: None,
         failed_checks: Vec::new(),
     })
+}
+
+/// `spec`'s problem over `filters`, and the exact symmetry of its force model
+/// ([`crate::ident::exact_symmetry`]) where the run goes on without it. A symmetry refuses
+/// the whole run when every method needs the force model; when one reads the measured
+/// force instead (`weak-measured-force`, `force-regression`: a rig in volts whose mass is
+/// unknown, where the measured force fixes the scale the density cannot), only the others
+/// are refused, each with the symmetry as its reason (the rows stage).
+pub(crate) fn structure_of(
+    spec: &Specification,
+    filters: &[Filter],
+    methods: &[crate::estimators::Method],
+) -> Result<(Problem, Option<IdentError>), IdentError> {
+    match Problem::from_spec(spec, filters) {
+        Err(e @ IdentError::Symmetric { .. }) if methods.iter().any(|m| m.reads_measured_force()) => {
+            Ok((Problem::from_spec_unchecked(spec, filters)?, Some(e)))
+        }
+        other => Ok((other?, None)),
+    }
 }
 
 /// One model of `[identify.compare]` before the first pass: its problem over the

@@ -37,7 +37,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let (mut rows, estimates) = estimator_rows(
         &id.estimators,
         &context,
-        fitted.rejected.as_deref(),
+        (fitted.rejected.as_deref(), id.symmetric.as_ref()),
         &reported,
         &id.grader,
         id.data.observed(),
@@ -117,12 +117,13 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
 /// One row per requested method, and every estimate that succeeded, with whether its
 /// method is a baseline (the first FPK one is what the validation re-simulates); rows are
 /// about `reported` (the physical problem of a bilinear one). Where the data reject the force model (`rejected`), every
-/// method but the force regression (which reads the measured force itself) is refused.
+/// method but those that read the measured force itself is refused; so it is where the
+/// force model has an exact symmetry (`symmetric`) those methods do not share.
 #[allow(clippy::type_complexity)]
 fn estimator_rows(
     estimators: &[(Method, Box<dyn Estimator>)],
     cx: &Context,
-    rejected: Option<&str>,
+    (rejected, symmetric): (Option<&str>, Option<&IdentError>),
     reported: &Problem,
     grader: &Grader,
     observed: Observed,
@@ -133,8 +134,9 @@ fn estimator_rows(
     for (m, estimator) in estimators {
         crate::interrupt::check()?;
         let t = Instant::now();
-        let est = match rejected {
-            Some(why) if !m.reads_measured_force() => Err(IdentError::ForceModelRejected(why.to_string())),
+        let est = match (rejected, symmetric) {
+            (_, Some(e)) if !m.reads_measured_force() => Err(e.clone()),
+            (Some(why), _) if !m.reads_measured_force() => Err(IdentError::ForceModelRejected(why.to_string())),
             _ => estimator.estimate(cx),
         };
         let method = ReportMethod::Estimator(*m);

@@ -4,6 +4,7 @@
 //! a force cell's noise floor, where it is estimated) and the distributions the
 //! validation and the figures compare.
 
+use super::super::force_scale::ForceScale;
 use super::super::pass;
 use super::super::validation::Distributions;
 use super::super::PipelineError;
@@ -23,7 +24,7 @@ pub(super) fn setup<'a>(id: &'a Identification) -> Setup<'a> {
         total: id.total.as_ref().expect("set before the second pass"),
         settings: &id.options.estimators,
         arenas: &id.options.arenas,
-        measured: id.input.measured().is_some(),
+        measured: id.input.measured().map(|m| m.present.as_slice()),
         deconvolution: id.deconvolution.as_ref(),
     }
 }
@@ -31,11 +32,13 @@ pub(super) fn setup<'a>(id: &'a Identification) -> Setup<'a> {
 pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let s = &id.input.info.scenario;
     id.total = Some(id.data.total());
-    let estimators = {
+    let (estimators, force_scale) = {
         let setup = setup(id);
-        id.methods.iter().map(|&m| (m, m.estimator(&setup))).collect()
+        let estimators = id.methods.iter().map(|&m| (m, m.estimator(&setup))).collect();
+        (estimators, ForceScale::new(&setup, &id.spec, &id.placeholder))
     };
     id.estimators = estimators;
+    let mut force_scale = force_scale;
     let mut dist = Distributions::new(s, &id.structure, &id.data);
     id.forces.start_welch(&s.simulation);
     if s.identify.sensor_noise == NoiseHandling::Estimate
@@ -55,6 +58,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         .map(|(_, e)| e as &mut dyn Accumulator)
         .collect();
     list.push(&mut fisher);
+    list.push(&mut force_scale);
     // The distributions are gathered only for what shows them (the validation, the figures).
     if id.options.validate || id.options.plots {
         list.push(&mut dist);
@@ -63,5 +67,6 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     pass::run(id.input, batching, &mut list)?;
     id.dist = Some(dist);
     id.fisher = fisher;
+    id.force_scale = force_scale;
     Ok(())
 }

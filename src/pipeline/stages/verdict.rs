@@ -14,6 +14,10 @@
 //! - **clipping**, on measured data: a channel whose samples pile up at its smallest or
 //!   largest value (a sensor's or converter's limit, steady or jittering: more than
 //!   `CLIPPED` samples there) biases every moment, and nothing undoes it;
+//! - **force scale**, on measured data whose every force is measured: the masses the forces
+//!   and the accelerations imply (`pipeline::force_scale`) are not the declared ones, by a
+//!   factor beyond [`super::super::force_scale::SCALE_FACTOR`] — a unit slip or a sensor
+//!   mounted the other way, which every estimate inherits;
 //! - **agreement**, on measured data where the force regression ran beside a gated FPK
 //!   estimate: a coefficient of the FPK estimate differs from the regression's on the same
 //!   samples by more than [`AGREEMENT_SE`] combined standard errors and [`AGREEMENT_SHARE`]
@@ -86,6 +90,10 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         }
         clipping(id);
         agreement(id);
+        if let Some(f) = &id.force_scale {
+            let fitted = id.fitted();
+            id.failed_checks.extend(f.verdict((&fitted.problem, &fitted.typical)));
+        }
     }
     Ok(())
 }

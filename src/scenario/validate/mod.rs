@@ -310,8 +310,29 @@ pub(crate) fn check_masses(loc: &Locator, raw: &RawScenario) -> Result<Vec<Mass>
                 format!("duplicate mass name {n:?}: names must be unique"),
             ));
         }
-        let v = finite_positive(loc, &m.value, &format!("{key}.value"), raw.motion.units()[4])?;
-        masses.push(Mass { name: n, value: v });
+        let unknown = raw.data.is_some()
+            && (raw.identify.as_ref())
+                .and_then(|i| i.unknown_masses.as_ref())
+                .is_some_and(|u| u.iter().any(|x| *x.get_ref() == n));
+        let (value, valued) = match &m.value {
+            Some(v) => (
+                finite_positive(loc, v, &format!("{key}.value"), raw.motion.units()[4])?,
+                true,
+            ),
+            None if unknown => (1.0, false),
+            None => {
+                return Err(loc.at(
+                    m.name.span(),
+                    format!("{key}.value"),
+                    format!(
+                        "mass {n:?} has no `value` ({}): only an unknown mass of a model file \
+                         ([identify] unknown_masses, in a file with [data]) may leave it out",
+                        raw.motion.units()[4]
+                    ),
+                ))
+            }
+        };
+        masses.push(Mass { name: n, value, valued });
     }
     Ok(masses)
 }
