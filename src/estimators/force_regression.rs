@@ -41,10 +41,19 @@ pub(crate) fn regression(setup: &Setup, problem: &Problem) -> Result<Increments,
         .iter()
         .map(|e| setup.measured.is_none() && matches!(e.process, Process::White { .. }))
         .collect();
+    // A force declared white noise of a given level has no value at an instant (an
+    // fpkbench log's is its mean over the interval, and its acceleration column the force
+    // balance with that mean): such a record keeps the interval rule.
+    let s = setup.scenario;
+    let band_limited = (0..s.excitations.len()).all(|e| {
+        !matches!(s.excitations[e].process, Process::White { .. }) || s.identify.equivalent_white.contains(&e)
+    });
     let rule = match setup.measured {
         // Measured forces and accelerations at the same instants: the equation of motion
         // there, where no interval mean of a force is needed.
-        Some(present) if (0..problem.n).all(|i| present[problem.model.columns().a(i)]) => DriftRule::Instant,
+        Some(present) if band_limited && (0..problem.n).all(|i| present[problem.model.columns().a(i)]) => {
+            DriftRule::Instant
+        }
         Some(_) => DriftRule::GaussLegendre,
         None => own_step(setup.scenario),
     };

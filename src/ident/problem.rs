@@ -516,14 +516,22 @@ impl Problem {
             let left = (&r + j.columns(0, rc) * dx.rows(0, rc)).norm();
             (dx, left)
         };
-        if rc < self.unknowns.len() && self.unknowns.iter().any(|u| matches!(u, Unknown::Mass(_))) {
+        let masses: Vec<usize> = (0..self.unknowns.len())
+            .filter(|&k| matches!(self.unknowns[k], Unknown::Mass(_)))
+            .collect();
+        if !masses.is_empty() {
             // What no fit goes below: rounding, on the scale of the equations unsolved.
             let floor = 1e-9 * weighted(self.residual(pc, &p)).0.norm();
-            let factor = Problem::mass_scale(|f| {
-                let q = self.masses_scaled(&p, f);
-                coefficients(&q).1.max(floor)
-            });
-            p = self.masses_scaled(&p, factor);
+            // A common factor first, then each mass's own (masses off by different factors,
+            // or of either sign: swapped or reversed channels), twice round.
+            let groups = std::iter::once(masses.clone()).chain((0..2).flat_map(|_| masses.iter().map(|&k| vec![k])));
+            for group in groups.take(if masses.len() > 1 { 1 + 2 * masses.len() } else { 1 }) {
+                let factor = Problem::mass_scale(|f| {
+                    let q = Problem::scaled_at(&p, &group, f);
+                    coefficients(&q).1.max(floor)
+                });
+                p = Problem::scaled_at(&p, &group, factor);
+            }
         }
         let (dx, _) = coefficients(&p);
         for k in 0..rc {
@@ -557,13 +565,11 @@ impl Problem {
         (p, diag)
     }
 
-    /// `p` with every unknown mass multiplied by `factor`.
-    fn masses_scaled(&self, p: &[f64], factor: f64) -> Vec<f64> {
+    /// `p` with the unknowns `at` multiplied by `factor`.
+    fn scaled_at(p: &[f64], at: &[usize], factor: f64) -> Vec<f64> {
         let mut q = p.to_vec();
-        for (k, u) in self.unknowns.iter().enumerate() {
-            if matches!(u, Unknown::Mass(_)) {
-                q[k] *= factor;
-            }
+        for &k in at {
+            q[k] *= factor;
         }
         q
     }
