@@ -30,11 +30,13 @@ pub(crate) struct ForceScale {
 }
 
 impl ForceScale {
-    /// The check of `setup`'s measured data under `spec`, where it applies: measured data,
-    /// every force measured, every mass known (an unknown mass is estimated, not checked).
+    /// The check of `setup`'s measured data under `spec`, where it applies: measured data
+    /// holding every force, every mass known (an unknown mass is estimated, not checked).
     pub(crate) fn new(setup: &Setup, spec: &Specification, placeholder: &[crate::ident::Filter]) -> Option<ForceScale> {
-        setup.measured?;
-        if !spec.unknown_masses.is_empty() || !setup.scenario.excitations.iter().all(|e| e.measured) {
+        let present = setup.measured?;
+        let layout = spec.model.columns();
+        let forces = (0..spec.model.excitations.len()).all(|e| present[layout.force(e)]);
+        if !spec.unknown_masses.is_empty() || !forces {
             return None;
         }
         let mut free = spec.whitened(placeholder);
