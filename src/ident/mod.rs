@@ -56,12 +56,14 @@ pub use symmetry::{exact_symmetry, Symmetry};
 /// Errors of identification.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum IdentError {
-    /// The requested unknowns cannot be separated by the stationary density.
+    /// The requested unknowns cannot be separated by the method's equations on these data
+    /// (for the FPK methods: by the stationary density).
     #[error(
-        "the unknowns cannot be separated by the stationary density: {} move together along \
-         the direction [{}] (singular values {}; smallest/largest = {:.2e}, rank {} of {}; {}). \
-         No estimates are given. Declare some of them known (docs/theory.md §6: the excitation \
-         intensity and the masses must be known)",
+        "the unknowns cannot be separated by the method's equations on these data: {} move together \
+         along the direction [{}] (singular values {}; smallest/largest = {:.2e}, rank {} of {}; {}). \
+         No estimates are given. Declare some of them known, or measure what separates them \
+         (docs/theory.md §6: for the density methods the excitation intensity and the masses \
+         must be known)",
         .names.iter().map(ToString::to_string).collect::<Vec<_>>().join(", "),
         .direction.iter().map(|(n, d)| format!("{n}: {d:+.3}")).collect::<Vec<_>>().join(", "),
         .singular_values.iter().map(|s| format!("{s:.3e}")).collect::<Vec<_>>().join(" "),
