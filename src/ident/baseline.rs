@@ -112,6 +112,20 @@ struct PairBlock {
     len: usize,
 }
 
+impl PairBlock {
+    /// Pair `l`'s target on mass `i` with its force `force` placed: taken out over the
+    /// known mass `mass`, or, where the mass is unknown, kept aside to join the known force
+    /// (its row's instrument) and the target left the acceleration `g`.
+    fn place_force(&mut self, l: usize, i: usize, g: f64, force: f64, mass: f64, unknown: bool) -> f64 {
+        if unknown {
+            self.force[i * BLOCK + l] = force;
+            g
+        } else {
+            g - force / mass
+        }
+    }
+}
+
 /// The increment regression (Euler–Maruyama pseudo-likelihood), streamed; with measured
 /// forces, the force regression (the equation error of the equations of motion).
 ///
@@ -255,13 +269,7 @@ impl Increments {
                 block.start[j * BLOCK + l] = y[j];
             }
             for i in 0..p.n {
-                let force = y[d + i];
-                let mut g = row[layout.a(i)];
-                if mass_unknown[i] {
-                    block.force[i * BLOCK + l] = force;
-                } else {
-                    g -= force / p.model.mass[i];
-                }
+                let g = block.place_force(l, i, row[layout.a(i)], y[d + i], p.model.mass[i], mass_unknown[i]);
                 block.target[i * BLOCK + l] = g;
             }
             block.len += 1;
@@ -285,11 +293,7 @@ impl Increments {
                     // on its values at the two ends (their bridge's mean is linear).
                     let mean: f64 = forces[i].iter().filter(|(_, mean)| *mean).map(|&(c, _)| row[c]).sum();
                     let force = mean + 0.5 * (y0[d + i] + y[d + i]);
-                    if mass_unknown[i] {
-                        block.force[i * BLOCK + l] = force;
-                    } else {
-                        g -= force / p.model.mass[i];
-                    }
+                    g = block.place_force(l, i, g, force, p.model.mass[i], mass_unknown[i]);
                 }
                 block.target[i * BLOCK + l] = g;
             }
