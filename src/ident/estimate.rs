@@ -148,10 +148,14 @@ pub fn estimate(
             .map(|&k| std_error[k] * SPREAD_BATCHES.sqrt() / scales[k].max(1e-300))
             .fold(0.0f64, f64::max);
         if worst > 0.5 {
+            // A replicate that ran away scatters by orders of magnitude: said as a factor.
+            let by = match worst < 10.0 {
+                true => format!("{:.0} % of", 100.0 * worst),
+                false => format!("{worst:.1e} times"),
+            };
             return Err(inseparable(format!(
-                "batch estimates along the weakest direction scatter by {:.0} % of the scale they \
-                 are judged against (a coefficient: its characteristic's typical force)",
-                100.0 * worst
+                "batch estimates along the weakest direction scatter by {by} the scale they \
+                 are judged against (a coefficient: its characteristic's typical force)"
             )));
         }
     }

@@ -19,8 +19,11 @@
 //! the criterion. Only
 //! admissible models are chosen: the system keeps a stationary density (3.4) — every
 //! characteristic's leading term odd with a positive coefficient, springs to ground, some
-//! damping — checked at the model's own estimates. The same search on every jackknife
-//! replicate (all batches but one) gives each candidate's inclusion frequency.
+//! damping — checked at the model's own estimates. The criterion's choice is then
+//! confirmed by the jackknife ([`confirm`]): each term, and each link's terms together,
+//! must earn its penalty by its Wald statistic over the record's batches. The same search
+//! and confirmation on every jackknife replicate (all batches but one) gives each
+//! candidate's inclusion frequency.
 //!
 //! Every model is fitted from the candidate model's moments and weighting: no pass over
 //! the samples, one Cholesky factorisation of at most `K × K` per model tried.
@@ -32,6 +35,8 @@ use crate::model::{admissible, Characteristic, Coefficient, Term, UnknownName, G
 use crate::scenario::{Curve, End, IdentifyLink, Link, Mass};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
+
+mod confirm;
 
 /// How many runner-up models a selection keeps.
 pub const RUNNERS_UP: usize = 4;
@@ -70,6 +75,10 @@ pub struct Selection {
     /// The selected model's `J` and criterion.
     pub j: f64,
     pub criterion: f64,
+    /// The criterion of the model the criterion chose, before the jackknife confirmation
+    /// (the runners-up are its neighbours).
+    pub criterion_choice: f64,
+    pub criterion_choice_terms: usize,
     /// The penalty per term, `ln N`.
     pub penalty: f64,
     /// The candidate model's `J` per degree of freedom (equations − candidates), at
@@ -80,13 +89,27 @@ pub struct Selection {
     pub equations: usize,
     pub samples: u64,
     pub path: Vec<Step>,
-    /// The best admissible models one addition or removal away, best first.
+    /// The best admissible models one addition or removal away from the criterion's
+    /// choice, best first.
     pub runners_up: Vec<RunnerUp>,
+    /// What the jackknife confirmation removed from the criterion's choice, in order.
+    pub confirmation: Vec<Unconfirmed>,
     /// Per candidate: the fraction of jackknife replicates whose selection has it.
     pub inclusion: Vec<f64>,
     pub replicates: usize,
     /// The baseline on the same equations: sequentially thresholded least squares.
     pub thresholded: Thresholded,
+}
+
+/// Terms the criterion chose that the jackknife confirmation removed: their Wald
+/// statistic under the jackknife covariance fell short of their penalty.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Unconfirmed {
+    /// One term, or the selected terms of one link judged together.
+    pub terms: Vec<UnknownName>,
+    pub wald: f64,
+    /// The terms' count times `ln N`.
+    pub penalty: f64,
 }
 
 /// The baseline selection: sequentially thresholded least squares (STLSQ, PySINDy's
@@ -612,14 +635,16 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
     let whole = Equations::new(problem, &pc, &weight, n);
     let replicates = eqs(&data.leave_one_out());
     let batches = eqs(&data.batches());
+    // The criterion's choice, then the jackknife's confirmation of it (its spread over
+    // the whole record's replicates).
     let search = |eq: &Equations| {
         let s = Search::new(eq, &admissibility, pc.rows)?;
-        s.choose(k).map(|(best, path)| {
-            let neighbours = s.neighbours(&best.set, k);
-            (best, path, neighbours, s.dispersion)
-        })
+        let (best, path) = s.choose(k)?;
+        let (set, removed) = confirm::confirm(eq, &replicates, &admissibility, best.set.clone(), s.penalty);
+        let confirmed = s.try_set(set)?;
+        Some((best, confirmed, removed, path))
     };
-    let Some((best, path, neighbours, dispersion)) = search(&whole) else {
+    let Some((chosen_by_criterion, best, removed, path)) = search(&whole) else {
         return Err(IdentError::NotApplicable(
             "no model among the candidates has a stationary density at its own estimates \
              (every characteristic's highest term odd with a positive coefficient, springs to \
@@ -627,11 +652,14 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
                 .into(),
         ));
     };
-    // The same search on every jackknife replicate.
+    let whole_search = Search::new(&whole, &admissibility, pc.rows).expect("searched above");
+    let neighbours = whole_search.neighbours(&chosen_by_criterion.set, k);
+    let dispersion = whole_search.dispersion;
+    // The same search and confirmation on every jackknife replicate.
     let nb = replicates.len() as f64;
     let chosen: Vec<Option<Vec<usize>>> = replicates
         .par_iter()
-        .map(|eq| search(eq).map(|(t, ..)| t.set))
+        .map(|eq| search(eq).map(|(_, t, ..)| t.set))
         .collect();
     let inclusion = (0..k)
         .map(|i| {
@@ -657,12 +685,14 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
     runners_up.sort_by(|a, b| a.criterion.total_cmp(&b.criterion));
     runners_up.truncate(RUNNERS_UP);
     Ok(Selection {
-        criterion_name: "GMM-BIC: J/dispersion + (terms)·ln N",
+        criterion_name: "GMM-BIC: J/dispersion + (terms)·ln N, confirmed by the jackknife",
         dispersion,
         candidates: names.clone(),
         selected: (0..k).map(|i| best.set.contains(&i)).collect(),
         j: best.j,
         criterion: best.criterion,
+        criterion_choice: chosen_by_criterion.criterion,
+        criterion_choice_terms: chosen_by_criterion.set.len(),
         penalty: n.ln(),
         equations: pc.rows,
         samples: total.count,
@@ -677,6 +707,14 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
             })
             .collect(),
         runners_up,
+        confirmation: removed
+            .into_iter()
+            .map(|r| Unconfirmed {
+                terms: r.terms.iter().map(|&i| names[i].clone()).collect(),
+                wald: r.wald,
+                penalty: r.penalty,
+            })
+            .collect(),
         inclusion,
         replicates: chosen.len(),
         thresholded,
@@ -689,7 +727,7 @@ mod tests {
     use crate::model::Term;
 
     /// One mass on one link to ground with candidates u, u², u³ and w, w², w³.
-    fn one_link() -> Admissibility {
+    pub(super) fn one_link() -> Admissibility {
         one_link_up_to(3)
     }
 
@@ -724,7 +762,7 @@ mod tests {
 
     /// Consistent equations `A θ + b = 0` at a known `θ`, with `rows` rows of a fixed
     /// pseudo-random `A`, as from a million samples.
-    fn exact(theta: &[f64], rows: usize) -> Equations {
+    pub(super) fn exact(theta: &[f64], rows: usize) -> Equations {
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut next = || {
             state ^= state << 13;

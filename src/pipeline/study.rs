@@ -315,7 +315,11 @@ fn rows_of(study: &str, item: &Item, r: &Report, simulate_s: f64, item_s: f64) -
             simulate_s,
             identify_s: m.seconds,
             item_s,
-            selection: m.selected.as_ref().and_then(|names| RowSelection::of(r, names)),
+            // The inclusion frequencies are the selection's: its own model's rows carry them, a
+            // compared model's (the baseline's, the declared terms) not.
+            selection: (m.selected.as_ref()).and_then(|names| {
+                RowSelection::of(r, names, !matches!(m.method, crate::scenario::ReportMethod::Compare(_)))
+            }),
         })
         .collect()
 }

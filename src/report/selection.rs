@@ -123,6 +123,25 @@ fn baseline(r: &SelectionReport) -> String {
     )
 }
 
+/// What the jackknife confirmation did, in one sentence.
+fn confirmation(r: &SelectionReport) -> String {
+    let s = &r.selection;
+    if s.confirmation.is_empty() {
+        return "every selected term and link confirmed by the jackknife (Wald statistic ≥ its terms × ln N)".into();
+    }
+    let list: Vec<String> = (s.confirmation.iter())
+        .map(|u| {
+            let names: Vec<String> = u.terms.iter().map(|n| n.to_string()).collect();
+            format!("{} (Wald {:.1} < {:.1})", names.join(" + "), u.wald, u.penalty)
+        })
+        .collect();
+    format!(
+        "the jackknife did not confirm the criterion's {}: {}",
+        if list.len() == 1 { "term" } else { "terms" },
+        list.join(", ")
+    )
+}
+
 /// The terminal's lines.
 pub fn selection_lines(r: &SelectionReport) -> Vec<String> {
     let s = &r.selection;
@@ -142,13 +161,14 @@ pub fn selection_lines(r: &SelectionReport) -> Vec<String> {
         let ru: Vec<String> = s
             .runners_up
             .iter()
-            .map(|x| format!("{} ({:+.1})", x.change, x.criterion - s.criterion))
+            .map(|x| format!("{} ({:+.1})", x.change, x.criterion - s.criterion_choice))
             .collect();
         out.push(format!(
-            "  runners-up (criterion against the selected): {}",
+            "  runners-up (criterion against the criterion's choice): {}",
             ru.join(", ")
         ));
     }
+    out.push(format!("  {}", confirmation(r)));
     out.push(format!("  {}", baseline(r)));
     let u = unsettled(r);
     out.push(if u.is_empty() {
@@ -178,7 +198,8 @@ pub fn selection_section(r: &SelectionReport, image: &str) -> String {
         how(r)
     );
     out += &format!(
-        "The {}; its model is the row `weak [STLSQ selection]`.\n\n",
+        "Confirmation: {}.\n\nThe {}; its model is the row `weak [STLSQ selection]`.\n\n",
+        confirmation(r),
         baseline(r)
     );
     let replicates = format!("selected by the {} jackknife replicates", s.replicates);
@@ -203,12 +224,11 @@ pub fn selection_section(r: &SelectionReport, image: &str) -> String {
             .left("runner-up")
             .right("terms")
             .right("criterion")
-            .right("against the selected");
-        let selected = s.selected.iter().filter(|&&x| x).count();
+            .right("against the criterion's choice");
         table.row([
-            "(selected)".to_string(),
-            selected.to_string(),
-            format!("{:.1}", s.criterion),
+            "(the criterion's choice)".to_string(),
+            s.criterion_choice_terms.to_string(),
+            format!("{:.1}", s.criterion_choice),
             "0".into(),
         ]);
         for x in &s.runners_up {
@@ -216,7 +236,7 @@ pub fn selection_section(r: &SelectionReport, image: &str) -> String {
                 x.change.to_string(),
                 x.terms.to_string(),
                 format!("{:.1}", x.criterion),
-                format!("{:+.1}", x.criterion - s.criterion),
+                format!("{:+.1}", x.criterion - s.criterion_choice),
             ]);
         }
         out += "\n";

@@ -145,14 +145,16 @@ fn summary_table(summary: &[Summary], noisy: bool) -> String {
     s
 }
 
-/// The structure selection's table, where items made one.
+/// The structure selection's tables, where items made one: outcomes, the terms wrong on
+/// some item, and the inclusion frequencies against the truth.
 fn selection_table(summary: &[Summary], noisy: bool) -> String {
     let mut s = String::new();
     if summary.iter().any(|x| x.selection.is_some()) {
         s += "\n## Structure selection\n\nPer configuration and method, over the items with a selection \
               (docs/selection.md): how often the selected model was exactly the true structure among the \
               candidates, how often a true term was dropped (items, and share of all true terms), how often \
-              a term the truth lacks was kept (items, and terms per item), and the terms most often wrong.\n\n";
+              a term the truth lacks was kept (items, and terms per item), how often a link the truth lacks \
+              was kept, and the terms most often wrong.\n\n";
         let mut table = configuration_table(noisy).right("items").right("exact structure");
         for title in [
             "true term dropped (items)",
@@ -161,7 +163,10 @@ fn selection_table(summary: &[Summary], noisy: bool) -> String {
         ] {
             table = table.right(title);
         }
-        let mut table = table.right("false terms per item").left("wrong most often");
+        let mut table = table
+            .right("false terms per item")
+            .right("false link (items)")
+            .left("wrong most often");
         for x in summary {
             let Some(sel) = &x.selection else { continue };
             let wrong: Vec<String> = sel.mistakes.iter().take(4).map(|(n, k)| format!("{n} ({k})")).collect();
@@ -173,6 +178,7 @@ fn selection_table(summary: &[Summary], noisy: bool) -> String {
                 format!("{:.1} %", 100.0 * sel.true_dropped_terms),
                 format!("{:.0} %", 100.0 * sel.false_kept_items),
                 format!("{:.2}", sel.false_kept_per_item),
+                format!("{:.0} %", 100.0 * sel.false_link_items),
                 if wrong.is_empty() {
                     "–".to_string()
                 } else {
@@ -182,8 +188,105 @@ fn selection_table(summary: &[Summary], noisy: bool) -> String {
             table.row(cells);
         }
         s += &table.markdown();
+        s += &term_rates_table(summary, noisy);
+        s += &reliability_table(summary, noisy);
     }
     s
+}
+
+/// Per candidate wrong on some item: a false term's false-inclusion rate, a true term's
+/// false-exclusion rate.
+fn term_rates_table(summary: &[Summary], noisy: bool) -> String {
+    let mut table = configuration_table(noisy)
+        .left("term")
+        .left("truth")
+        .right("false inclusion")
+        .right("false exclusion");
+    let mut rows = 0;
+    let mut right = 0;
+    for x in summary {
+        let Some(sel) = &x.selection else { continue };
+        for t in &sel.terms {
+            let wrong = if t.truth { 1.0 - t.kept } else { t.kept };
+            if wrong <= 0.0 {
+                right += 1;
+                continue;
+            }
+            let mut cells = configuration_cells(&x.configuration, &x.method, noisy);
+            cells.extend([
+                t.term.clone(),
+                if t.truth { "true" } else { "false" }.to_string(),
+                if t.truth {
+                    "–".into()
+                } else {
+                    format!("{:.0} %", 100.0 * t.kept)
+                },
+                if t.truth {
+                    format!("{:.0} %", 100.0 * wrong)
+                } else {
+                    "–".into()
+                },
+            ]);
+            table.row(cells);
+            rows += 1;
+        }
+    }
+    if rows + right == 0 {
+        return String::new();
+    }
+    let mut s = match rows {
+        0 => format!(
+            "\nPer candidate: each of the {right} (over the configurations and methods) was right on every \
+             item — no false inclusion, no false exclusion.\n"
+        ),
+        _ => format!(
+            "\nPer candidate, the share of items that kept a term the truth lacks (false inclusion) or \
+             dropped one it has (false exclusion): the {rows} wrong on some item; the other {right} \
+             were right on every item.\n\n"
+        ),
+    };
+    if rows > 0 {
+        if rows > FOLD_ROWS {
+            s += &format!("<!-- fold: per candidate: false inclusion and exclusion ({rows} rows) -->\n");
+        }
+        s += &table.markdown();
+    }
+    s
+}
+
+/// The inclusion frequencies over the jackknife replicates against the truth: per bin of
+/// frequency, the candidates in it and the share of them the truth has.
+fn reliability_table(summary: &[Summary], noisy: bool) -> String {
+    let with: Vec<(&Summary, &Vec<crate::report::study_rows::ReliabilityBin>)> = (summary.iter())
+        .filter_map(|x| x.selection.as_ref().map(|s| (x, &s.reliability)))
+        .filter(|(_, r)| !r.is_empty())
+        .collect();
+    let Some((_, first)) = with.first() else {
+        return String::new();
+    };
+    let mut table = configuration_table(noisy);
+    for b in first.iter() {
+        table = table.right(format!(
+            "inclusion [{:.2}, {:.2}{}",
+            b.from,
+            b.to,
+            if b.to == 1.0 { "]" } else { ")" }
+        ));
+    }
+    for (x, bins) in &with {
+        let mut cells = configuration_cells(&x.configuration, &x.method, noisy);
+        cells.extend(bins.iter().map(|b| match b.true_share {
+            Some(t) => format!("{} · {:.0} % true", b.terms, 100.0 * t),
+            None => "–".into(),
+        }));
+        table.row(cells);
+    }
+    format!(
+        "\nInclusion frequencies (the share of the jackknife replicates whose selection has a \
+         candidate) against the truth: per bin, the candidates over all items and the share of them \
+         that are true. Frequencies that mean what they say have that share within the bin.\n\n{}",
+        table.markdown()
+    )
 }
 
 /// Per parameter: bias, spread, coverage, standard errors, efficiency and the integrator's bias.
@@ -294,9 +397,17 @@ pub fn plot_study(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::Re
     if summary.iter().any(|x| x.refused + x.failed > 0) {
         panels.push(refusal_panel(&st, summary));
     }
-    let mut fig = Figure::new(540.0 * panels.len() as f64);
+    let mut fig = Figure::new(540.0 * panels.len().max(2) as f64);
     fig.row(460.0, panels.into_iter().map(Some).collect());
+    selection_rows(&mut fig, summary);
     write_figure(path, &fig)
+}
+
+/// The structure selection's panels, one row each, where items made a selection.
+fn selection_rows(fig: &mut Figure, summary: &[Summary]) {
+    for p in crate::report::plot::study_selection::selection_panels(summary) {
+        fig.row(360.0, vec![Some(p)]);
+    }
 }
 
 /// An axis a study varies.
@@ -728,6 +839,7 @@ pub fn plot_methods(summary: &[Summary], rows: &[Row], path: &Path) -> std::io::
         }
         fig.row(240.0, vec![Some(c)]);
     }
+    selection_rows(&mut fig, summary);
     write_figure(path, &fig)
 }
 

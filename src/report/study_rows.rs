@@ -7,7 +7,7 @@ use super::{Outcome, Report};
 use serde::{Deserialize, Serialize};
 
 mod summary;
-pub use summary::{paired, summarize, Paired, ParameterSummary, SelectionSummary, Summary};
+pub use summary::{paired, summarize, Paired, ParameterSummary, ReliabilityBin, SelectionSummary, Summary};
 
 /// One item: a configuration and a seed index.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -100,20 +100,46 @@ pub struct RowSelection {
     pub true_dropped: Vec<String>,
     /// Candidates with a zero true coefficient that the selection kept.
     pub false_kept: Vec<String>,
+    /// Links the model has a term of and the truth has none of (a candidate link the
+    /// truth lacks, kept).
+    #[serde(default)]
+    pub false_links: Vec<String>,
+    /// Every candidate's inclusion over the jackknife replicates, with whether the truth
+    /// has it: in the selection's own model's rows (empty in the baseline's).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inclusion: Vec<TermInclusion>,
+}
+
+/// One candidate's share of the jackknife replicates that selected it, against the truth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TermInclusion {
+    pub term: String,
+    pub share: f64,
+    pub truth: bool,
 }
 
 impl RowSelection {
     /// The terms a method's model kept (`selected`) from the report's candidates, against
-    /// the truth.
-    pub fn of(r: &Report, selected: &[String]) -> Option<RowSelection> {
+    /// the truth; with the candidates' inclusion frequencies when `own` (the selection's
+    /// own model, not a compared one).
+    pub fn of(r: &Report, selected: &[String], own: bool) -> Option<RowSelection> {
         let s = &r.selection.as_ref()?.selection;
+        let own = own
+            && s.selected_names()
+                .iter()
+                .map(|n| n.to_string())
+                .eq(selected.iter().cloned());
         let mut out = RowSelection {
             candidates: s.candidates.len(),
             selected: Vec::new(),
             true_dropped: Vec::new(),
             false_kept: Vec::new(),
+            false_links: Vec::new(),
+            inclusion: Vec::new(),
         };
-        for name in &s.candidates {
+        // Per link: whether the truth has a term of it, whether the model keeps one.
+        let mut links: Vec<(String, bool, bool)> = Vec::new();
+        for (name, &share) in s.candidates.iter().zip(&s.inclusion) {
             let kept = selected.contains(&name.to_string());
             let truth = r.truth.of(name).unwrap_or(0.0) != 0.0;
             match (kept, truth) {
@@ -124,7 +150,27 @@ impl RowSelection {
             if kept {
                 out.selected.push(name.to_string());
             }
+            if own {
+                out.inclusion.push(TermInclusion {
+                    term: name.to_string(),
+                    share,
+                    truth,
+                });
+            }
+            if let Some(crate::model::ParameterName::Coefficient { link, .. }) = name.parameter() {
+                match links.iter_mut().find(|l| &l.0 == link) {
+                    Some(l) => {
+                        l.1 |= truth;
+                        l.2 |= kept;
+                    }
+                    None => links.push((link.clone(), truth, kept)),
+                }
+            }
         }
+        out.false_links = (links.into_iter())
+            .filter(|(_, truth, kept)| *kept && !truth)
+            .map(|(l, ..)| l)
+            .collect();
         Some(out)
     }
 

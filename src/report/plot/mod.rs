@@ -9,6 +9,7 @@ pub mod iteration;
 pub mod response_spectra;
 pub mod selection;
 pub mod spectra;
+pub mod study_selection;
 pub mod sweep;
 
 use super::figure::{Axis, Figure, Mark, Panel, LIGHT_GREY};

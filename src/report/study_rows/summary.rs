@@ -55,6 +55,61 @@ pub struct SelectionSummary {
     pub false_kept_per_item: f64,
     /// Each term dropped or kept wrongly, with the number of items that did so.
     pub mistakes: Vec<(String, usize)>,
+    /// Fraction of items whose model has a link the truth lacks.
+    pub false_link_items: f64,
+    /// Per candidate: whether the truth has it and the fraction of items that kept it (a
+    /// false term's false-inclusion rate; one minus it, a true term's false-exclusion
+    /// rate).
+    pub terms: Vec<TermRate>,
+    /// The inclusion frequencies against the truth (the selection's own rows).
+    pub reliability: Vec<ReliabilityBin>,
+}
+
+/// One candidate over a configuration's items.
+#[derive(Debug, Clone, Serialize)]
+pub struct TermRate {
+    pub term: String,
+    pub truth: bool,
+    pub kept: f64,
+}
+
+/// The candidates whose inclusion frequency fell in `[from, to)` (the last bin holds 1),
+/// over every item: how many, and the fraction of them the truth has. Inclusion
+/// frequencies that mean what they say have that fraction near the bin's frequencies.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReliabilityBin {
+    pub from: f64,
+    pub to: f64,
+    pub terms: usize,
+    /// The mean inclusion frequency in the bin (`None` for an empty bin).
+    pub mean_inclusion: Option<f64>,
+    /// `None` for an empty bin.
+    pub true_share: Option<f64>,
+}
+
+/// The bins of the reliability table: the ends, where nearly every candidate falls, on
+/// their own.
+const RELIABILITY_EDGES: [f64; 7] = [0.0, 0.05, 0.2, 0.4, 0.6, 0.8, 0.95];
+
+/// The reliability table of `inclusion` (frequency, truth) pairs.
+pub fn reliability(inclusion: impl Iterator<Item = (f64, bool)>) -> Vec<ReliabilityBin> {
+    let n = RELIABILITY_EDGES.len();
+    let mut bins: Vec<(usize, f64, usize)> = vec![(0, 0.0, 0); n];
+    for (f, truth) in inclusion {
+        let b = RELIABILITY_EDGES.iter().rposition(|&e| f >= e).unwrap_or(0);
+        bins[b].0 += 1;
+        bins[b].1 += f;
+        bins[b].2 += truth as usize;
+    }
+    (bins.into_iter().enumerate())
+        .map(|(b, (terms, sum, truths))| ReliabilityBin {
+            from: RELIABILITY_EDGES[b],
+            to: RELIABILITY_EDGES.get(b + 1).copied().unwrap_or(1.0),
+            terms,
+            mean_inclusion: (terms > 0).then(|| sum / terms as f64),
+            true_share: (terms > 0).then(|| truths as f64 / terms as f64),
+        })
+        .collect()
 }
 
 impl SelectionSummary {
@@ -78,6 +133,30 @@ impl SelectionSummary {
             }
         }
         mistakes.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        // Per candidate, from the rows that list every candidate with its truth.
+        let mut terms: Vec<TermRate> = Vec::new();
+        let listed: Vec<&&super::RowSelection> = sel.iter().filter(|s| !s.inclusion.is_empty()).collect();
+        for s in &listed {
+            for t in &s.inclusion {
+                let kept = s.selected.contains(&t.term) as u8 as f64 / listed.len() as f64;
+                match terms.iter_mut().find(|x| x.term == t.term) {
+                    Some(x) => x.kept += kept,
+                    None => terms.push(TermRate {
+                        term: t.term.clone(),
+                        truth: t.truth,
+                        kept,
+                    }),
+                }
+            }
+        }
+        let reliability = match listed.is_empty() {
+            true => Vec::new(),
+            false => reliability(
+                listed
+                    .iter()
+                    .flat_map(|s| s.inclusion.iter().map(|t| (t.share, t.truth))),
+            ),
+        };
         Some(SelectionSummary {
             items: sel.len(),
             exact: share(&|s| s.exact()),
@@ -86,6 +165,9 @@ impl SelectionSummary {
             false_kept_items: share(&|s| !s.false_kept.is_empty()),
             false_kept_per_item: sel.iter().map(|s| s.false_kept.len()).sum::<usize>() as f64 / n,
             mistakes,
+            false_link_items: share(&|s| !s.false_links.is_empty()),
+            terms,
+            reliability,
         })
     }
 }
@@ -323,4 +405,33 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
         mean,
         (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reliability_table_bins_frequencies_with_the_ends_on_their_own() {
+        let table = reliability(
+            [
+                (0.0, false),
+                (0.03, false),
+                (0.1, true),
+                (0.5, true),
+                (0.5, false),
+                (0.97, true),
+                (1.0, true),
+            ]
+            .into_iter(),
+        );
+        let counts: Vec<usize> = table.iter().map(|b| b.terms).collect();
+        assert_eq!(counts, vec![2, 1, 0, 2, 0, 0, 2]);
+        assert_eq!(table[0].true_share, Some(0.0));
+        assert_eq!(table[3].true_share, Some(0.5));
+        assert_eq!(table[6].true_share, Some(1.0));
+        assert_eq!((table[2].true_share, table[2].mean_inclusion), (None, None));
+        assert_eq!((table[6].from, table[6].to), (0.95, 1.0));
+        assert!((table[0].mean_inclusion.unwrap() - 0.015).abs() < 1e-12);
+    }
 }
