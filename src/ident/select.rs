@@ -20,7 +20,7 @@
 //! admissible models are chosen: the system keeps a stationary density (3.4) — every
 //! characteristic's leading term odd with a positive coefficient, springs to ground, some
 //! damping — checked at the model's own estimates. The criterion's choice is then
-//! confirmed by the jackknife ([`confirm`]): each term, and each link's terms together,
+//! confirmed by the jackknife (`select/confirm.rs`): each term, and each link's terms together,
 //! must earn its penalty by its Wald statistic over the record's batches. The same search
 //! and confirmation on every jackknife replicate (all batches but one) gives each
 //! candidate's inclusion frequency.
