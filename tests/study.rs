@@ -467,3 +467,58 @@ fn a_noise_axis_measures_the_same_motion_at_every_level() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("noise_levels"));
 }
+
+#[test]
+fn a_folder_holding_another_studys_item_still_gets_its_summary() {
+    // A grid of four seeds run where one of ten ran before: the ten-seed study's extra
+    // item file is named and left out; the four-seed study is complete and summarised
+    // (before: "5 of 4 items are in …", no summary).
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("mixed");
+    let run = |seeds: &str| {
+        fpk(&[
+            "study",
+            "--scenario",
+            "scenarios/sdof_duffing.toml",
+            "--seeds",
+            seeds,
+            "--record-length",
+            "100",
+            "--method",
+            "weak",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let ten = fpk(&[
+        "study",
+        "--scenario",
+        "scenarios/sdof_duffing.toml",
+        "--seeds",
+        "10",
+        "--record-length",
+        "100",
+        "--method",
+        "weak",
+        "--shard",
+        "5/10",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ten.status.success(), "{}", String::from_utf8_lossy(&ten.stderr));
+    assert!(out.join("items/T100-h0.1-s5.jsonl").exists());
+    let four = run("4");
+    let stderr = String::from_utf8_lossy(&four.stderr);
+    assert!(four.status.success(), "{stderr}");
+    assert!(stderr.contains("T100-h0.1-s5.jsonl") && stderr.contains("no item of this study"), "{stderr}");
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("| 100 | 0.1 | weak |"), "{summary}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let weak = json["summary"].as_array().unwrap().iter().find(|x| x["method"] == "weak").unwrap();
+    let items: u64 = ["items", "refused", "not_applicable", "failed"]
+        .iter()
+        .map(|k| weak[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(items, 4, "the summary is over the four-seed study's items: {weak}");
+}

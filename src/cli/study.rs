@@ -319,15 +319,27 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         Ok(())
     })?;
     bar.finish_and_clear();
-    // The summary once every item of the study is here (the last shard to finish writes it).
-    let files = item_files(&dir)?;
-    if files.len() == all.len() {
-        let rows = gather(&files).map_err(|e| anyhow::anyhow!(e))?;
+    // The summary once every item of the study is here (the last shard to finish writes it),
+    // from this study's item files only: a file of another study left in the folder (a
+    // grid run there before) is named, not counted.
+    let own: Vec<PathBuf> = all.iter().map(|i| item_file(i)).collect();
+    let done = all.iter().filter(|i| study::item_done(&study, &item_file(i)).is_ok()).count();
+    let foreign: Vec<PathBuf> = (item_files(&dir)?.into_iter()).filter(|f| !own.contains(f)).collect();
+    if !foreign.is_empty() {
+        eprintln!(
+            "{} file(s) in {} are no item of this study (another study's run in the same folder?), \
+             left out of its summary: {}",
+            foreign.len(),
+            items_dir.display(),
+            foreign.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", ")
+        );
+    }
+    if done == all.len() {
+        let rows = gather(&own).map_err(|e| anyhow::anyhow!(e))?;
         write_summary(&study.name, &rows, &dir, study.file.reference.as_deref(), None)?;
     } else {
         eprintln!(
-            "{} of {} items are in {}; the summary is written when all are (or by `fpkbench study merge`)",
-            files.len(),
+            "{done} of {} items are done in {}; the summary is written when all are (or by `fpkbench study merge`)",
             all.len(),
             dir.display()
         );
