@@ -510,12 +510,20 @@ fn a_folder_holding_another_studys_item_still_gets_its_summary() {
     let four = run("4");
     let stderr = String::from_utf8_lossy(&four.stderr);
     assert!(four.status.success(), "{stderr}");
-    assert!(stderr.contains("T100-h0.1-s5.jsonl") && stderr.contains("no item of this study"), "{stderr}");
+    assert!(
+        stderr.contains("T100-h0.1-s5.jsonl") && stderr.contains("no item of this study"),
+        "{stderr}"
+    );
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(summary.contains("| 100 | 0.1 | weak |"), "{summary}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    let weak = json["summary"].as_array().unwrap().iter().find(|x| x["method"] == "weak").unwrap();
+    let weak = json["summary"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|x| x["method"] == "weak")
+        .unwrap();
     let items: u64 = ["items", "refused", "not_applicable", "failed"]
         .iter()
         .map(|k| weak[k].as_u64().unwrap())

@@ -323,7 +323,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     // from this study's item files only: a file of another study left in the folder (a
     // grid run there before) is named, not counted.
     let own: Vec<PathBuf> = all.iter().map(|i| item_file(i)).collect();
-    let done = all.iter().filter(|i| study::item_done(&study, &item_file(i)).is_ok()).count();
+    let done = all
+        .iter()
+        .filter(|i| study::item_done(&study, &item_file(i)).is_ok())
+        .count();
     let foreign: Vec<PathBuf> = (item_files(&dir)?.into_iter()).filter(|f| !own.contains(f)).collect();
     if !foreign.is_empty() {
         eprintln!(
@@ -331,7 +334,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
              left out of its summary: {}",
             foreign.len(),
             items_dir.display(),
-            foreign.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", ")
+            foreign
+                .iter()
+                .map(|f| f.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
     if done == all.len() {
