@@ -322,7 +322,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     // The summary once every item of the study is here (the last shard to finish writes it),
     // from this study's item files only: a file of another study left in the folder (a
     // grid run there before) is named, not counted.
-    let own: Vec<PathBuf> = all.iter().map(|i| item_file(i)).collect();
+    let own: Vec<PathBuf> = all.iter().map(&item_file).collect();
     let done = all
         .iter()
         .filter(|i| study::item_done(&study, &item_file(i)).is_ok())
