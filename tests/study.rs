@@ -475,8 +475,8 @@ fn a_folder_holding_another_studys_item_still_gets_its_summary() {
     // (before: "5 of 4 items are in …", no summary).
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("mixed");
-    let run = |seeds: &str| {
-        fpk(&[
+    let run = |seeds: &str, shard: &[&str]| {
+        let mut args = vec![
             "study",
             "--scenario",
             "scenarios/sdof_duffing.toml",
@@ -488,26 +488,14 @@ fn a_folder_holding_another_studys_item_still_gets_its_summary() {
             "weak",
             "--out",
             out.to_str().unwrap(),
-        ])
+        ];
+        args.extend_from_slice(shard);
+        fpk(&args)
     };
-    let ten = fpk(&[
-        "study",
-        "--scenario",
-        "scenarios/sdof_duffing.toml",
-        "--seeds",
-        "10",
-        "--record-length",
-        "100",
-        "--method",
-        "weak",
-        "--shard",
-        "5/10",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let ten = run("10", &["--shard", "5/10"]);
     assert!(ten.status.success(), "{}", String::from_utf8_lossy(&ten.stderr));
     assert!(out.join("items/T100-h0.1-s5.jsonl").exists());
-    let four = run("4");
+    let four = run("4", &[]);
     let stderr = String::from_utf8_lossy(&four.stderr);
     assert!(four.status.success(), "{stderr}");
     assert!(
