@@ -285,12 +285,22 @@ fn ratios(f: &Fixture, one: &rayon::ThreadPool) {
     let t = Instant::now();
     black_box(fisher(p, full_rows));
     let fisher_time = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let chosen = black_box(fpkbench::ident::select::select(candidates, cdata).unwrap());
-    let selection = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    black_box(fpkbench::ident::identify_weak(candidates, cdata).unwrap());
-    let candidate_estimate = t.elapsed().as_secs_f64();
+    // Each the median of 9 runs, interleaved (one run each is too noisy at tens of ms).
+    let chosen = fpkbench::ident::select::select(candidates, cdata).unwrap();
+    let (mut sel, mut est_times) = (Vec::new(), Vec::new());
+    for _ in 0..9 {
+        let t = Instant::now();
+        black_box(fpkbench::ident::select::select(candidates, cdata).unwrap());
+        sel.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        black_box(fpkbench::ident::identify_weak(candidates, cdata).unwrap());
+        est_times.push(t.elapsed().as_secs_f64());
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (selection, candidate_estimate) = (median(&mut sel), median(&mut est_times));
     println!(
         "\n== identification figures measured in this run (duffing2dof, 4-D state, {} unknowns, {n} samples) ==",
         est.values.len()

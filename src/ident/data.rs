@@ -99,6 +99,9 @@ impl Batching {
     }
 }
 
+/// The seed of [`StationaryData::bootstrap`]'s draws.
+const BOOTSTRAP_STREAM: u64 = 0x5e1e_c7ed_b007_57a9;
+
 /// Moments and ranges of the state, per time batch.
 #[derive(Debug, Clone)]
 pub struct StationaryData {
@@ -387,6 +390,40 @@ impl StationaryData {
                     r.deconvolve(d);
                 }
                 r
+            })
+            .collect()
+    }
+
+    /// Whether a jackknife replicate carries its own sensor-noise correction
+    /// ([`StationaryData::leave_one_out`]); without, each is the plain sum of the batches
+    /// but one.
+    pub fn has_noise_replicates(&self) -> bool {
+        self.noise_replicates.iter().any(Option::is_some)
+    }
+
+    /// `count` bootstrap resamples of the record: per resample, how many times each coarse
+    /// batch ([`StationaryData::batches`]) is drawn — as many draws as the record has
+    /// non-empty batches, with replacement, from a fixed stream (the same record gives the
+    /// same resamples on any thread count). Unlike the jackknife's replicates, which share
+    /// all batches but one, two resamples share about 40 % of theirs: a choice that hangs
+    /// on the luck of this record varies between them (docs/selection.md).
+    pub fn bootstrap(&self, count: usize) -> Vec<Vec<u32>> {
+        use rand::{RngExt, SeedableRng};
+        let full: Vec<usize> = (self.batches().iter().enumerate())
+            .filter(|(_, b)| b.count > 0)
+            .map(|(i, _)| i)
+            .collect();
+        if full.len() < 2 {
+            return Vec::new();
+        }
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(BOOTSTRAP_STREAM);
+        (0..count)
+            .map(|_| {
+                let mut times = vec![0u32; self.batch_count()];
+                for _ in 0..full.len() {
+                    times[full[rng.random_range(0..full.len())]] += 1;
+                }
+                times
             })
             .collect()
     }

@@ -22,8 +22,8 @@
 //! damping — checked at the model's own estimates. The criterion's choice is then
 //! confirmed by the jackknife (`select/confirm.rs`): each term, and each link's terms together,
 //! must earn its penalty by its Wald statistic over the record's batches. The same search
-//! and confirmation on every jackknife replicate (all batches but one) gives each
-//! candidate's inclusion frequency.
+//! and confirmation on bootstrap resamples of the batches gives each candidate's inclusion
+//! frequency.
 //!
 //! Every model is fitted from the candidate model's moments and weighting: no pass over
 //! the samples, one Cholesky factorisation of at most `K × K` per model tried.
@@ -33,13 +33,19 @@ use super::estimate::efficient_weight;
 use super::{weak, IdentError, Pieces, Problem, Unknown};
 use crate::model::{admissible, Characteristic, Coefficient, Term, UnknownName, GROUND};
 use crate::scenario::{Curve, End, IdentifyLink, Link, Mass};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 mod confirm;
+mod equations;
+
+use equations::{Equations, Whitened};
 
 /// How many runner-up models a selection keeps.
 pub const RUNNERS_UP: usize = 4;
+
+/// Bootstrap resamples of the record's batches the inclusion frequencies are over.
+pub const RESAMPLES: usize = 32;
 
 /// One point of the backward-elimination path.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -94,8 +100,10 @@ pub struct Selection {
     pub runners_up: Vec<RunnerUp>,
     /// What the jackknife confirmation removed from the criterion's choice, in order.
     pub confirmation: Vec<Unconfirmed>,
-    /// Per candidate: the fraction of jackknife replicates whose selection has it.
+    /// Per candidate: the fraction of bootstrap resamples of the record's batches whose
+    /// selection (searched and confirmed as the whole record's) has it.
     pub inclusion: Vec<f64>,
+    /// The bootstrap resamples the inclusion frequencies are over.
     pub replicates: usize,
     /// The baseline on the same equations: sequentially thresholded least squares.
     pub thresholded: Thresholded,
@@ -183,65 +191,6 @@ pub fn model_links(selected: &[bool], problem: &Problem, links: &[IdentifyLink])
             damping: terms(il.link, Characteristic::Damping, &il.damping),
         })
         .collect()
-}
-
-/// The whitened candidate equations as normal equations: for `θ`, `J(θ) = c + 2 hᵀθ + θᵀGθ`
-/// with `G = N·AᵀA`, `h = N·Aᵀb`, `c = N·bᵀb`, `A = T·∂r/∂θ`, `b = T·r(0)`.
-struct Equations {
-    g: DMatrix<f64>,
-    h: DVector<f64>,
-    c: f64,
-    /// The samples they are from.
-    n: f64,
-}
-
-impl Equations {
-    fn new(problem: &Problem, pc: &Pieces, weight: &DMatrix<f64>, n: f64) -> Equations {
-        let (r0, jac) = problem.residual(pc, &vec![0.0; problem.unknowns.len()]);
-        let a = weight * jac;
-        let b = weight * r0;
-        Equations {
-            g: a.tr_mul(&a) * n,
-            h: a.tr_mul(&b) * n,
-            c: b.norm_squared() * n,
-            n,
-        }
-    }
-
-    /// `J` at the coefficients `theta`.
-    fn value(&self, theta: &[f64]) -> f64 {
-        let t = DVector::from_column_slice(theta);
-        self.c + 2.0 * self.h.dot(&t) + t.dot(&(&self.g * &t))
-    }
-
-    /// The least-squares fit of the model of the terms `set`: the coefficients (zero
-    /// outside `set`) and `J`. `None` when the model's columns are dependent.
-    fn fit(&self, set: &[usize]) -> Option<(Vec<f64>, f64)> {
-        let k = set.len();
-        let mut theta = vec![0.0; self.h.len()];
-        if k == 0 {
-            return Some((theta, self.c));
-        }
-        // Columns equilibrated to unit diagonal before the factorisation.
-        let d: Vec<f64> = set.iter().map(|&i| 1.0 / self.g[(i, i)].sqrt()).collect();
-        if d.iter().any(|x| !x.is_finite()) {
-            return None;
-        }
-        let m = DMatrix::from_fn(k, k, |r, c| d[r] * self.g[(set[r], set[c])] * d[c]);
-        let rhs = DVector::from_fn(k, |r, _| -d[r] * self.h[set[r]]);
-        let y = m.cholesky()?.solve(&rhs);
-        for (r, &i) in set.iter().enumerate() {
-            theta[i] = d[r] * y[r];
-        }
-        let mut j = self.c;
-        for &i in set {
-            j += 2.0 * self.h[i] * theta[i];
-            for &l in set {
-                j += theta[i] * self.g[(i, l)] * theta[l];
-            }
-        }
-        Some((theta, j.max(0.0)))
-    }
 }
 
 /// Whether the model of the candidates' coefficients `theta` (zero: absent) has a
@@ -625,16 +574,31 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
     })?;
     let n = total.count as f64;
     let admissibility = Admissibility::new(problem);
-    // The equations of the whole record, of every jackknife replicate (all coarse batches
-    // but one) and of every coarse batch, each built once.
+    // The equations of the whole record, of every coarse batch, and of every jackknife
+    // replicate (all coarse batches but one; sums of the batches' unless each carries its
+    // own noise correction), each built once.
     let eqs = |ms: &[super::moments::RawMoments]| -> Vec<Equations> {
         ms.par_iter()
             .map(|b| Equations::new(problem, &map.apply(b), &weight, b.count as f64))
             .collect()
     };
     let whole = Equations::new(problem, &pc, &weight, n);
-    let replicates = eqs(&data.leave_one_out());
-    let batches = eqs(&data.batches());
+    let whitened: Vec<Whitened> = data
+        .batches()
+        .par_iter()
+        .map(|b| Whitened::new(problem, &map.apply(b), &weight, b.count as f64))
+        .collect();
+    let batches: Vec<Equations> = whitened.iter().map(Equations::of).collect();
+    let resampled = |all: Vec<Vec<u32>>| -> Vec<Equations> {
+        all.par_iter()
+            .map(|times| Equations::resampled(&whitened, times))
+            .collect()
+    };
+    let replicates = if data.has_noise_replicates() {
+        eqs(&data.leave_one_out())
+    } else {
+        Equations::leave_one_out(&whitened)
+    };
     // The criterion's choice, then the jackknife's confirmation of it (its spread over
     // the whole record's replicates).
     let search = |eq: &Equations| {
@@ -655,9 +619,10 @@ pub fn select(problem: &Problem, data: &StationaryData) -> Result<Selection, Ide
     let whole_search = Search::new(&whole, &admissibility, pc.rows).expect("searched above");
     let neighbours = whole_search.neighbours(&chosen_by_criterion.set, k);
     let dispersion = whole_search.dispersion;
-    // The same search and confirmation on every jackknife replicate.
-    let nb = replicates.len() as f64;
-    let chosen: Vec<Option<Vec<usize>>> = replicates
+    // The same search and confirmation on every bootstrap resample of the batches.
+    let resamples = resampled(data.bootstrap(RESAMPLES));
+    let nb = resamples.len() as f64;
+    let chosen: Vec<Option<Vec<usize>>> = resamples
         .par_iter()
         .map(|eq| search(eq).map(|(_, t, ..)| t.set))
         .collect();
@@ -771,7 +736,7 @@ mod tests {
             (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
         let a = DMatrix::from_fn(rows, theta.len(), |_, _| next());
-        let b = -(&a * DVector::from_column_slice(theta));
+        let b = -(&a * nalgebra::DVector::from_column_slice(theta));
         let n = 1e6;
         Equations {
             g: a.tr_mul(&a) * n,

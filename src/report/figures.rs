@@ -42,7 +42,7 @@ pub static FIGURES: &[Figure] = &[
         write: plot::selection::plot_selection,
         caption: |_| {
             "The criterion along the elimination path against the number of terms, the selected model marked; \
-             each candidate's share of the jackknife replicates that select it"
+             each candidate's share of the bootstrap resamples that select it"
                 .into()
         },
     },

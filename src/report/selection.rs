@@ -1,6 +1,6 @@
 //! Structure selection in the reports (docs/selection.md): the terminal's lines and
 //! report.md's section — what was selected from which candidates, the runners-up, the
-//! inclusion over jackknife replicates and the elimination path; and a term's profiled
+//! inclusion over bootstrap resamples and the elimination path; and a term's profiled
 //! position (`[identify.profile]`, docs/scenario.md "Terms").
 
 use super::table::Table;
@@ -73,7 +73,7 @@ pub fn profile_section(p: &ProfileReport) -> String {
 }
 
 /// The candidates with an inclusion frequency strictly between 0 and 1, or at odds with
-/// the selection: where the replicates disagree.
+/// the selection: where the bootstrap resamples disagree.
 fn unsettled(r: &SelectionReport) -> Vec<(String, f64)> {
     let s = &r.selection;
     (s.candidates.iter().zip(&s.selected).zip(&s.inclusion))
@@ -173,13 +173,14 @@ pub fn selection_lines(r: &SelectionReport) -> Vec<String> {
     let u = unsettled(r);
     out.push(if u.is_empty() {
         format!(
-            "  every one of {} jackknife replicates selects the same terms",
+            "  every one of {} bootstrap resamples of the batches selects the same terms",
             s.replicates
         )
     } else {
         let list: Vec<String> = u.iter().map(|(n, f)| format!("{n} {:.0} %", 100.0 * f)).collect();
         format!(
-            "  replicates that disagree (share of {} selecting the term): {}",
+            "  resamples that disagree (share of {} bootstrap resamples selecting the term; under \
+             80 % a share overstates the chance the term is real, docs/selection.md): {}",
             s.replicates,
             list.join(", ")
         )
@@ -202,7 +203,7 @@ pub fn selection_section(r: &SelectionReport, image: &str) -> String {
         confirmation(r),
         baseline(r)
     );
-    let replicates = format!("selected by the {} jackknife replicates", s.replicates);
+    let replicates = format!("selected by the {} bootstrap resamples", s.replicates);
     let mut table = Table::new()
         .left("candidate")
         .center("selected")

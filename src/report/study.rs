@@ -254,7 +254,7 @@ fn term_rates_table(summary: &[Summary], noisy: bool) -> String {
     s
 }
 
-/// The inclusion frequencies over the jackknife replicates against the truth: per bin of
+/// The inclusion frequencies over the bootstrap resamples against the truth: per bin of
 /// frequency, the candidates in it and the share of them the truth has.
 fn reliability_table(summary: &[Summary], noisy: bool) -> String {
     let with: Vec<(&Summary, &Vec<crate::report::study_rows::ReliabilityBin>)> = (summary.iter())
@@ -282,7 +282,7 @@ fn reliability_table(summary: &[Summary], noisy: bool) -> String {
         table.row(cells);
     }
     format!(
-        "\nInclusion frequencies (the share of the jackknife replicates whose selection has a \
+        "\nInclusion frequencies (the share of the bootstrap resamples whose selection has a \
          candidate) against the truth: per bin, the candidates over all items and the share of them \
          that are true. Frequencies that mean what they say have that share within the bin.\n\n{}",
         table.markdown()

@@ -104,13 +104,13 @@ pub struct RowSelection {
     /// truth lacks, kept).
     #[serde(default)]
     pub false_links: Vec<String>,
-    /// Every candidate's inclusion over the jackknife replicates, with whether the truth
+    /// Every candidate's inclusion over the bootstrap resamples, with whether the truth
     /// has it: in the selection's own model's rows (empty in the baseline's).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub inclusion: Vec<TermInclusion>,
 }
 
-/// One candidate's share of the jackknife replicates that selected it, against the truth.
+/// One candidate's share of the bootstrap resamples that selected it, against the truth.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TermInclusion {
     pub term: String,

@@ -1,5 +1,5 @@
 //! `selection.svg`: the structure selection's criterion along the elimination path, and
-//! each candidate's inclusion over the jackknife replicates (docs/selection.md).
+//! each candidate's inclusion over the bootstrap resamples (docs/selection.md).
 
 use super::write_figure;
 use crate::report::figure::{color, log_range, Axis, Corner, Figure, Mark, Panel, Stroke, Swatch, BLACK, GREY};
@@ -51,11 +51,11 @@ pub fn plot_selection(r: &Report, path: &Path) -> std::io::Result<Vec<PathBuf>> 
     let names: Vec<String> = s.candidates.iter().map(|n| n.to_string()).collect();
     let mut q = Panel::new(
         format!(
-            "selected by the {} jackknife replicates (filled: in the selected model)",
+            "selected by the {} bootstrap resamples (filled: in the selected model)",
             s.replicates
         ),
         Axis::categories(names, ""),
-        Axis::linear(0.0, 105.0, "replicates selecting it (%)"),
+        Axis::linear(0.0, 105.0, "resamples selecting it (%)"),
     );
     for (i, (&f, &chosen)) in s.inclusion.iter().zip(&s.selected).enumerate() {
         let x = (i + 1) as f64;
