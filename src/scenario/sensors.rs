@@ -117,32 +117,41 @@ pub const MIN_OVERSAMPLING: usize = 8;
 
 impl Sensors {
     /// Fast samples per logged sample at which the sensors' filters run, for a log sampled
-    /// every `interval` s with `steps` integration steps per sample: the smallest divisor
-    /// of `steps` that is at least [`MIN_OVERSAMPLING`]; `None` without filters. `Err`: the
-    /// steps cannot carry the filters, or a bandwidth is beyond what the fast rate
-    /// resolves (a fifth of it).
-    pub fn filter_oversampling(&self, interval: f64, steps: usize) -> Result<Option<usize>, String> {
+    /// every `interval` s with `steps` steps of `dt` per sample, each in `substeps`: the
+    /// smallest divisor of `steps` (else of `steps · substeps`) that is at least
+    /// [`MIN_OVERSAMPLING`] and resolves the bandwidth (a fifth of the fast rate); `None`
+    /// without filters. Divisors of the `dt` grid come first, so a run at half the step
+    /// (twice the substeps: the integrator's bias) filters at the same rate as its pair.
+    /// `Err`: the steps cannot carry the filters, or no divisor resolves the bandwidth.
+    pub fn filter_oversampling(&self, interval: f64, steps: usize, substeps: usize) -> Result<Option<usize>, String> {
         if self.anti_alias.is_none() && self.bandwidth.is_none() {
             return Ok(None);
         }
-        let Some(oversampling) = (MIN_OVERSAMPLING..=steps).find(|r| steps.is_multiple_of(*r)) else {
+        let all = steps * substeps.max(1);
+        let candidates: Vec<usize> = (MIN_OVERSAMPLING..=steps)
+            .filter(|r| steps.is_multiple_of(*r))
+            .chain((MIN_OVERSAMPLING..=all).filter(|r| all.is_multiple_of(*r)))
+            .collect();
+        if candidates.is_empty() {
             return Err(format!(
                 "the filters run on the motion sampled at least {MIN_OVERSAMPLING} times faster than the log, and \
-                 a sample interval is {steps} integration steps: make dt at most sample_interval / {MIN_OVERSAMPLING}"
+                 a sample interval is {all} integration steps: make dt at most sample_interval / {MIN_OVERSAMPLING}"
             ));
-        };
-        let fast = oversampling as f64 / interval;
-        if let Some(b) = self.bandwidth {
-            if b * 5.0 > fast {
-                return Err(format!(
-                    "a sensor bandwidth of {b} Hz is beyond what the simulation resolves (the filters run at \
-                     {fast} Hz and resolve up to a fifth of it, {} Hz): a sensor that fast is ideal here, leave \
-                     `bandwidth` out, or make dt smaller",
+        }
+        let resolves = |r: usize| self.bandwidth.is_none_or(|b| b * 5.0 <= r as f64 / interval);
+        match candidates.iter().find(|&&r| resolves(r)) {
+            Some(&r) => Ok(Some(r)),
+            None => {
+                let fast = candidates.iter().max().copied().unwrap_or(MIN_OVERSAMPLING) as f64 / interval;
+                Err(format!(
+                    "a sensor bandwidth of {} Hz is beyond what the simulation resolves (the filters run at \
+                     {fast} Hz at most and resolve up to a fifth of it, {} Hz): a sensor that fast is ideal here, \
+                     leave `bandwidth` out, or make dt smaller",
+                    self.bandwidth.unwrap_or(0.0),
                     fast / 5.0
-                ));
+                ))
             }
         }
-        Ok(Some(oversampling))
     }
 }
 
@@ -168,5 +177,47 @@ impl MassSensors {
     /// log's samples are read as they are.
     pub fn whole_state(&self) -> bool {
         self.displacement && self.velocity
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The filters' rate comes from the `dt` grid first, so a run at half the step (twice
+    /// the substeps) filters at its pair's rate, and a bandwidth the smallest divisor does
+    /// not resolve takes the next that does.
+    #[test]
+    fn a_run_at_half_the_step_filters_at_its_pairs_rate() {
+        let bandwidth = Sensors {
+            bandwidth: Some(20.0),
+            ..Sensors::default()
+        };
+        // 100 steps of 1 ms per 0.1 s sample: 10 fast samples per sample (100 Hz, resolving
+        // 20 Hz); the refined run's 200 steps used to give 8 (80 Hz) and fail.
+        assert_eq!(bandwidth.filter_oversampling(0.1, 100, 1), Ok(Some(10)));
+        assert_eq!(bandwidth.filter_oversampling(0.1, 100, 2), Ok(Some(10)));
+        // 25 Hz needs 125 fast samples a second: 20 per sample.
+        let faster = Sensors {
+            bandwidth: Some(25.0),
+            ..Sensors::default()
+        };
+        assert_eq!(faster.filter_oversampling(0.1, 100, 1), Ok(Some(20)));
+        // Beyond every divisor: refused, the fastest rate named.
+        let too_fast = Sensors {
+            bandwidth: Some(300.0),
+            ..Sensors::default()
+        };
+        let e = too_fast.filter_oversampling(0.1, 100, 1).unwrap_err();
+        assert!(e.contains("1000 Hz at most"), "{e}");
+        let anti_alias = Sensors {
+            anti_alias: Some(AntiAlias { corner: 0.4, order: 4 }),
+            ..Sensors::default()
+        };
+        assert_eq!(anti_alias.filter_oversampling(0.1, 100, 2), Ok(Some(10)));
+        // Only the substeps carry the rate: 4 steps of 8 substeps.
+        assert_eq!(anti_alias.filter_oversampling(0.1, 4, 8), Ok(Some(8)));
+        assert!(anti_alias.filter_oversampling(0.1, 4, 1).is_err());
+        assert_eq!(Sensors::default().filter_oversampling(0.1, 4, 1), Ok(None));
     }
 }

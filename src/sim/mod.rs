@@ -300,7 +300,8 @@ pub(crate) fn simulate_padded<const D: usize>(
     let channels = sensors::channels(model, &sim.sensors);
     // The sensors' filters run on the motion sampled `r` times faster (module `sensor_filters`):
     // each group keeps its lanes' filter states and a block of fast samples.
-    let filter = sensor_filters::SensorFilter::new(&sim.sensors, interval, steps).map_err(SimError::Sensors)?;
+    let filter = sensor_filters::SensorFilter::new(&sim.sensors, interval, sim.steps_per_sample(), sim.substeps)
+        .map_err(SimError::Sensors)?;
     let r = filter.as_ref().map_or(1, |f| f.oversampling);
     let block = (block_samples(steps / r, cols * sim.trajectories, total * r) / r).max(1);
     let mut filtering: Vec<Filtering> = match &filter {
@@ -521,9 +522,10 @@ mod filter_tests {
         let plain = sdof("");
         let filtered = sdof("anti_alias = 0.4\nanti_alias_order = 4");
         let sim = &filtered.simulation;
-        let f = sensor_filters::SensorFilter::new(&sim.sensors, sim.sample_interval, sim.steps_per_sample())
-            .unwrap()
-            .unwrap();
+        let f =
+            sensor_filters::SensorFilter::new(&sim.sensors, sim.sample_interval, sim.steps_per_sample(), sim.substeps)
+                .unwrap()
+                .unwrap();
         assert_eq!(f.oversampling, 10);
         let (a, b) = (variances(&plain), variances(&filtered));
         let cols = Model::new(&plain).columns();

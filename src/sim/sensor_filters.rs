@@ -94,12 +94,17 @@ pub(crate) struct SensorFilter {
 }
 
 impl SensorFilter {
-    /// The filters `sensors` state for a log sampled every `interval` s with `steps`
-    /// integration steps per sample; `None` without filters. `Err`: the steps cannot
-    /// carry the filters, or a corner is beyond what the fast rate resolves
+    /// The filters `sensors` state for a log sampled every `interval` s with `steps` steps
+    /// of `dt` per sample, each in `substeps`; `None` without filters. `Err`: the steps
+    /// cannot carry the filters, or a corner is beyond what the fast rate resolves
     /// (`Sensors::filter_oversampling`).
-    pub(crate) fn new(sensors: &Sensors, interval: f64, steps: usize) -> Result<Option<SensorFilter>, String> {
-        let Some(oversampling) = sensors.filter_oversampling(interval, steps)? else {
+    pub(crate) fn new(
+        sensors: &Sensors,
+        interval: f64,
+        steps: usize,
+        substeps: usize,
+    ) -> Result<Option<SensorFilter>, String> {
+        let Some(oversampling) = sensors.filter_oversampling(interval, steps, substeps)? else {
             return Ok(None);
         };
         let fast = oversampling as f64 / interval;

@@ -447,7 +447,8 @@ pub(crate) fn filter_loss(s: &Scenario, structure: &Problem) -> Option<FilterLos
     let filter = crate::sim::sensor_filters::SensorFilter::new(
         &sim.sensors,
         sim.sample_interval,
-        sim.steps_per_sample() * sim.substeps,
+        sim.steps_per_sample(),
+        sim.substeps,
     )
     .ok()??;
     let unit = filter.white_velocity_loss(sim.sample_interval);

@@ -193,7 +193,7 @@ pub(crate) fn check_sensor_filters(
         ));
     }
     sim.sensors
-        .filter_oversampling(sim.sample_interval, sim.steps_per_sample() * sim.substeps)
+        .filter_oversampling(sim.sample_interval, sim.steps_per_sample(), sim.substeps)
         .map(|_| ())
         .map_err(|e| loc.at(span, key, e))
 }
