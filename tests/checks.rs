@@ -610,3 +610,102 @@ fn a_force_in_other_units_or_reversed_fails_the_run_naming_the_factor() {
         assert!(!r.passed);
     }
 }
+
+/// A 2-mass chain (duffing2dof's links and forces) read from its exported table by a rig's
+/// model file that knows only the links' powers: as exported it passes the dissipativity
+/// check; with the second mass's displacement and velocity negated (its sensors mounted
+/// the other way) the coupling link's spring and damper come out negative — the exact
+/// equivalent model of the reversed coordinate — and the failure names the reversed sensor
+/// and the way to undo it, not another polynomial degree (issue 70).
+#[test]
+fn a_mass_measured_with_the_opposite_sign_is_named_not_put_down_to_the_degree() {
+    let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
+    let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+    (s.simulation.record_length, s.simulation.trajectories) = (500.0, 8);
+    let dir = tempfile::tempdir().unwrap();
+    let (log, csv) = (dir.path().join("run.mcap"), dir.path().join("run.csv"));
+    crate::common::fresh_log(&s, &log);
+    crate::common::export(&log, "csv", &csv);
+    let table = std::fs::read_to_string(&csv).unwrap();
+    let model = r#"
+name = "chain"
+[[mass]]
+name = "m1"
+value = 1.0
+[[mass]]
+name = "m2"
+value = 2.0
+[[link]]
+name = "a"
+ends = ["ground", "m1"]
+[[link]]
+name = "b"
+ends = ["m1", "m2"]
+[[link]]
+name = "c"
+ends = ["ground", "m2"]
+[[excitation]]
+kind = "white"
+sigma = 1.0
+acts_on = ["m1"]
+[[excitation]]
+kind = "white"
+sigma = 1.0
+acts_on = ["m2"]
+[identify]
+methods = ["weak"]
+[identify.links.a]
+stiffness = [1, 3]
+damping = [1, 3]
+[identify.links.b]
+stiffness = [1]
+damping = [1]
+[identify.links.c]
+stiffness = [1, 3]
+damping = [1]
+[data]
+time = "t"
+record = "trajectory"
+[data.columns]
+x_m1 = "x_m1"
+v_m1 = "v_m1"
+x_m2 = "x_m2"
+v_m2 = "v_m2"
+"#;
+    let weak_row = |csv: &str| {
+        let r = identify_with(csv, model);
+        row(&r, ReportMethod::Estimator(Method::Weak)).clone()
+    };
+    let clean = weak_row(&table);
+    assert!(clean.dissipativity.iter().all(|d| d.holds), "{:?}", clean.dissipativity);
+    // m2's displacement and velocity negated.
+    let header: Vec<&str> = table.lines().next().unwrap().split(',').collect();
+    let flip: Vec<usize> = ["x_m2", "v_m2"]
+        .iter()
+        .map(|c| header.iter().position(|h| h == c).unwrap())
+        .collect();
+    let mut reversed = String::new();
+    for (i, line) in table.lines().enumerate() {
+        let cells: Vec<String> = line
+            .split(',')
+            .enumerate()
+            .map(|(j, c)| match i > 0 && flip.contains(&j) {
+                true => format!("{}", -c.parse::<f64>().unwrap()),
+                false => c.to_string(),
+            })
+            .collect();
+        reversed += &(cells.join(",") + "\n");
+    }
+    let m = weak_row(&reversed);
+    let failed: Vec<_> = m.dissipativity.iter().filter(|d| !d.holds).collect();
+    assert_eq!(failed.len(), 2, "{:?}", m.dissipativity);
+    for d in failed {
+        assert_eq!(d.link, "b");
+        assert!(
+            d.message.contains("push m1 and m2 apart") && d.message.contains("opposite sign"),
+            "{}",
+            d.message
+        );
+        assert!(!d.message.contains("polynomial degree"), "{}", d.message);
+    }
+}

@@ -7,7 +7,7 @@ use crate::ident::{self, IdentError, Problem, Unknown};
 use crate::io::log::LogInfo;
 use crate::model::{Characteristic, Coefficient, Term, Truth};
 use crate::report::{CurveReport, MethodOutcome, MethodReport, Parameter};
-use crate::scenario::{ReportMethod, Scenario};
+use crate::scenario::{End, ReportMethod, Scenario};
 use crate::stats;
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -150,6 +150,7 @@ pub(crate) fn fill_accuracy(
                 None => d,
             });
         }
+        reversed_end(s, l, coef_of, values, rep);
     }
     if graded {
         rep.worst_rel_error = worst;
@@ -159,6 +160,37 @@ pub(crate) fn fill_accuracy(
         rep.threshold = None;
         rep.passed = None;
         rep.gated = false;
+    }
+}
+
+/// Link `l` between two masses whose identified stiffness and damping both fail the
+/// dissipativity check with negative linear terms: its two failures name a sensor mounted
+/// the other way ([`stats::Dissipativity::reversed_end`]) instead of the degree.
+fn reversed_end(s: &Scenario, l: usize, coef_of: &[Option<Coefficient>], values: &[f64], rep: &mut MethodReport) {
+    let [End::Mass(a), End::Mass(b)] = s.links[l].ends else {
+        return;
+    };
+    let linear = |kind| {
+        (coef_of.iter().zip(values))
+            .find(|(c, _)| {
+                **c == Some(Coefficient {
+                    link: l,
+                    kind,
+                    term: Term::Power(1),
+                })
+            })
+            .map(|(_, &v)| v)
+    };
+    let (Some(k), Some(c)) = (linear(Characteristic::Stiffness), linear(Characteristic::Damping)) else {
+        return;
+    };
+    let name = &s.links[l].name;
+    let failing = |d: &stats::Dissipativity| &d.link == name && !d.holds;
+    if k >= 0.0 || c >= 0.0 || rep.dissipativity.iter().filter(|d| failing(d)).count() < 2 {
+        return;
+    }
+    for d in rep.dissipativity.iter_mut().filter(|d| &d.link == name) {
+        *d = d.clone().reversed_end(&s.masses[a].name, &s.masses[b].name, [k, c]);
     }
 }
 

@@ -240,6 +240,31 @@ pub fn dissipativity(link: &str, kind: Characteristic, p: &Curve, lo: f64, hi: f
 }
 
 impl Dissipativity {
+    /// A failure of a link between the masses `a` and `b` whose linear stiffness and
+    /// linear damping `linear` are both negative: a spring and a damper that push their
+    /// ends apart are what one end's sensors mounted the other way make of a chain (the
+    /// end's coordinate reversed, the link's linear terms change sign and the difference
+    /// moves to the end's other links), so the advice names that, not the degree.
+    pub fn reversed_end(mut self, a: &str, b: &str, linear: [f64; 2]) -> Dissipativity {
+        if let Some(z) = self.fails_at {
+            let v = if self.kind == Characteristic::Stiffness.name() {
+                "u"
+            } else {
+                "w"
+            };
+            self.message = format!(
+                "{} <= 0 at {v} = {z:.4} within the observed range: this link's spring and damper both push {a} \
+                 and {b} apart (linear stiffness {:.4e}, damping {:.4e}), which is what the samples give when one \
+                 of them is measured with the opposite sign (a sensor mounted the other way): negate that mass's \
+                 displacement, velocity and acceleration columns (`[data.scale]` column = -1.0) and identify again",
+                if v == "u" { "K(u)·u" } else { "C(w)·w" },
+                linear[0],
+                linear[1],
+            );
+        }
+        self
+    }
+
     /// A failure put down to what the estimate's model ignores by design (`cause`), not to
     /// the polynomial degree: the advice to try another degree would mislead.
     pub fn blame(mut self, cause: &str) -> Dissipativity {
