@@ -232,7 +232,8 @@ fn a_selection_that_cannot_run_is_refused_where_it_is_written() {
 }
 
 /// The documented maximum, `--select-powers 15` on the two-mass chain: its candidate
-/// model's moments (90 unknowns, degree 30) take 7.2 GB over their fine batches, which ran
+/// model's moments (90 unknowns, degree 30) take 7.2 GB over their fine batches and the
+/// weighting of its 4,844 equations 1.5 GB, which ran
 /// past 8 GiB before anything said so. The tables are sized before they are allocated
 /// and refused beyond the budget (half the machine's memory; here set lower, as
 /// `FPKBENCH_MEMORY_BUDGET` lets a user do), with the sizes and what to ask instead.
@@ -254,7 +255,8 @@ fn a_selection_whose_moments_exceed_the_memory_budget_is_refused_before_allocati
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("90 unknowns, moments to degree 30) would take 7.2 GB")
+        err.contains("90 unknowns, moments to degree 30, 4844 equations) would take 8.7 GB")
+            && err.contains("moments over their fine batches 7.2 GB, the weighting of its equations 1.5 GB")
             && err.contains("more than the 4.0 GB")
             && err.contains("--select-powers"),
         "{err}"

@@ -189,14 +189,22 @@ impl StationaryData {
 
     /// The bytes the weak forms' moments of `problem` and `also` take over their fine
     /// batches (what [`StationaryData::for_weak_forms`], or [`StationaryData::new`] at the
-    /// weak form's degree without `also`, allocates), known before anything is allocated:
-    /// a structure selection over many high powers can ask for more than the machine has.
-    pub fn weak_forms_bytes(problem: &Problem, also: &[&Problem], trajectories: usize) -> u64 {
+    /// weak form's degree without `also`, allocates), and the bytes the efficient weighting
+    /// of `problem`'s equations takes (each fine batch's residuals, the covariance, its
+    /// equilibrated copy, its Cholesky factor and the whitening), known before anything is
+    /// allocated: a structure selection over many high powers can ask for more than the
+    /// machine has.
+    pub fn weak_forms_bytes(problem: &Problem, also: &[&Problem], trajectories: usize) -> (u64, u64) {
         let (first, layout) = match also.is_empty() {
             true => Self::plan(problem, super::weak::moment_degree(problem), trajectories),
             false => Self::plan_weak_forms(problem, also, trajectories),
         };
-        (first.sums.len() * layout.count() * std::mem::size_of::<f64>()) as u64
+        let rows = super::weak::equation_count(problem);
+        let f = std::mem::size_of::<f64>();
+        (
+            (first.sums.len() * layout.count() * f) as u64,
+            ((rows * layout.count() + 4 * rows * rows) * f) as u64,
+        )
     }
 
     /// What [`StationaryData::for_weak_forms`] allocates: the moments of one fine batch and

@@ -73,13 +73,15 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         .collect();
     // The first pass's largest tables, known before they are allocated: a selection over
     // many high powers can ask for more than the machine has.
-    let need = StationaryData::weak_forms_bytes(&structure, &also, sim.trajectories);
+    let (moments, weighting) = StationaryData::weak_forms_bytes(&structure, &also, sim.trajectories);
+    let need = moments + weighting;
     let budget = super::super::memory_budget();
     if need > budget {
         return Err(PipelineError::Memory(format!(
-            "the weak form's moments of {} ({} unknowns, moments to degree {}) would take {:.1} GB over their \
-             fine batches, more than the {:.1} GB an identification may take (half this machine's memory, or \
-             FPKBENCH_MEMORY_BUDGET): ask for fewer or lower powers{}",
+            "the weak form of {} ({} unknowns, moments to degree {}, {} equations) would take {:.1} GB (its \
+             moments over their fine batches {:.1} GB, the weighting of its equations {:.1} GB), more than the \
+             {:.1} GB an identification may take (half this machine's memory, or FPKBENCH_MEMORY_BUDGET): ask \
+             for fewer or lower powers{}",
             if select.is_some() {
                 "the candidate model"
             } else {
@@ -87,7 +89,10 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
             },
             structure.unknowns.len(),
             weak::moment_degree(&structure),
+            weak::equation_count(&structure),
             need as f64 / 1e9,
+            moments as f64 / 1e9,
+            weighting as f64 / 1e9,
             budget as f64 / 1e9,
             if select.is_some() {
                 " (--select-powers, [identify.select])"
