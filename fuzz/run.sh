@@ -16,7 +16,7 @@ targets=("$@")
 
 corpus=fuzz/corpus
 mkdir -p "$corpus"/{scenario,log_reader,identify} fuzz/logs
-cp scenarios/*.toml "$corpus/scenario/"
+cp scenarios/*.toml tests/fuzz_seeds/*.toml "$corpus/scenario/"
 # The release binary seeds the corpora: FPKBENCH_BIN (CI passes the one `cargo test
 # --release` built, which saves a second build of the crate with other features), else a
 # fresh build.

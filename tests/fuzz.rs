@@ -1,8 +1,8 @@
 //! Bounded fuzzing in the test suite (property tests with fixed seeds; the long runs are the
 //! `cargo fuzz` targets in fuzz/, see docs/reliability.md):
 //!
-//! - the scenario parser on mutated shipped scenarios — and every mutant it accepts is
-//!   simulated briefly and identified;
+//! - the scenario parser on mutated shipped scenarios and fuzz seeds (tests/fuzz_seeds) —
+//!   and every mutant it accepts is simulated briefly and identified;
 //! - the log reader on mutated logs (bytes flipped, overwritten, deleted, inserted, cut),
 //!   plain and zstd, with every allocation bounded by the file's size;
 //! - the identifier on arbitrary sample values, finite and not.
@@ -130,9 +130,13 @@ const ANY_BYTES: &[u8] = &{
     a
 };
 
+/// The shipped scenarios and the fuzz seeds (tests/fuzz_seeds: the keys no shipped
+/// scenario holds — `[measurement]` and a rig's sensors, the non-power terms beside a
+/// hysteresis, a profile and a comparison, a selection among kinds with a candidate link).
 fn shipped_scenarios() -> Vec<(String, String)> {
-    let mut v: Vec<_> = std::fs::read_dir("scenarios")
-        .unwrap()
+    let mut v: Vec<_> = ["scenarios", "tests/fuzz_seeds"]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(d).unwrap())
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .map(|p| (p.display().to_string(), std::fs::read_to_string(&p).unwrap()))
