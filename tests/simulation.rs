@@ -451,6 +451,35 @@ fn diverging_simulation_reports_trajectory_time_and_state() {
     );
 }
 
+/// Coefficients no step can carry (a stiffness of 1e200, a unit mistake): the cause says
+/// ω·h and the factor in scientific notation, not a hundred digits, and asks for the
+/// coefficients and their units instead of a step smaller by 1e97.
+#[test]
+fn a_divergence_beyond_any_step_names_the_coefficients_in_readable_numbers() {
+    let s = zoo::linear_sdof(
+        1.0,
+        1e200,
+        0.1,
+        1.0,
+        "dt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1\ntrajectories = 1\nburn_in = 0.0",
+    );
+    let err = simulate(&Model::new(&s), &s.simulation, &mut Collect::default(), &|_| {}).unwrap_err();
+    let SimError::Diverged { cause, .. } = &err else {
+        panic!("unexpected error {err}")
+    };
+    assert!(
+        cause.contains("1.000e97") && cause.contains("check the stiffness and damping coefficients and their units"),
+        "{cause}"
+    );
+    assert!(!cause.contains("reduce dt"), "{cause}");
+    let longest_number = cause
+        .split(|c: char| !c.is_ascii_digit())
+        .map(str::len)
+        .max()
+        .unwrap_or(0);
+    assert!(longest_number < 10, "{cause}");
+}
+
 #[test]
 fn an_escape_is_not_put_down_to_the_step() {
     // A negative spring (refused by the scenario's validation, built here on purpose):

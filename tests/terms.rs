@@ -395,6 +395,40 @@ fn a_gap_is_profiled_and_its_position_reported() {
     assert!(md.contains("## Profile") && md.contains("J − J_min"), "{md}");
 }
 
+/// Positions beyond the stroke (a profile range up to 1e20): each refused position names
+/// the gap whose term never acts there, and the terminal writes the positions as the
+/// term's name does (3.333333333e18), not in twenty digits.
+#[test]
+fn a_profiled_position_beyond_the_stroke_names_the_term_that_never_acts() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let (code, stdout, stderr) = fpkbench(&[
+        "run",
+        "scenarios/clearance2dof.toml",
+        "--set",
+        "simulation.record_length=200",
+        "--set",
+        "identify.profile.range=[0.1, 1e20]",
+        "--method",
+        "weak",
+        "--no-validate",
+        "--out",
+        out,
+    ]);
+    assert!(code == Some(0) || code == Some(1), "{code:?}: {stderr}");
+    assert!(
+        stdout.contains("3.333333333e18: refused") && !stdout.contains("3333333333000000000"),
+        "{stdout}"
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap()).unwrap();
+    let refused = r["profile"]["points"][1]["refused"].as_str().unwrap();
+    assert!(
+        refused.contains("kgap(3.333333333e18)[m1-m2] never acts on these data"),
+        "{refused}"
+    );
+}
+
 /// Terms in a scenario: a bad term, a one-sided hinge that lets the mass escape, friction
 /// alone as the damping, and a profile of a term without a position, each with its place.
 #[test]

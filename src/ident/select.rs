@@ -496,10 +496,45 @@ pub fn misfit(problem: &Problem, data: &StationaryData) -> Result<(f64, usize), 
     let k = problem.unknowns.len();
     let eq = Equations::new(problem, &w.pc, &w.weight, w.total.count as f64);
     let all: Vec<usize> = (0..k).collect();
-    let (_, j) = eq
-        .fit(&all)
-        .ok_or_else(|| IdentError::NotApplicable("the model's equations are dependent at this position".into()))?;
+    let (_, j) = eq.fit(&all).ok_or_else(|| dependent(problem, &eq))?;
     Ok((j, w.pc.rows.saturating_sub(k)))
+}
+
+/// Why the model's equations `eq` have no least-squares fit at this position, naming the
+/// unknowns: those whose term is zero at every sample (a gap beyond the observed stroke),
+/// else those without which the rest can be fitted.
+fn dependent(problem: &Problem, eq: &Equations) -> IdentError {
+    let k = problem.unknowns.len();
+    let names = |ix: &[usize]| {
+        ix.iter()
+            .map(|&i| problem.names[i].to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let idle: Vec<usize> = (0..k)
+        .filter(|&i| eq.g[(i, i)].is_nan() || eq.g[(i, i)] <= 0.0)
+        .collect();
+    if !idle.is_empty() {
+        return IdentError::NotApplicable(format!(
+            "the model's equations are dependent at this position: {} never {} on these data (zero at every \
+             sample, e.g. a gap beyond the observed stroke)",
+            names(&idle),
+            if idle.len() == 1 { "acts" } else { "act" }
+        ));
+    }
+    let culprits: Vec<usize> = (0..k)
+        .filter(|&i| {
+            let rest: Vec<usize> = (0..k).filter(|&r| r != i).collect();
+            eq.fit(&rest).is_some()
+        })
+        .collect();
+    IdentError::NotApplicable(format!(
+        "the model's equations are dependent at this position{}",
+        match culprits.is_empty() {
+            true => String::new(),
+            false => format!(": {} and the other unknowns move together", names(&culprits)),
+        }
+    ))
 }
 
 /// The weak form's pieces of the whole record with their efficient weight: what the

@@ -36,9 +36,16 @@ pub fn profile_lines(p: &ProfileReport) -> Vec<String> {
     let cells: Vec<String> = p
         .points
         .iter()
-        .map(|x| match x.j {
-            Some(j) => format!("{}: {:.1}", x.position, j - j_min),
-            None => format!("{}: refused", x.position),
+        .map(|x| {
+            // A position as the term's name writes it: 0.15, or 3.333333333e18.
+            let at = match (1e-4..1e6).contains(&x.position.abs()) || x.position == 0.0 {
+                true => format!("{}", x.position),
+                false => format!("{:e}", x.position),
+            };
+            match x.j {
+                Some(j) => format!("{at}: {:.1}", j - j_min),
+                None => format!("{at}: refused"),
+            }
         })
         .collect();
     out.push(format!("  J − J_min by position: {}", cells.join(", ")));

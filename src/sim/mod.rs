@@ -112,15 +112,29 @@ pub fn divergence_cause(m: &Model, h: f64, x: &[f64], v: &[f64]) -> String {
             worst = (number, format!("mass {} (mostly link {name})", m.mass_names[i]));
         }
     }
+    // Numbers as a reader takes them: 12.35, or 1.000e97 rather than ninety-eight digits.
+    let readable = |x: f64, digits: usize| match x.abs() < 1e6 {
+        true => format!("{x:.digits$}"),
+        false => format!("{x:.3e}"),
+    };
     if worst.0 >= STEP_LIMIT_NEAR || !worst.0.is_finite() {
+        let factor = (2.0 * worst.0).ceil().max(2.0);
+        let advice = match factor <= 1e6 {
+            true => format!(
+                "The polynomial characteristics stiffen with amplitude, so rare large excursions reach this; \
+                 reduce dt (or raise substeps) by a factor of at least {factor:.0}"
+            ),
+            false => format!(
+                "No step could carry it (dt would have to shrink {}-fold): check the stiffness and damping \
+                 coefficients and their units",
+                readable(factor, 0)
+            ),
+        };
         format!(
             "Cause: the step is too large for the stiffness or damping the response reached: at the last finite \
-             state ω·h (or γ·h) = {:.2} for {} with h = {h:e} s, and the scheme is unstable beyond 2. The \
-             polynomial characteristics stiffen with amplitude, so rare large excursions reach this; reduce dt \
-             (or raise substeps) by a factor of at least {:.0}",
-            worst.0,
+             state ω·h (or γ·h) = {} for {} with h = {h:e} s, and the scheme is unstable beyond 2. {advice}",
+            readable(worst.0, 2),
             worst.1,
-            (2.0 * worst.0).ceil().max(2.0)
         )
     } else {
         format!(

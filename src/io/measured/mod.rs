@@ -578,7 +578,8 @@ impl Measured {
                     &data.files[0],
                     format!(
                         "record {} has {} samples: integrating accelerations drops {} at each end (the drift \
-                         window, {} s; docs/data.md): give a shorter [data] drift_period or longer records",
+                         window, {} s; docs/data.md): give longer records (a scenario's rig: \
+                         simulation.record_length) or, in a model file, a shorter [data] drift_period",
                         j + 1,
                         raw_lengths[j],
                         drop / 2,
