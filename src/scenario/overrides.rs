@@ -103,6 +103,80 @@ pub fn apply(label: &str, text: &str, sets: &[String]) -> Result<String, Scenari
     Ok(format!("{header}{body}"))
 }
 
+/// A variant's error told where the user can find it: an error of a key an override set
+/// (or lies within) names the `--set`; an error of a key the file holds gets the file's own
+/// line and column (the varied text is re-serialised, so its positions are not the file's).
+fn relocate(e: ScenarioError, label: &str, text: &str, sets: &[String]) -> ScenarioError {
+    let ScenarioError::Invalid { key, message, .. } = &e else {
+        return e;
+    };
+    let path = segments(key);
+    let overridden = sets.iter().find(|set| {
+        let k = segments(set.split_once('=').map_or(set.as_str(), |(k, _)| k.trim()));
+        path.starts_with(&k) || k.starts_with(&path)
+    });
+    if let Some(set) = overridden {
+        return ScenarioError::Override {
+            path: label.to_string(),
+            key: set.clone(),
+            message: format!("`{key}`: {message}"),
+        };
+    }
+    match position_of(text, &path) {
+        Some((line, column)) => ScenarioError::Invalid {
+            path: label.to_string(),
+            line,
+            column,
+            key: key.clone(),
+            message: message.clone(),
+        },
+        None => e,
+    }
+}
+
+/// A dotted key's segments: `link[0].stiffness` and `link.0.stiffness` alike.
+fn segments(key: &str) -> Vec<String> {
+    key.replace('[', ".")
+        .replace(']', "")
+        .split('.')
+        .filter(|p| !p.is_empty())
+        .map(str::to_string)
+        .collect()
+}
+
+/// The 1-based line and column of the key `path` in the TOML `text`; `None` where the text
+/// does not hold it.
+fn position_of(text: &str, path: &[String]) -> Option<(usize, usize)> {
+    use toml::de::{DeTable, DeValue};
+    let doc = DeTable::parse(text).ok()?;
+    let mut span = doc.span();
+    let mut at: Option<&DeValue> = None;
+    let mut table: Option<&DeTable> = Some(doc.get_ref());
+    for seg in path {
+        let next = match (table, at) {
+            (Some(t), _) => t
+                .iter()
+                .find(|(k, _)| k.get_ref().as_ref() == seg.as_str())
+                .map(|(_, v)| (v.span(), v)),
+            (None, Some(DeValue::Array(a))) => {
+                let v = a.get(seg.parse::<usize>().ok()?)?;
+                Some((v.span(), v))
+            }
+            _ => None,
+        }?;
+        span = next.0;
+        at = Some(next.1.get_ref());
+        table = match next.1.get_ref() {
+            DeValue::Table(t) => Some(t),
+            _ => None,
+        };
+    }
+    let before = &text[..span.start.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    Some((line, column))
+}
+
 fn value_text(v: &toml::Value) -> String {
     match v {
         toml::Value::String(s) => s.clone(),
@@ -124,6 +198,7 @@ impl Scenario {
         let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scenario");
         let varied = apply(&label, &text, sets)?;
         Scenario::parse(&varied, &format!("{label} with --set {}", sets.join(" --set ")), stem)
+            .map_err(|e| relocate(e, &label, &text, sets))
     }
 
     /// The overrides this scenario's text records (`--set`), as `KEY=VALUE`.
@@ -162,5 +237,57 @@ impl Scenario {
             name += &format!("--{k}={v}");
         }
         name
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A variant's errors are told where the user finds them: a key the file holds at the
+    /// file's own line and column (as without any `--set`), a key an override set by its
+    /// `--set`.
+    #[test]
+    fn a_variants_error_is_located_in_the_file_or_at_its_override() {
+        let path = format!("{}/scenarios/duffing2dof.toml", env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(&path)
+            .unwrap()
+            .replace("stiffness = { 1 = 8.0, 3 = 10.0 }", "stiffness = { 1 = 8.0, 2 = 10.0 }");
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("bad.toml");
+        std::fs::write(&file, &text).unwrap();
+        let plain = Scenario::from_file(&file).unwrap_err().to_string();
+        let varied = Scenario::from_file_with(&file, &["simulation.seed=3".into()])
+            .unwrap_err()
+            .to_string();
+        let at = |e: &str| {
+            e.split(": `")
+                .next()
+                .unwrap()
+                .rsplit(".toml")
+                .next()
+                .unwrap()
+                .to_string()
+        };
+        assert!(
+            plain.contains("`link[2].stiffness`") && at(&plain).starts_with(':'),
+            "{plain}"
+        );
+        assert_eq!(at(&varied), at(&plain), "{varied} against {plain}");
+        // The override's own mistake names the override.
+        let set = "link.0.stiffness={ 2 = 10.0 }".to_string();
+        let e = Scenario::from_file_with(std::path::Path::new(&path), std::slice::from_ref(&set))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(&format!("--set {set}: `link[0].stiffness`")), "{e}");
+        assert_eq!(segments("link[0].stiffness"), segments("link.0.stiffness"));
+        assert_eq!(
+            position_of("[simulation]\nseed = 3\n", &segments("simulation.seed")),
+            Some((2, 8))
+        );
+        assert_eq!(
+            position_of("[simulation]\nseed = 3\n", &segments("simulation.dt")),
+            None
+        );
     }
 }
