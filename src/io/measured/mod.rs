@@ -14,6 +14,7 @@
 
 pub mod differentiate;
 mod integrate;
+pub mod period_cut;
 pub mod periods;
 mod scan;
 mod sources;
@@ -377,8 +378,10 @@ fn difference(rows: &mut [f64], ring: usize, w: usize, h: f64, step: Step, stenc
 /// say so.
 pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, DataError> {
     let d = model.data.as_ref().expect("a model file");
+    let (sources, cut) = period_cut::cut_periods(sources, d)?;
     let (sources, repeated) = periods::average_repeated(sources, d)?;
     let mut m = measured_with(model, sources, None)?;
+    m.notes.extend(cut.map(|c| c.note()));
     m.notes.extend(repeated.map(|r| r.note()));
     Ok(m)
 }

@@ -19,7 +19,7 @@ const COMPARED: usize = 4096;
 
 /// Fewest samples a record needs for the comparison to mean anything: two independent
 /// Gaussian records of 256 samples correlate beyond [`SAME`] with a chance below 1e-15.
-const LEAST_COMPARED: usize = 256;
+pub(super) const LEAST_COMPARED: usize = 256;
 
 /// Correlation of two records' first samples from which they are one realisation: noise
 /// up to the signal's own standard deviation still correlates at 0.5, independent
@@ -150,8 +150,15 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
 
 /// The column compared: the first measured force's, else the first mapped column's.
 fn compared_column(d: &DataMapping) -> Option<&str> {
-    let force = d.columns.iter().find(|(log, _)| log.starts_with("p_"));
-    force.or(d.columns.first()).map(|(_, c)| c.as_str())
+    compared_force(d).or(d.columns.first().map(|(_, c)| c.as_str()))
+}
+
+/// The first measured force's table column.
+pub(super) fn compared_force(d: &DataMapping) -> Option<&str> {
+    d.columns
+        .iter()
+        .find(|(log, _)| log.starts_with("p_"))
+        .map(|(_, c)| c.as_str())
 }
 
 /// Find records that repeat one realisation; when there are, return the tables of their
