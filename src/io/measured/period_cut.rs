@@ -246,19 +246,8 @@ pub fn cut_periods(sources: Vec<Source>, d: &DataMapping) -> Result<(Vec<Source>
 
 #[cfg(test)]
 mod tests {
+    use super::super::periods::tests::noise;
     use super::*;
-
-    /// Uniform numbers in (−1, 1) from a xorshift stream.
-    fn noise(mut state: u64, n: usize) -> Vec<f64> {
-        (0..n)
-            .map(|_| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                2.0 * ((state >> 11) as f64 / (1u64 << 53) as f64) - 1.0
-            })
-            .collect()
-    }
 
     /// A period of 300 random samples repeated with 20 % noise is found at 300 (not at
     /// 600), with its correlation; random noise, a slow coloured noise and a lightly

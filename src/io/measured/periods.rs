@@ -318,7 +318,7 @@ fn averaged(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     fn table(records: &[(f64, Vec<f64>)]) -> Source {
@@ -344,7 +344,7 @@ mod tests {
     }
 
     /// Uniform numbers in (−1, 1) from a xorshift stream.
-    fn noise(mut state: u64, n: usize) -> Vec<f64> {
+    pub(in crate::io::measured) fn noise(mut state: u64, n: usize) -> Vec<f64> {
         (0..n)
             .map(|_| {
                 state ^= state << 13;

@@ -71,36 +71,7 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
                 .filter_map(|c| c.problem.as_ref().ok()),
         )
         .collect();
-    // The first pass's largest tables, known before they are allocated: a selection over
-    // many high powers can ask for more than the machine has.
-    let (moments, weighting) = StationaryData::weak_forms_bytes(&structure, &also, sim.trajectories);
-    let need = moments + weighting;
-    let budget = super::super::memory_budget();
-    if need > budget {
-        return Err(PipelineError::Memory(format!(
-            "the weak form of {} ({} unknowns, moments to degree {}, {} equations) would take {:.1} GB (its \
-             moments over their fine batches {:.1} GB, the weighting of its equations {:.1} GB), more than the \
-             {:.1} GB an identification may take (half this machine's memory, or FPKBENCH_MEMORY_BUDGET): ask \
-             for fewer or lower powers{}",
-            if select.is_some() {
-                "the candidate model"
-            } else {
-                "the model"
-            },
-            structure.unknowns.len(),
-            weak::moment_degree(&structure),
-            weak::equation_count(&structure),
-            need as f64 / 1e9,
-            moments as f64 / 1e9,
-            weighting as f64 / 1e9,
-            budget as f64 / 1e9,
-            if select.is_some() {
-                " (--select-powers, [identify.select])"
-            } else {
-                ""
-            }
-        )));
-    }
+    fits_in_memory(&structure, &also, sim.trajectories, select.is_some())?;
     let data = match also.is_empty() {
         false => {
             StationaryData::for_weak_forms(&structure, &also, sim.record_length, sim.trajectories, options.batches)
@@ -227,4 +198,40 @@ impl Comparison {
             own,
         }
     }
+}
+
+/// The first pass's largest tables, known before they are allocated: a selection over
+/// many high powers can ask for more than the machine has. `Err` names the sizes and
+/// what to ask instead.
+fn fits_in_memory(
+    structure: &Problem,
+    also: &[&Problem],
+    trajectories: usize,
+    select: bool,
+) -> Result<(), PipelineError> {
+    let (moments, weighting) = StationaryData::weak_forms_bytes(structure, also, trajectories);
+    let need = moments + weighting;
+    let budget = super::super::memory_budget();
+    if need <= budget {
+        return Ok(());
+    }
+    Err(PipelineError::Memory(format!(
+        "the weak form of {} ({} unknowns, moments to degree {}, {} equations) would take {:.1} GB (its \
+         moments over their fine batches {:.1} GB, the weighting of its equations {:.1} GB), more than the \
+         {:.1} GB an identification may take (half this machine's memory, or FPKBENCH_MEMORY_BUDGET): ask \
+         for fewer or lower powers{}",
+        if select { "the candidate model" } else { "the model" },
+        structure.unknowns.len(),
+        weak::moment_degree(structure),
+        weak::equation_count(structure),
+        need as f64 / 1e9,
+        moments as f64 / 1e9,
+        weighting as f64 / 1e9,
+        budget as f64 / 1e9,
+        if select {
+            " (--select-powers, [identify.select])"
+        } else {
+            ""
+        }
+    )))
 }
