@@ -695,3 +695,38 @@ fn an_adc_range_of_1e_minus_300_is_refused_before_the_run() {
     );
     assert!(!dir.path().join("run.mcap").exists(), "nothing simulated");
 }
+
+/// Accelerometers whose integrated noise outweighs the motion (1 % of the acceleration's
+/// std on duffing2dof sampled at 0.1 s, 8 × 1000 s: the noise taken out is 141 % of
+/// x_m1's variance): the weak form fails on moments of no density, and its failure says
+/// so with the share — not "non-finite … use units of order 1" alone (issue 70).
+#[test]
+fn noise_taken_out_beyond_a_variance_is_named_as_the_weak_forms_failure() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/duffing2dof.toml");
+    let sets = [
+        "simulation.trajectories=8".to_string(),
+        "simulation.record_length=1000".into(),
+        r#"measurement.sensors={m1=["acceleration"],m2=["acceleration"]}"#.into(),
+        "measurement.acceleration=0.01".into(),
+    ];
+    let s = Scenario::from_file_with(std::path::Path::new(file), &sets).unwrap();
+    let options = Options {
+        methods: vec![Method::Weak],
+        validate: false,
+        ..Options::default()
+    };
+    let r = identify(&Input::simulation(s), &options).unwrap();
+    let n = r.sensor_noise.as_ref().expect("a noise report");
+    assert!(
+        n.exceeds_variance.iter().any(|c| c.starts_with("x_m1 ")),
+        "{:?}",
+        n.exceeds_variance
+    );
+    let fpkbench::report::MethodOutcome::Failed(why) = &r.methods[0].outcome else {
+        panic!("{:?}", r.methods[0].outcome)
+    };
+    assert!(
+        why.contains("at least the variance of x_m1") && why.contains("no density"),
+        "{why}"
+    );
+}

@@ -261,6 +261,10 @@ pub struct SensorNoiseReport {
     /// anti_alias`, `bandwidth`; docs/measurement.md).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub filter_loss: Vec<FilterLossReport>,
+    /// Columns whose noise taken out is at least their variance (`x_m1 141 %`): their
+    /// corrected moments are no density's, and the weak form fails on them.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub exceeds_variance: Vec<String>,
 }
 
 /// The variance the sensors' filters take out of one velocity column.

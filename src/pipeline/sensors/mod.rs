@@ -11,7 +11,7 @@ use crate::ident::data::{Deconvolution, StationaryData};
 use crate::ident::noise::{ChannelNoise, NoiseFloor, Pair};
 use crate::ident::Problem;
 use crate::io::table::{differentiate, DifferencedNoise, IntegratedNoise, Measured};
-use crate::report::{ChannelNoiseReport, FilterLossReport, MethodReport, SensorNoiseReport};
+use crate::report::{ChannelNoiseReport, FilterLossReport, MethodOutcome, MethodReport, SensorNoiseReport};
 use crate::scenario::ReportMethod;
 use crate::scenario::{NoiseHandling, Scenario};
 
@@ -60,6 +60,8 @@ struct Correction {
     rows: Vec<ChannelNoiseReport>,
     notes: Vec<String>,
     put_back: Vec<f64>,
+    /// Columns whose noise taken out is at least their variance, with the share.
+    exceeds: Vec<String>,
 }
 
 /// Estimate the noise, correct `data` (and `also`, the naive white-noise row's) as the
@@ -84,6 +86,7 @@ pub(crate) fn correct(
         rows: Vec::new(),
         notes: Vec::new(),
         put_back: vec![0.0; columns],
+        exceeds: Vec::new(),
     };
     pair_rows(&mut k, floor, &channels, s, structure);
     // Velocities differenced from noisy displacements: the displacement's noise, and what
@@ -98,6 +101,7 @@ pub(crate) fn correct(
         rows,
         mut notes,
         mut put_back,
+        exceeds,
     } = k;
     let noise_only = by_column.clone();
     // What the filters and the differences took goes back in as noise of negative variance
@@ -165,6 +169,7 @@ pub(crate) fn correct(
         corrected,
         notes,
         filter_loss: loss.map_or_else(Vec::new, |l| l.rows.clone()),
+        exceeds_variance: exceeds,
     };
     let noise_taken_out = corrected && noise_only.iter().any(|&v| v > 0.0);
     (report, if noise_taken_out { noise_only } else { Vec::new() }, applied)
@@ -346,6 +351,11 @@ fn integrated_rows(k: &mut Correction, integrated: &[IntegratedNoise], s: &Scena
         .filter(|n| by_column[n.column] > NOISE_SHARE_WARNING * n.variance)
         .map(|n| format!("{} {:.0} %", names[n.column], 100.0 * by_column[n.column] / n.variance))
         .collect();
+    k.exceeds.extend(
+        (integrated.iter())
+            .filter(|n| by_column[n.column] >= n.variance)
+            .map(|n| format!("{} {:.0} %", names[n.column], 100.0 * by_column[n.column] / n.variance)),
+    );
     if !swamped.is_empty() {
         notes.push(format!(
             "WARNING: the integrated accelerometer noise is much of the motion's variance ({}): the estimates rest \
@@ -556,6 +566,7 @@ pub(crate) fn put_back_filter_loss(
         corrected: loss.put_back,
         notes: vec![loss.note.clone()],
         filter_loss: loss.rows.clone(),
+        exceeds_variance: Vec::new(),
     }
 }
 
@@ -583,6 +594,22 @@ pub const CLIPPED: u64 = 10;
 /// reads the noisy samples as they are, where the data show noise: a warning naming the
 /// largest noise (the weak form's rows read corrected moments when `n.corrected`).
 pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodReport]) {
+    // Noise taken out beyond a column's variance leaves moments of no density: a weak row
+    // that failed on them failed for that, not for the data's units.
+    if n.corrected && !n.exceeds_variance.is_empty() {
+        for m in methods.iter_mut() {
+            if let MethodOutcome::Failed(why) = &m.outcome {
+                if reads_corrected(m) {
+                    m.outcome = MethodOutcome::Failed(format!(
+                        "the sensor noise taken out is at least the variance of {} (the integrated accelerometer \
+                         noise): the corrected moments are those of no density, and on them {why}; a quieter \
+                         accelerometer, a shorter drift window, or the velocities measured (docs/measurement.md)",
+                        n.exceeds_variance.join(", ")
+                    ));
+                }
+            }
+        }
+    }
     let clipped: Vec<String> = n
         .channels
         .iter()
@@ -600,14 +627,7 @@ pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodRepor
         }
     }
     // The weak form's rows read corrected moments when `n.corrected`.
-    let weak = |m: &MethodReport| {
-        matches!(
-            m.method,
-            ReportMethod::Estimator(Method::Weak | Method::WeakMeasuredForce)
-                | ReportMethod::WeakWhiteNaive
-                | ReportMethod::Compare(_)
-        )
-    };
+    let weak = reads_corrected;
     if let Some(most) = n.filter_loss.iter().max_by(|a, b| a.std.total_cmp(&b.std)) {
         for m in methods.iter_mut() {
             if weak(m) && n.corrected {
@@ -645,4 +665,14 @@ pub(crate) fn warn_uncorrected(n: &SensorNoiseReport, methods: &mut [MethodRepor
             }
         ));
     }
+}
+
+/// Whether a row reads the weak form's moments, which the sensor correction corrects.
+fn reads_corrected(m: &MethodReport) -> bool {
+    matches!(
+        m.method,
+        ReportMethod::Estimator(Method::Weak | Method::WeakMeasuredForce)
+            | ReportMethod::WeakWhiteNaive
+            | ReportMethod::Compare(_)
+    )
 }
