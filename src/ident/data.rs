@@ -417,8 +417,9 @@ impl StationaryData {
     /// on the luck of this record varies between them (docs/selection.md).
     pub fn bootstrap(&self, count: usize) -> Vec<Vec<u32>> {
         use rand::{RngExt, SeedableRng};
-        let full: Vec<usize> = (self.batches().iter().enumerate())
-            .filter(|(_, b)| b.count > 0)
+        // The non-empty coarse batches, from their fine batches' counts (no moments summed).
+        let full: Vec<usize> = (self.fine.chunks(self.per_coarse()).enumerate())
+            .filter(|(_, c)| c.iter().any(|b| b.count > 0))
             .map(|(i, _)| i)
             .collect();
         if full.len() < 2 {
