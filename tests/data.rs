@@ -184,6 +184,11 @@ fn csv_format_keys_are_checked_naming_the_line_and_key() {
     assert!(e.contains("data.decimal") && e.contains("another delimiter"), "{e}");
     let e = bad("decimal = \"'\"");
     assert!(e.contains("data.decimal") && e.contains("\".\" or \",\""), "{e}");
+    let e = bad("acceleration_samples = \"mean\"");
+    assert!(
+        e.contains("model.toml:") && e.contains("data.acceleration_samples") && e.contains("\"interval_means\""),
+        "{e}"
+    );
     let ok = MODEL.replace(
         "record = \"trajectory\"",
         "record = \"trajectory\"\ndelimiter = \";\"\ndecimal = \",\"",
@@ -301,7 +306,7 @@ fn bad_data_are_refused_naming_the_file_row_and_column() {
             "values of order 1e-170",
             MODEL.to_string() + "[data.scale]\nx_m1 = 1e-170\n",
             good.clone(),
-            vec!["column \"x_m1\"", "a unit of order 1", "[data.scale]"],
+            vec!["column \"x_m1\"", "a unit of order 1", "[data.scale]", "e-17"],
         ),
     ];
     for (what, model, csv, expect) in cases {
@@ -311,6 +316,8 @@ fn bad_data_are_refused_naming_the_file_row_and_column() {
         for e in expect {
             assert!(err.contains(e), "{what}: expected {e:?} in: {err}");
         }
+        // Numbers in their readable form, not 170 digits (issue 70).
+        assert!(!err.contains("0.00000000"), "{what}: {err}");
         assert!(!wrote, "{what}: output written");
     }
 }

@@ -33,13 +33,20 @@ pub(super) fn build(setup: &Setup) -> Box<dyn Estimator> {
 /// The force regression of `problem` (the mechanical one: a filtered force is measured
 /// like a white one) on `setup`'s samples, or why it cannot run: a force not measured.
 pub(crate) fn regression(setup: &Setup, problem: &Problem) -> Result<Increments, IdentError> {
-    // fpkbench logs a white force as its mean over the sample interval; measured data and
-    // filtered forces hold values at the sample instants.
+    // fpkbench logs a white force as its mean over the sample interval, and so does a
+    // table whose accelerations are interval means (its own export: the acceleration is
+    // the force balance with that mean; docs/data.md); other measured data and filtered
+    // forces hold values at the sample instants.
+    let means = match setup.measured {
+        None => true,
+        Some(_) => (setup.scenario.data.as_ref())
+            .is_some_and(|d| d.acceleration_samples == crate::scenario::AccelerationSamples::IntervalMeans),
+    };
     let interval_means: Vec<bool> = setup
         .scenario
         .excitations
         .iter()
-        .map(|e| setup.measured.is_none() && matches!(e.process, Process::White { .. }))
+        .map(|e| means && matches!(e.process, Process::White { .. }))
         .collect();
     // A force declared white noise of a given level has no value at an instant (an
     // fpkbench log's is its mean over the interval, and its acceleration column the force

@@ -102,17 +102,17 @@ pub struct NoiseFloor {
 
 /// The [`Tail::KEPT`] largest values of a stream, ascending.
 #[derive(Debug, Clone)]
-struct Tail(Vec<f64>);
+pub(crate) struct Tail(Vec<f64>);
 
 impl Tail {
-    const KEPT: usize = 64;
+    pub(crate) const KEPT: usize = 64;
 
-    fn new() -> Tail {
+    pub(crate) fn new() -> Tail {
         Tail(Vec::with_capacity(Self::KEPT))
     }
 
     #[inline]
-    fn push(&mut self, y: f64) {
+    pub(crate) fn push(&mut self, y: f64) {
         let full = self.0.len() == Self::KEPT;
         if full && y <= self.0[0] || y.is_nan() {
             return;
@@ -125,7 +125,7 @@ impl Tail {
     }
 
     /// How many of the kept values lie within `width` of the largest.
-    fn near_top(&self, width: f64) -> u64 {
+    pub(crate) fn near_top(&self, width: f64) -> u64 {
         let top = self.0.last().copied().unwrap_or(f64::NAN);
         self.0.iter().filter(|&&v| top - v <= width).count() as u64
     }
@@ -137,7 +137,7 @@ impl Tail {
 /// ([`Tail::KEPT`] values) within a thousandth is a limit (jittering or not), not the
 /// signal's tail. (A noise-free periodic record puts one peak a period there: fewer than
 /// [`Tail::KEPT`] periods are not counted.)
-const PILE_UP: f64 = 1e-3;
+pub(crate) const PILE_UP: f64 = 1e-3;
 
 /// One sensor's noise as estimated.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

@@ -711,6 +711,9 @@ pub struct DataMapping {
     /// period (s) below which the drift removal takes the integrals' content out
     /// (docs/data.md); `None`: chosen from the data.
     pub drift_period: Option<f64>,
+    /// What the accelerations' samples are: values at the instants (the default) or means
+    /// over the intervals (`acceleration_samples = "interval_means"`).
+    pub acceleration_samples: AccelerationSamples,
     /// A record's time gaps (a step of 1.5 sample intervals or more) split it into
     /// pieces, each an independent record, instead of being refused.
     pub split_gaps: bool,
@@ -718,6 +721,24 @@ pub struct DataMapping {
     pub delimiter: Option<u8>,
     /// A CSV file's numbers use a decimal comma (`decimal = ","`).
     pub decimal_comma: bool,
+}
+
+/// What a table's acceleration at `t_k` is (`[data] acceleration_samples`, docs/data.md;
+/// the integration's rules are in `io::measured::integrate`): an accelerometer's value at
+/// the instant (its anti-alias filter's output, sampled), or the mean over the interval
+/// that ends there, `(v_k − v_{k−1})/h` (fpkbench's own log and export of a white-forced
+/// motion, whose acceleration has no value at an instant). With interval means, a force
+/// declared white is its interval's mean too (the acceleration balances that mean), as
+/// the force regression reads it. The trapezoid rule is right for values at instants and
+/// the rectangle rule exact for interval means; the trapezoid on interval means pairs two
+/// intervals' forces, a white error on the velocity (docs/measurement.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AccelerationSamples {
+    /// Values at the sample times (`"instants"`).
+    #[default]
+    Instants,
+    /// Means over the intervals that end at the sample times (`"interval_means"`).
+    IntervalMeans,
 }
 
 /// A checked scenario.

@@ -61,6 +61,7 @@ pub(crate) struct RawData {
     pub(super) topic: Option<Spanned<String>>,
     pub(super) derive: Option<bool>,
     pub(super) drift_period: Option<Spanned<f64>>,
+    pub(super) acceleration_samples: Option<Spanned<String>>,
     pub(super) split_gaps: Option<Spanned<bool>>,
     pub(super) delimiter: Option<Spanned<String>>,
     pub(super) decimal: Option<Spanned<String>>,

@@ -115,6 +115,8 @@ struct Integration {
     masses: Vec<(usize, usize, usize)>,
     /// Half the width of each running mean, in samples.
     half: usize,
+    /// What the accelerations' samples are, and so the velocity's rule.
+    samples: integrate::AccelerationSamples,
 }
 
 impl Integration {
@@ -218,7 +220,7 @@ impl Measured {
         for (source, plan) in &self.plans {
             let slots = plan.pieces.len();
             let mut chains: Vec<Vec<integrate::Chain>> = match &self.integrate {
-                Some(i) => vec![vec![integrate::Chain::new(h, i.half); i.masses.len()]; slots],
+                Some(i) => vec![vec![integrate::Chain::new(h, i.half, i.samples); i.masses.len()]; slots],
                 None => Vec::new(),
             };
             // Per slot: rows so far, the current piece and the rows before it.
@@ -479,7 +481,7 @@ pub fn measured_with(
                 ),
             ));
         }
-        data.integrate_from_accelerations(integrated, d.drift_period, &raw_lengths, &names)?;
+        data.integrate_from_accelerations(integrated, d, &raw_lengths, &names)?;
     }
     let masses: Vec<_> = (0..m.masses())
         .map(|i| (layout.x(i), layout.v(i), layout.a(i)))
@@ -558,22 +560,23 @@ impl Measured {
     }
 
     /// Set the integration of `masses`' accelerations up: the drift window from
-    /// `drift_period` or, without it, from the data (a first integration with a window of
+    /// `[data] drift_period` or, without it, from the data (a first integration with a window of
     /// [`PROVISIONAL_DRIFT`] sample intervals gives each mass's `σ_v/σ_x`, its motion's
     /// frequency; the window then spans [`DRIFT_PERIODS`] periods of the slowest), and the
     /// records' lengths shortened by the window at both ends.
     fn integrate_from_accelerations(
         &mut self,
         masses: Vec<(usize, usize, usize)>,
-        drift_period: Option<f64>,
+        d: &DataMapping,
         raw_lengths: &[usize],
         names: &[String],
     ) -> Result<(), DataError> {
-        let h = self.sample_interval;
+        let (h, samples) = (self.sample_interval, d.acceleration_samples);
         let set = |data: &mut Measured, half: usize| -> Result<(), DataError> {
             let i = Integration {
                 masses: masses.clone(),
                 half,
+                samples,
             };
             let drop = 2 * i.margin();
             if let Some(j) = raw_lengths.iter().position(|&n| n <= drop + 1) {
@@ -594,7 +597,7 @@ impl Measured {
             data.integrate = Some(i);
             Ok(())
         };
-        let (period, how) = match drift_period {
+        let (period, how) = match d.drift_period {
             Some(p) => (p, "as [data] drift_period gives".to_string()),
             None => {
                 set(self, integrate::half_for(PROVISIONAL_DRIFT * h, h))?;
@@ -625,6 +628,7 @@ impl Measured {
             .max(16);
         let mut welch = vec![vec![Welch::new(segment, h, records); integrate::NOISE_PARTS]; masses.len()];
         let lengths = self.lengths.clone();
+        let mut second = vec![integrate::SecondDifferences::new(records); masses.len()];
         self.for_each_sample(&mut |j, t, row| {
             let (j, len) = (j as usize, lengths[j as usize]);
             let part = integrate::noise_part(records, j, (t / h).round() as usize, len);
@@ -634,52 +638,45 @@ impl Measured {
                     sums[k][2 * q + 1] += row[c] * row[c];
                 }
                 welch[k][part].push(j, row[x]);
+                second[k].push(j, row[a]);
             }
             n += 1.0;
         })?;
-        let var = |s: &[f64; 6], q: usize| (s[2 * q + 1] / n - (s[2 * q] / n).powi(2)).max(0.0);
-        let spectra: Vec<Vec<_>> = welch.iter().map(|w| w.iter().map(|p| p.spectrum()).collect()).collect();
+        let pass = IntegrationPass {
+            sums,
+            n,
+            spectra: welch.iter().map(|w| w.iter().map(|p| p.spectrum()).collect()).collect(),
+            second,
+        };
         let lost: Vec<String> = masses
             .iter()
             .enumerate()
             .filter_map(|(k, &(x, _, _))| {
-                integrate::drift_loss(&integrate::pooled(&spectra[k]), var(&sums[k], 1), h, half)
+                integrate::drift_loss(&integrate::pooled(&pass.spectra[k]), pass.var(k, 1), h, half)
                     .map(|l| format!("{} {:.2} %", names[x], 100.0 * l))
             })
             .collect();
-        let (gain_v, gain_x) = integrate::noise_gains(h, half);
-        for (k, &(x, v, a)) in masses.iter().enumerate() {
-            let motion = (var(&sums[k], 2) / var(&sums[k], 1)).sqrt();
-            let mut estimated = integrate::accelerometer_noise(&spectra[k], h, half, motion);
-            // The noise found, the motion's frequency from the variances without it.
-            if let Some(e) = estimated.as_ref().ok().filter(|e| e.detected()) {
-                let clean =
-                    ((var(&sums[k], 2) - gain_v * e.variance) / (var(&sums[k], 1) - gain_x * e.variance)).sqrt();
-                if clean.is_finite() && (clean / motion - 1.0).abs() > 0.05 {
-                    estimated = integrate::accelerometer_noise(&spectra[k], h, half, clean);
-                }
-            }
-            for (column, gain, q) in [(v, gain_v, 2), (x, gain_x, 1)] {
-                self.integrated_noise.push(IntegratedNoise {
-                    column,
-                    acceleration: a,
-                    gain,
-                    acceleration_std: var(&sums[k], 0).sqrt(),
-                    variance: var(&sums[k], q),
-                    estimated: estimated.clone(),
-                });
-            }
-        }
+        let walks = self.integrated_noise_of(&masses, &pass, (h, half, samples), names);
         let list: Vec<String> = masses.iter().map(|&(_, _, a)| names[a].clone()).collect();
         self.notes.push(format!(
-            "velocity and displacement integrated from {} (trapezoid rule), their drift taken out by a centred \
+            "velocity and displacement integrated from {} ({}), their drift taken out by a centred \
              triangular mean over {:.1} s ({how}; zero phase, corner about {:.3} rad/s); the first and last {:.1} s \
              of every record are not used (docs/data.md)",
             list.join(", "),
+            samples.rule(),
             (4 * half + 1) as f64 * h,
             2.0 * std::f64::consts::PI / period,
             (4 * half) as f64 * h
         ));
+        if !walks.is_empty() {
+            self.notes.push(format!(
+                "the trapezoid rule's error on the displacement from the velocity's roughness within an interval (a \
+                 random walk, variance ∝ h³) is about {} of the displacements' variance: not taken out (it is \
+                 correlated with the motion), the noise estimate allows for it; a finer sample interval reduces it \
+                 (docs/measurement.md)",
+                walks.join(", ")
+            ));
+        }
         if !lost.is_empty() {
             self.notes.push(format!(
                 "the drift removal takes about {} of the displacements' variance (their static level below its \
@@ -689,6 +686,70 @@ impl Measured {
             ));
         }
         Ok(())
+    }
+}
+
+impl Measured {
+    /// Each integrated mass's accelerometer noise, estimated from its displacement's
+    /// spectra with the trapezoid's random walk allowed for ([`integrate::roughness`]),
+    /// recorded per integrated column with the integration's gains; returns the walk's
+    /// share of each displacement's variance where it passes 1 %.
+    fn integrated_noise_of(
+        &mut self,
+        masses: &[(usize, usize, usize)],
+        pass: &IntegrationPass,
+        (h, half, samples): (f64, usize, integrate::AccelerationSamples),
+        names: &[String],
+    ) -> Vec<String> {
+        let (gain_v, gain_x) = integrate::noise_gains(h, half, samples);
+        let (walk_gain, mut walks) = (integrate::walk_gain(h, half), Vec::new());
+        for (k, &(x, v, a)) in masses.iter().enumerate() {
+            let var = |q: usize| pass.var(k, q);
+            let motion = (var(2) / var(1)).sqrt();
+            let rough = integrate::roughness(h, pass.second[k].variance());
+            let spectra = &pass.spectra[k];
+            let mut estimated = integrate::accelerometer_noise(spectra, h, half, samples, rough, motion);
+            // The noise found, the motion's frequency from the variances without it.
+            if let Some(e) = estimated.as_ref().ok().filter(|e| e.detected()) {
+                let clean = ((var(2) - gain_v * e.variance) / (var(1) - gain_x * e.variance)).sqrt();
+                if clean.is_finite() && (clean / motion - 1.0).abs() > 0.05 {
+                    estimated = integrate::accelerometer_noise(spectra, h, half, samples, rough, clean);
+                }
+            }
+            if walk_gain * rough > 0.01 * var(1) {
+                walks.push(format!("{} {:.1} %", names[x], 100.0 * walk_gain * rough / var(1)));
+            }
+            for (column, gain, q) in [(v, gain_v, 2), (x, gain_x, 1)] {
+                self.integrated_noise.push(IntegratedNoise {
+                    column,
+                    acceleration: a,
+                    gain,
+                    acceleration_std: var(0).sqrt(),
+                    variance: var(q),
+                    estimated: estimated.clone(),
+                });
+            }
+        }
+        walks
+    }
+}
+
+/// What the integration's pass over the samples gathered, per integrated mass: the sums
+/// and sums of squares of its acceleration, displacement and velocity over `n` samples,
+/// its displacement's spectra in the jackknife's parts and its accelerations' second
+/// differences.
+struct IntegrationPass {
+    sums: Vec<[f64; 6]>,
+    n: f64,
+    spectra: Vec<Vec<crate::ident::spectrum::Spectrum>>,
+    second: Vec<integrate::SecondDifferences>,
+}
+
+impl IntegrationPass {
+    /// Mass `k`'s variance of its acceleration (`q` = 0), displacement (1) or velocity (2).
+    fn var(&self, k: usize, q: usize) -> f64 {
+        let (s, n) = (&self.sums[k], self.n);
+        (s[2 * q + 1] / n - (s[2 * q] / n).powi(2)).max(0.0)
     }
 }
 

@@ -366,7 +366,7 @@ pub(super) fn check_values(source: &Source, c: &Columns, s: &Scanned) -> Result<
             return Err(err(
                 path,
                 format!(
-                    "column {name:?}: its middle half spans {} (scaled by [data.scale]): the identification's \
+                    "column {name:?}: its middle half spans {:e} (scaled by [data.scale]): the identification's \
                      moments raise the values to powers of 12 and more, which leave the floating-point range for \
                      values outside {:e}…{:e}: give the column a unit of order 1 with [data.scale] (e.g. \
                      {name} = {:e})",

@@ -11,7 +11,10 @@
 //! difference has no phase, so for aligned channels the correlation peaks at lag 0 whatever
 //! the sampling, the noise or a filter both channels share; a delay between them moves the
 //! peak by the delay. The peak is refined by the parabola through it and its neighbours, and
-//! a lag of [`LEAST_LAG`] samples or more is a fault.
+//! a lag of [`LEAST_LAG`] samples or more is a fault. Accelerations that are interval means
+//! (`[data] acceleration_samples = "interval_means"`: `a_k = (v_k − v_{k−1})/h`, centred half
+//! a sample before `t_k`) peak at +½ against their velocity's difference, and that is where
+//! their pair's lag is counted from.
 
 use super::SampleCheck;
 use crate::ident::accumulate::{Accumulator, Sample};
@@ -35,6 +38,8 @@ const LAGS: usize = 2 * MAX_LAG + 1;
 pub(crate) struct Pair {
     pub quantity: usize,
     pub derivative: usize,
+    /// The lag of aligned channels (samples): 0, or ½ for interval-mean accelerations.
+    pub aligned: f64,
 }
 
 /// Per record and pair: the sums of the products at every lag and of the squares.
@@ -85,10 +90,21 @@ impl Lags {
     pub(crate) fn of(input: &crate::pipeline::Input, data: &crate::io::table::Measured) -> Lags {
         let layout = crate::model::Model::new(&input.info.scenario).columns();
         let measured = |c: usize| data.present.get(c).copied().unwrap_or(false) && !data.derived(c);
+        let means = (input.info.scenario.data.as_ref())
+            .is_some_and(|d| d.acceleration_samples == crate::scenario::AccelerationSamples::IntervalMeans);
         let pairs = (0..input.info.scenario.masses.len())
-            .flat_map(|i| [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))])
-            .filter(|&(q, d)| measured(q) && measured(d))
-            .map(|(quantity, derivative)| Pair { quantity, derivative })
+            .flat_map(|i| {
+                [
+                    (layout.x(i), layout.v(i), 0.0),
+                    (layout.v(i), layout.a(i), if means { 0.5 } else { 0.0 }),
+                ]
+            })
+            .filter(|&(q, d, _)| measured(q) && measured(d))
+            .map(|(quantity, derivative, aligned)| Pair {
+                quantity,
+                derivative,
+                aligned,
+            })
             .collect();
         Lags::new(pairs, data.sample_interval)
     }
@@ -159,6 +175,7 @@ impl SampleCheck for Lags {
             // (record, lag, correlation at the peak and at 0) of every misaligned record.
             let lagged: Vec<(usize, f64, f64, f64)> = (self.records.iter().enumerate())
                 .filter_map(|(r, (_, _, sums))| sums[p].lag().map(|(l, peak, zero)| (r, l, peak, zero)))
+                .map(|(r, l, peak, zero)| (r, l - pair.aligned, peak, zero))
                 .filter(|&(_, l, _, _)| l.abs() >= LEAST_LAG)
                 .collect();
             let Some(&(first, lag, peak, zero)) = lagged.first() else {
@@ -175,14 +192,19 @@ impl SampleCheck for Lags {
             };
             found.push(format!(
                 "{} lags the central difference of {} by {lag:+.2} samples in {which} (record {}: their \
-                 correlation peaks at {peak:.3} there, {zero:.3} at lag 0; aligned channels peak at 0): one \
+                 correlation peaks at {peak:.3} there, {zero:.3} at lag 0; aligned channels peak at {}): one \
                  channel delayed against the other — a logger buffering one channel, a filter on one channel \
                  only, a column shifted by a row. The pair is read as one state, so the derivative no longer \
                  is one; align the columns (e.g. pandas' shift) or map only one of them and derive the other \
                  (`derive = true`)",
                 name(pair.derivative),
                 name(pair.quantity),
-                first + 1
+                first + 1,
+                if pair.aligned == 0.0 {
+                    "0"
+                } else {
+                    "+0.5, the accelerations being interval means"
+                }
             ));
         }
         found
@@ -199,6 +221,7 @@ mod tests {
         let pair = Pair {
             quantity: 0,
             derivative: 1,
+            aligned: 0.0,
         };
         let mut check = Lags::new(vec![pair], h);
         let (w, phase) = ([1.0, 2.3, 3.7], [0.1, 1.9, 4.2]);
@@ -235,5 +258,43 @@ mod tests {
             let two = scan(h, 2);
             assert!(two[0].contains("by +2.0"), "{}", two[0]);
         }
+    }
+
+    /// A velocity and its interval-mean accelerations `(v_k − v_{k−1})/h` (fpkbench's own
+    /// log): aligned for a pair that knows them as such, half a sample late for one that
+    /// takes them as values at instants; one row late beyond that is named as a lag of +1.
+    #[test]
+    fn interval_mean_accelerations_are_aligned_half_a_sample_late() {
+        let h = 0.05;
+        let v = |t: f64| (t + 0.3).sin() + 0.5 * (2.7 * t).cos();
+        let scan = |aligned: f64, late: usize| {
+            let mut check = Lags::new(
+                vec![Pair {
+                    quantity: 0,
+                    derivative: 1,
+                    aligned,
+                }],
+                h,
+            );
+            for k in 0..20_000usize {
+                let t = h * k as f64;
+                let tl = t - h * late as f64;
+                check.push(&Sample {
+                    trajectory: 0,
+                    t,
+                    batch: 0,
+                    row: &[v(t), (v(tl) - v(tl - h)) / h],
+                });
+            }
+            check.findings(&["v_m1".into(), "a_m1".into()])
+        };
+        assert!(scan(0.5, 0).is_empty(), "{:?}", scan(0.5, 0));
+        let as_instants = scan(0.0, 0);
+        assert!(as_instants[0].contains("by +0.50"), "{as_instants:?}");
+        let late = scan(0.5, 1);
+        assert!(
+            late[0].contains("by +1.00") && late[0].contains("peak at +0.5, the accelerations being interval means"),
+            "{late:?}"
+        );
     }
 }

@@ -4,13 +4,15 @@
 //! names what it found. The verdict stage turns every finding into a failed check (exit 1):
 //! an estimate made from a stuck sensor's record is not an estimate of the rig.
 //!
-//! The checks: [`dead_stretches`] (a column that stands still inside a record) and
-//! [`lags`] (a measured derivative delayed against its quantity).
+//! The checks: [`dead_stretches`] (a column that stands still inside a record),
+//! [`lags`] (a measured derivative delayed against its quantity) and [`pile_ups`] (a
+//! measured acceleration or force clipped at its range).
 //!
 //! A new check is one file here implementing [`SampleCheck`] and one line in [`all`].
 
 mod dead_stretches;
 mod lags;
+mod pile_ups;
 
 use crate::ident::accumulate::Accumulator;
 
@@ -33,5 +35,6 @@ pub(crate) fn all(input: &super::Input) -> Vec<Box<dyn SampleCheck>> {
     vec![
         Box::new(dead_stretches::DeadStretches::new(width)),
         Box::new(lags::Lags::of(input, data)),
+        Box::new(pile_ups::PileUps::of(input, data)),
     ]
 }

@@ -9,7 +9,7 @@
 
 use crate::io::table::{measured, Table};
 use crate::pipeline::{Input, PipelineError};
-use crate::scenario::{DataMapping, Scenario};
+use crate::scenario::{AccelerationSamples, DataMapping, Scenario};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -69,6 +69,14 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
         columns,
         record_labels: None,
     };
+    // Unfiltered, a white-forced mass's logged acceleration is its velocity's change over
+    // the interval; an anti-alias or bandwidth filter's output is a value at the instant.
+    let filtered = s.simulation.sensors.anti_alias.is_some() || s.simulation.sensors.bandwidth.is_some();
+    let acceleration_samples = if filtered {
+        AccelerationSamples::Instants
+    } else {
+        AccelerationSamples::IntervalMeans
+    };
     let mut m: Scenario = s.clone();
     m.data = Some(DataMapping {
         time: Some("t".into()),
@@ -81,6 +89,7 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
         topic: None,
         derive: true,
         drift_period: None,
+        acceleration_samples,
         split_gaps: false,
         delimiter: None,
         decimal_comma: false,

@@ -125,8 +125,27 @@ pub(crate) fn check_data(
         Some(v) => Some(finite_positive(loc, v, "data.drift_period", "s")?),
         None => None,
     };
+    let acceleration_samples = match &d.acceleration_samples {
+        None => AccelerationSamples::Instants,
+        Some(v) => match v.get_ref().as_str() {
+            "instants" => AccelerationSamples::Instants,
+            "interval_means" => AccelerationSamples::IntervalMeans,
+            other => {
+                return Err(loc.at(
+                    v.span(),
+                    "data.acceleration_samples",
+                    format!(
+                        "{other:?}: \"instants\" (an accelerometer's values at the sample times, the default) or \
+                         \"interval_means\" (each the mean over the interval ending at its time, (v_k − v_(k−1))/h, \
+                         as fpkbench's own logs and exports hold them)"
+                    ),
+                ))
+            }
+        },
+    };
     Ok(Some(DataMapping {
         drift_period,
+        acceleration_samples,
         time: d.time.as_ref().map(|t| t.get_ref().clone()),
         sample_interval,
         record: d.record.as_ref().map(|t| t.get_ref().clone()),
