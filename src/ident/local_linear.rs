@@ -453,6 +453,56 @@ impl LocalLinear {
         sum.iter().map(|s| s / count.max(1) as f64).collect()
     }
 
+    /// The estimate, with its jackknife replicates and `facts`, from the batches' normal
+    /// equations.
+    fn solve(
+        &self,
+        l: &Layout,
+        normals: &[Normal],
+        typical: &[f64],
+        facts: Vec<(String, String)>,
+    ) -> Result<Estimate, IdentError> {
+        let r = l.r;
+        let total = sum(normals, r);
+        let to_pieces = |n: &Normal| -> Pieces {
+            // Rows: the unknowns; row k's residual Σ_c N_kc θ_c − rhs_k, written as mass 0's
+            // force part (the problem multiplies it by μ₀).
+            let nm = self.problem.n;
+            let mut p = Pieces::new(r, nm, r);
+            let m0 = 1.0 / l.mu[0];
+            for k in 0..r {
+                p.t0[k] = -n.rhs[k];
+                for c in 0..r {
+                    p.b[(k * nm) * r + c] = n.n[k * r + c] * m0;
+                }
+            }
+            p
+        };
+        let pieces = to_pieces(&total);
+        let replicates: Vec<Pieces> = if normals.len() >= 2 {
+            normals
+                .iter()
+                .map(|b| {
+                    let mut rest = total.clone();
+                    rest.add(b, -1.0);
+                    to_pieces(&rest)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let per_replicate = solve_replicates(&self.problem, "local-linear", replicates, typical, None)?;
+        estimate(
+            &self.problem,
+            "local-linear",
+            &pieces,
+            &per_replicate,
+            typical,
+            facts,
+            None,
+        )
+    }
+
     /// The estimate, with jackknife standard errors and the usual diagnostics.
     pub fn estimate(&self, typical: &[f64]) -> Result<Estimate, IdentError> {
         let l = self.layout()?;
@@ -473,6 +523,13 @@ impl LocalLinear {
             let weight = self.weight(&l, &theta);
             normals = self.all(&l, &theta, &weight, &eps_of(&theta));
             passes += 1;
+            if stage == 0 {
+                // Unknowns the linearised equations at the start cannot separate are not
+                // separated by the iterations either: refused after one pass, not hundreds.
+                if let Err(e @ IdentError::NotIdentifiable { .. }) = self.solve(&l, &normals, typical, Vec::new()) {
+                    return Err(e);
+                }
+            }
             for _ in 0..30 {
                 let total = sum(&normals, r);
                 let proposal = solve_normal(&total, r);
@@ -503,35 +560,6 @@ impl LocalLinear {
                 }
             }
         }
-        let total = sum(&normals, r);
-        let to_pieces = |n: &Normal| -> Pieces {
-            // Rows: the unknowns; row k's residual Σ_c N_kc θ_c − rhs_k, written as mass 0's
-            // force part (the problem multiplies it by μ₀).
-            let nm = self.problem.n;
-            let mut p = Pieces::new(r, nm, r);
-            let m0 = 1.0 / l.mu[0];
-            for k in 0..r {
-                p.t0[k] = -n.rhs[k];
-                for c in 0..r {
-                    p.b[(k * nm) * r + c] = n.n[k * r + c] * m0;
-                }
-            }
-            p
-        };
-        let pieces = to_pieces(&total);
-        let replicates: Vec<Pieces> = if normals.len() >= 2 {
-            normals
-                .iter()
-                .map(|b| {
-                    let mut rest = total.clone();
-                    rest.add(b, -1.0);
-                    to_pieces(&rest)
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
-        let per_replicate = solve_replicates(&self.problem, "local-linear", replicates, typical, None)?;
         let pairs: usize = normals.iter().map(|n| n.pairs).sum();
         let mut facts = vec![
             ("sample pairs".to_string(), pairs.to_string()),
@@ -547,15 +575,7 @@ impl LocalLinear {
                 "stopped before converging".into()
             },
         ));
-        let mut est = estimate(
-            &self.problem,
-            "local-linear",
-            &pieces,
-            &per_replicate,
-            typical,
-            facts,
-            None,
-        )?;
+        let mut est = self.solve(&l, &normals, typical, facts)?;
         if !converged {
             est.warnings
                 .push("local-linear: Gauss–Newton stopped before its steps fell below 1e-7 of the estimates".into());
