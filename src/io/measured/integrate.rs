@@ -3,10 +3,10 @@
 //!
 //! Each integral is the trapezoid rule over the samples (the velocity from accelerations
 //! that are interval means, `(v_k − v_{k−1})/h` as fpkbench's own log holds them: the
-//! rectangle rule, which is exact for them; [`AccelerationSamples`]), with its slow part taken out: a
-//! centred triangular mean over `4·half + 1` samples (a running mean of a running mean,
-//! each over `2·half + 1`), subtracted from the integral. That is a zero-phase high-pass:
-//! it passes `1 − sinc²(ω·(2·half + 1)·h/2)`, so the motion keeps its phase and, well
+//! rectangle rule, which is exact for them; [`AccelerationSamples`]), with its slow part
+//! taken out: a centred triangular mean over `4·half + 1` samples (a running mean of a
+//! running mean, each over `2·half + 1`), subtracted from the integral. That is a
+//! zero-phase high-pass: it passes `1 − sinc²(ω·(2·half + 1)·h/2)`, so the motion keeps its phase and, well
 //! above the corner, its amplitude to `(ω·W/2)⁻²`, `W` the window's half width in time
 //! (a single running mean's sidelobes would leave `(ω·W/2)⁻¹`, a per cent at duffing2dof's
 //! frequencies). What it takes out is the integration constant, the random walk an
