@@ -132,7 +132,8 @@ const ANY_BYTES: &[u8] = &{
 
 /// The shipped scenarios and the fuzz seeds (tests/fuzz_seeds: the keys no shipped
 /// scenario holds — `[measurement]` and a rig's sensors, the non-power terms beside a
-/// hysteresis, a profile and a comparison, a selection among kinds with a candidate link).
+/// hysteresis, a profile and a comparison, a selection among kinds with a candidate link,
+/// a lab multisine with every key and its amplitude shape).
 fn shipped_scenarios() -> Vec<(String, String)> {
     let mut v: Vec<_> = ["scenarios", "tests/fuzz_seeds"]
         .iter()

@@ -658,8 +658,8 @@ fn a_rigs_sensors_that_make_no_sense() {
 }
 
 /// The lab excitations (docs/excitations.md): another kind's key, a missing key, a band
-/// the sampling cannot hold, and a lab signal beside white noise are each refused where
-/// they are written.
+/// the sampling cannot hold, a multisine's amplitude shape out of order, and a lab signal
+/// beside white noise are each refused where they are written.
 #[test]
 fn lab_excitations_refuse_what_their_kind_does_not_take() {
     run_bad(
@@ -670,7 +670,24 @@ fn lab_excitations_refuse_what_their_kind_does_not_take() {
         ),
         24,
         "excitation[0].sigma",
-        "takes rms, band, period, lines",
+        "takes rms, band, period, lines, amplitude",
+    );
+    run_bad(
+        "multisine_amplitude_falling_frequency",
+        &bad(
+            "kind = \"white\"\nsigma = 1.0",
+            "kind = \"multisine\"\nrms = 1.0\nband = [0.0, 2.0]\nperiod = 10.0\namplitude = [[1.0, 1.0], [0.5, 2.0]]",
+        ),
+        24,
+        "excitation[0].amplitude",
+        "point 2: frequency 0.5 Hz: the frequencies are finite, non-negative and rising",
+    );
+    run_bad(
+        "amplitude_on_white",
+        &bad("sigma = 1.0", "sigma = 1.0\namplitude = [[1.0, 1.0]]"),
+        22,
+        "excitation[0].amplitude",
+        "belongs to the lab kind(s) multisine",
     );
     run_bad(
         "band_limited_order",

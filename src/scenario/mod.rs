@@ -119,7 +119,7 @@ impl Scheme {
 /// Identification methods are named by the estimators' registry (`estimators/mod.rs`).
 pub use crate::method::Method;
 pub use sensors::{Adc, AntiAlias, MassSensors, NoiseScale, Sensors, MAGNITUDE, MIN_OVERSAMPLING};
-pub use signal::Signal;
+pub use signal::{Shape, Signal};
 
 // ---------------------------------------------------------------------------------------
 // Raw TOML, spans kept.

@@ -124,6 +124,7 @@ pub(crate) struct RawExcitation {
     pub(super) band: Option<Spanned<Vec<Spanned<f64>>>>,
     pub(super) period: Option<Spanned<f64>>,
     pub(super) lines: Option<Spanned<String>>,
+    pub(super) amplitude: Option<Spanned<Vec<(f64, f64)>>>,
     pub(super) order: Option<Spanned<i64>>,
     pub(super) omega_g: Option<Spanned<f64>>,
     pub(super) zeta_g: Option<Spanned<f64>>,

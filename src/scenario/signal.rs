@@ -8,9 +8,9 @@ use std::f64::consts::PI;
 /// force's unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Signal {
-    /// A random-phase multisine: equal amplitudes on the lines `k / period` inside `band`
-    /// (every line, or the odd ones), total RMS `rms`, repeating every `period` s; a new
-    /// realisation of the phases per trajectory.
+    /// A random-phase multisine: amplitudes on the lines `k / period` inside `band` (every
+    /// line, or the odd ones), equal or following `shape`, total RMS `rms`, repeating every
+    /// `period` s; a new realisation of the phases per trajectory.
     Multisine {
         /// RMS of the whole signal.
         rms: f64,
@@ -20,6 +20,8 @@ pub enum Signal {
         period: f64,
         /// Only the odd lines.
         odd: bool,
+        /// The lines' relative amplitudes over frequency (`None`: all equal).
+        shape: Option<Shape>,
     },
     /// Gaussian noise: white noise of two-sided density `σ²/2π` through a Butterworth
     /// filter of order `order`, a low-pass at `band.1` when `band.0` is 0, else a band-pass.
@@ -43,6 +45,44 @@ pub enum Signal {
     },
 }
 
+/// A multisine's relative amplitude over frequency (`amplitude = [[Hz, a], …]`): the
+/// points' amplitudes interpolated linearly in frequency between them, the first's and
+/// the last's held beyond (docs/excitations.md).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shape {
+    points: [(f64, f64); Shape::MAX],
+    len: usize,
+}
+
+impl Shape {
+    /// Most points a shape holds.
+    pub const MAX: usize = 8;
+
+    /// The shape through `points` (Hz ascending, amplitudes ≥ 0, at most [`Shape::MAX`];
+    /// checked by the scenario's validation).
+    pub fn new(points: &[(f64, f64)]) -> Shape {
+        let mut s = Shape {
+            points: [(0.0, 0.0); Shape::MAX],
+            len: points.len().min(Shape::MAX),
+        };
+        s.points[..s.len].copy_from_slice(&points[..s.len]);
+        s
+    }
+
+    /// The relative amplitude at `f` Hz.
+    pub fn at(&self, f: f64) -> f64 {
+        let p = &self.points[..self.len];
+        match p.iter().position(|&(x, _)| x >= f) {
+            None => p.last().map_or(1.0, |q| q.1),
+            Some(0) => p[0].1,
+            Some(j) => {
+                let ((x0, a0), (x1, a1)) = (p[j - 1], p[j]);
+                a0 + (a1 - a0) * (f - x0) / (x1 - x0)
+            }
+        }
+    }
+}
+
 impl Signal {
     /// The signal's name in a scenario (`kind = "…"`).
     pub fn kind(&self) -> &'static str {
@@ -54,17 +94,34 @@ impl Signal {
     }
 
     /// The multisine's lines: `(k, amplitude)`, the `k`-th harmonic of `1/period` (Hz) with
-    /// its cosine amplitude, equal for every line, `Σ amplitude²/2 = rms²`. Empty for the
-    /// noises, and for a band that holds no line of the period's grid.
+    /// its cosine amplitude — equal for every line, or in proportion to the shape at
+    /// `k/period` — with `Σ amplitude²/2 = rms²`. Empty for the noises, and for a band that
+    /// holds no line of the period's grid (or where the shape is zero on every line).
     pub fn lines(&self) -> Vec<(usize, f64)> {
-        let Signal::Multisine { rms, band, period, odd } = *self else {
+        let Signal::Multisine {
+            rms,
+            band,
+            period,
+            odd,
+            shape,
+        } = *self
+        else {
             return Vec::new();
         };
         let first = ((band.0 * period - 1e-9).ceil() as usize).max(1);
         let last = (band.1 * period + 1e-9).floor() as usize;
-        let ks: Vec<usize> = (first..=last).filter(|k| !odd || k % 2 == 1).collect();
-        let amplitude = rms * (2.0 / ks.len().max(1) as f64).sqrt();
-        ks.into_iter().map(|k| (k, amplitude)).collect()
+        let relative = |k: usize| shape.map_or(1.0, |s| s.at(k as f64 / period));
+        let ks: Vec<(usize, f64)> = (first..=last)
+            .filter(|k| !odd || k % 2 == 1)
+            .map(|k| (k, relative(k)))
+            .filter(|&(_, a)| a > 0.0)
+            .collect();
+        let power: f64 = ks.iter().map(|&(_, a)| a * a / 2.0).sum();
+        if power <= 0.0 {
+            return Vec::new();
+        }
+        let scale = rms / power.sqrt();
+        ks.into_iter().map(|(k, a)| (k, a * scale)).collect()
     }
 
     /// The two-sided spectral density at angular frequency `omega` (rad/s), per rad/s, of
@@ -193,6 +250,7 @@ mod tests {
             band: (1.0, 3.0),
             period: 2.0,
             odd: false,
+            shape: None,
         };
         let lines = s.lines();
         assert_eq!(lines.iter().map(|l| l.0).collect::<Vec<_>>(), [2, 3, 4, 5, 6]);
@@ -203,8 +261,42 @@ mod tests {
             band: (0.0, 3.0),
             period: 2.0,
             odd: true,
+            shape: None,
         };
         assert_eq!(odd.lines().iter().map(|l| l.0).collect::<Vec<_>>(), [1, 3, 5]);
         assert!(odd.density(1.0).is_none());
+    }
+
+    /// A shaped multisine: each line's amplitude in proportion to the shape at its
+    /// frequency (linear between the points, held beyond them), the whole at its RMS.
+    #[test]
+    fn a_shaped_multisine_follows_its_amplitude_over_the_band() {
+        let shape = Shape::new(&[(1.0, 1.0), (3.0, 0.5)]);
+        assert_eq!(shape.at(0.2), 1.0);
+        assert!((shape.at(2.0) - 0.75).abs() < 1e-15);
+        assert_eq!(shape.at(9.0), 0.5);
+        let s = Signal::Multisine {
+            rms: 0.5,
+            band: (0.5, 4.0),
+            period: 2.0,
+            odd: false,
+            shape: Some(shape),
+        };
+        let lines = s.lines();
+        assert_eq!(lines.iter().map(|l| l.0).collect::<Vec<_>>(), [1, 2, 3, 4, 5, 6, 7, 8]);
+        let power: f64 = lines.iter().map(|l| l.1 * l.1 / 2.0).sum();
+        assert!((power - 0.25).abs() < 1e-12);
+        // k = 4 at 2 Hz (0.75) against k = 1 at 0.5 Hz (1, held) and k = 8 at 4 Hz (0.5).
+        let a = |k: usize| lines.iter().find(|l| l.0 == k).unwrap().1;
+        assert!((a(4) / a(1) - 0.75).abs() < 1e-12 && (a(8) / a(1) - 0.5).abs() < 1e-12);
+        // A shape that is zero over the band leaves no line.
+        let silent = Signal::Multisine {
+            rms: 0.5,
+            band: (0.5, 4.0),
+            period: 2.0,
+            odd: false,
+            shape: Some(Shape::new(&[(0.0, 0.0), (10.0, 0.0)])),
+        };
+        assert!(silent.lines().is_empty());
     }
 }

@@ -319,6 +319,7 @@ mod tests {
                 band: (2.0, 40.0),
                 period: 1.0,
                 odd,
+                shape: None,
             };
             let x = realisation(&s, n, 1.0 / n as f64, &mut rng(7));
             let ms = x.iter().map(|v| v * v).sum::<f64>() / n as f64;

@@ -3,9 +3,45 @@
 //! kinds' keys refused on it, and the signal checked against the run it drives.
 
 use super::super::raw::{RawExcitation, RawKind, RawScenario};
-use super::super::{Excitation, Process, Signal, Simulation};
+use super::super::{Excitation, Process, Shape, Signal, Simulation};
 use super::{finite_positive, Locator};
 use crate::scenario::ScenarioError;
+
+/// A multisine's `amplitude = [[Hz, relative amplitude], …]`: at most [`Shape::MAX`]
+/// points, frequencies finite, non-negative and rising, amplitudes finite and non-negative,
+/// not all zero.
+fn check_shape(loc: &Locator, e: &RawExcitation, key: &str) -> Result<Option<Shape>, ScenarioError> {
+    let Some(a) = e.amplitude.as_ref() else {
+        return Ok(None);
+    };
+    let points = a.get_ref();
+    let bad = |why: String| loc.at(a.span(), format!("{key}.amplitude"), why);
+    if points.is_empty() || points.len() > Shape::MAX {
+        return Err(bad(format!(
+            "{} points: give 1 to {} as [[frequency in Hz, relative amplitude], …]",
+            points.len(),
+            Shape::MAX
+        )));
+    }
+    for (j, &(f, amp)) in points.iter().enumerate() {
+        if !f.is_finite() || f < 0.0 || (j > 0 && f <= points[j - 1].0) {
+            return Err(bad(format!(
+                "point {}: frequency {f} Hz: the frequencies are finite, non-negative and rising",
+                j + 1
+            )));
+        }
+        if !amp.is_finite() || amp < 0.0 {
+            return Err(bad(format!(
+                "point {}: amplitude {amp}: the relative amplitudes are finite and non-negative",
+                j + 1
+            )));
+        }
+    }
+    if points.iter().all(|p| p.1 == 0.0) {
+        return Err(bad("every amplitude is 0: the multisine would have no line".into()));
+    }
+    Ok(Some(Shape::new(points)))
+}
 
 /// Highest Butterworth order.
 const MAX_ORDER: i64 = 16;
@@ -20,7 +56,7 @@ pub(crate) fn check_signal(loc: &Locator, e: &RawExcitation, key: &str) -> Resul
     };
     // The keys each kind takes; any other one written is refused with what the kind takes.
     let takes: &[&str] = match kind {
-        RawKind::Multisine => &["rms", "band", "period", "lines"],
+        RawKind::Multisine => &["rms", "band", "period", "lines", "amplitude"],
         RawKind::BandLimited => &["sigma", "band", "order"],
         _ => &["sigma", "omega_g", "zeta_g"],
     };
@@ -32,6 +68,7 @@ pub(crate) fn check_signal(loc: &Locator, e: &RawExcitation, key: &str) -> Resul
         ("band", e.band.as_ref().map(|v| v.span())),
         ("period", e.period.as_ref().map(|v| v.span())),
         ("lines", e.lines.as_ref().map(|v| v.span())),
+        ("amplitude", e.amplitude.as_ref().map(|v| v.span())),
         ("order", e.order.as_ref().map(|v| v.span())),
         ("omega_g", e.omega_g.as_ref().map(|v| v.span())),
         ("zeta_g", e.zeta_g.as_ref().map(|v| v.span())),
@@ -83,15 +120,21 @@ pub(crate) fn check_signal(loc: &Locator, e: &RawExcitation, key: &str) -> Resul
                 band: band()?,
                 period,
                 odd,
+                shape: check_shape(loc, e, key)?,
             };
             if s.lines().is_empty() {
                 return Err(loc.at(
                     e.band.as_ref().map_or(e.kind.span(), |b| b.span()),
                     format!("{key}.band"),
                     format!(
-                        "no line of the period's grid (every {:.6} Hz{}) lies in the band",
+                        "no line of the period's grid (every {:.6} Hz{}) lies in the band{}",
                         1.0 / period,
-                        if odd { ", odd lines only" } else { "" }
+                        if odd { ", odd lines only" } else { "" },
+                        if e.amplitude.is_some() {
+                            " where the amplitude is above 0"
+                        } else {
+                            ""
+                        }
                     ),
                 ));
             }
@@ -150,6 +193,7 @@ pub(crate) fn refuse_signal_keys(loc: &Locator, e: &RawExcitation, key: &str) ->
         ("band", e.band.as_ref().map(|v| v.span()), "multisine and band-limited"),
         ("period", e.period.as_ref().map(|v| v.span()), "multisine"),
         ("lines", e.lines.as_ref().map(|v| v.span()), "multisine"),
+        ("amplitude", e.amplitude.as_ref().map(|v| v.span()), "multisine"),
         ("order", e.order.as_ref().map(|v| v.span()), "band-limited"),
         ("omega_g", e.omega_g.as_ref().map(|v| v.span()), "kanai-tajimi"),
         ("zeta_g", e.zeta_g.as_ref().map(|v| v.span()), "kanai-tajimi"),
