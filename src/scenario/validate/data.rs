@@ -125,24 +125,7 @@ pub(crate) fn check_data(
         Some(v) => Some(finite_positive(loc, v, "data.drift_period", "s")?),
         None => None,
     };
-    let acceleration_samples = match &d.acceleration_samples {
-        None => AccelerationSamples::Instants,
-        Some(v) => match v.get_ref().as_str() {
-            "instants" => AccelerationSamples::Instants,
-            "interval_means" => AccelerationSamples::IntervalMeans,
-            other => {
-                return Err(loc.at(
-                    v.span(),
-                    "data.acceleration_samples",
-                    format!(
-                        "{other:?}: \"instants\" (an accelerometer's values at the sample times, the default) or \
-                         \"interval_means\" (each the mean over the interval ending at its time, (v_k − v_(k−1))/h, \
-                         as fpkbench's own logs and exports hold them)"
-                    ),
-                ))
-            }
-        },
-    };
+    let acceleration_samples = acceleration_samples(loc, d)?;
     Ok(Some(DataMapping {
         drift_period,
         acceleration_samples,
@@ -184,4 +167,26 @@ fn check_remove_mean(loc: &Locator, d: &RawData, columns: &[(String, String)]) -
         remove_mean.push(name.clone());
     }
     Ok(remove_mean)
+}
+
+/// `[data] acceleration_samples`: `"instants"` (the default) or `"interval_means"`.
+fn acceleration_samples(loc: &Locator, d: &RawData) -> Result<AccelerationSamples, ScenarioError> {
+    Ok(match &d.acceleration_samples {
+        None => AccelerationSamples::Instants,
+        Some(v) => match v.get_ref().as_str() {
+            "instants" => AccelerationSamples::Instants,
+            "interval_means" => AccelerationSamples::IntervalMeans,
+            other => {
+                return Err(loc.at(
+                    v.span(),
+                    "data.acceleration_samples",
+                    format!(
+                        "{other:?}: \"instants\" (an accelerometer's values at the sample times, the default) or \
+                         \"interval_means\" (each the mean over the interval ending at its time, (v_k − v_(k−1))/h, \
+                         as fpkbench's own logs and exports hold them)"
+                    ),
+                ))
+            }
+        },
+    })
 }
