@@ -40,9 +40,17 @@ fn bad(from: &str, to: &str) -> String {
 }
 
 fn run_bad(name: &str, text: &str, line: usize, key: &str, allowed: &str) {
+    run_bad_beside(name, text, &[], line, key, allowed);
+}
+
+/// [`run_bad`] with `files` (name, text) written beside the scenario.
+fn run_bad_beside(name: &str, text: &str, files: &[(&str, &str)], line: usize, key: &str, allowed: &str) {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join(format!("{name}.toml"));
     std::fs::write(&file, text).unwrap();
+    for (f, t) in files {
+        std::fs::write(dir.path().join(f), t).unwrap();
+    }
     let out_file = dir.path().join("out").join("run.mcap");
     let out = Command::new(env!("CARGO_BIN_EXE_fpkbench"))
         .args(["simulate", file.to_str().unwrap(), "-o", out_file.to_str().unwrap()])
@@ -728,6 +736,81 @@ fn lab_excitations_refuse_what_their_kind_does_not_take() {
         20,
         "excitation[0].kind",
         "only lab excitations",
+    );
+}
+
+/// A recorded signal (`kind = "recorded"`): its table is read with the scenario, and what
+/// cannot drive the run is refused at its `file` key — a missing column (with the table's
+/// columns), a recording shorter than the trajectories' stretches, one sampled finer than
+/// the run, an uneven time column, no table; `time` and `sample_interval` together at
+/// `time`; its keys on white noise where they are written.
+#[test]
+fn a_recorded_signal_that_cannot_drive_the_run_is_refused_at_its_file() {
+    let table = |rows: usize, h: f64| -> String {
+        let mut s = String::from("t,u\n");
+        for k in 0..rows {
+            s += &format!("{},{}\n", k as f64 * h, (k as f64 * 0.3).sin());
+        }
+        s
+    };
+    let good = table(100, 0.1);
+    let recorded = |extra: &str| {
+        bad(
+            "kind = \"white\"\nsigma = 1.0",
+            &format!("kind = \"recorded\"\nfile = \"u.csv\"\ncolumn = \"u\"\n{extra}"),
+        )
+        .replace("trajectories = 2", "trajectories = 2\nburn_in = 0.5")
+    };
+    let with_time = recorded("time = \"t\"");
+    run_bad_beside(
+        "recorded_column",
+        &with_time.replace("column = \"u\"", "column = \"v\""),
+        &[("u.csv", &good)],
+        21,
+        "excitation[0].file",
+        "has no column \"v\" (the signal); it has t, u",
+    );
+    run_bad_beside(
+        "recorded_short",
+        &with_time,
+        &[("u.csv", &table(25, 0.1))],
+        21,
+        "excitation[0].file",
+        "2 trajectory stretch(es) of 1.5 s (burn-in and record) need 3 s",
+    );
+    run_bad_beside(
+        "recorded_fine",
+        &recorded("sample_interval = 0.05"),
+        &[("u.csv", &good)],
+        21,
+        "excitation[0].file",
+        "coarser than the recording's 0.05 s",
+    );
+    let mut uneven = good.clone();
+    uneven = uneven.replacen("\n0.2,", "\n0.23,", 1);
+    run_bad_beside(
+        "recorded_uneven",
+        &with_time,
+        &[("u.csv", &uneven)],
+        21,
+        "excitation[0].file",
+        "sampled evenly",
+    );
+    run_bad_beside("recorded_missing", &with_time, &[], 21, "excitation[0].file", "u.csv");
+    run_bad_beside(
+        "recorded_time_and_interval",
+        &recorded("time = \"t\"\nsample_interval = 0.1"),
+        &[("u.csv", &good)],
+        23,
+        "excitation[0].time",
+        "not both",
+    );
+    run_bad(
+        "file_on_white",
+        &bad("sigma = 1.0", "sigma = 1.0\nfile = \"u.csv\""),
+        22,
+        "excitation[0].file",
+        "belongs to the lab kind(s) recorded",
     );
 }
 

@@ -3,7 +3,6 @@
 use super::identify::{finish, IdentifyArgs};
 use fpkbench::io::output::{refuse_same_file, FolderLock, Staging};
 use fpkbench::pipeline::identify_log;
-use fpkbench::Scenario;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -31,7 +30,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
-    let scenario = Scenario::from_file_with(&args.scenario, &args.set)?;
+    let scenario = fpkbench::io::scenario_file(&args.scenario, &args.set)?;
     // Unknowns no data could separate are refused before the simulation, not after it.
     if let Err(why) =
         fpkbench::pipeline::preflight(&scenario, args.identify.selection().as_ref(), &args.identify.methods)

@@ -64,7 +64,7 @@ pub fn simulate_to(scenario: &Scenario, output: &Path, compression: Compression)
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let scenario = Scenario::from_file_with(&args.scenario, &args.set)?;
+    let scenario = fpkbench::io::scenario_file(&args.scenario, &args.set)?;
     let output = args
         .output
         .unwrap_or_else(|| super::default_output(&scenario.variant_name(), "run.mcap"));

@@ -4,8 +4,8 @@
 use super::simulate::simulate_to;
 use fpkbench::io::log::Compression;
 use fpkbench::pipeline::{identify_log, Options};
+use fpkbench::report;
 use fpkbench::report::{Sweep, SweepPoint};
-use fpkbench::{report, Scenario};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -38,7 +38,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let scenario = Scenario::from_file_with(&args.scenario, &args.set)?;
+    let scenario = fpkbench::io::scenario_file(&args.scenario, &args.set)?;
     let Some(d) = &scenario.identify.disturbance else {
         anyhow::bail!(
             "{}: no [identify.disturbance] section: the sweep varies the unmeasured disturbance of the paper's section-4 procedure",

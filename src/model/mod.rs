@@ -125,7 +125,7 @@ impl Model {
                 .excitations
                 .iter()
                 .map(|e| CompiledExcitation {
-                    process: e.process,
+                    process: e.process.clone(),
                     targets: e.acts_on.clone(),
                     measured: e.measured,
                 })

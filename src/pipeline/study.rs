@@ -144,7 +144,7 @@ impl Study {
             )));
         }
         let scenario_path = base.join(&file.scenario);
-        let scenario = Scenario::from_file_with(&scenario_path, &file.set)?;
+        let scenario = crate::io::scenario_file(&scenario_path, &file.set)?;
         let methods = if file.methods.is_empty() {
             scenario.identify.methods.clone()
         } else {
@@ -239,7 +239,8 @@ impl Study {
             ]);
         }
         let text = crate::scenario::overrides::apply(name, &self.scenario.source, &sets)?;
-        let s = Scenario::parse(&text, &format!("{name} (item {})", item.key()), name)?;
+        let mut s = Scenario::parse(&text, &format!("{name} (item {})", item.key()), name)?;
+        s.adopt_recordings(&self.scenario);
         Ok(match self.file.disturbance_level {
             Some(level) => s.with_disturbance_level(level),
             None => s,

@@ -340,7 +340,7 @@ pub fn identified_model(s: &Scenario, problem: &Problem, coef_of: &[Option<Coeff
     }
     // The forces read as their equivalent white noise, at the level the identifier used.
     for &e in &s.identify.equivalent_white {
-        model.excitations[e].process = problem.model.excitations[e].process;
+        model.excitations[e].process = problem.model.excitations[e].process.clone();
     }
     // The filters the identifier used (fitted to the force spectra, or known).
     for f in &problem.filters {
@@ -451,7 +451,7 @@ fn over_their_bands(model: &mut Model, bands: &[(usize, (f64, f64))]) {
         return;
     }
     for (e, x) in model.excitations.iter_mut().enumerate() {
-        if let (Process::White { sigma }, Some(band)) = (x.process, band(e)) {
+        if let (&Process::White { sigma }, Some(band)) = (&x.process, band(e)) {
             x.process = Process::Lab(Signal::BandLimited {
                 sigma,
                 band,

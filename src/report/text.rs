@@ -301,13 +301,18 @@ pub(crate) fn white_level_line(w: &crate::report::WhiteLevelReport) -> String {
     } else {
         String::new()
     };
+    // One record gives no spread to measure the level's standard error by.
+    let se = if w.sigma_se.is_finite() {
+        format!("± {:.2}", w.sigma_se)
+    } else {
+        "(one record: no standard error)".to_string()
+    };
     format!(
-        "force {} read as white: sigma = {:.4} ± {:.2}{vs_truth} over the response's band {:.2}–{:.2} Hz (the \
+        "force {} read as white: sigma = {:.4} {se}{vs_truth} over the response's band {:.2}–{:.2} Hz (the \
          force's band {:.2}–{:.2} Hz, {:.1} % of the gain beyond it, corrected for); log residual RMS {:.3} \
          (averaging alone: {:.3}) over {} segments of {}{}\n",
         w.excitation,
         w.sigma,
-        w.sigma_se,
         w.band_hz.0,
         w.band_hz.1,
         w.force_band_hz.0,

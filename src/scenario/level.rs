@@ -11,16 +11,16 @@ impl Scenario {
     /// text: `source` stays as written and `disturbance_level` records the level.
     pub fn with_disturbance_level(&self, level: f64) -> Scenario {
         let dt = self.simulation.sample_interval;
-        let std = |p: Process| match p {
+        let std = |p: &Process| match *p {
             Process::White { sigma } => sigma / dt.sqrt(),
             Process::Filtered { a, b } => a / (2.0 * b).sqrt(),
-            Process::Lab(signal) => signal.rms(),
+            Process::Lab(ref signal) => signal.rms(),
         };
         let reference = self
             .excitations
             .iter()
             .find(|e| e.measured)
-            .map_or(1.0, |e| std(e.process));
+            .map_or(1.0, |e| std(&e.process));
         let mut out = self.clone();
         out.disturbance_level = Some(level);
         // Old excitation index -> new one (none for a removed excitation).
@@ -33,7 +33,7 @@ impl Scenario {
             }
             let mut e = e.clone();
             if !e.measured {
-                let k = level * reference / std(e.process);
+                let k = level * reference / std(&e.process);
                 match &mut e.process {
                     Process::White { sigma } => *sigma *= k,
                     Process::Filtered { a, .. } => *a *= k,

@@ -119,7 +119,7 @@ impl Scheme {
 /// Identification methods are named by the estimators' registry (`estimators/mod.rs`).
 pub use crate::method::Method;
 pub use sensors::{Adc, AntiAlias, MassSensors, NoiseScale, Sensors, MAGNITUDE, MIN_OVERSAMPLING};
-pub use signal::{Shape, Signal};
+pub use signal::{Recorded, Shape, Signal};
 
 // ---------------------------------------------------------------------------------------
 // Raw TOML, spans kept.
@@ -207,8 +207,11 @@ pub struct Link {
     pub hysteresis: Option<crate::model::BoucWen>,
 }
 
+/// Reads a table: its column names and its columns, or why it cannot.
+pub type TableReader = dyn Fn(&Path) -> Result<(Vec<String>, Vec<Vec<f64>>), String>;
+
 /// The random process of an excitation.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Process {
     /// `P dt = σ dW`: two-sided spectral density `σ²/2π`.
     White {
@@ -799,6 +802,39 @@ impl Scenario {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "scenario".into());
         Scenario::parse(&src, &label, &stem)
+    }
+
+    /// Read the tables of the recorded signals that drive the run (`kind = "recorded"`,
+    /// their `file` relative to `dir`, by `read`: a table's column names and columns) and
+    /// check them against it; `label` names the text (`source`) in errors. A parsed
+    /// scenario has its recordings unread until then (`io::scenario_file` reads them; a
+    /// log's scenario needs none: its forces are in the log).
+    pub fn read_recordings(&mut self, label: &str, dir: &Path, read: &TableReader) -> Result<(), ScenarioError> {
+        validate::lab::read_recordings(self, label, dir, read)
+    }
+
+    /// Take the samples `from` has read for every unread recording of the same excitation
+    /// and table (a study's items re-parse the scenario's text; the run checks that each
+    /// item's trajectories fit in the recording).
+    pub fn adopt_recordings(&mut self, from: &Scenario) {
+        for e in &mut self.excitations {
+            let Process::Lab(Signal::Recorded(r)) = &mut e.process else {
+                continue;
+            };
+            let read = from.excitations.iter().find_map(|f| match &f.process {
+                Process::Lab(Signal::Recorded(q))
+                    if f.name == e.name && q.file == r.file && q.column == r.column && q.time == r.time =>
+                {
+                    Some(q)
+                }
+                _ => None,
+            });
+            if let Some(q) = read.filter(|_| r.samples.is_empty()) {
+                let r = std::sync::Arc::make_mut(r);
+                r.samples.clone_from(&q.samples);
+                r.interval = r.interval.or(q.interval);
+            }
+        }
     }
 
     /// Whether the unknowns can be told apart at all, whatever the data: refused are

@@ -104,6 +104,7 @@ pub(crate) enum RawKind {
     Multisine,
     BandLimited,
     KanaiTajimi,
+    Recorded,
 }
 
 #[derive(Deserialize)]
@@ -128,6 +129,12 @@ pub(crate) struct RawExcitation {
     pub(super) order: Option<Spanned<i64>>,
     pub(super) omega_g: Option<Spanned<f64>>,
     pub(super) zeta_g: Option<Spanned<f64>>,
+    // A recorded signal's keys.
+    pub(super) file: Option<Spanned<String>>,
+    pub(super) column: Option<Spanned<String>>,
+    pub(super) time: Option<Spanned<String>>,
+    pub(super) sample_interval: Option<Spanned<f64>>,
+    pub(super) scale: Option<Spanned<f64>>,
 }
 
 pub(crate) fn yes() -> bool {

@@ -1,12 +1,16 @@
 //! The excitations labs use (docs/excitations.md): a random-phase multisine, band-limited
 //! Gaussian noise and Kanai–Tajimi shaped noise, described by their parameters and their
-//! exact spectra. `sim::lab` generates their realisations and drives a model with them.
+//! exact spectra, and a recorded signal (a table's column, the rig's own input).
+//! `sim::lab` generates their realisations and drives a model with them.
 
 use std::f64::consts::PI;
+use std::ops::Range;
+use std::path::PathBuf;
+use std::sync::Arc;
 
 /// The excitations labs use (docs/excitations.md); frequencies in Hz, levels in the
 /// force's unit.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Signal {
     /// A random-phase multisine: amplitudes on the lines `k / period` inside `band` (every
     /// line, or the odd ones), equal or following `shape`, total RMS `rms`, repeating every
@@ -43,6 +47,57 @@ pub enum Signal {
         /// The ground's damping ratio.
         zeta_g: f64,
     },
+    /// A measured signal (`kind = "recorded"`): a table's column, band-limited between its
+    /// samples; every trajectory is driven by its own stretch of it, one after the other.
+    Recorded(Arc<Recorded>),
+}
+
+/// A recorded signal: where it is written, and — once [`crate::Scenario::read_recordings`]
+/// has read it — its samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recorded {
+    /// The table, as the scenario writes it (relative to the scenario file).
+    pub file: PathBuf,
+    /// The column holding the signal.
+    pub column: String,
+    /// The table's time column, if its spacing gives the sample interval.
+    pub time: Option<String>,
+    /// The recording's sample interval, s (given, or from the time column once read).
+    pub interval: Option<f64>,
+    /// The factor on every sample (the force per unit of the column: an amplifier's gain).
+    pub scale: f64,
+    /// The column's samples as written (empty until read).
+    pub samples: Vec<f64>,
+    /// Where `file` is written in the scenario's text, for errors found when reading it.
+    pub at: Range<usize>,
+}
+
+impl Recorded {
+    /// The recording's length, s (0 until read).
+    pub fn duration(&self) -> f64 {
+        match self.interval {
+            Some(h) if self.samples.len() > 1 => (self.samples.len() - 1) as f64 * h,
+            _ => 0.0,
+        }
+    }
+
+    /// Why `trajectories` stretches of `span` s each do not fit in the recording, if
+    /// they do not (every trajectory is driven by its own stretch, one after the other).
+    pub fn too_short(&self, trajectories: usize, span: f64) -> Option<String> {
+        let need = trajectories as f64 * span;
+        let have = self.duration();
+        (need > have * (1.0 + 1e-9)).then(|| {
+            format!(
+                "the recording {:?} of {} holds {have} s ({} samples at {} s); {trajectories} trajectory \
+                 stretch(es) of {span} s (burn-in and record) need {need} s: shorten the record or the \
+                 burn-in, or use fewer trajectories",
+                self.column,
+                self.file.display(),
+                self.samples.len(),
+                self.interval.unwrap_or(f64::NAN),
+            )
+        })
+    }
 }
 
 /// A multisine's relative amplitude over frequency (`amplitude = [[Hz, a], …]`): the
@@ -90,6 +145,7 @@ impl Signal {
             Signal::Multisine { .. } => "multisine",
             Signal::BandLimited { .. } => "band-limited",
             Signal::KanaiTajimi { .. } => "kanai-tajimi",
+            Signal::Recorded(_) => "recorded",
         }
     }
 
@@ -126,11 +182,11 @@ impl Signal {
 
     /// The two-sided spectral density at angular frequency `omega` (rad/s), per rad/s, of
     /// a noise (`∫ S dω` over all `ω` is its variance); `None` for the multisine, whose
-    /// spectrum is its lines.
+    /// spectrum is its lines, and for a recording, whose spectrum is what it is.
     pub fn density(&self, omega: f64) -> Option<f64> {
         let w = omega.abs();
         match *self {
-            Signal::Multisine { .. } => None,
+            Signal::Multisine { .. } | Signal::Recorded(_) => None,
             Signal::BandLimited { sigma, band, order } => {
                 Some(sigma * sigma / (2.0 * PI) * butterworth_gain2(band, order, w))
             }
@@ -144,9 +200,14 @@ impl Signal {
 
     /// The standard deviation, in closed form: a multisine's `rms`; for the noises the
     /// integral of the density (a Butterworth band of width `B` rad/s passes
-    /// `B·(π/2n)/sin(π/2n)` on each side; Kanai–Tajimi's is `π S₀ ω_g (1 + 4ζ_g²)/(2ζ_g)`).
+    /// `B·(π/2n)/sin(π/2n)` on each side; Kanai–Tajimi's is `π S₀ ω_g (1 + 4ζ_g²)/(2ζ_g)`);
+    /// a recording's RMS over its samples (NaN until read).
     pub fn rms(&self) -> f64 {
         match *self {
+            Signal::Recorded(ref r) => {
+                let n = r.samples.len() as f64;
+                r.scale * (r.samples.iter().map(|v| v * v).sum::<f64>() / n).sqrt()
+            }
             Signal::Multisine { rms, .. } => rms,
             Signal::BandLimited { sigma, band, order } => {
                 let width = 2.0 * PI * (band.1 - band.0);
@@ -162,10 +223,11 @@ impl Signal {
 
     /// The same signal `k` times as strong.
     pub fn scaled(&self, k: f64) -> Signal {
-        let mut s = *self;
+        let mut s = self.clone();
         match &mut s {
             Signal::Multisine { rms, .. } => *rms *= k,
             Signal::BandLimited { sigma, .. } | Signal::KanaiTajimi { sigma, .. } => *sigma *= k,
+            Signal::Recorded(r) => Arc::make_mut(r).scale *= k,
         }
         s
     }

@@ -3,7 +3,7 @@
 //! kinds' keys refused on it, and the signal checked against the run it drives.
 
 use super::super::raw::{RawExcitation, RawKind, RawScenario};
-use super::super::{Excitation, Process, Shape, Signal, Simulation};
+use super::super::{Excitation, Process, Recorded, Shape, Signal, Simulation};
 use super::{finite_positive, Locator};
 use crate::scenario::ScenarioError;
 
@@ -52,12 +52,14 @@ pub(crate) fn check_signal(loc: &Locator, e: &RawExcitation, key: &str) -> Resul
     let name = match kind {
         RawKind::Multisine => "multisine",
         RawKind::BandLimited => "band-limited",
+        RawKind::Recorded => "recorded",
         _ => "kanai-tajimi",
     };
     // The keys each kind takes; any other one written is refused with what the kind takes.
     let takes: &[&str] = match kind {
         RawKind::Multisine => &["rms", "band", "period", "lines", "amplitude"],
         RawKind::BandLimited => &["sigma", "band", "order"],
+        RawKind::Recorded => &["file", "column", "time", "sample_interval", "scale"],
         _ => &["sigma", "omega_g", "zeta_g"],
     };
     let written = [
@@ -72,6 +74,11 @@ pub(crate) fn check_signal(loc: &Locator, e: &RawExcitation, key: &str) -> Resul
         ("order", e.order.as_ref().map(|v| v.span())),
         ("omega_g", e.omega_g.as_ref().map(|v| v.span())),
         ("zeta_g", e.zeta_g.as_ref().map(|v| v.span())),
+        ("file", e.file.as_ref().map(|v| v.span())),
+        ("column", e.column.as_ref().map(|v| v.span())),
+        ("time", e.time.as_ref().map(|v| v.span())),
+        ("sample_interval", e.sample_interval.as_ref().map(|v| v.span())),
+        ("scale", e.scale.as_ref().map(|v| v.span())),
     ];
     for (k, span) in written {
         if let Some(span) = span.filter(|_| !takes.contains(&k)) {
@@ -140,6 +147,7 @@ pub(crate) fn check_signal(loc: &Locator, e: &RawExcitation, key: &str) -> Resul
             }
             s
         }
+        RawKind::Recorded => check_recorded(loc, e, key)?,
         RawKind::BandLimited => {
             let order = e.order.as_ref().ok_or_else(|| {
                 loc.at(
@@ -185,6 +193,82 @@ pub(crate) fn check_signal(loc: &Locator, e: &RawExcitation, key: &str) -> Resul
     Ok(signal)
 }
 
+/// A recorded signal's keys: `file` and `column`, and either `sample_interval` (s) or
+/// `time` (a column whose spacing gives it); `scale` a finite non-zero factor. The table is
+/// read later, by [`crate::Scenario::read_recordings`].
+fn check_recorded<'a>(loc: &Locator, e: &'a RawExcitation, key: &str) -> Result<Signal, ScenarioError> {
+    let text = |v: Option<&'a toml::Spanned<String>>, k: &str, what: &str| {
+        let v = v.ok_or_else(|| {
+            loc.at(
+                e.kind.span(),
+                format!("{key}.{k}"),
+                format!("kind = \"recorded\" needs `{k}` ({what})"),
+            )
+        })?;
+        if v.get_ref().trim().is_empty() {
+            return Err(loc.at(v.span(), format!("{key}.{k}"), format!("`{k}` is empty: {what}")));
+        }
+        Ok(v)
+    };
+    let file = text(
+        e.file.as_ref(),
+        "file",
+        "the table holding the signal, CSV or .npy, relative to the scenario file",
+    )?;
+    let column = text(e.column.as_ref(), "column", "the table's column holding the signal")?;
+    let time = e
+        .time
+        .as_ref()
+        .map(|t| text(Some(t), "time", "the table's time column, s"))
+        .transpose()?;
+    let interval = match (time, e.sample_interval.as_ref()) {
+        (Some(t), Some(_)) => {
+            return Err(loc.at(
+                t.span(),
+                format!("{key}.time"),
+                "give the recording's `sample_interval` or its `time` column, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(loc.at(
+                e.kind.span(),
+                format!("{key}.sample_interval"),
+                "kind = \"recorded\" needs the recording's `sample_interval` (s) or its `time` column",
+            ))
+        }
+        (None, Some(h)) => Some(finite_positive(
+            loc,
+            h,
+            &format!("{key}.sample_interval"),
+            "the recording's sample interval, s",
+        )?),
+        (Some(_), None) => None,
+    };
+    let scale = match e.scale.as_ref() {
+        None => 1.0,
+        Some(s) if s.get_ref().is_finite() && *s.get_ref() != 0.0 => *s.get_ref(),
+        Some(s) => {
+            return Err(loc.at(
+                s.span(),
+                format!("{key}.scale"),
+                format!(
+                    "scale = {}: the force per unit of the column is a finite number other than 0",
+                    s.get_ref()
+                ),
+            ))
+        }
+    };
+    Ok(Signal::Recorded(std::sync::Arc::new(Recorded {
+        file: file.get_ref().into(),
+        column: column.get_ref().clone(),
+        time: time.map(|t| t.get_ref().clone()),
+        interval,
+        scale,
+        samples: Vec::new(),
+        at: file.span(),
+    })))
+}
+
 /// A white or filtered `[[excitation]]` with a lab signal's key: refused, naming the kinds
 /// that take it.
 pub(crate) fn refuse_signal_keys(loc: &Locator, e: &RawExcitation, key: &str) -> Result<(), ScenarioError> {
@@ -197,6 +281,15 @@ pub(crate) fn refuse_signal_keys(loc: &Locator, e: &RawExcitation, key: &str) ->
         ("order", e.order.as_ref().map(|v| v.span()), "band-limited"),
         ("omega_g", e.omega_g.as_ref().map(|v| v.span()), "kanai-tajimi"),
         ("zeta_g", e.zeta_g.as_ref().map(|v| v.span()), "kanai-tajimi"),
+        ("file", e.file.as_ref().map(|v| v.span()), "recorded"),
+        ("column", e.column.as_ref().map(|v| v.span()), "recorded"),
+        ("time", e.time.as_ref().map(|v| v.span()), "recorded"),
+        (
+            "sample_interval",
+            e.sample_interval.as_ref().map(|v| v.span()),
+            "recorded",
+        ),
+        ("scale", e.scale.as_ref().map(|v| v.span()), "recorded"),
     ];
     match written.into_iter().find_map(|(k, span, kinds)| Some((k, span?, kinds))) {
         None => Ok(()),
@@ -272,12 +365,14 @@ pub(crate) fn check_lab_run(
     }
     let nyquist = 0.5 / sim.sample_interval;
     for &k in &lab {
-        let Process::Lab(s) = excitations[k].process else {
+        let Process::Lab(s) = &excitations[k].process else {
             unreachable!()
         };
-        let high = match s {
+        let high = match *s {
             Signal::Multisine { band, .. } | Signal::BandLimited { band, .. } => band.1,
             Signal::KanaiTajimi { .. } => 0.0,
+            // Its sampling against the run's is checked when it is read.
+            Signal::Recorded(_) => continue,
         };
         if high >= nyquist {
             return Err(loc.at(
@@ -290,7 +385,7 @@ pub(crate) fn check_lab_run(
                 ),
             ));
         }
-        if let Signal::Multisine { period, .. } = s {
+        if let Signal::Multisine { period, .. } = *s {
             let r = period / sim.sample_interval;
             if (r - r.round()).abs() > 1e-6 * r || r.round() < 2.0 {
                 return Err(loc.at(
@@ -306,4 +401,106 @@ pub(crate) fn check_lab_run(
         }
     }
     Ok(())
+}
+
+/// Read every recorded signal's table (`file` relative to `dir`) into its samples, and
+/// check it against the run: its samples finite, its time column (if named) evenly spaced,
+/// the run sampled at the recording's interval or finer (the logged force would alias
+/// otherwise), and every trajectory's stretch inside the recording. Errors point at the
+/// excitation's `file` in `label`'s text (`s.source`).
+pub(crate) fn read_recordings(
+    s: &mut crate::Scenario,
+    label: &str,
+    dir: &std::path::Path,
+    read: &crate::scenario::TableReader,
+) -> Result<(), ScenarioError> {
+    let source = s.source.clone();
+    let loc = Locator {
+        path: label,
+        src: &source,
+    };
+    let sim = &s.simulation;
+    let span = sim.burn_in_steps() as f64 * sim.dt + sim.samples_per_trajectory() as f64 * sim.sample_interval;
+    let (trajectories, run_interval) = (sim.trajectories, sim.sample_interval);
+    for (k, e) in s.excitations.iter_mut().enumerate() {
+        let Process::Lab(Signal::Recorded(r)) = &mut e.process else {
+            continue;
+        };
+        let key = format!("excitation[{k}].file");
+        let r = std::sync::Arc::make_mut(r);
+        let bad = |why: String| loc.at(r.at.clone(), key.clone(), why);
+        let path = dir.join(&r.file);
+        let (names, columns) = read(&path).map_err(|e| bad(format!("the recording: {e}")))?;
+        let column = |name: &str, role: &str| {
+            names
+                .iter()
+                .position(|n| n == name)
+                .map(|c| &columns[c])
+                .ok_or_else(|| {
+                    bad(format!(
+                        "{} has no column {name:?} ({role}); it has {}",
+                        path.display(),
+                        names.join(", ")
+                    ))
+                })
+        };
+        let samples = column(&r.column, "the signal")?;
+        if samples.len() < 2 {
+            return Err(bad(format!(
+                "{} holds {} row(s): a recording needs at least 2 samples",
+                path.display(),
+                samples.len()
+            )));
+        }
+        if let Some(row) = samples.iter().position(|v| !v.is_finite()) {
+            return Err(bad(format!(
+                "column {:?} of {} is not a finite number at row {} (a recording drives the run sample by \
+                 sample: fill or cut the gap first)",
+                r.column,
+                path.display(),
+                row + 1
+            )));
+        }
+        if let Some(name) = r.time.clone() {
+            r.interval = Some(
+                even_spacing(column(&name, "the time")?)
+                    .map_err(|why| bad(format!("time column {name:?} of {}: {why}", path.display())))?,
+            );
+        }
+        r.samples.clone_from(samples);
+        let h = r.interval.expect("given, or read from the time column");
+        if run_interval > h * (1.0 + 1e-9) {
+            return Err(bad(format!(
+                "the run samples every {run_interval} s, coarser than the recording's {h} s: the logged force \
+                 would alias what the recording holds between its Nyquist frequency and the run's; sample \
+                 at {h} s or finer"
+            )));
+        }
+        if let Some(why) = r.too_short(trajectories, span) {
+            return Err(bad(why));
+        }
+    }
+    Ok(())
+}
+
+/// The spacing of an evenly spaced time column: its mean step, if every step is within a
+/// thousandth of it.
+fn even_spacing(t: &[f64]) -> Result<f64, String> {
+    if t.len() < 2 || !t.iter().all(|v| v.is_finite()) {
+        return Err("it needs at least 2 finite times".into());
+    }
+    let h = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
+    if h <= 0.0 {
+        return Err("the times do not rise".into());
+    }
+    match t.windows(2).position(|w| ((w[1] - w[0]) - h).abs() > 1e-3 * h) {
+        None => Ok(h),
+        Some(row) => Err(format!(
+            "the step between rows {} and {} is {} s, the mean step {h} s: a recording is sampled evenly \
+             (resample it first)",
+            row + 1,
+            row + 2,
+            t[row + 1] - t[row]
+        )),
+    }
 }

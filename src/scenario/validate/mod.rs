@@ -12,7 +12,7 @@ use toml::Spanned;
 
 mod data;
 mod identify;
-mod lab;
+pub(crate) mod lab;
 mod sensors;
 pub(crate) use data::check_data;
 pub(crate) use identify::{check_accept, check_identify, inseparable};
@@ -579,7 +579,7 @@ pub(crate) fn check_excitations(
             lab::refuse_signal_keys(loc, e, &key)?;
         }
         let process = match *e.kind.get_ref() {
-            RawKind::Multisine | RawKind::BandLimited | RawKind::KanaiTajimi => {
+            RawKind::Multisine | RawKind::BandLimited | RawKind::KanaiTajimi | RawKind::Recorded => {
                 Process::Lab(lab::check_signal(loc, e, &key)?)
             }
             RawKind::White => {
