@@ -666,8 +666,8 @@ fn a_rigs_sensors_that_make_no_sense() {
 }
 
 /// The lab excitations (docs/excitations.md): another kind's key, a missing key, a band
-/// the sampling cannot hold, a multisine's amplitude shape out of order, and a lab signal
-/// beside white noise are each refused where they are written.
+/// the sampling cannot hold, a multisine's amplitude shape out of order and a measured
+/// white force beside a lab signal are each refused where they are written.
 #[test]
 fn lab_excitations_refuse_what_their_kind_does_not_take() {
     run_bad(
@@ -728,14 +728,14 @@ fn lab_excitations_refuse_what_their_kind_does_not_take() {
         "whole number (at least 2) of sample intervals",
     );
     run_bad(
-        "lab_beside_white",
+        "measured_white_beside_lab",
         &bad(
             "acts_on = [\"m1\"]",
             "acts_on = [\"m1\"]\n\n[[excitation]]\nkind = \"kanai-tajimi\"\nsigma = 1.0\nomega_g = 15.0\nzeta_g = 0.6\nacts_on = [\"m2\"]",
         ),
         20,
         "excitation[0].kind",
-        "only lab excitations",
+        "declare it measured = false (a disturbance)",
     );
 }
 

@@ -9,7 +9,7 @@
 
 use crate::io::table::{measured, Table};
 use crate::pipeline::{Input, PipelineError};
-use crate::scenario::{AccelerationSamples, DataMapping, Scenario};
+use crate::scenario::{AccelerationSamples, DataMapping, Process, Scenario};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -70,9 +70,12 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
         record_labels: None,
     };
     // Unfiltered, a white-forced mass's logged acceleration is its velocity's change over
-    // the interval; an anti-alias or bandwidth filter's output is a value at the instant.
+    // the interval; an anti-alias or bandwidth filter's output is a value at the instant,
+    // and so is the force balance the lab scheme logs without white noise (sim::lab).
     let filtered = s.simulation.sensors.anti_alias.is_some() || s.simulation.sensors.bandwidth.is_some();
-    let acceleration_samples = if filtered {
+    let lab_without_white = s.excitations.iter().any(|e| matches!(e.process, Process::Lab(_)))
+        && !s.excitations.iter().any(|e| matches!(e.process, Process::White { .. }));
+    let acceleration_samples = if filtered || lab_without_white {
         AccelerationSamples::Instants
     } else {
         AccelerationSamples::IntervalMeans
