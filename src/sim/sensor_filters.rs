@@ -152,6 +152,17 @@ impl SensorFilter {
         }
     }
 
+    /// The cascade's power gain `|H|²` at `f`, a fraction of the fast rate.
+    pub(crate) fn gain2(&self, f: f64) -> f64 {
+        self.sections
+            .iter()
+            .map(|q| {
+                let (re, im) = q.gain(f);
+                re * re + im * im
+            })
+            .product()
+    }
+
     /// The variance the filters take out of the velocity of a unit mass under a white force
     /// of unit intensity (`P dt = dW`), logged every `interval` s. Above its modes such a
     /// velocity is the force's integral, of density `1/ω²` (two-sided, per 2π), which is
@@ -168,14 +179,7 @@ impl SensorFilter {
         let mut sum = 0.0;
         for k in 0..n {
             let theta = (k as f64 + 0.5) * d;
-            let kept: f64 = self
-                .sections
-                .iter()
-                .map(|q| {
-                    let (re, im) = q.gain(theta / std::f64::consts::TAU);
-                    re * re + im * im
-                })
-                .product();
+            let kept = self.gain2(theta / std::f64::consts::TAU);
             sum += (1.0 - kept) / (0.5 * theta).sin().powi(2);
         }
         h / (4.0 * std::f64::consts::PI) * sum * d

@@ -324,9 +324,9 @@ fn check_band(loc: &Locator, e: &RawExcitation, key: &str, name: &str) -> Result
 }
 
 /// The lab excitations against the run: they drive a simulation (a model file's measured
-/// force is declared `kind = "white"` with `[identify] equivalent_white`), without the
-/// sensors' filters, a multisine repeats after whole sample intervals, and the sampled
-/// force does not alias (its band ends below the sampling's Nyquist frequency).
+/// force is declared `kind = "white"` with `[identify] equivalent_white`), a white noise
+/// beside them is a disturbance, a multisine repeats after whole sample intervals, and the
+/// sampled force does not alias (its band ends below the sampling's Nyquist frequency).
 pub(crate) fn check_lab_run(
     loc: &Locator,
     raw: &RawScenario,
@@ -360,13 +360,6 @@ pub(crate) fn check_lab_run(
              frequency, and a measured white force's logged interval means would lack what lies beyond it (7 % \
              of their variance at four steps a sample): declare it measured = false (a disturbance), or \
              kind = \"filtered\" or \"band-limited\"",
-        ));
-    }
-    if sim.sensors.anti_alias.is_some() || sim.sensors.bandwidth.is_some() {
-        return Err(loc.at(
-            at(first),
-            format!("excitation[{first}].kind"),
-            "[measurement]'s filters (anti_alias, bandwidth) are not simulated under lab excitations",
         ));
     }
     let nyquist = 0.5 / sim.sample_interval;
