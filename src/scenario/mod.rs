@@ -309,6 +309,10 @@ impl Simulation {
     pub fn samples_per_trajectory(&self) -> usize {
         (self.record_length / self.sample_interval + 1e-9).floor() as usize
     }
+    /// The time a trajectory spans, s: its burn-in steps and its samples.
+    pub fn trajectory_span(&self) -> f64 {
+        self.burn_in_steps() as f64 * self.dt + self.samples_per_trajectory() as f64 * self.sample_interval
+    }
     /// Integration steps (of `dt`) of burn-in.
     pub fn burn_in_steps(&self) -> usize {
         (self.burn_in / self.dt).round() as usize

@@ -161,7 +161,7 @@ pub fn resampled(r: &Recorded, offset: f64, n: usize, delta: f64) -> Vec<f64> {
 /// Why the recordings cannot drive `sim`, if they cannot: one unread (a scenario parsed
 /// from text), sampled coarser than the run, or too short for its trajectories.
 fn check_recordings(model: &Model, sim: &Simulation) -> Result<(), SimError> {
-    let span = sim.burn_in_steps() as f64 * sim.dt + sim.samples_per_trajectory() as f64 * sim.sample_interval;
+    let span = sim.trajectory_span();
     for (e, x) in model.excitations.iter().enumerate() {
         let Process::Lab(Signal::Recorded(r)) = &x.process else {
             continue;

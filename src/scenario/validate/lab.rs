@@ -419,7 +419,7 @@ pub(crate) fn read_recordings(
         src: &source,
     };
     let sim = &s.simulation;
-    let span = sim.burn_in_steps() as f64 * sim.dt + sim.samples_per_trajectory() as f64 * sim.sample_interval;
+    let span = sim.trajectory_span();
     let (trajectories, run_interval) = (sim.trajectories, sim.sample_interval);
     for (k, e) in s.excitations.iter_mut().enumerate() {
         let Process::Lab(Signal::Recorded(r)) = &mut e.process else {
