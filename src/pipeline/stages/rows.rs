@@ -12,6 +12,7 @@ use crate::ident::data::{Observed, StationaryData};
 use crate::ident::{self, Filter, IdentError, Problem, Specification, Unknown};
 use crate::report::MethodReport;
 use crate::scenario::ReportMethod;
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// The comparison row of a selection: the weak form with the terms `[identify.links]`
@@ -35,7 +36,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         bilinear,
     };
     let (mut rows, estimates) = estimator_rows(
-        &id.estimators,
+        &mut id.estimators,
         &context,
         (fitted.rejected.as_deref(), id.symmetric.as_ref()),
         &reported,
@@ -121,7 +122,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
 /// force model has an exact symmetry (`symmetric`) those methods do not share.
 #[allow(clippy::type_complexity)]
 fn estimator_rows(
-    estimators: &[(Method, Box<dyn Estimator>)],
+    estimators: &mut [(Method, Box<dyn Estimator>)],
     cx: &Context,
     (rejected, symmetric): (Option<&str>, Option<&IdentError>),
     reported: &Problem,
@@ -131,14 +132,24 @@ fn estimator_rows(
     let s = grader.scenario;
     let mut rows = Vec::new();
     let mut estimates = Vec::new();
-    for (m, estimator) in estimators {
-        crate::interrupt::check()?;
-        let t = Instant::now();
-        let est = match (rejected, symmetric) {
-            (_, Some(e)) if !m.reads_measured_force() => Err(e.clone()),
-            (Some(why), _) if !m.reads_measured_force() => Err(IdentError::ForceModelRejected(why.to_string())),
-            _ => estimator.estimate(cx),
-        };
+    crate::interrupt::check()?;
+    // The methods' estimates are independent: on as many cores as there are (each with its
+    // own time, so a row's time is its method's alone).
+    let outcomes: Vec<(Result<ident::Estimate, IdentError>, std::time::Duration)> = estimators
+        .par_iter_mut()
+        .map(|(m, estimator)| {
+            let t = Instant::now();
+            let est = match (rejected, symmetric) {
+                (_, Some(e)) if !m.reads_measured_force() => Err(e.clone()),
+                (Some(why), _) if !m.reads_measured_force() => Err(IdentError::ForceModelRejected(why.to_string())),
+                _ => estimator.estimate(cx),
+            };
+            (est, t.elapsed())
+        })
+        .collect();
+    crate::interrupt::check()?;
+    for ((m, _), (est, took)) in estimators.iter().zip(outcomes) {
+        let t = Instant::now().checked_sub(took).unwrap_or_else(Instant::now);
         let method = ReportMethod::Estimator(*m);
         if let Ok(est) = &est {
             estimates.push((method.clone(), est.values.clone(), m.is_baseline()));
