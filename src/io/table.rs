@@ -15,6 +15,7 @@ pub use super::measured::{
 };
 use crate::scenario::DataMapping;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// An error in measured data: the file, and where the message names them, the column and
 /// the row (1-based, counting the table's rows, not the file's lines) it is about, for a
@@ -68,11 +69,53 @@ impl Table {
     }
 }
 
-/// Where measured rows come from: a table in memory, or a CSV file read on every pass.
+/// Where measured rows come from: a table in memory, a CSV file read on every pass, or
+/// some columns of an fpkbench log read on every pass.
 #[derive(Debug, Clone)]
 pub enum Source {
     Memory(Table),
     Csv(CsvFile),
+    Log(Arc<LogColumns>),
+}
+
+/// Some columns of an fpkbench log as a table, read from the file on every pass (a
+/// simulated rig's sensor channels: docs/measurement.md, "A rig's sensors"): the columns
+/// `trajectory` and `t`, then the log's columns `columns` (indices into its layout), under
+/// `names`.
+#[derive(Debug)]
+pub struct LogColumns {
+    pub info: super::log::LogInfo,
+    pub columns: Vec<usize>,
+    pub names: Vec<String>,
+}
+
+impl LogColumns {
+    /// One pass: `f(row, values)` for each sample in the log's order, `values` the
+    /// `wanted` columns of this table; `f` returns whether to go on (the rest of the file is
+    /// then read without calling it).
+    fn for_each_row(&self, wanted: &[usize], f: &mut RowFn) -> Result<(), DataError> {
+        let mut values = vec![0.0; wanted.len()];
+        let (mut row, mut stop) = (0, None);
+        super::log::read_samples(&self.info, |trajectory, t, r| {
+            if stop.is_some() {
+                return;
+            }
+            for (v, &k) in values.iter_mut().zip(wanted) {
+                *v = match k {
+                    0 => trajectory as f64,
+                    1 => t,
+                    c => r[self.columns[c - 2]],
+                };
+            }
+            match f(row, &values) {
+                Ok(true) => row += 1,
+                Ok(false) => stop = Some(Ok(())),
+                Err(e) => stop = Some(Err(e)),
+            }
+        })
+        .map_err(|e| err(&self.info.path, e.to_string()))?;
+        stop.unwrap_or(Ok(()))
+    }
 }
 
 impl From<Table> for Source {
@@ -86,6 +129,7 @@ impl Source {
         match self {
             Source::Memory(t) => &t.path,
             Source::Csv(c) => &c.path,
+            Source::Log(l) => &l.info.path,
         }
     }
 
@@ -93,6 +137,7 @@ impl Source {
         match self {
             Source::Memory(t) => &t.names,
             Source::Csv(c) => &c.names,
+            Source::Log(l) => &l.names,
         }
     }
 
@@ -102,6 +147,7 @@ impl Source {
     pub fn for_each_row(&self, wanted: &[usize], labels: &mut Labels, f: &mut RowFn) -> Result<(), DataError> {
         match self {
             Source::Csv(c) => c.for_each_row(wanted, labels, f),
+            Source::Log(l) => l.for_each_row(wanted, f),
             Source::Memory(t) => {
                 if let Some(l) = &t.record_labels {
                     labels.names.clone_from(l);

@@ -23,6 +23,11 @@ pub trait SampleSource: Send + Sync {
         None
     }
 
+    /// Whether the samples are a log file's, read from it on every pass.
+    fn is_log_file(&self) -> bool {
+        false
+    }
+
     /// How many samples the source holds, or was to hold (a log: what its run promised).
     fn expected_samples(&self, info: &LogInfo) -> u64 {
         let s = &info.scenario.simulation;
@@ -37,6 +42,10 @@ pub struct LogFile;
 impl SampleSource for LogFile {
     fn for_each_sample(&self, info: &LogInfo, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError> {
         Ok(read_samples(info, f)?)
+    }
+
+    fn is_log_file(&self) -> bool {
+        true
     }
 }
 

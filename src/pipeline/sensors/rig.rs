@@ -7,16 +7,16 @@
 //! are the clean states, kept for diagnostics; the identification never reads them. The
 //! model keeps the scenario's values, so the report grades the estimates against them.
 
-use crate::io::table::{measured, Table};
+use crate::io::table::{measured, LogColumns, Source, Table};
 use crate::pipeline::{Input, PipelineError};
 use crate::scenario::{AccelerationSamples, DataMapping, Process, Scenario};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// `input`'s sensor channels as measured data on its scenario, when the scenario's rig
 /// does not give every mass's whole state; `None` when it does (or `input` is measured
-/// data already). The channels are held in memory: 8 bytes per value, two more per sample
-/// for the record and the time.
+/// data already).
 pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineError> {
     let s = &input.info.scenario;
     let Some(rig) = &s.simulation.sensors.rig else {
@@ -49,25 +49,37 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
             }
         }
     }
-    let expected = input.expected_samples() as usize;
-    let mut columns: Vec<Vec<f64>> = (0..wanted.len() + 2).map(|_| Vec::with_capacity(expected)).collect();
-    input.for_each_sample(|trajectory, t, row| {
-        columns[0].push(trajectory as f64);
-        columns[1].push(t);
-        for (k, &c) in wanted.iter().enumerate() {
-            columns[k + 2].push(row[c]);
-        }
-    })?;
     let channels: Vec<String> = wanted.iter().map(|&c| names[c].clone()).collect();
-    let table = Table {
-        path: PathBuf::from(format!("<{}: the rig's sensors>", s.name)),
-        names: ["trajectory", "t"]
-            .iter()
-            .map(|n| n.to_string())
-            .chain(channels.iter().cloned())
-            .collect(),
-        columns,
-        record_labels: None,
+    let table_names: Vec<String> = ["trajectory", "t"]
+        .iter()
+        .map(|n| n.to_string())
+        .chain(channels.iter().cloned())
+        .collect();
+    // A log is read again on every pass, in bounded memory; samples in memory (a run
+    // simulated straight into the estimators) are copied: 8 bytes per value, two more per
+    // sample for the record and the time.
+    let source = if input.source.is_log_file() {
+        Source::Log(Arc::new(LogColumns {
+            info: input.info.clone(),
+            columns: wanted,
+            names: table_names,
+        }))
+    } else {
+        let expected = input.expected_samples() as usize;
+        let mut columns: Vec<Vec<f64>> = (0..wanted.len() + 2).map(|_| Vec::with_capacity(expected)).collect();
+        input.for_each_sample(|trajectory, t, row| {
+            columns[0].push(trajectory as f64);
+            columns[1].push(t);
+            for (k, &c) in wanted.iter().enumerate() {
+                columns[k + 2].push(row[c]);
+            }
+        })?;
+        Source::Memory(Table {
+            path: PathBuf::from(format!("<{}: the rig's sensors>", s.name)),
+            names: table_names,
+            columns,
+            record_labels: None,
+        })
     };
     // Unfiltered, a white-forced mass's logged acceleration is its velocity's change over
     // the interval; an anti-alias or bandwidth filter's output is a value at the instant,
@@ -102,6 +114,6 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
     sensors.anti_alias = None;
     sensors.bandwidth = None;
     sensors.rig = None;
-    let data = measured(&m, vec![table.into()])?;
+    let data = measured(&m, vec![source])?;
     Ok(Some(Input::tables(m, data)))
 }
