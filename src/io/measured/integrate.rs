@@ -80,7 +80,10 @@ impl Window {
         let len = self.ring.len();
         self.sum += x - self.ring[self.next];
         self.ring[self.next] = x;
-        self.next = (self.next + 1) % len;
+        self.next += 1;
+        if self.next == len {
+            self.next = 0;
+        }
         self.filled = (self.filled + 1).min(len);
         self.since += 1;
         if self.since >= len {

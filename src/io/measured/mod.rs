@@ -229,13 +229,16 @@ impl Measured {
             let mut rings = vec![f64::NAN; slots * ring * w];
             let mut changed = None;
             let mut stopped = false;
+            let dense = sources::dense_slots(&plan.slots);
             source.for_each_row(&plan.wanted, &mut Labels::default(), &mut |r, v| {
                 if r % crate::interrupt::LOOK_EVERY == 0 && crate::interrupt::requested() {
                     stopped = true;
                     return Ok(false);
                 }
-                let slot = plan.record_at.map_or(Some(&0), |k| plan.slots.get(&key(v[k])));
-                let Some(&slot) = slot else {
+                let slot = plan
+                    .record_at
+                    .map_or(Some(0), |k| sources::slot_of(dense.as_deref(), &plan.slots, v[k]));
+                let Some(slot) = slot else {
                     changed = Some(r);
                     return Ok(false);
                 };
@@ -252,7 +255,8 @@ impl Measured {
                 let (pos, len) = (seen[slot] - *before, lens[*p]);
                 seen[slot] += 1;
                 let rows = &mut rings[slot * ring * w..(slot + 1) * ring * w];
-                let row = &mut rows[(pos % ring) * w..(pos % ring + 1) * w];
+                let at = pos % ring;
+                let row = &mut rows[at * w..(at + 1) * w];
                 row.fill(f64::NAN);
                 for (&(k, scale, offset), x) in plan.mapped.iter().zip(v) {
                     row[k] = (x - offset) * scale;
@@ -265,7 +269,7 @@ impl Measured {
                         if pos == 0 {
                             chain.reset();
                         }
-                        let (vv, xx) = chain.push(rows[(pos % ring) * w + a]);
+                        let (vv, xx) = chain.push(rows[at * w + a]);
                         if let Some(vv) = vv {
                             rows[((pos - m / 2) % ring) * w + v] = vv;
                         }

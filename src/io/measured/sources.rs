@@ -1,9 +1,11 @@
 //! The first pass over every source of measured data: each table scanned and checked
 //! (`scan`, `check_values`), the sample interval found, and each source's reading planned
-//! (its records in order, split into pieces at time gaps where the mapping asks).
+//! (its records in order, split into pieces at time gaps where the mapping asks), and how a
+//! row's record id finds its record's slot on every later pass.
 
 use super::{check_values, err, interval_of, pieces, scan, Columns, DataError, Plan, Source};
 use crate::scenario::DataMapping;
+use std::collections::HashMap;
 
 /// What the first pass over every source finds: the sample interval, the notes, each
 /// source's reading plan, every record piece's length and each mapped column's mean
@@ -114,4 +116,35 @@ pub(super) fn plan_sources(
         crossings,
         removed_means,
     })
+}
+
+/// Record ids that are all small whole numbers (trajectory numbers, text ids as numbered)
+/// as a table indexed by the id: a pass looks every row's id up, and a hash per row cost
+/// more than the row's own work.
+pub(super) fn dense_slots(slots: &HashMap<u64, usize>) -> Option<Vec<usize>> {
+    const LARGEST: f64 = 65_536.0;
+    let ids: Vec<(f64, usize)> = slots.iter().map(|(&k, &s)| (f64::from_bits(k), s)).collect();
+    if !ids
+        .iter()
+        .all(|&(id, _)| (0.0..LARGEST).contains(&id) && id.fract() == 0.0)
+    {
+        return None;
+    }
+    let mut table = vec![usize::MAX; ids.iter().map(|p| p.0 as usize + 1).max().unwrap_or(0)];
+    for (id, s) in ids {
+        table[id as usize] = s;
+    }
+    Some(table)
+}
+
+/// The slot of record id `id`: by `dense` ([`dense_slots`]) where there is one, else by
+/// its key.
+pub(super) fn slot_of(dense: Option<&[usize]>, slots: &HashMap<u64, usize>, id: f64) -> Option<usize> {
+    match dense {
+        Some(table) => (id >= 0.0 && id.fract() == 0.0)
+            .then(|| table.get(id as usize).copied())
+            .flatten()
+            .filter(|&s| s != usize::MAX),
+        None => slots.get(&super::key(id)).copied(),
+    }
 }
