@@ -148,3 +148,41 @@ pub(super) fn slot_of(dense: Option<&[usize]>, slots: &HashMap<u64, usize>, id: 
         None => slots.get(&super::key(id)).copied(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Small whole ids are looked up by index, anything else by its key, with the same
+    /// answers; an id not among the records has no slot either way.
+    #[test]
+    fn a_record_id_finds_its_slot_by_index_or_by_key() {
+        let map = |ids: &[f64]| -> HashMap<u64, usize> {
+            ids.iter()
+                .enumerate()
+                .map(|(s, &id)| (super::super::key(id), s))
+                .collect()
+        };
+        let small = map(&[0.0, 3.0, 7.0]);
+        let dense = dense_slots(&small).expect("small whole ids");
+        for (id, want) in [
+            (0.0, Some(0)),
+            (-0.0, Some(0)),
+            (3.0, Some(1)),
+            (7.0, Some(2)),
+            (5.0, None),
+            (9.0, None),
+            (3.5, None),
+            (-1.0, None),
+            (f64::NAN, None),
+        ] {
+            assert_eq!(slot_of(Some(&dense), &small, id), want, "id {id}");
+            assert_eq!(slot_of(None, &small, id), want, "id {id} by key");
+        }
+        for ids in [&[0.0, 2.5][..], &[1.0, 70_000.0], &[-2.0, 1.0]] {
+            let m = map(ids);
+            assert!(dense_slots(&m).is_none(), "{ids:?}");
+            assert_eq!(slot_of(None, &m, ids[1]), Some(1));
+        }
+    }
+}
