@@ -17,10 +17,12 @@
 //!   trajectory `j` is driven by its `j`-th stretch of burn-in and record.
 //!
 //! White or filtered noise beside them (an unmeasured disturbance of a shaker-driven rig,
-//! say) is a realisation of its density on the same grid: white noise as a Gaussian process
-//! flat up to the grid's Nyquist frequency, far above any mode the step resolves. Under it
-//! the accelerations and white forces are logged as interval means, as in runs under
-//! white noise (white noise has no value at an instant).
+//! say) is a realisation of its density on the same grid, up to the integration step's
+//! Nyquist frequency (beyond it the scheme's Simpson weights would fold it onto the modes):
+//! white noise as a flat Gaussian process there, far above any mode the step resolves.
+//! Under it the accelerations and white forces are logged as interval means, as in runs
+//! under white noise (white noise has no value at an instant). The sensors' filters run on
+//! the motion sampled at their oversampling rate, as in `sim`'s kernels.
 //!
 //! The force is known at every stage point of the Runge–Kutta steps (the grid is half a
 //! step fine), so nothing is interpolated. The response is sampled at the sample
