@@ -27,18 +27,9 @@ pub fn scenario_file(path: &Path, sets: &[String]) -> Result<Scenario, ScenarioE
         format!("{} with --set {}", path.display(), sets.join(" --set "))
     };
     let read = |p: &Path| {
-        table::read_table(p, &[]).map(|t| (t.names, t.columns)).map_err(|e| {
-            // A model file names a plain array's columns in [data]; a recording cannot.
-            if e.message.contains("npy_columns") {
-                format!(
-                    "{}: a plain 2-D array has no column names: save a structured array (a dtype of named \
-                     fields) or a CSV with a header",
-                    e.path
-                )
-            } else {
-                e.to_string()
-            }
-        })
+        table::read_table(p, &[])
+            .map(|t| (t.names, t.columns))
+            .map_err(|e| e.to_string())
     };
     s.read_recordings(&label, path.parent().unwrap_or(Path::new("")), &read)?;
     Ok(s)

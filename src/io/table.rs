@@ -459,8 +459,9 @@ fn read_npy(path: &Path, b: &[u8], npy_columns: &[String]) -> Result<Table, Data
         return Err(err(
             path,
             format!(
-                "a plain 2-D array has no column names: give its {cols} columns in the model file's \
-                 [data] npy_columns (got {} names)",
+                "a plain 2-D array has no column names: save a structured array (a dtype of named fields) \
+                 or a CSV with a header, or name its {cols} columns in a model file's [data] npy_columns \
+                 (got {} names)",
                 npy_columns.len()
             ),
         ));

@@ -323,7 +323,7 @@ impl Trajectory {
     fn sample(&mut self, model: &Model, points: usize, delta: f64, out: &mut [f64]) {
         let cols = model.columns();
         let white = |e: usize| matches!(model.excitations[e].process, Process::White { .. });
-        let interval_means = (0..model.excitations.len()).any(white);
+        let interval_means = !logs_instant_accelerations(model);
         model.link_forces(&self.x, &self.v, &mut self.link);
         Self::force(&self.signals, model, self.at, &mut self.external);
         for i in 0..model.masses() {
@@ -390,18 +390,26 @@ impl Trajectory {
 /// without white noise the lab scheme's accelerations are the force balance at the
 /// instant, so a clean one is taken at the instant, not averaged.
 fn lab_channels(model: &Model, sensors: &crate::scenario::Sensors) -> Vec<Channel> {
-    let white = model
-        .excitations
-        .iter()
-        .any(|e| matches!(e.process, Process::White { .. }));
+    let instants = logs_instant_accelerations(model);
     let cols = model.columns();
     let mut out = channels(model, sensors);
     for i in 0..model.masses() {
-        if !white && out[cols.a(i)] == Channel::Mean {
+        if instants && out[cols.a(i)] == Channel::Mean {
             out[cols.a(i)] = Channel::Instant;
         }
     }
     out
+}
+
+/// Whether `model`'s run logs its accelerations at the sample instants (the force balance
+/// the lab scheme computes there) rather than as the velocities' change over the interval:
+/// a run under lab excitations without white noise.
+pub fn logs_instant_accelerations(model: &Model) -> bool {
+    is_lab(model)
+        && !model
+            .excitations
+            .iter()
+            .any(|e| matches!(e.process, Process::White { .. }))
 }
 
 /// Whether `model` is driven by lab excitations (then [`simulate_lab`] runs it).

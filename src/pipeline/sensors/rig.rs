@@ -9,7 +9,7 @@
 
 use crate::io::table::{measured, LogColumns, Source, Table};
 use crate::pipeline::{Input, PipelineError};
-use crate::scenario::{AccelerationSamples, DataMapping, Process, Scenario};
+use crate::scenario::{AccelerationSamples, DataMapping, Scenario};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -85,9 +85,7 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
     // the interval; an anti-alias or bandwidth filter's output is a value at the instant,
     // and so is the force balance the lab scheme logs without white noise (sim::lab).
     let filtered = s.simulation.sensors.anti_alias.is_some() || s.simulation.sensors.bandwidth.is_some();
-    let lab_without_white = s.excitations.iter().any(|e| matches!(e.process, Process::Lab(_)))
-        && !s.excitations.iter().any(|e| matches!(e.process, Process::White { .. }));
-    let acceleration_samples = if filtered || lab_without_white {
+    let acceleration_samples = if filtered || crate::sim::lab::logs_instant_accelerations(&model) {
         AccelerationSamples::Instants
     } else {
         AccelerationSamples::IntervalMeans
