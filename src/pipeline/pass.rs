@@ -12,13 +12,17 @@
 //! nothing is reduced across threads: the results are those of a sequential pass, bit for
 //! bit. The parallelism is across the accumulators (a pass of the default methods has a
 //! dozen: the estimators, the Fisher information, the force spectra, the distributions),
-//! and a pass with one accumulator runs it on the reading thread.
+//! and a pass with one accumulator runs it on the reading thread. Off the thread pool (a
+//! `run` or `identify`) the source is read a block ahead on a thread of its own, so the
+//! decoding of a log or a table overlaps the accumulators' work; a study's items, on the
+//! pool, read and hand over in turn.
 
 use super::source::Input;
 use super::PipelineError;
 use crate::ident::accumulate::{Accumulator, Sample};
 use crate::ident::data::Batching;
 use rayon::prelude::*;
+use std::sync::mpsc;
 
 /// Samples read before the accumulators run on them: large enough that handing a block to
 /// the threads costs nothing next to the work on it, small enough to stay in the cache
@@ -27,6 +31,7 @@ pub(crate) const BLOCK: usize = 4096;
 
 /// A block of samples as read: each sample's trajectory, time and batch, and the rows one
 /// after another.
+#[derive(Default)]
 struct Block {
     heads: Vec<(u32, f64, usize)>,
     rows: Vec<f64>,
@@ -34,6 +39,18 @@ struct Block {
 }
 
 impl Block {
+    /// Add a sample; whether the block is full.
+    fn add(&mut self, batching: Batching, trajectory: u32, t: f64, row: &[f64]) -> bool {
+        if self.heads.is_empty() {
+            self.width = row.len();
+            self.rows.reserve(BLOCK * row.len());
+        }
+        debug_assert_eq!(row.len(), self.width, "rows of one width");
+        self.heads.push((trajectory, t, batching.batch_of(trajectory, t)));
+        self.rows.extend_from_slice(row);
+        self.heads.len() == BLOCK
+    }
+
     /// Every accumulator over every sample of the block, the accumulators in parallel.
     fn hand_over(&mut self, accumulators: &mut [&mut dyn Accumulator]) {
         let (heads, rows, width) = (&self.heads, &self.rows, self.width);
@@ -66,24 +83,57 @@ pub(crate) fn run(
     batching: Batching,
     accumulators: &mut [&mut dyn Accumulator],
 ) -> Result<u64, PipelineError> {
-    let mut block = Block {
-        heads: Vec::with_capacity(BLOCK),
-        rows: Vec::new(),
-        width: 0,
-    };
-    let n = input.for_each_sample(|trajectory, t, row| {
-        if block.heads.is_empty() {
-            block.width = row.len();
-            block.rows.reserve(BLOCK * row.len());
-        }
-        debug_assert_eq!(row.len(), block.width, "rows of one width");
-        block.heads.push((trajectory, t, batching.batch_of(trajectory, t)));
-        block.rows.extend_from_slice(row);
-        if block.heads.len() == BLOCK {
+    let n = match rayon::current_thread_index() {
+        None => read_ahead(input, batching, accumulators)?,
+        // On the pool (a study's item), a worker must not wait for a reader that may need
+        // the pool itself (a simulated source simulates on it): read and hand over in turn.
+        Some(_) => {
+            let mut block = Block::default();
+            let n = input.for_each_sample(|trajectory, t, row| {
+                if block.add(batching, trajectory, t, row) {
+                    block.hand_over(accumulators);
+                }
+            })?;
             block.hand_over(accumulators);
+            n
         }
-    })?;
-    block.hand_over(accumulators);
+    };
     accumulators.par_iter_mut().for_each(|a| a.finish());
     Ok(n)
+}
+
+/// [`run`]'s reading and handing over, the source read on a thread of its own a block
+/// ahead of the accumulators: decoding a log or a table overlaps the work on the block
+/// before. The blocks go over in the order read, so the results do not depend on it.
+fn read_ahead(
+    input: &Input,
+    batching: Batching,
+    accumulators: &mut [&mut dyn Accumulator],
+) -> Result<u64, PipelineError> {
+    // Blocks in flight: one being read, one waiting, one handed over.
+    const IN_FLIGHT: usize = 3;
+    let (full_tx, full_rx) = mpsc::sync_channel::<Block>(IN_FLIGHT);
+    let (empty_tx, empty_rx) = mpsc::channel::<Block>();
+    for _ in 0..IN_FLIGHT {
+        empty_tx.send(Block::default()).expect("the receiver is here");
+    }
+    std::thread::scope(|scope| {
+        let reader = scope.spawn(move || {
+            let mut block = empty_rx.recv().expect("a block to start with");
+            let n = input.for_each_sample(|trajectory, t, row| {
+                if block.add(batching, trajectory, t, row) {
+                    // The consumer gives every block back; it has gone only after a panic.
+                    let next = empty_rx.recv().unwrap_or_default();
+                    let _ = full_tx.send(std::mem::replace(&mut block, next));
+                }
+            });
+            let _ = full_tx.send(block);
+            n
+        });
+        for mut block in full_rx.iter() {
+            block.hand_over(accumulators);
+            let _ = empty_tx.send(block);
+        }
+        reader.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    })
 }
