@@ -218,13 +218,6 @@ pub struct FluxLattice {
     pending_y: Vec<f64>,
     /// The fluxes but the density (channels `1..`), compiled.
     compiled: Compiled,
-    // Scratch of [`FluxLattice::spread`]: a run's states and fluxes.
-    y: Vec<f64>,
-    values: Vec<f64>,
-    /// Per dimension: the sample's cell (flat offset) and position in it.
-    corner: Vec<(usize, f64)>,
-    /// The `2^d` nodes of the sample's cell: offset and weight ([`spread_sample`]).
-    cell_nodes: Vec<(usize, f64)>,
     /// Where the lattices come from and go back to.
     arenas: Arc<Arenas>,
     /// The terms without a polynomial form, valued from each sample's link motion and
@@ -260,6 +253,77 @@ fn add_scaled(to: &mut [f64], k: f64, from: &[f64]) {
 enum Target<'a> {
     Record(&'a mut [f64]),
     Group(&'a mut [f32]),
+}
+
+impl Target<'_> {
+    fn reborrow(&mut self) -> Target<'_> {
+        match self {
+            Target::Record(f) => Target::Record(f),
+            Target::Group(g) => Target::Group(g),
+        }
+    }
+}
+
+/// The samples [`FluxLattice::push_in`] gathered, sorted by their keys, with what their
+/// fluxes and cells are found from.
+struct Gathered<'a> {
+    keys: &'a [u64],
+    /// Per entry the state, then the atoms' values (`vars` values).
+    y: &'a [f64],
+    vars: usize,
+    /// Channels per node.
+    width: usize,
+    compiled: &'a Compiled,
+    lo: &'a [f64],
+    h: &'a [f64],
+    stride: &'a [usize],
+}
+
+impl Gathered<'_> {
+    /// The samples of `keys[range]` spread into `into` in that order: their fluxes
+    /// evaluated a run at a time (variable-major states, then channel-major values:
+    /// `Compiled::eval_block`), then each spread in turn.
+    fn spread(&self, range: std::ops::Range<usize>, mut into: Target) {
+        let (d, vars, width) = (self.lo.len(), self.vars, self.width);
+        let keys = &self.keys[range];
+        let mut ys = vec![0.0; vars * SPREAD_RUN];
+        let mut block = vec![0.0; width * SPREAD_RUN];
+        let mut values = vec![1.0; width];
+        let mut corner = vec![(0, 0.0); d];
+        let mut nodes = vec![(0, 0.0); 1 << d];
+        // Its own copy: evaluation keeps scratch.
+        let mut compiled = self.compiled.clone();
+        // The states are gathered in the order of the cells, far from the order they came
+        // in: the next run's are asked for while this one is spread.
+        let entry_of = |key: u64| (key & ((1 << ENTRY_BITS) - 1)) as usize;
+        for &key in keys.iter().take(SPREAD_RUN) {
+            prefetch(&self.y[entry_of(key) * vars]);
+        }
+        for (r, run) in keys.chunks(SPREAD_RUN).enumerate() {
+            let lanes = run.len();
+            for &key in keys.iter().skip((r + 1) * SPREAD_RUN).take(SPREAD_RUN) {
+                prefetch(&self.y[entry_of(key) * vars]);
+            }
+            for (l, &key) in run.iter().enumerate() {
+                let entry = entry_of(key);
+                for j in 0..vars {
+                    ys[j * lanes + l] = self.y[entry * vars + j];
+                }
+            }
+            compiled.eval_block(&ys[..vars * lanes], lanes, &mut block[lanes..width * lanes]);
+            for l in 0..lanes {
+                for j in 0..d {
+                    let u = (ys[j * lanes + l] - self.lo[j]) / self.h[j];
+                    let i = u as usize;
+                    corner[j] = (i * self.stride[j], u - i as f64);
+                }
+                for (c, v) in values.iter_mut().enumerate().skip(1) {
+                    *v = block[c * lanes + l];
+                }
+                spread_sample(&corner, self.stride, &values, &mut nodes, into.reborrow());
+            }
+        }
+    }
 }
 
 /// One sample's fluxes `values` over the `2^d` nodes of its cell (`corner`: per dimension
@@ -404,10 +468,6 @@ impl FluxLattice {
             pending_keys: Vec::with_capacity(PENDING),
             pending_y: Vec::with_capacity(PENDING * (d + problem.atoms.len())),
             compiled: Compiled::new(&channels.polys[1..]),
-            y: vec![0.0; d],
-            values: vec![0.0; width],
-            corner: vec![(0, 0.0); d],
-            cell_nodes: vec![(0, 0.0); 1 << d],
             arenas: arenas.clone(),
             channels,
             atoms: (!problem.atoms.is_empty()).then(|| (problem.model.clone(), problem.atoms.clone())),
@@ -503,58 +563,34 @@ impl FluxLattice {
     /// order they came, so the sums do not depend on anything but the samples' order).
     /// With jackknife groups a sample goes into its group's lattice only (the record's is
     /// their sum): one group's lattice at a time is swept, small enough for the cache, and
-    /// each sample is written once.
+    /// each sample is written once. The groups' lattices are disjoint, so the groups are
+    /// spread in parallel, each in the same order as alone: the sums do not depend on the
+    /// thread count.
     fn spread(&mut self) {
         let mut keys = std::mem::take(&mut self.pending_keys);
-        keys.sort_unstable();
-        let (d, width) = (self.dim, self.channels.len());
-        // Values per gathered sample: the state, then the atoms'.
-        let vars = d + self.atoms.as_ref().map_or(0, |a| a.1.len());
-        // The fluxes of a run of samples evaluated together (variable-major states, then
-        // channel-major values: `Compiled::eval_block`), then each spread in turn.
-        let mut ys = std::mem::take(&mut self.y);
-        let mut block = std::mem::take(&mut self.values);
-        ys.resize(vars * SPREAD_RUN, 0.0);
-        block.resize(width * SPREAD_RUN, 0.0);
-        let mut values = vec![1.0; width];
-        // The states are gathered in the order of the cells, far from the order they came
-        // in: the next run's are asked for while this one is spread.
-        let entry_of = |key: u64| (key & ((1 << ENTRY_BITS) - 1)) as usize;
-        for &key in keys.iter().take(SPREAD_RUN) {
-            prefetch(&self.pending_y[entry_of(key) * vars]);
+        // The keys are distinct (each holds its entry), so any sort gives the same order.
+        keys.par_sort_unstable();
+        let gathered = Gathered {
+            keys: &keys,
+            y: &self.pending_y,
+            vars: self.dim + self.atoms.as_ref().map_or(0, |a| a.1.len()),
+            width: self.channels.len(),
+            compiled: &self.compiled,
+            lo: &self.lo,
+            h: &self.h,
+            stride: &self.stride,
+        };
+        match self.groups.as_mut() {
+            Some(g) => {
+                let cells = self.cells;
+                g.fluxes.par_iter_mut().enumerate().for_each(|(k, lattice)| {
+                    let first = keys.partition_point(|&key| ((key >> ENTRY_BITS) as usize) < k * cells);
+                    let end = keys.partition_point(|&key| ((key >> ENTRY_BITS) as usize) < (k + 1) * cells);
+                    gathered.spread(first..end, Target::Group(lattice));
+                });
+            }
+            None => gathered.spread(0..keys.len(), Target::Record(&mut self.fluxes)),
         }
-        for (r, run) in keys.chunks(SPREAD_RUN).enumerate() {
-            let lanes = run.len();
-            for &key in keys.iter().skip((r + 1) * SPREAD_RUN).take(SPREAD_RUN) {
-                prefetch(&self.pending_y[entry_of(key) * vars]);
-            }
-            for (l, &key) in run.iter().enumerate() {
-                let entry = entry_of(key);
-                for j in 0..vars {
-                    ys[j * lanes + l] = self.pending_y[entry * vars + j];
-                }
-            }
-            self.compiled
-                .eval_block(&ys[..vars * lanes], lanes, &mut block[lanes..width * lanes]);
-            for (l, &key) in run.iter().enumerate() {
-                let group = (key >> ENTRY_BITS) as usize / self.cells;
-                for j in 0..d {
-                    let u = (ys[j * lanes + l] - self.lo[j]) / self.h[j];
-                    let i = u as usize;
-                    self.corner[j] = (i * self.stride[j], u - i as f64);
-                }
-                for (c, v) in values.iter_mut().enumerate().skip(1) {
-                    *v = block[c * lanes + l];
-                }
-                let into = match self.groups.as_mut() {
-                    Some(g) => Target::Group(&mut g.fluxes[group]),
-                    None => Target::Record(&mut self.fluxes),
-                };
-                spread_sample(&self.corner, &self.stride, &values, &mut self.cell_nodes, into);
-            }
-        }
-        self.y = ys;
-        self.values = block;
         keys.clear();
         self.pending_keys = keys;
         self.pending_y.clear();
