@@ -102,9 +102,11 @@ pub(crate) fn run(
     Ok(n)
 }
 
-/// [`run`]'s reading and handing over, the source read on a thread of its own a block
-/// ahead of the accumulators: decoding a log or a table overlaps the work on the block
-/// before. The blocks go over in the order read, so the results do not depend on it.
+/// [`run`]'s reading and handing over, the accumulators a block behind the reading on a
+/// thread of their own: decoding a log or a table overlaps the work on the block before.
+/// The blocks go over in the order read, so the results do not depend on it. The source is
+/// read on the calling thread, so what it allocates comes from where it did before (a
+/// thread's own heap would hold memory the caller's has freed: the peak grows).
 fn read_ahead(
     input: &Input,
     batching: Batching,
@@ -118,22 +120,23 @@ fn read_ahead(
         empty_tx.send(Block::default()).expect("the receiver is here");
     }
     std::thread::scope(|scope| {
-        let reader = scope.spawn(move || {
-            let mut block = empty_rx.recv().expect("a block to start with");
-            let n = input.for_each_sample(|trajectory, t, row| {
-                if block.add(batching, trajectory, t, row) {
-                    // The consumer gives every block back; it has gone only after a panic.
-                    let next = empty_rx.recv().unwrap_or_default();
-                    let _ = full_tx.send(std::mem::replace(&mut block, next));
-                }
-            });
-            let _ = full_tx.send(block);
-            n
+        scope.spawn(move || {
+            for mut block in full_rx.iter() {
+                block.hand_over(accumulators);
+                let _ = empty_tx.send(block);
+            }
         });
-        for mut block in full_rx.iter() {
-            block.hand_over(accumulators);
-            let _ = empty_tx.send(block);
-        }
-        reader.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        let mut block = empty_rx.recv().expect("a block to start with");
+        let n = input.for_each_sample(|trajectory, t, row| {
+            if block.add(batching, trajectory, t, row) {
+                // The accumulators' thread gives every block back; it has gone only after
+                // a panic, which the scope passes on.
+                let next = empty_rx.recv().unwrap_or_default();
+                let _ = full_tx.send(std::mem::replace(&mut block, next));
+            }
+        });
+        let _ = full_tx.send(block);
+        drop(full_tx);
+        n
     })
 }
