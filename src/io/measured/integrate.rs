@@ -46,10 +46,10 @@ impl AccelerationSamples {
     }
 }
 
-/// A running mean over the last `len` values.
+/// A running mean over the last `len` values, kept in one lane of a ring its chain's
+/// four windows share ([`Chain`]).
 #[derive(Debug, Clone)]
 struct Window {
-    ring: Vec<f64>,
     next: usize,
     filled: usize,
     sum: f64,
@@ -58,28 +58,20 @@ struct Window {
 }
 
 impl Window {
-    fn new(len: usize) -> Window {
-        Window {
-            ring: vec![0.0; len],
-            next: 0,
-            filled: 0,
-            sum: 0.0,
-            since: 0,
-        }
-    }
+    const EMPTY: Window = Window {
+        next: 0,
+        filled: 0,
+        sum: 0.0,
+        since: 0,
+    };
 
-    fn reset(&mut self) {
-        self.next = 0;
-        self.filled = 0;
-        self.sum = 0.0;
-        self.since = 0;
-    }
-
-    /// Push `x`; the mean of the last `len` values once there are that many.
-    fn push(&mut self, x: f64) -> Option<f64> {
-        let len = self.ring.len();
-        self.sum += x - self.ring[self.next];
-        self.ring[self.next] = x;
+    /// Push `x` into lane `lane` of `ring` (`len` entries); the mean of the last `len`
+    /// values once there are that many.
+    #[inline(always)]
+    fn push(&mut self, ring: &mut [[f64; LANES]], lane: usize, x: f64) -> Option<f64> {
+        let len = ring.len();
+        self.sum += x - ring[self.next][lane];
+        ring[self.next][lane] = x;
         self.next += 1;
         if self.next == len {
             self.next = 0;
@@ -87,49 +79,56 @@ impl Window {
         self.filled = (self.filled + 1).min(len);
         self.since += 1;
         if self.since >= len {
-            self.sum = self.ring.iter().sum();
+            self.sum = ring.iter().map(|r| r[lane]).sum();
             self.since = 0;
         }
         (self.filled == len).then(|| self.sum / len as f64)
     }
 
     /// The oldest value in a full window.
-    fn oldest(&self) -> f64 {
-        self.ring[self.next]
+    fn oldest(&self, ring: &[[f64; LANES]], lane: usize) -> f64 {
+        ring[self.next][lane]
     }
 }
 
+/// A chain's windows: the velocity's two running means, then the displacement's.
+const LANES: usize = 4;
+const V_MEAN: usize = 0;
+const V_MEAN2: usize = 1;
+const X_MEAN: usize = 2;
+const X_MEAN2: usize = 3;
+
 /// One mass's acceleration → velocity → displacement.
+///
+/// Its four windows keep their values side by side in one ring (lane `k` for window `k`):
+/// each starts when the one before it is full, that is at its ring's start, so all four
+/// step through the ring together and a sample touches one entry, not four rings far apart
+/// (a rig's chains, one per mass and record, are stepped in turn and miss the cache).
 #[derive(Debug, Clone)]
 pub(super) struct Chain {
     h: f64,
     samples: AccelerationSamples,
     a_last: Option<f64>,
     v_raw: f64,
-    v_mean: Window,
-    v_mean2: Window,
     v_last: Option<f64>,
     x_raw: f64,
-    x_mean: Window,
-    x_mean2: Window,
+    windows: [Window; LANES],
+    ring: Vec<[f64; LANES]>,
 }
 
 impl Chain {
     /// A chain for accelerations `samples` every `h` with drift windows of `2·half + 1`
     /// samples.
     pub(super) fn new(h: f64, half: usize, samples: AccelerationSamples) -> Chain {
-        let w = Window::new(2 * half + 1);
         Chain {
             h,
             samples,
             a_last: None,
             v_raw: 0.0,
-            v_mean: w.clone(),
-            v_mean2: w.clone(),
             v_last: None,
             x_raw: 0.0,
-            x_mean: w.clone(),
-            x_mean2: w,
+            windows: [Window::EMPTY; LANES],
+            ring: vec![[0.0; LANES]; 2 * half + 1],
         }
     }
 
@@ -139,9 +138,7 @@ impl Chain {
         self.v_raw = 0.0;
         self.v_last = None;
         self.x_raw = 0.0;
-        for w in [&mut self.v_mean, &mut self.v_mean2, &mut self.x_mean, &mut self.x_mean2] {
-            w.reset();
-        }
+        self.windows = [Window::EMPTY; LANES];
     }
 
     /// Push the acceleration of sample `n`: the velocity of sample `n − 2·half` and the
@@ -152,21 +149,22 @@ impl Chain {
             AccelerationSamples::IntervalMeans => self.h * a,
         };
         self.a_last = Some(a);
-        let Some(m1) = self.v_mean.push(self.v_raw) else {
+        let (ring, w) = (&mut self.ring[..], &mut self.windows);
+        let Some(m1) = w[V_MEAN].push(ring, V_MEAN, self.v_raw) else {
             return (None, None);
         };
-        let v_raw = self.v_mean.oldest();
-        let Some(m2) = self.v_mean2.push(m1) else {
+        let v_raw = w[V_MEAN].oldest(ring, V_MEAN);
+        let Some(m2) = w[V_MEAN2].push(ring, V_MEAN2, m1) else {
             return (None, None);
         };
         let v = v_raw - m2;
         self.x_raw += self.v_last.map_or(0.0, |p| 0.5 * self.h * (p + v));
         self.v_last = Some(v);
-        let Some(n1) = self.x_mean.push(self.x_raw) else {
+        let Some(n1) = w[X_MEAN].push(ring, X_MEAN, self.x_raw) else {
             return (Some(v), None);
         };
-        let x_raw = self.x_mean.oldest();
-        (Some(v), self.x_mean2.push(n1).map(|n2| x_raw - n2))
+        let x_raw = w[X_MEAN].oldest(ring, X_MEAN);
+        (Some(v), w[X_MEAN2].push(ring, X_MEAN2, n1).map(|n2| x_raw - n2))
     }
 }
 
