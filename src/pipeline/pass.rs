@@ -12,10 +12,10 @@
 //! nothing is reduced across threads: the results are those of a sequential pass, bit for
 //! bit. The parallelism is across the accumulators (a pass of the default methods has a
 //! dozen: the estimators, the Fisher information, the force spectra, the distributions),
-//! and a pass with one accumulator runs it on the reading thread. Off the thread pool (a
-//! `run` or `identify`) the source is read a block ahead on a thread of its own, so the
-//! decoding of a log or a table overlaps the accumulators' work; a study's items, on the
-//! pool, read and hand over in turn.
+//! and a pass with one accumulator runs it on the thread that hands the block over. Off the
+//! thread pool (a `run` or `identify`) the accumulators take the blocks a block behind the
+//! reading, on a thread of their own, so the decoding of a log or a table overlaps their
+//! work; a study's items, on the pool, read and hand over in turn.
 
 use super::source::Input;
 use super::PipelineError;
