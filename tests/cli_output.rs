@@ -156,3 +156,46 @@ fn the_terminal_report_fits_100_columns() {
         assert!(line.chars().count() <= 100, "{} columns: {line}", line.chars().count());
     }
 }
+
+/// `--no-figures` writes the pages, the log and the same numbers, and no figure: a folder
+/// that held a run with figures keeps none of them (they would no longer be of its report),
+/// and the pages show none.
+#[test]
+fn no_figures_leaves_the_figures_out_and_the_numbers_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    scenario(d, 40.0);
+    let estimates = |report: &Path| {
+        let mut r: serde_json::Value = serde_json::from_slice(&std::fs::read(report).unwrap()).unwrap();
+        for m in r["methods"].as_array_mut().unwrap() {
+            m.as_object_mut().unwrap().remove("seconds");
+        }
+        (r["methods"].clone(), r["figures"].clone())
+    };
+    let args = ["run", "s.toml", "--method", "weak", "--no-validate", "--out", "rep"];
+    let o = fpkbench(d, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let (with, shown) = estimates(&d.join("rep/report.json"));
+    assert_eq!(shown, serde_json::json!(true));
+    assert!(d.join("rep/characteristics.svg").exists());
+    let o = fpkbench(d, &[&args[..], &["--no-figures"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut files: Vec<String> = std::fs::read_dir(d.join("rep"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.starts_with('.'))
+        .collect();
+    files.sort();
+    assert_eq!(files, ["report.html", "report.json", "report.md", "run.mcap"]);
+    let (without, shown) = estimates(&d.join("rep/report.json"));
+    assert_eq!(shown, serde_json::json!(false));
+    assert_eq!(without, with, "the same estimates, standard errors and curves");
+    for page in ["report.md", "report.html"] {
+        let text = std::fs::read_to_string(d.join("rep").join(page)).unwrap();
+        assert!(
+            !text.contains(".svg") && !text.contains("<figure"),
+            "{page} shows a figure"
+        );
+    }
+    assert!(partials(d).is_empty());
+}

@@ -79,6 +79,10 @@ pub struct IdentifyArgs {
     /// Skip the validation by re-simulating the identified model.
     #[arg(long)]
     pub no_validate: bool,
+    /// Write no figures (SVG, PNG, PDF) and gather nothing only they show: the report's
+    /// pages, the log and the numbers are the same.
+    #[arg(long)]
+    pub no_figures: bool,
     /// Directory for report.json, report.md and the plots [default: out/<scenario>/].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -108,6 +112,7 @@ impl IdentifyArgs {
                 grid,
             },
             validate: !self.no_validate,
+            plots: !self.no_figures,
             max_steps: self.max_steps.map(|m| m as usize),
             tolerance: self.tolerance,
             select: self.selection(),

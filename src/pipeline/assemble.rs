@@ -91,6 +91,7 @@ pub(crate) fn assemble(
         validation,
         prediction: None,
         integrator_bias: None,
+        figures: true,
         iterations,
         passed,
         failed_checks: Vec::new(),

@@ -168,6 +168,7 @@ pub(crate) fn identify_disturbed(
         dist.into_plot(spectra),
     );
     clock.lap("report");
+    report.figures = options.plots;
     report.timings_s.stages = clock.timings;
     Ok(report)
 }

@@ -99,7 +99,7 @@ pub fn figure(name: &str) -> &'static Figure {
 /// does not apply to `r`.
 pub fn image(r: &Report, name: &str) -> String {
     let f = figure(name);
-    match (f.applies)(r) {
+    match r.figures && (f.applies)(r) {
         true => format!("![{}]({name}.svg)\n\n", (f.caption)(r)),
         false => String::new(),
     }
@@ -110,7 +110,7 @@ pub fn write_figures(r: &Report, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     // The figures are independent: rendered in parallel, listed in the registry's order.
     let written: Vec<Vec<PathBuf>> = FIGURES
         .par_iter()
-        .filter(|f| (f.applies)(r))
+        .filter(|f| r.figures && (f.applies)(r))
         .map(|f| (f.write)(r, &dir.join(format!("{}.svg", f.name))))
         .collect::<std::io::Result<_>>()?;
     Ok(written.into_iter().flatten().collect())

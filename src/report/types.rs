@@ -663,6 +663,9 @@ pub struct Report {
     /// The integrator's bias on the estimates (`run --integrator-bias`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub integrator_bias: Option<IntegratorBias>,
+    /// Whether the figures are written beside the report (`--no-figures` leaves them out,
+    /// and the pages then show none).
+    pub figures: bool,
     /// The iterative procedure for an unmeasured disturbance (paper section 4): the
     /// paper's sequence (spectral single-mass step, method `iterated`), then the one with
     /// the measured-force step (`iterated-force`). Empty without `[identify.disturbance]`.

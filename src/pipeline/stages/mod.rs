@@ -180,6 +180,7 @@ impl Identification<'_> {
     fn into_report(self, start: Instant) -> Report {
         let Identification {
             input,
+            options,
             grader,
             data,
             fitted,
@@ -213,6 +214,7 @@ impl Identification<'_> {
         if let Some(n) = &sensor_noise {
             super::sensors::warn_uncorrected(n, &mut report.methods);
         }
+        report.figures = options.plots;
         report.white_levels = white_levels;
         report.prediction = prediction;
         report.sensor_noise = sensor_noise;
