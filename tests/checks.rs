@@ -760,3 +760,71 @@ fn an_export_read_as_interval_means_passes_every_check_and_its_force_regression_
         instants.failed_checks
     );
 }
+
+/// The same rig with the shaker's model chosen from its spectrum.
+fn chosen_model() -> String {
+    MODEL
+        .replace("kind = \"filtered\"\nA = 1.0\nB = 1.0\n", "kind = \"white\"\n")
+        .replace("[identify]\n", "[identify]\nchoose_force_model = [\"shaker\"]\n")
+}
+
+/// The rig under a Kanai–Tajimi force: white noise of intensity 6.6 through a ground of
+/// Ω = 20 rad/s and ζ = 0.3 (`ÿ + 2ζΩẏ + Ω²y = −w`, the force `2ζΩẏ + Ω²y`), semi-implicit
+/// Euler at the rig's step; its density peaks below the mode and falls as ω⁻² above.
+fn kanai_tajimi_table() -> String {
+    let (omega, zeta, sigma) = (20.0, 0.3, 6.6);
+    let mut u = Uniform(13);
+    let (mut y, mut dy) = (0.0, 0.0);
+    rig_table(8, 60.0, |_| {
+        dy += -STEP * (2.0 * zeta * omega * dy + omega * omega * y) - sigma * STEP.sqrt() * u.normal();
+        y += STEP * dy;
+        2.0 * zeta * omega * dy + omega * omega * y
+    })
+}
+
+#[test]
+fn a_measured_force_s_model_is_chosen_from_its_spectrum() {
+    // A multisine flat over the response's band: white, and every number as when it is
+    // declared an equivalent white noise.
+    let table = multisine_table(200, 0.1, 7);
+    let r = identify_with(&table, &chosen_model());
+    assert_eq!(r.force_models[0].chosen, "white", "{:?}", r.force_models);
+    let declared = identify_with(&table, &equivalent_white_model());
+    let estimates = |r: &Report| -> Vec<f64> {
+        let weak = row(r, ReportMethod::Estimator(Method::Weak));
+        weak.parameters.iter().map(|p| p.estimate).collect()
+    };
+    assert_eq!(estimates(&r), estimates(&declared));
+    assert!(r.failed_checks.is_empty(), "{:?}", r.failed_checks);
+    // An Ornstein–Uhlenbeck force with its corner near the mode: first-order, fitted.
+    let r = identify_with(&ou_table(), &chosen_model());
+    let c = &r.force_models[0];
+    assert_eq!(c.chosen, "first-order", "{c:?}");
+    // White over the response's band is tolerated (1.9 times the averaging's misfit, the
+    // limit 3) but misses a shape (3.20) follows to the averaging's own scatter.
+    assert!(
+        c.first_order.rms_log_residual < 1.2 * c.first_order.expected_rms,
+        "{c:?}"
+    );
+    assert!((r.filters[0].fitted_b / 20.0 - 1.0).abs() < 0.2, "{:?}", r.filters[0]);
+    assert_rig(row(&r, ReportMethod::Estimator(Method::Weak)), 0.05, 0.15);
+    assert!(r.failed_checks.is_empty(), "{:?}", r.failed_checks);
+}
+
+#[test]
+fn a_kanai_tajimi_force_is_named_second_order_and_refused_to_the_fpk_methods() {
+    let r = identify_with(&kanai_tajimi_table(), &chosen_model());
+    let c = &r.force_models[0];
+    assert_eq!(c.chosen, "second-order", "{c:?}");
+    let f = c.second_order.unwrap();
+    assert!(
+        (f.omega / 20.0 - 1.0).abs() < 0.05 && (f.zeta / 0.3 - 1.0).abs() < 0.2,
+        "{f:?}"
+    );
+    let weak = row(&r, ReportMethod::Estimator(Method::Weak));
+    assert_eq!(weak.outcome.kind(), Outcome::Refused, "{:?}", weak.outcome);
+    let why = weak.outcome.error().unwrap();
+    assert!(why.contains("second-order rational") && why.contains("shaker"), "{why}");
+    assert_rig(row(&r, ReportMethod::Estimator(Method::ForceRegression)), 0.02, 0.1);
+    assert!(!r.passed);
+}

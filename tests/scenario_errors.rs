@@ -843,3 +843,15 @@ fn a_profile_without_its_range_is_named_at_the_profile() {
         "missing: give the positions to try",
     );
 }
+
+/// A force's model is chosen from its spectrum or given another way, not both.
+#[test]
+fn a_force_whose_model_is_chosen_and_also_read_as_white() {
+    run_bad(
+        "chosen_and_white",
+        &format!("{GOOD}[identify]\nequivalent_white = [\"m1\"]\nchoose_force_model = [\"m1\"]\n"),
+        31,
+        "identify.choose_force_model",
+        "is also in identify.equivalent_white",
+    );
+}

@@ -46,7 +46,8 @@ pub(crate) fn regression(setup: &Setup, problem: &Problem) -> Result<Increments,
         .scenario
         .excitations
         .iter()
-        .map(|e| means && matches!(e.process, Process::White { .. }))
+        .enumerate()
+        .map(|(k, e)| means && matches!(setup.logged.map_or(&e.process, |l| &l[k]), Process::White { .. }))
         .collect();
     // A force declared white noise of a given level has no value at an instant (an
     // fpkbench log's is its mean over the interval, and its acceleration column the force

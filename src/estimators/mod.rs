@@ -115,6 +115,11 @@ pub struct Setup<'a> {
     /// What was taken out of the first pass's moments (sensor noise, less a filter's loss
     /// put back): for an estimator with moments of its own.
     pub deconvolution: Option<&'a Deconvolution>,
+    /// The forces' processes as the samples were made with, where the identifier chose a
+    /// force's model from its spectrum (`pipeline::force_choice`): an fpkbench log holds a
+    /// white force as its interval mean and a lab signal at the instants, whatever model
+    /// the identification reads them with. `None`: the scenario's.
+    pub logged: Option<&'a [crate::scenario::Process]>,
 }
 
 impl Setup<'_> {
@@ -238,6 +243,7 @@ mod tests {
             arenas: &arenas,
             measured: None,
             deconvolution: None,
+            logged: None,
         };
         let typical = problem.typical(&total);
         let cx = Context {

@@ -37,6 +37,7 @@ pub mod measured_force;
 pub mod moments;
 pub mod noise;
 pub mod poly;
+pub mod rational;
 pub mod select;
 pub mod spectrum;
 pub mod strong_histogram;

@@ -84,6 +84,7 @@ pub(crate) fn assemble(
         records,
         filters,
         white_levels: Vec::new(),
+        force_models: input.force_models.clone(),
         sensor_noise: None,
         selection: None,
         profile: None,

@@ -13,6 +13,7 @@
 mod assemble;
 pub mod bias;
 mod disturbed;
+mod force_choice;
 mod force_scale;
 mod grading;
 mod identify;
@@ -189,8 +190,8 @@ pub fn identify_log(path: &Path, options: &Options) -> Result<Report, PipelineEr
 /// a truncated log still holds), measured tables, or a simulation in memory.
 pub fn identify(input: &Input, options: &Options) -> Result<Report, PipelineError> {
     let start = Instant::now();
-    match sensors::rig::through_sensors(input)? {
-        Some(sensors) => identify_info(&sensors, options, start),
-        None => identify_info(input, options, start),
-    }
+    let sensors = sensors::rig::through_sensors(input)?;
+    let input = sensors.as_ref().unwrap_or(input);
+    let chosen = force_choice::choose(input)?;
+    identify_info(chosen.as_ref().unwrap_or(input), options, start)
 }

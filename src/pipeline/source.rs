@@ -139,12 +139,43 @@ impl SampleSource for Simulation {
     }
 }
 
+/// A source read with the description it was written with, whatever the input that holds
+/// it says of the samples ([`Input::with_chosen_forces`]).
+struct AsWritten {
+    source: Arc<dyn SampleSource>,
+    info: LogInfo,
+}
+
+impl SampleSource for AsWritten {
+    fn for_each_sample(&self, _: &LogInfo, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, PipelineError> {
+        self.source.for_each_sample(&self.info, f)
+    }
+
+    fn measured(&self) -> Option<&Measured> {
+        self.source.measured()
+    }
+
+    fn is_log_file(&self) -> bool {
+        self.source.is_log_file()
+    }
+
+    fn expected_samples(&self, _: &LogInfo) -> u64 {
+        self.source.expected_samples(&self.info)
+    }
+}
+
 /// What an identification reads: the description of the samples and their source.
 pub struct Input {
     pub info: LogInfo,
-    pub source: Box<dyn SampleSource>,
+    pub source: Arc<dyn SampleSource>,
     /// Samples handed over so far, over every pass (for a progress display).
-    read: AtomicU64,
+    read: Arc<AtomicU64>,
+    /// The forces whose model was chosen from their spectra before `info`'s scenario was
+    /// completed with the choice ([`Input::with_chosen_forces`]).
+    pub force_models: Vec<crate::report::ForceModelChoice>,
+    /// The forces' processes as the samples were made with, where `force_models` rewrote
+    /// them (`None`: the scenario's).
+    pub logged: Option<Vec<crate::scenario::Process>>,
 }
 
 impl Input {
@@ -156,8 +187,41 @@ impl Input {
     pub fn new(info: LogInfo, source: Box<dyn SampleSource>) -> Input {
         Input {
             info,
-            source,
-            read: AtomicU64::new(0),
+            source: Arc::from(source),
+            read: Arc::default(),
+            force_models: Vec::new(),
+            logged: None,
+        }
+    }
+
+    /// The same samples described by `scenario`, `info`'s with the measured forces' models
+    /// `choices` chose (`super::force_choice`); the source still reads them as `info`
+    /// describes them (a simulation runs the scenario as written).
+    pub(crate) fn with_chosen_forces(
+        &self,
+        scenario: Scenario,
+        choices: Vec<crate::report::ForceModelChoice>,
+    ) -> Input {
+        let source = AsWritten {
+            source: self.source.clone(),
+            info: self.info.clone(),
+        };
+        Input {
+            info: LogInfo {
+                scenario,
+                ..self.info.clone()
+            },
+            source: Arc::new(source),
+            read: self.read.clone(),
+            force_models: choices,
+            logged: Some(
+                self.info
+                    .scenario
+                    .excitations
+                    .iter()
+                    .map(|x| x.process.clone())
+                    .collect(),
+            ),
         }
     }
 

@@ -39,6 +39,19 @@ struct WhiteBand {
     parts: Vec<(Welch, Welch)>,
 }
 
+impl WhiteBand {
+    /// Excitation `e`'s force and the velocity of the first mass it drives, in the log's
+    /// columns `log`.
+    fn new(s: &Scenario, log: &Columns, e: usize) -> WhiteBand {
+        WhiteBand {
+            excitation: e,
+            force: log.force(e),
+            response: log.v(s.excitations[e].acts_on[0]),
+            parts: Vec::new(),
+        }
+    }
+}
+
 /// Parts of the trajectories a force cell's noise-floor estimate leaves out in turn.
 const FLOOR_PARTS: usize = 8;
 
@@ -66,14 +79,44 @@ impl ForceSpectra {
                 .identify
                 .equivalent_white
                 .iter()
-                .map(|&e| WhiteBand {
-                    excitation: e,
-                    force: log.force(e),
-                    response: log.v(s.excitations[e].acts_on[0]),
-                    parts: Vec::new(),
-                })
+                .map(|&e| WhiteBand::new(s, &log, e))
                 .collect(),
         }
+    }
+
+    /// The forces `excitations` as candidates for a model chosen from their spectra
+    /// (`super::force_choice`): each read as white over the response's band, ready for the
+    /// samples of one pass.
+    pub(crate) fn for_choice(s: &Scenario, excitations: &[usize]) -> ForceSpectra {
+        let log = Columns::new(s.masses.len(), s.excitations.len());
+        let mut spectra = ForceSpectra {
+            excitations: Vec::new(),
+            columns: Vec::new(),
+            lag: Vec::new(),
+            welch: Vec::new(),
+            parts: Vec::new(),
+            welching: false,
+            white: excitations.iter().map(|&e| WhiteBand::new(s, &log, e)).collect(),
+        };
+        spectra.start_welch(&s.simulation);
+        spectra
+    }
+
+    /// The spectrum of each force read as white, its parts pooled (in the order of
+    /// [`ForceSpectra::white_levels`]).
+    pub(crate) fn white_force_spectra(&self) -> Vec<spectrum::Spectrum> {
+        self.white
+            .iter()
+            .filter_map(|w| {
+                let first = w.parts.first()?.0.spectrum();
+                let parts: Vec<spectrum::Spectrum> = w.parts.iter().map(|(f, _)| f.spectrum()).collect();
+                Some(spectrum::Spectrum {
+                    density: spectrum::pooled_density(&parts),
+                    segments: parts.iter().map(|p| p.segments).sum(),
+                    ..first
+                })
+            })
+            .collect()
     }
 
     pub(crate) fn push_lag(&mut self, traj: u32, row: &[f64]) {

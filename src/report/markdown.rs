@@ -238,10 +238,18 @@ fn filters_section(r: &Report) -> String {
 
 /// The forces read as their equivalent white noise.
 fn white_levels_section(r: &Report) -> String {
-    if r.white_levels.is_empty() {
-        return String::new();
+    let mut s = String::new();
+    if !r.force_models.is_empty() {
+        s += "## Force models chosen from the spectra\n\n";
+        for c in &r.force_models {
+            s += &format!("- {}", super::text::force_model_line(c));
+        }
+        s += "\n";
     }
-    let mut s = "## Forces read as white\n\n".to_string();
+    if r.white_levels.is_empty() {
+        return s;
+    }
+    s += "## Forces read as white\n\n";
     for w in &r.white_levels {
         s += &format!("- {}", super::text::white_level_line(w));
     }

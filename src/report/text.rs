@@ -281,13 +281,42 @@ fn filters(r: &Report) -> String {
         }
         s += "\n";
     }
+    for c in &r.force_models {
+        s += &force_model_line(c);
+    }
     for w in &r.white_levels {
         s += &white_level_line(w);
     }
-    if !r.filters.is_empty() || !r.white_levels.is_empty() {
+    if !r.filters.is_empty() || !r.white_levels.is_empty() || !r.force_models.is_empty() {
         s += "\n";
     }
     s
+}
+
+/// A force whose model was chosen from its spectrum: every candidate's misfit, the choice.
+pub(crate) fn force_model_line(c: &crate::report::ForceModelChoice) -> String {
+    let times = |rms: f64, expected: f64| format!("{:.1}×", rms / expected);
+    let second = c.second_order.map_or("not fitted".to_string(), |f| {
+        format!(
+            "{} (poles at {:.4} Hz, damping ratio {:.3})",
+            times(f.rms_log_residual, f.expected_rms),
+            f.omega / (2.0 * std::f64::consts::PI),
+            f.zeta
+        )
+    });
+    format!(
+        "force {} model chosen from its spectrum: {}; misfit against averaging alone: white over the response's \
+         band {}, first-order (3.20) {}, second-order {second}{}\n",
+        c.excitation,
+        c.chosen,
+        times(c.white.rms_log_residual, c.white.expected_rms_log_residual),
+        times(c.first_order.rms_log_residual, c.first_order.expected_rms),
+        if c.refused.is_some() {
+            "; the methods that need the force model are REFUSED"
+        } else {
+            ""
+        }
+    )
 }
 
 /// A force read as its equivalent white noise: its level, the bands and the misfit.

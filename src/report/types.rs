@@ -153,6 +153,28 @@ pub struct WhiteLevelReport {
     pub accepted: bool,
 }
 
+/// A measured force whose model the identifier chose from its spectrum (`[identify]
+/// choose_force_model`, docs/methods.md "Choosing the force model"): every candidate's fit
+/// and misfit against what averaging alone gives, and the choice — the simplest the data
+/// accept.
+#[derive(Debug, Clone, Serialize)]
+pub struct ForceModelChoice {
+    /// The excitation's name.
+    pub excitation: String,
+    /// `"white"`, `"first-order"`, `"second-order"` or `"none"`.
+    pub chosen: &'static str,
+    /// White over the response's band: the level, the bands and the misfit there.
+    pub white: WhiteLevelReport,
+    /// The first-order spectrum (3.20) fitted to the whole spectrum, its misfit.
+    pub first_order: crate::ident::spectrum::OuFit,
+    /// The second-order rational spectrum fitted to the whole spectrum, its misfit.
+    pub second_order: Option<crate::ident::rational::Rational2Fit>,
+    /// Why the methods that need the force model are refused (a second-order force, which
+    /// the FPK equations here do not take, or none of the candidates fits).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refused: Option<String>,
+}
+
 /// Structure selection: what was chosen from the candidates and the evidence.
 #[derive(Debug, Clone, Serialize)]
 pub struct SelectionReport {
@@ -643,6 +665,9 @@ pub struct Report {
     /// Measured forces read as their equivalent white noise.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub white_levels: Vec<WhiteLevelReport>,
+    /// Measured forces whose model was chosen from their spectra.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub force_models: Vec<ForceModelChoice>,
     /// Sensor noise: estimated and corrected where the scenario declares sensors and for
     /// measured data (`None` otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -49,6 +49,7 @@ impl Scenario {
         remap(&mut id.known_filters);
         remap(&mut id.unknown_corners);
         remap(&mut id.equivalent_white);
+        remap(&mut id.choose_force_model);
         if let Some(d) = &mut id.disturbance {
             d.structure.measured = index[d.structure.measured].expect("the measured force is kept");
         }

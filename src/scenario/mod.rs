@@ -10,6 +10,7 @@ mod level;
 pub mod overrides;
 mod paper;
 mod raw;
+mod report_method;
 mod sensors;
 mod signal;
 mod validate;
@@ -118,6 +119,7 @@ impl Scheme {
 
 /// Identification methods are named by the estimators' registry (`estimators/mod.rs`).
 pub use crate::method::Method;
+pub use report_method::ReportMethod;
 pub use sensors::{Adc, AntiAlias, MassSensors, NoiseScale, Sensors, MAGNITUDE, MIN_OVERSAMPLING};
 pub use signal::{Recorded, Shape, Signal};
 
@@ -415,6 +417,10 @@ pub struct Identify {
     /// equivalent white noise of a band-limited or multisine input (docs/methods.md,
     /// "The force model").
     pub equivalent_white: Vec<usize>,
+    /// Measured excitations whose model the identifier chooses from the force's spectrum:
+    /// white over the response's band, first-order (3.20), or — a second-order rational
+    /// spectrum or none — refused (docs/methods.md, "Choosing the force model").
+    pub choose_force_model: Vec<usize>,
     /// Alternative models identified alongside for comparison (e.g. the paper's linear
     /// case 1), by name: each replaces `links`; reported, not gated.
     pub compare: Vec<(String, Vec<IdentifyLink>)>,
@@ -499,8 +505,8 @@ impl Identify {
             "unknown intensities"
         } else if !self.unknown_corners.is_empty() || filtered_fitted {
             "filters fitted to the force spectra (list them in known_filters)"
-        } else if !self.equivalent_white.is_empty() {
-            "white levels taken from the force spectra (give their sigma)"
+        } else if !self.equivalent_white.is_empty() || !self.choose_force_model.is_empty() {
+            "white levels or force models taken from the force spectra (give their sigma)"
         } else {
             return None;
         };
@@ -586,92 +592,6 @@ pub struct Accept {
     /// Whether `worst_rel_error` is the scenario's own (else the 5 % default, which no
     /// spread over seeds calibrated).
     pub calibrated: bool,
-}
-
-/// What a row of a report is: an estimator, a baseline, a comparison model, or a step or
-/// bound of the section-4 procedure. Written in reports and `[accept] methods` by
-/// [`ReportMethod::name`].
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub enum ReportMethod {
-    /// One of the estimators of `[identify] methods`.
-    Estimator(Method),
-    /// The white-noise weak form applied to data with filtered forces, each taken as white
-    /// of the same low-frequency density: what ignoring the filters costs (ungated).
-    WeakWhiteNaive,
-    /// The weak form with the `[identify.compare.NAME]` model (ungated).
-    Compare(String),
-    /// Section 4, step 0 (4.4)–(4.7): every unknown, the disturbance ignored.
-    Step0,
-    /// Section 4: an intermediate step of a sequence.
-    Step,
-    /// Section 4, the paper's sequence (spectral single-mass step (4.10)–(4.15)).
-    Iterated,
-    /// Section 4, the sequence with the measured-force single-mass step.
-    IteratedForce,
-    /// Section 4, one solve of the subtracted equation (4.8) for `k1`, `K2`, `C2`.
-    DirectForce,
-    /// Bound: the disturbance given as measured, in the paper's model of the forces.
-    PzMeasured,
-    /// Bound: the disturbance given as measured, in the measured-force weak form.
-    PzMeasuredForce,
-}
-
-impl ReportMethod {
-    /// The methods an `[accept] methods` key may name (the section-4 ones only with
-    /// `[identify.disturbance]`).
-    pub fn gated(disturbance: bool) -> Vec<ReportMethod> {
-        let mut out: Vec<ReportMethod> = Method::gated().map(ReportMethod::Estimator).collect();
-        if disturbance {
-            out.extend([ReportMethod::IteratedForce, ReportMethod::DirectForce]);
-        }
-        out
-    }
-
-    /// What this row ignores by design, when it does: a non-dissipative estimate there is
-    /// that model error's doing, not the polynomial degree's.
-    pub fn ignores(&self) -> Option<&'static str> {
-        match self {
-            ReportMethod::WeakWhiteNaive => Some("the filtered forces' spectra (each force taken as white)"),
-            ReportMethod::Step0 => Some("the unmeasured disturbance (the paper's step 0)"),
-            ReportMethod::PzMeasured => Some("the filtered forces' spectra (the paper's white-noise model of them)"),
-            _ => None,
-        }
-    }
-
-    /// The name reports and scenarios use, e.g. `strong-marginals`, `weak [linear]`.
-    pub fn name(&self) -> String {
-        match self {
-            ReportMethod::Estimator(m) => m.name().to_string(),
-            ReportMethod::WeakWhiteNaive => "weak-white-naive".into(),
-            ReportMethod::Compare(n) => format!("weak [{n}]"),
-            ReportMethod::Step0 => "step-0".into(),
-            ReportMethod::Step => "step".into(),
-            ReportMethod::Iterated => "iterated".into(),
-            ReportMethod::IteratedForce => "iterated-force".into(),
-            ReportMethod::DirectForce => "direct-force".into(),
-            ReportMethod::PzMeasured => "pz-measured".into(),
-            ReportMethod::PzMeasuredForce => "pz-measured-force".into(),
-        }
-    }
-}
-
-impl std::fmt::Display for ReportMethod {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        // `pad`, so that widths and alignment in format strings apply.
-        f.pad(&self.name())
-    }
-}
-
-impl serde::Serialize for ReportMethod {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(&self.name())
-    }
-}
-
-impl PartialEq<&str> for ReportMethod {
-    fn eq(&self, other: &&str) -> bool {
-        self.name() == *other
-    }
 }
 
 impl Accept {

@@ -164,6 +164,7 @@ pub(crate) struct RawIdentify {
     pub(super) known_filters: Option<Vec<Spanned<String>>>,
     pub(super) unknown_corners: Option<Vec<Spanned<String>>>,
     pub(super) equivalent_white: Option<Vec<Spanned<String>>>,
+    pub(super) choose_force_model: Option<Vec<Spanned<String>>>,
     pub(super) links: Option<BTreeMap<String, Spanned<RawIdentifyLink>>>,
     pub(super) compare: Option<BTreeMap<String, Spanned<RawCompare>>>,
     pub(super) disturbance: Option<Spanned<RawDisturbance>>,

@@ -7,7 +7,7 @@
 //! needs it is refused (docs/methods.md, "The force model" and "Checks").
 
 use super::super::spectra::{EDGE_LIMIT, REJECT_WHITE};
-use super::super::PipelineError;
+use super::super::{force_choice, PipelineError};
 use super::{Fitted, Identification};
 use crate::ident::{Problem, Specification};
 use crate::report::{FilterReport, WhiteLevelReport};
@@ -25,16 +25,36 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let (filters, reports, spectra) = id.forces.filters(s);
     let white = id.forces.white_levels(s);
     let levels: Vec<(usize, f64)> = white.iter().filter_map(|&(e, sigma, _)| Some((e, sigma?))).collect();
-    let white_reports: Vec<WhiteLevelReport> = white.into_iter().map(|(_, _, r)| r).collect();
+    let chosen = &id.input.force_models;
+    let white_reports: Vec<WhiteLevelReport> = white
+        .into_iter()
+        .map(|(_, _, r)| WhiteLevelReport {
+            true_sigma: force_choice::true_sigma(chosen, &r.excitation).unwrap_or(r.true_sigma),
+            ..r
+        })
+        .collect();
     id.spec = with_levels(&id.spec, &levels);
     let problem = match id.symmetric {
         None => Problem::from_spec(&id.spec, &filters)?,
         Some(_) => Problem::from_spec_unchecked(&id.spec, &filters)?,
     };
     let typical = problem.typical(id.total.as_ref().expect("set in the second pass"));
-    let why: Vec<String> = rejected(&reports)
+    // A force whose chosen model is refused is refused for that reason alone.
+    let refused: Vec<&str> = chosen.iter().filter_map(|c| c.refused.as_deref()).collect();
+    let read_white: Vec<WhiteLevelReport> = white_reports
+        .iter()
+        .filter(|w| {
+            !chosen
+                .iter()
+                .any(|c| c.excitation == w.excitation && c.refused.is_some())
+        })
+        .cloned()
+        .collect();
+    let why: Vec<String> = refused
         .into_iter()
-        .chain(rejected_white(&white_reports))
+        .map(str::to_string)
+        .chain(rejected(&reports))
+        .chain(rejected_white(&read_white))
         .collect();
     let rejected = (!why.is_empty()).then(|| {
         why.join("; ")

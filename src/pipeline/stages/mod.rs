@@ -36,6 +36,7 @@ mod sensors;
 mod validation;
 mod verdict;
 
+pub(crate) use excitation::REJECT;
 pub(crate) use plan::{structure_of, Comparison};
 
 use super::assemble::assemble;

@@ -26,6 +26,7 @@ pub(super) fn setup<'a>(id: &'a Identification) -> Setup<'a> {
         arenas: &id.options.arenas,
         measured: id.input.measured().map(|m| m.present.as_slice()),
         deconvolution: id.deconvolution.as_ref(),
+        logged: id.input.logged.as_deref(),
     }
 }
 

@@ -80,10 +80,20 @@ pub(crate) fn check_identify(
         }
         equivalent_white.push(k);
     }
+    let choose_force_model = chosen_models(
+        loc,
+        ident,
+        excitations,
+        &[
+            (&equivalent_white, "identify.equivalent_white"),
+            (&known_filters, "identify.known_filters"),
+            (&unknown_corners, "identify.unknown_corners"),
+        ],
+    )?;
     // A lab signal is known to the identifier by its measured samples alone: it is read as
-    // its equivalent white noise, listed or not.
+    // its equivalent white noise unless its model is to be chosen.
     for (k, x) in excitations.iter().enumerate() {
-        if matches!(x.process, Process::Lab(_)) && !equivalent_white.contains(&k) {
+        if matches!(x.process, Process::Lab(_)) && !equivalent_white.contains(&k) && !choose_force_model.contains(&k) {
             equivalent_white.push(k);
         }
     }
@@ -102,12 +112,12 @@ pub(crate) fn check_identify(
         .collect::<Result<Vec<_>, _>>()?;
     let disturbance = match ident.and_then(|i| i.disturbance.as_ref()) {
         None => None,
-        Some(d) if !equivalent_white.is_empty() => {
+        Some(d) if !equivalent_white.is_empty() || !choose_force_model.is_empty() => {
             return Err(loc.at(
                 d.span(),
                 "identify.disturbance",
                 "the iterative procedure needs every measured force's model before its first step: give the \
-                 sigma of the forces listed in identify.equivalent_white",
+                 models of the forces listed in identify.equivalent_white or identify.choose_force_model",
             ))
         }
         Some(d) => Some(check_disturbance(loc, d, || {
@@ -130,6 +140,7 @@ pub(crate) fn check_identify(
         known_filters,
         unknown_corners,
         equivalent_white,
+        choose_force_model,
         compare,
         disturbance,
         sensor_noise: ident
@@ -461,8 +472,39 @@ pub(crate) fn check_accept(loc: &Locator, raw: &RawScenario, identify: &Identify
     Ok(accept)
 }
 
-/// An equivalent white force's level is read from its measured column: a model file must
-/// map `p_<excitation>`.
+/// The forces whose model the identifier chooses from their spectra
+/// (`[identify] choose_force_model`): measured, listed once, and in none of the lists
+/// `elsewhere` that give its model another way. In a model file it is declared white (no
+/// `sigma` needed); in a simulation its declared process is the truth, which the
+/// identifier does not read.
+fn chosen_models(
+    loc: &Locator,
+    ident: Option<&super::super::raw::RawIdentify>,
+    excitations: &[Excitation],
+    elsewhere: &[(&[usize], &str)],
+) -> Result<Vec<usize>, ScenarioError> {
+    let key = "identify.choose_force_model";
+    let mut out = Vec::new();
+    for e in ident.and_then(|i| i.choose_force_model.as_ref()).into_iter().flatten() {
+        let k = excitation_index(loc, excitations, e, key)?;
+        let other = elsewhere.iter().find(|(list, _)| list.contains(&k));
+        let why = if !excitations[k].measured {
+            "is not measured: a force's model can only be chosen from its measured spectrum".to_string()
+        } else if let Some((_, list)) = other {
+            format!("is also in {list}, which gives its model: list it in one of the two")
+        } else if out.contains(&k) {
+            "is listed twice".to_string()
+        } else {
+            out.push(k);
+            continue;
+        };
+        return Err(loc.at(e.span(), key, format!("excitation {:?} {why}", e.get_ref())));
+    }
+    Ok(out)
+}
+
+/// An equivalent white force's level, or a force whose model is chosen, is read from its
+/// measured column: a model file must map `p_<excitation>`.
 pub(crate) fn check_equivalent_white_columns(
     loc: &Locator,
     raw: &RawScenario,
@@ -471,15 +513,29 @@ pub(crate) fn check_equivalent_white_columns(
     data: Option<&DataMapping>,
 ) -> Result<(), ScenarioError> {
     let Some(data) = data else { return Ok(()) };
-    let listed = raw.identify.as_ref().and_then(|i| i.equivalent_white.as_ref());
-    for (&e, written) in identify.equivalent_white.iter().zip(listed.into_iter().flatten()) {
+    let listed = |key: fn(&super::super::raw::RawIdentify) -> Option<&Vec<Spanned<String>>>| {
+        raw.identify.as_ref().and_then(key).into_iter().flatten()
+    };
+    let written = identify
+        .equivalent_white
+        .iter()
+        .zip(listed(|i| i.equivalent_white.as_ref()))
+        .map(|(e, w)| (e, w, "identify.equivalent_white"))
+        .chain(
+            identify
+                .choose_force_model
+                .iter()
+                .zip(listed(|i| i.choose_force_model.as_ref()))
+                .map(|(e, w)| (e, w, "identify.choose_force_model")),
+        );
+    for (&e, written, key) in written {
         let column = format!("p_{}", excitations[e].name);
         if !data.columns.iter().any(|(c, _)| *c == column) {
             return Err(loc.at(
                 written.span(),
-                "identify.equivalent_white",
+                key,
                 format!(
-                    "the level of {:?} is read from its measured force: map `{column}` in [data.columns]",
+                    "the model of {:?} is read from its measured force: map `{column}` in [data.columns]",
                     excitations[e].name
                 ),
             ));

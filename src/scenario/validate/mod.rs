@@ -592,27 +592,26 @@ pub(crate) fn check_excitations(
                 }
                 // An equivalent white noise's level comes from its measured spectrum: its
                 // `sigma`, if written, is only a start.
-                let equivalent = raw
-                    .identify
-                    .as_ref()
-                    .and_then(|i| i.equivalent_white.as_ref())
-                    .is_some_and(|l| {
-                        let default_name = targets
-                            .iter()
-                            .map(|t| t.get_ref().as_str())
-                            .collect::<Vec<_>>()
-                            .join("_");
-                        let name = e.name.as_ref().map_or(default_name, |n| n.get_ref().clone());
-                        l.iter().any(|n| *n.get_ref() == name)
-                    });
+                let listed = |l: &Vec<Spanned<String>>| {
+                    let default_name = targets
+                        .iter()
+                        .map(|t| t.get_ref().as_str())
+                        .collect::<Vec<_>>()
+                        .join("_");
+                    let name = e.name.as_ref().map_or(default_name, |n| n.get_ref().clone());
+                    l.iter().any(|n| *n.get_ref() == name)
+                };
+                let equivalent = raw.identify.as_ref().is_some_and(|i| {
+                    i.equivalent_white.as_ref().is_some_and(listed) || i.choose_force_model.as_ref().is_some_and(listed)
+                });
                 match e.sigma.as_ref() {
                     None if equivalent => Process::White { sigma: 1.0 },
                     None => {
                         return Err(loc.at(
                             e.kind.span(),
                             format!("{key}.sigma"),
-                            "white noise needs `sigma` (> 0), unless its level is taken from its measured \
-                             spectrum ([identify] equivalent_white)",
+                            "white noise needs `sigma` (> 0), unless its level or model is taken from its measured \
+                             spectrum ([identify] equivalent_white, choose_force_model)",
                         ))
                     }
                     Some(s) => Process::White {
