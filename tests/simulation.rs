@@ -535,6 +535,10 @@ fn shaped_kernel_is_bit_identical_to_the_generic_stepper() {
         // One filtered disturbance acting on both masses, a measured filtered force.
         ("scenarios/disturbed2dof.toml", Scheme::SemiImplicit),
         ("scenarios/silentblock.toml", Scheme::SemiImplicit),
+        // The Heun scheme on the fused kernels: white, filtered, both.
+        ("scenarios/duffing2dof.toml", Scheme::Heun),
+        ("scenarios/disturbed2dof.toml", Scheme::Heun),
+        ("scenarios/silentblock.toml", Scheme::Heun),
     ] {
         let src = std::fs::read_to_string(file).unwrap();
         let mut s = Scenario::parse(&src, file, "t").unwrap();
@@ -555,9 +559,9 @@ fn shaped_kernel_is_bit_identical_to_the_generic_stepper() {
     assert_kernel_matches_generic(&s, "filtered_sdof");
     // Three and four masses (the shaped kernel), five and seven (the blocked kernel): links
     // turned round (`m2`–`m1`), even powers, parallel links, empty link slots (no `m1`–`m3`
-    // link), four excitations with a filtered one on two masses; both schemes.
+    // link), four excitations with a filtered one on two masses; every scheme.
     for n in [3, 4, 5, 7] {
-        for scheme in [Scheme::SemiImplicit, Scheme::EulerMaruyama] {
+        for scheme in [Scheme::SemiImplicit, Scheme::EulerMaruyama, Scheme::Heun] {
             let mut s = Scenario::parse(&odd_shapes(n), "odd_shapes.toml", "t").unwrap();
             s.simulation.scheme = scheme;
             assert_kernel_matches_generic(&s, &format!("{n} masses, {scheme:?}"));
@@ -565,8 +569,10 @@ fn shaped_kernel_is_bit_identical_to_the_generic_stepper() {
     }
     // A degree-7 stiffness: no shaped kernel at that degree, three masses on the blocked one.
     let src = odd_shapes(3).replace("3 = 20.0 }", "3 = 20.0, 7 = 0.5 }");
-    let s = Scenario::parse(&src, "odd_shapes.toml", "t").unwrap();
+    let mut s = Scenario::parse(&src, "odd_shapes.toml", "t").unwrap();
     assert_kernel_matches_generic(&s, "degree 7");
+    s.simulation.scheme = Scheme::Heun;
+    assert_kernel_matches_generic(&s, "degree 7, Heun");
 }
 
 /// A chain of `n` masses with awkward links: see its use.

@@ -28,7 +28,7 @@ pub(crate) struct LaneModel<const D: usize> {
     pub(super) n: usize,
     pub(super) h: f64,
     pub(super) semi_implicit: bool,
-    /// The stochastic Heun scheme ([`Group::step_heun`]); only the generic stepper runs it.
+    /// The stochastic Heun scheme ([`Group::step_heun`], and the fused kernels' own).
     pub(super) heun: bool,
     pub(super) a: Vec<usize>,
     pub(super) b: Vec<usize>,
@@ -150,8 +150,8 @@ impl<const D: usize> LaneModel<D> {
                 lm.ou_weight[i * no + slot] = 1.0;
             }
         }
-        if !m.other_terms.is_empty() || !m.hysteresis.is_empty() || lm.heun {
-            // Terms, states and a scheme the fused kernels do not have: the generic stepper.
+        if !m.other_terms.is_empty() || !m.hysteresis.is_empty() {
+            // Terms and states the fused kernels do not have: the generic stepper.
         } else if let Some(kernel) = shaped(&lm) {
             lm.complete_links();
             lm.advance = kernel;
@@ -295,7 +295,7 @@ impl Group {
             z: vec![zero(); model.hysteresis.len()],
             dw: vec![zero(); ne],
             noise: vec![0.0; NOISE_STEPS * ne * LANES],
-            scratch: vec![[0.0; super::shaped::W]; 3 * n + ne],
+            scratch: vec![[0.0; super::shaped::W]; 6 * n + ne],
             v_mark: vec![zero(); n],
             x_keep: vec![zero(); n],
             x_ok: vec![zero(); n + 1],

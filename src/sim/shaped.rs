@@ -110,7 +110,12 @@ impl<const D: usize> LaneModel<D> {
 ///
 /// The normals are drawn [`NOISE_STEPS`] steps at a time by [`fill_noise`], then the steps
 /// run over them, [`W`] lanes at a time. The white impulse enters the velocity before the
-/// force does: it does not wait on the force's dependency chain.
+/// force does: it does not wait on the force's dependency chain. With [`Scheme::Heun`]
+/// (`lm.heun`, a constant of the run) each step is [`Group::step_heun`]'s, the forces
+/// evaluated twice.
+///
+/// [`Scheme::Heun`]: crate::scenario::Scheme::Heun
+/// [`Group::step_heun`]: super::lanes::Group
 #[multiversion(targets(
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
     "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
@@ -129,7 +134,8 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
     let white_weight: [[f64; NW]; N] = std::array::from_fn(|i| std::array::from_fn(|s| lm.white_weight[i * NW + s]));
     let ou: [(usize, f64, f64); NO] = std::array::from_fn(|s| lm.ou[s]);
     let ou_weight: [[f64; NO]; N] = std::array::from_fn(|i| std::array::from_fn(|s| lm.ou_weight[i * NO + s]));
-    let (h, semi) = (lm.h, lm.semi_implicit);
+    let (h, semi, heun) = (lm.h, lm.semi_implicit, lm.heun);
+    let (half, half_him): (f64, [f64; N]) = (0.5 * h, std::array::from_fn(|i| 0.5 * him[i]));
     let nz = NW + NO;
     let mut done = 0;
     while done < steps {
@@ -190,16 +196,6 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
                         }
                     };
                 }
-                link!(0);
-                link!(1);
-                link!(2);
-                link!(3);
-                link!(4);
-                link!(5);
-                link!(6);
-                link!(7);
-                link!(8);
-                link!(9);
                 // Unrolled by hand like the links: as a loop, LLVM leaves it scalar from
                 // three filtered excitations on.
                 macro_rules! filtered {
@@ -210,6 +206,32 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
                                     f[i][j] = ou_weight[i][$s].mul_add(po[$s][j], f[i][j]);
                                 }
                             }
+                        }
+                    };
+                }
+                // The forces on the masses at the state `x`, `v`, `po`, into `f`.
+                macro_rules! forces {
+                    () => {
+                        link!(0);
+                        link!(1);
+                        link!(2);
+                        link!(3);
+                        link!(4);
+                        link!(5);
+                        link!(6);
+                        link!(7);
+                        link!(8);
+                        link!(9);
+                        filtered!(0);
+                        filtered!(1);
+                        filtered!(2);
+                        filtered!(3);
+                    };
+                }
+                // Each filtered force's exact transition over the step.
+                macro_rules! transition {
+                    ($s:literal) => {
+                        if $s < NO {
                             let (_, decay, sd) = ou[$s];
                             let zo = *z(NW + $s);
                             for j in 0..W {
@@ -218,10 +240,49 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
                         }
                     };
                 }
-                filtered!(0);
-                filtered!(1);
-                filtered!(2);
-                filtered!(3);
+                forces!();
+                transition!(0);
+                transition!(1);
+                transition!(2);
+                transition!(3);
+                if heun {
+                    // As `Group::step_heun`: the Euler predictor, the drift at its end with
+                    // the filtered forces at theirs, the trapezoid on the same increment.
+                    let (x0, v0, f0) = (x, v, f);
+                    for s in 0..NW {
+                        let zw = *z(s);
+                        for j in 0..W {
+                            pw[s][j] += zw[j];
+                        }
+                    }
+                    for i in 0..N {
+                        for j in 0..W {
+                            x[i][j] = h.mul_add(v[i][j], x[i][j]);
+                            v[i][j] = him[i].mul_add(f0[i][j], v[i][j]);
+                        }
+                        for s in 0..NW {
+                            let zw = *z(s);
+                            for j in 0..W {
+                                v[i][j] = white_weight[i][s].mul_add(zw[j], v[i][j]);
+                            }
+                        }
+                    }
+                    f = [[0.0; W]; N];
+                    forces!();
+                    for i in 0..N {
+                        for j in 0..W {
+                            x[i][j] = half.mul_add(v0[i][j] + v[i][j], x0[i][j]);
+                            v[i][j] = half_him[i].mul_add(f0[i][j] + f[i][j], v0[i][j]);
+                        }
+                        for s in 0..NW {
+                            let zw = *z(s);
+                            for j in 0..W {
+                                v[i][j] = white_weight[i][s].mul_add(zw[j], v[i][j]);
+                            }
+                        }
+                    }
+                    continue;
+                }
                 if !semi {
                     for i in 0..N {
                         for j in 0..W {
