@@ -171,7 +171,7 @@ pub struct Input {
     /// Samples handed over so far, over every pass (for a progress display).
     read: Arc<AtomicU64>,
     /// The forces whose model was chosen from their spectra before `info`'s scenario was
-    /// completed with the choice ([`Input::with_chosen_forces`]).
+    /// completed with the choice (`pipeline::force_choice`).
     pub force_models: Vec<crate::report::ForceModelChoice>,
     /// The forces' processes as the samples were made with, where `force_models` rewrote
     /// them (`None`: the scenario's).
