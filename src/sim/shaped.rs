@@ -126,9 +126,11 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
     lm: &LaneModel<D>,
     steps: usize,
 ) {
-    let k: [[f64; D]; SHAPED_LINK_SLOTS] = std::array::from_fn(|l| lm.k.get(l).copied().unwrap_or([0.0; D]));
-    let c: [[f64; D]; SHAPED_LINK_SLOTS] = std::array::from_fn(|l| lm.c.get(l).copied().unwrap_or([0.0; D]));
-    let lens: [(usize, usize); SHAPED_LINK_SLOTS] = std::array::from_fn(|l| lm.lens.get(l).copied().unwrap_or((0, 0)));
+    let links = Links {
+        k: std::array::from_fn(|l| lm.k.get(l).copied().unwrap_or([0.0; D])),
+        c: std::array::from_fn(|l| lm.c.get(l).copied().unwrap_or([0.0; D])),
+        lens: std::array::from_fn(|l| lm.lens.get(l).copied().unwrap_or((0, 0))),
+    };
     let him: [f64; N] = std::array::from_fn(|i| lm.h_inv_mass[i]);
     let white: [usize; NW] = std::array::from_fn(|s| lm.white[s]);
     let white_weight: [[f64; NW]; N] = std::array::from_fn(|i| std::array::from_fn(|s| lm.white_weight[i * NW + s]));
@@ -152,82 +154,6 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
                 // Used as a copied value (`*z(slot)`): read in place through the reference,
                 // LLVM sometimes leaves the lane loops that use it scalar.
                 let z = |slot: usize| -> &Part { noise[(t * nz + slot) * LANES + h0..][..W].try_into().expect("part") };
-                let mut f = [[0.0; W]; N];
-                // One link slot; `$l` is a literal, so its ends fold to constants.
-                macro_rules! link {
-                    ($l:literal) => {
-                        // From three masses on, an empty slot (no link between its ends) is
-                        // skipped, a branch on a constant of the run; below, the branch costs
-                        // more than the slot's few exact zeros.
-                        if $l < N * (N + 1) / 2 && (N < 3 || lens[$l] != (0, 0)) {
-                            let (a, b) = const { link_slot(N, $l) };
-                            let (mut u, mut w) = (x[a], v[a]);
-                            if b < N {
-                                for j in 0..W {
-                                    u[j] -= x[b][j];
-                                    w[j] -= v[b][j];
-                                }
-                            }
-                            let (dk, dc) = lens[$l];
-                            let (mut ku, mut cw) = ([0.0; W], [0.0; W]);
-                            for q in (0..D).rev() {
-                                if q + 1 == dk {
-                                    ku = [k[$l][q]; W];
-                                } else if q + 1 < dk {
-                                    for j in 0..W {
-                                        ku[j] = ku[j].mul_add(u[j], k[$l][q]);
-                                    }
-                                }
-                                if q + 1 == dc {
-                                    cw = [c[$l][q]; W];
-                                } else if q + 1 < dc {
-                                    for j in 0..W {
-                                        cw[j] = cw[j].mul_add(w[j], c[$l][q]);
-                                    }
-                                }
-                            }
-                            for j in 0..W {
-                                let force = ku[j].mul_add(u[j], cw[j] * w[j]);
-                                f[a][j] -= force;
-                                if b < N {
-                                    f[b][j] += force;
-                                }
-                            }
-                        }
-                    };
-                }
-                // Unrolled by hand like the links: as a loop, LLVM leaves it scalar from
-                // three filtered excitations on.
-                macro_rules! filtered {
-                    ($s:literal) => {
-                        if $s < NO {
-                            for i in 0..N {
-                                for j in 0..W {
-                                    f[i][j] = ou_weight[i][$s].mul_add(po[$s][j], f[i][j]);
-                                }
-                            }
-                        }
-                    };
-                }
-                // The forces on the masses at the state `x`, `v`, `po`, into `f`.
-                macro_rules! forces {
-                    () => {
-                        link!(0);
-                        link!(1);
-                        link!(2);
-                        link!(3);
-                        link!(4);
-                        link!(5);
-                        link!(6);
-                        link!(7);
-                        link!(8);
-                        link!(9);
-                        filtered!(0);
-                        filtered!(1);
-                        filtered!(2);
-                        filtered!(3);
-                    };
-                }
                 // Each filtered force's exact transition over the step.
                 macro_rules! transition {
                     ($s:literal) => {
@@ -240,7 +166,7 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
                         }
                     };
                 }
-                forces!();
+                let mut f = forces::<N, D, NO>(&x, &v, &po, &links, &ou_weight);
                 transition!(0);
                 transition!(1);
                 transition!(2);
@@ -255,31 +181,21 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
                             pw[s][j] += zw[j];
                         }
                     }
+                    let zw: [Part; NW] = std::array::from_fn(|s| *z(s));
                     for i in 0..N {
                         for j in 0..W {
                             x[i][j] = h.mul_add(v[i][j], x[i][j]);
                             v[i][j] = him[i].mul_add(f0[i][j], v[i][j]);
                         }
-                        for s in 0..NW {
-                            let zw = *z(s);
-                            for j in 0..W {
-                                v[i][j] = white_weight[i][s].mul_add(zw[j], v[i][j]);
-                            }
-                        }
+                        kick(&mut v[i], &zw, &white_weight[i]);
                     }
-                    f = [[0.0; W]; N];
-                    forces!();
+                    f = forces::<N, D, NO>(&x, &v, &po, &links, &ou_weight);
                     for i in 0..N {
                         for j in 0..W {
                             x[i][j] = half.mul_add(v0[i][j] + v[i][j], x0[i][j]);
                             v[i][j] = half_him[i].mul_add(f0[i][j] + f[i][j], v0[i][j]);
                         }
-                        for s in 0..NW {
-                            let zw = *z(s);
-                            for j in 0..W {
-                                v[i][j] = white_weight[i][s].mul_add(zw[j], v[i][j]);
-                            }
-                        }
+                        kick(&mut v[i], &zw, &white_weight[i]);
                     }
                     continue;
                 }
@@ -334,3 +250,109 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
 pub(crate) const W: usize = 16;
 
 pub(crate) type Part = [f64; W];
+
+/// A run's links in the shaped kernel's slots ([`link_slot`]): stiffness and damping
+/// coefficients by power, and the degrees in use.
+struct Links<const D: usize> {
+    k: [[f64; D]; SHAPED_LINK_SLOTS],
+    c: [[f64; D]; SHAPED_LINK_SLOTS],
+    lens: [(usize, usize); SHAPED_LINK_SLOTS],
+}
+
+/// The forces on the `N` masses at the state `x`, `v` and the filtered forces `po`: every
+/// link slot (its ends constants), then the filtered forces with their weights — the
+/// operations of [`Group::forces`] in its order.
+///
+/// [`Group::forces`]: super::lanes::Group
+#[inline(always)]
+fn forces<const N: usize, const D: usize, const NO: usize>(
+    x: &[Part; N],
+    v: &[Part; N],
+    po: &[Part; NO],
+    links: &Links<D>,
+    ou_weight: &[[f64; NO]; N],
+) -> [Part; N] {
+    let mut f = [[0.0; W]; N];
+    // One link slot; `$l` is a literal, so its ends fold to constants.
+    macro_rules! link {
+        ($l:literal) => {
+            // From three masses on, an empty slot (no link between its ends) is
+            // skipped, a branch on a constant of the run; below, the branch costs
+            // more than the slot's few exact zeros.
+            if $l < N * (N + 1) / 2 && (N < 3 || links.lens[$l] != (0, 0)) {
+                let (a, b) = const { link_slot(N, $l) };
+                let (mut u, mut w) = (x[a], v[a]);
+                if b < N {
+                    for j in 0..W {
+                        u[j] -= x[b][j];
+                        w[j] -= v[b][j];
+                    }
+                }
+                let (dk, dc) = links.lens[$l];
+                let (mut ku, mut cw) = ([0.0; W], [0.0; W]);
+                for q in (0..D).rev() {
+                    if q + 1 == dk {
+                        ku = [links.k[$l][q]; W];
+                    } else if q + 1 < dk {
+                        for j in 0..W {
+                            ku[j] = ku[j].mul_add(u[j], links.k[$l][q]);
+                        }
+                    }
+                    if q + 1 == dc {
+                        cw = [links.c[$l][q]; W];
+                    } else if q + 1 < dc {
+                        for j in 0..W {
+                            cw[j] = cw[j].mul_add(w[j], links.c[$l][q]);
+                        }
+                    }
+                }
+                for j in 0..W {
+                    let force = ku[j].mul_add(u[j], cw[j] * w[j]);
+                    f[a][j] -= force;
+                    if b < N {
+                        f[b][j] += force;
+                    }
+                }
+            }
+        };
+    }
+    // Unrolled by hand like the links: as a loop, LLVM leaves it scalar from
+    // three filtered excitations on.
+    macro_rules! filtered {
+        ($s:literal) => {
+            if $s < NO {
+                for i in 0..N {
+                    for j in 0..W {
+                        f[i][j] = ou_weight[i][$s].mul_add(po[$s][j], f[i][j]);
+                    }
+                }
+            }
+        };
+    }
+    link!(0);
+    link!(1);
+    link!(2);
+    link!(3);
+    link!(4);
+    link!(5);
+    link!(6);
+    link!(7);
+    link!(8);
+    link!(9);
+    filtered!(0);
+    filtered!(1);
+    filtered!(2);
+    filtered!(3);
+    f
+}
+
+/// The white impulses `zw` onto one mass's velocity `v` with its weights, in excitation
+/// order (a zero weight adds an exact zero).
+#[inline(always)]
+fn kick<const NW: usize>(v: &mut Part, zw: &[Part; NW], weight: &[f64; NW]) {
+    for s in 0..NW {
+        for j in 0..W {
+            v[j] = weight[s].mul_add(zw[s][j], v[j]);
+        }
+    }
+}
