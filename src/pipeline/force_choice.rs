@@ -9,12 +9,12 @@
 //! 2. first-order (3.20), fitted to the whole spectrum;
 //! 3. the second-order rational spectrum ([`crate::ident::rational`]), fitted likewise.
 //!
-//! The simplest the data accept — unless a more elaborate one fits clearly better
-//! ([`PREFER`]) — is written into the scenario the stages identify with: a
-//! white force is read as its equivalent white noise, a first-order one has its filter
-//! fitted again in the second pass. A second-order force is named for what it is and, as a
-//! force no candidate fits, refused to every method that needs the force model — the FPK
-//! equations here take white and first-order forces; the methods that read the measured
+//! Of the two models the FPK equations take, white and first-order, the simpler the data
+//! accept — unless the other fits clearly better ([`PREFER`]) — is written into the
+//! scenario the stages identify with: a white force is read as its equivalent white noise,
+//! a first-order one has its filter fitted again in the second pass. A force neither fits
+//! is named second-order where that form fits it and, like a force no candidate fits,
+//! refused to every method that needs the force model; the methods that read the measured
 //! force itself stand (the excitation-fit stage).
 
 use super::identify::check_measured;
@@ -77,8 +77,8 @@ pub(crate) fn choose(input: &Input) -> Result<Option<Input>, PipelineError> {
     Ok(Some(chosen))
 }
 
-/// A candidate the data accept is chosen over a more elaborate one unless its misfit is
-/// more than this many times the best accepted candidate's: a right model's misfit ratio
+/// White, accepted, is chosen over first-order unless its misfit is more than this many
+/// times first-order's: a right model's misfit ratio
 /// scatters by a few per cent (0.98–1.03 for (3.20) on the shipped filtered scenarios),
 /// so one 1.5 times another's is a shape the simpler model misses, however tolerated (an
 /// Ornstein–Uhlenbeck force with its corner near the mode, read as white over the
@@ -90,8 +90,8 @@ fn fits(rms: f64, expected: f64) -> bool {
     rms.is_finite() && rms <= REJECT * expected
 }
 
-/// The simplest candidate the spectra accept, and why the force model is refused where it
-/// is not white or first-order.
+/// The choice among the candidates, and why the force model is refused where it is not
+/// white or first-order.
 fn judge(
     white: WhiteLevelReport,
     first_order: OuFit,
@@ -113,29 +113,25 @@ fn judge(
             String::new()
         }
     );
-    let second_misfit = second_order.map_or(f64::INFINITY, |f| ratio(f.rms_log_residual, f.expected_rms));
-    let accepted = [
+    // The models the FPK equations take; the second-order form only names a force neither
+    // of them fits.
+    let usable = [
         (white.accepted, white_misfit),
         (
             fits(first_order.rms_log_residual, first_order.expected_rms),
             first_misfit,
         ),
-        (
-            second_order.is_some_and(|f| fits(f.rms_log_residual, f.expected_rms)),
-            second_misfit,
-        ),
     ];
-    let best = accepted
+    let best = usable
         .iter()
         .filter(|(ok, _)| *ok)
         .map(|&(_, m)| m)
         .fold(f64::INFINITY, f64::min);
-    let simplest = accepted.iter().position(|&(ok, m)| ok && m <= PREFER * best);
-    let (chosen, refused) = match simplest {
+    let (chosen, refused) = match usable.iter().position(|&(ok, m)| ok && m <= PREFER * best) {
         Some(0) => ("white", None),
-        Some(1) => ("first-order", None),
-        _ => match second_order {
-            Some(f) if simplest == Some(2) => (
+        Some(_) => ("first-order", None),
+        None => match second_order {
+            Some(f) if fits(f.rms_log_residual, f.expected_rms) => (
                 "second-order",
                 Some(format!(
                     "{name}'s spectrum is second-order rational (poles at {:.4} Hz, damping ratio {:.3}, misfit \
