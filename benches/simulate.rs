@@ -123,10 +123,14 @@ fn zstd_seconds(bytes: &[u8], level: i32) -> (f64, usize) {
     (t, out)
 }
 
-/// duffing2dof with `trajectories`, a record of `record` s, sampled every `every` steps.
+/// duffing2dof with `trajectories`, a record of `record` s, sampled every `every` steps,
+/// by the semi-implicit scheme at 1 ms: one force evaluation and one normal per mass a
+/// step, the rate the random-number bound is about (Heun's cost: `benches/schemes.rs`).
 fn scenario(trajectories: usize, record: f64, every: usize) -> Scenario {
     let src = std::fs::read_to_string("scenarios/duffing2dof.toml").unwrap();
     let mut s = Scenario::parse(&src, "duffing2dof.toml", "duffing2dof").unwrap();
+    s.simulation.scheme = fpkbench::scenario::Scheme::SemiImplicit;
+    s.simulation.dt = 1e-3;
     s.simulation.trajectories = trajectories;
     s.simulation.record_length = record;
     s.simulation.burn_in = 0.0;

@@ -31,6 +31,7 @@ sigma = 1.0
 acts_on = ["m1"]
 [simulation]
 dt = 1e-3
+scheme = "semi-implicit"   # the scheme the figures below were measured with
 record_length = {record}
 sample_interval = {h}
 trajectories = 32

@@ -36,6 +36,7 @@ acts_on = ["m2"]
 
 [simulation]
 dt = 1e-3
+scheme = "semi-implicit"   # the scheme the figures below were measured with
 record_length = 400.0
 burn_in = 100.0
 sample_interval = 0.05

@@ -26,7 +26,7 @@ fn semi_implicit_linear_sdof_variances_within_half_a_percent() {
         10.0,
         2.0,
         1.0,
-        "dt = 1e-3\nrecord_length = 25000.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 11",
+        "dt = 1e-3\nrecord_length = 25000.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 11\nscheme = \"semi-implicit\"",
     );
     let (ex, ev) = zoo::linear_sdof_variances(1.0, 10.0, 2.0, 1.0);
     let m = moments(&s);
@@ -69,7 +69,7 @@ fn explicit_euler_maruyama_shows_its_two_percent_inflation() {
         10.0,
         0.5,
         1.0,
-        "dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 3",
+        "dt = 1e-3\nrecord_length = 6250.0\nsample_interval = 0.1\ntrajectories = 32\nseed = 3\nscheme = \"semi-implicit\"",
     );
     let mut em = si.clone();
     em.simulation.scheme = Scheme::EulerMaruyama;
@@ -171,7 +171,7 @@ fn filtered_force_is_sampled_at_the_state_instant() {
         c,
         a,
         b,
-        "dt = 5e-3\nrecord_length = 4000.0\nsample_interval = 0.05\ntrajectories = 64\nseed = 1",
+        "dt = 5e-3\nrecord_length = 4000.0\nsample_interval = 0.05\ntrajectories = 64\nseed = 1\nscheme = \"semi-implicit\"",
     );
     let mo = moments(&s);
     let exact = zoo::stationary_covariance(&Model::new(&s)).unwrap();
@@ -282,7 +282,7 @@ fn same_seed_gives_bit_identical_samples_whatever_the_thread_count() {
             .collect()
     };
     assert_eq!(t3(&one), t3(&few));
-    // The Heun scheme (the generic stepper) alike.
+    // The Heun scheme (the default) alike.
     s.simulation.trajectories = 2 * fpkbench::sim::LANES + 5;
     s.simulation.scheme = Scheme::Heun;
     let heun = samples_with_threads(&s, 1);

@@ -84,17 +84,18 @@ impl Motion {
 #[serde(rename_all = "kebab-case")]
 pub enum Scheme {
     /// Update `v` with the old state, then `x` with the new `v` (symplectic Euler–Maruyama).
-    /// About 100× less stationary-variance bias than the explicit scheme at the same cost.
-    #[default]
+    /// About 100× less stationary-variance bias than the explicit scheme at the same cost;
+    /// a bias of order `h` (`c·h/2m` on the velocity's variance) that long records resolve.
     SemiImplicit,
     /// Explicit Euler–Maruyama: inflates the stationary variance by about `k·dt/c`.
     EulerMaruyama,
     /// The stochastic Heun scheme (Kloeden–Platen's explicit weak order 2 scheme for
     /// additive noise): an Euler predictor, then the trapezoid of the drift at both ends on
     /// the same increment. Two force evaluations per step, a stationary bias of order
-    /// `h²` (docs/methods.md, "The integrator's bias"): at long records, where the
-    /// semi-implicit scheme's `c·h/2m` on the velocity's variance outgrows the standard
-    /// errors.
+    /// `h²` (docs/methods.md, "The integrator's bias"). The default: at 2.5 ms it costs
+    /// about half the semi-implicit scheme at 1 ms for a sixteenth of its bias or less
+    /// (`benches/schemes.rs`), so intervals keep their coverage at long records.
+    #[default]
     Heun,
 }
 
@@ -297,7 +298,9 @@ impl Simulation {
             sample_interval: 1.0,
             trajectories: 1,
             seed: 1,
-            scheme: Scheme::default(),
+            // Measured data are re-simulated (validation) at `ω·dt` = 0.01 (`STEP_OMEGA` of
+            // `io::measured`), a step chosen for this scheme's first-order bias.
+            scheme: Scheme::SemiImplicit,
             substeps: 1,
             sensors: Sensors::default(),
         }
