@@ -165,3 +165,35 @@ fn a_refined_heun_run_measures_its_own_bias_under_a_filtered_force() {
     let p = coarse.covariance(3, 3) / exact[(2, 2)] - 1.0;
     assert!(p.abs() < 0.03, "the force's variance {p:+.4} off A²/2B");
 }
+
+/// Heun is the default scheme, and every shipped scenario names its own: the gates and
+/// documented figures of a scenario were measured with the scheme it states, so a default
+/// that changes must not change them (docs/simulation.md).
+#[test]
+fn the_default_scheme_is_heun_and_every_shipped_scenario_states_its_own() {
+    let sdof = zoo::linear_sdof(
+        1.0,
+        10.0,
+        0.5,
+        1.0,
+        "dt = 1e-3\nrecord_length = 10.0\nsample_interval = 0.1",
+    );
+    assert_eq!(sdof.simulation.scheme, Scheme::Heun);
+    let mut files: Vec<_> = std::fs::read_dir("scenarios")
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 10, "{files:?}");
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let raw: toml::Table = toml::from_str(&text).unwrap();
+        let stated = raw
+            .get("simulation")
+            .and_then(|s| s.get("scheme"))
+            .and_then(|s| s.as_str());
+        let s = Scenario::from_file(&path).unwrap();
+        assert_eq!(stated, Some(s.simulation.scheme.name()), "{}", path.display());
+    }
+}
