@@ -298,9 +298,7 @@ impl Simulation {
             sample_interval: 1.0,
             trajectories: 1,
             seed: 1,
-            // Measured data are re-simulated (validation) at `ω·dt` = 0.01 (`STEP_OMEGA` of
-            // `io::measured`), a step chosen for this scheme's first-order bias.
-            scheme: Scheme::SemiImplicit,
+            scheme: Scheme::default(),
             substeps: 1,
             sensors: Sensors::default(),
         }
