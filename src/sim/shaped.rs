@@ -175,13 +175,12 @@ pub(crate) fn advance_shaped<const N: usize, const D: usize, const NW: usize, co
                     // As `Group::step_heun`: the Euler predictor, the drift at its end with
                     // the filtered forces at theirs, the trapezoid on the same increment.
                     let (x0, v0, f0) = (x, v, f);
+                    let zw: [Part; NW] = std::array::from_fn(|s| *z(s));
                     for s in 0..NW {
-                        let zw = *z(s);
                         for j in 0..W {
-                            pw[s][j] += zw[j];
+                            pw[s][j] += zw[s][j];
                         }
                     }
-                    let zw: [Part; NW] = std::array::from_fn(|s| *z(s));
                     for i in 0..N {
                         for j in 0..W {
                             x[i][j] = h.mul_add(v[i][j], x[i][j]);
