@@ -16,6 +16,12 @@
 //! noise is `R(0) − a₀`. The width is the smallest that brings the velocity's noise to at
 //! most [`NOISE_SHARE`] of its variance (`m = 1` where the data show no noise).
 //!
+//! Where the sampling is coarse and the displacement clean, the derivatives are the exact
+//! central differences instead ([`exact_weights`], and for an acceleration from a
+//! displacement alone the second difference, [`exact_second_weights`]), of the lowest order
+//! that holds the derivative's RMS and its band edge (`Resolution`; docs/data.md, "Derived
+//! velocities and accelerations").
+//!
 //! What a stencil does lose is the tail of a velocity driven by white forces, whose
 //! spectrum falls only as `σ²/(2πm²ω²)` above the modes: [`white_tail_loss`] computes
 //! it, and the identification puts it back where the forces are known. `derive_notes`
@@ -88,17 +94,24 @@ impl Differencing {
 
     /// The stencil's weights `w₁ … w_m`.
     pub fn weights(&self) -> Vec<f64> {
-        stencil(self.half, self.exact)
+        stencil(self.half, self.exact, false)
     }
 }
 
 /// The weights of the half-width `half`: the exact central difference of order `2·half`
-/// where `exact`, else [`weights`].
-pub fn stencil(half: usize, exact: bool) -> Vec<f64> {
-    match exact {
-        true => exact_weights(half),
-        false => weights(half),
+/// where `exact`, else [`weights`]; with `second`, the exact second central difference of
+/// that order ([`exact_second_weights`]: `w₀, w₁ … w_m`).
+pub fn stencil(half: usize, exact: bool, second: bool) -> Vec<f64> {
+    match (second, exact) {
+        (true, _) => exact_second_weights(half),
+        (false, true) => exact_weights(half),
+        (false, false) => weights(half),
     }
+}
+
+/// `(m!)² / ((m−k)! (m+k)!)` as a product, to stay finite for every `m ≤ MOST_HALF`.
+fn factorial_ratio(m: usize, k: usize) -> f64 {
+    (1..=k).map(|j| (m - k + j) as f64 / (m + j) as f64).product()
 }
 
 /// The central difference of order `2m` (exact for polynomials up to degree `2m`):
@@ -106,15 +119,43 @@ pub fn stencil(half: usize, exact: bool) -> Vec<f64> {
 /// derivative at `θ = ωh`, which is `1 − O(θ^{2m})`: at `θ = 0.72` (nine samples a period)
 /// 0.9158 for `m = 1`, 0.9916 for `m = 2`, 0.9999 for `m = 4`.
 pub fn exact_weights(half: usize) -> Vec<f64> {
-    let m = half.max(1) as i32;
-    // (m!)² / ((m−k)! (m+k)!) as a product, to stay finite for every m ≤ MOST_HALF.
+    let m = half.max(1);
     (1..=m)
         .map(|k| {
-            let ratio: f64 = (1..=k).map(|j| (m - k + j) as f64 / (m + j) as f64).product();
             let sign = if k % 2 == 1 { 1.0 } else { -1.0 };
-            sign * ratio / k as f64
+            sign * factorial_ratio(m, k) / k as f64
         })
         .collect()
+}
+
+/// The second central difference of order `2m` (exact for polynomials up to degree
+/// `2m + 1`): `x″[n] ≈ (w₀x[n] + Σₖ wₖ(x[n+k] + x[n−k])) / h²` with
+/// `wₖ = 2(−1)^{k+1} (m!)² / (k² (m−k)! (m+k)!)` and `w₀ = −2Σwₖ`; returned as `[w₀, w₁ … w_m]`.
+/// It passes [`passed_second`]: at nine samples a period (`θ = 0.72`) 0.9575 for `m = 1`,
+/// and at `θ = 2.06` (a multisine's band edge at a third of the sampling rate) 0.977 for
+/// `m = 5` and 0.9977 for `m = 10`, where twice the first difference of the same order
+/// passes 0.79 and 0.964.
+pub fn exact_second_weights(half: usize) -> Vec<f64> {
+    let m = half.max(1);
+    let mut w: Vec<f64> = std::iter::once(0.0)
+        .chain((1..=m).map(|k| {
+            let sign = if k % 2 == 1 { 2.0 } else { -2.0 };
+            sign * factorial_ratio(m, k) / (k * k) as f64
+        }))
+        .collect();
+    w[0] = -2.0 * w[1..].iter().sum::<f64>();
+    w
+}
+
+/// What the second-difference stencil `w` (`[w₀, w₁ … w_m]`) passes of the second
+/// derivative at `θ = ωh`: `−(w₀ + Σ 2wₖ cos kθ) / θ²`.
+pub fn passed_second(w: &[f64], theta: f64) -> f64 {
+    let sum: f64 = w[1..]
+        .iter()
+        .enumerate()
+        .map(|(k, wk)| 2.0 * wk * ((k + 1) as f64 * theta).cos())
+        .sum();
+    -(w[0] + sum) / (theta * theta)
 }
 
 /// What the stencil `w` passes of the derivative at `θ = ωh`: `Σ 2wₖ sin kθ / θ`.
@@ -294,52 +335,99 @@ fn fit(r: &[f64; LAGS + 1]) -> Option<(f64, f64, f64)> {
     Some((r[0] - signal, signal, coef[1]))
 }
 
-/// How well central differences at the sampling `h` resolve a signal, from the signal's own
-/// spectrum (Welch, up to the Nyquist frequency): its RMS frequency `ω = √(∫ω²S / ∫S)`
-/// (what the derivative's std over the signal's would be), the share of the derivative's
-/// amplitude the central difference loses (it passes `sin(ωh)/(ωh)` at each `ω`), and the
-/// lowest-order exact central difference that loses at most [`EXACT_LOSS`] ([`passed`]).
+/// How well differences at the sampling `h` resolve a signal's first (`second = false`) or
+/// second derivative, from the signal's own spectrum (Welch, up to the Nyquist frequency):
+/// the RMS frequency `ω` of the signal (`√(∫ω²S / ∫S)`) or, for the second derivative, of
+/// its first (`√(∫ω⁴S / ∫ω²S)`); the share of the derivative's amplitude central
+/// differences lose (they pass `sin(ωh)/(ωh)` at each `ω`, twice for the second
+/// derivative); and where the sampling is coarse, the lowest-order exact central difference
+/// ([`exact_weights`], [`exact_second_weights`]) that loses at most [`EXACT_LOSS`] of the
+/// derivative's RMS and at most [`EDGE_LOSS`] at its band edge: the frequency above which
+/// only [`EDGE_TAIL`] of the derivative's power lies. The RMS alone is not enough: a force
+/// that reaches a third of the sampling rate (a multisine to 200 Hz at 610 Hz) puts the
+/// acceleration's power up to there, and the nonlinear terms are read from it (on the
+/// Silverbox twin at 610 Hz the RMS rule chose ±5 samples, which pass 0.89 of the
+/// derivative at the band edge, and `k3` came out 6–8 % low; docs/data.md).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Resolution {
     /// `ω·h`.
     pub(super) wh: f64,
-    /// `1 − std(central difference) / std(derivative)`.
+    /// `1 − std(central differences) / std(derivative)`.
     pub(super) loss: f64,
     /// Where the sampling is coarse (`ω·h` above `DERIVE_LIMIT`): the half-width of the
-    /// exact central difference of the lowest order within [`EXACT_LOSS`], and its loss
-    /// (the widest's where none is).
-    pub(super) exact: Option<(usize, f64)>,
+    /// exact central difference of the lowest order within both bounds, its RMS loss and
+    /// its loss at the band edge (the widest's where none is).
+    pub(super) exact: Option<(usize, f64, f64)>,
+    /// The derivative's band edge, `ω·h`.
+    pub(super) edge: f64,
+    /// Whether some exact difference keeps both bounds. Where none does (the derivative's
+    /// power reaches the Nyquist frequency, as a white-forced acceleration's does), the
+    /// lowest order within [`EXACT_LOSS`] alone is chosen: no width reaches the edge.
+    pub(super) band_limited: bool,
+    /// Of the second derivative.
+    pub(super) second: bool,
 }
 
+/// The share of a derivative's power above its band edge (`Resolution`).
+pub const EDGE_TAIL: f64 = 1e-3;
+/// The largest share of a derivative's amplitude the exact differences may lose at its band
+/// edge.
+pub const EDGE_LOSS: f64 = 0.005;
+
 impl Resolution {
-    pub(super) fn of(welch: &Welch, h: f64) -> Resolution {
+    pub(super) fn of(welch: &Welch, h: f64, second: bool) -> Resolution {
         let sp = welch.spectrum();
-        let loss_of = |w: &[f64]| {
-            let (mut m2, mut kept) = (0.0, 0.0);
-            for (&om, &s) in sp.omega.iter().zip(&sp.density) {
-                let p = passed(w, om * h);
-                m2 += om * om * s;
-                kept += om * om * s * p * p;
-            }
-            1.0 - (kept / m2).sqrt()
+        let order = if second { 2 } else { 1 };
+        let weight = |om: f64| om.powi(2 * order);
+        let pass = |w: &[f64], theta: f64| match second {
+            true => passed_second(w, theta),
+            false => passed(w, theta),
         };
-        let m0: f64 = sp.density.iter().sum();
-        let m2: f64 = sp.omega.iter().zip(&sp.density).map(|(w, s)| w * w * s).sum();
-        let wh = (m2 / m0).sqrt() * h;
-        let exact = (wh > DERIVE_LIMIT).then(|| {
-            let mut last = (1, f64::NAN);
+        let total: f64 = sp.omega.iter().zip(&sp.density).map(|(&om, &s)| weight(om) * s).sum();
+        let loss_of = |p: &dyn Fn(f64) -> f64| {
+            let kept: f64 = sp
+                .omega
+                .iter()
+                .zip(&sp.density)
+                .map(|(&om, &s)| weight(om) * s * p(om * h).powi(2))
+                .sum();
+            1.0 - (kept / total).sqrt()
+        };
+        // The band edge: the lowest frequency with at most EDGE_TAIL of the power above it.
+        let mut above = total;
+        let mut edge = sp.omega.last().copied().unwrap_or(0.0);
+        for (&om, &s) in sp.omega.iter().zip(&sp.density) {
+            above -= weight(om) * s;
+            if above <= EDGE_TAIL * total {
+                edge = om;
+                break;
+            }
+        }
+        let edge = edge * h;
+        let moment = |p: i32| -> f64 { sp.omega.iter().zip(&sp.density).map(|(&om, &s)| om.powi(p) * s).sum() };
+        let wh = (moment(2 * order) / moment(2 * order - 2)).sqrt() * h;
+        let (mut both, mut rms_only, mut widest) = (None, None, None);
+        if wh > DERIVE_LIMIT {
             for half in 2..=MOST_HALF {
-                last = (half, loss_of(&exact_weights(half)));
-                if last.1 <= EXACT_LOSS {
-                    break;
+                let w = stencil(half, true, second);
+                let found = (half, loss_of(&|t| pass(&w, t)), 1.0 - pass(&w, edge));
+                widest = Some(found);
+                if found.1 <= EXACT_LOSS {
+                    rms_only = rms_only.or(Some(found));
+                    if found.2 <= EDGE_LOSS {
+                        both = Some(found);
+                        break;
+                    }
                 }
             }
-            last
-        });
+        }
         Resolution {
             wh,
-            loss: loss_of(&[0.5]),
-            exact,
+            loss: loss_of(&|t| passed(&[0.5], t).powi(order)),
+            exact: both.or(rms_only).or(widest),
+            edge,
+            second,
+            band_limited: both.is_some(),
         }
     }
 }
@@ -360,15 +448,26 @@ pub(super) fn derive_notes(
     (half, exact): (usize, bool),
 ) -> Vec<String> {
     let rule = if exact {
-        let kept = r.exact.map_or(f64::NAN, |e| e.1);
+        let (kept, at_edge) = r.exact.map_or((f64::NAN, f64::NAN), |e| (e.1, e.2));
+        let (what, spectrum, central) = match r.second {
+            true => (
+                "second central difference",
+                "velocity",
+                "central differences taken twice",
+            ),
+            false => ("central difference", "", "central differences"),
+        };
         format!(
-            "the exact central difference of order {} over ±{half} samples of {h} s: the sampling is coarse \
-             (ω·h = {:.2}, ω the RMS frequency of {from}'s spectrum), where central differences would lose \
-             {:.1} % of the derivative and these lose {:.2} %",
+            "the exact {what} of order {} over ±{half} samples of {h} s: the sampling is coarse \
+             (ω·h = {:.2}, ω the RMS frequency of {from}'s {spectrum}{}spectrum), where {central} would lose \
+             {:.1} % of the derivative and these lose {:.2} % (at its band edge, ω·h = {:.2}, {:.2} %)",
             2 * half,
             r.wh,
+            if r.second { " " } else { "" },
             100.0 * r.loss,
-            100.0 * kept
+            100.0 * kept,
+            r.edge,
+            100.0 * at_edge
         )
     } else if half == 1 {
         format!("central differences over 2 × {h} s")
@@ -394,6 +493,7 @@ pub(super) fn derive_notes(
             wh,
             loss: 1.0 - wh.sin() / wh,
             exact: None,
+            ..r
         };
     }
     if noisy_source {
@@ -404,7 +504,7 @@ pub(super) fn derive_notes(
         return notes;
     }
     let loss = match (exact, r.exact) {
-        (true, Some((_, loss))) => loss,
+        (true, Some((_, loss, _))) => loss,
         _ => r.loss,
     };
     if r.wh > DERIVE_LIMIT && (!exact || loss > WARN_LOSS) {

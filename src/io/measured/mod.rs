@@ -14,6 +14,7 @@
 
 pub mod differentiate;
 mod integrate;
+mod look;
 pub mod period_cut;
 pub mod periods;
 mod scan;
@@ -21,9 +22,9 @@ mod sources;
 
 use super::table::{err, DataError, Labels, Source};
 use super::units;
-use crate::ident::spectrum::{CrossWelch, Derivative, Welch};
+use crate::ident::spectrum::Welch;
 use crate::scenario::{DataMapping, Scenario};
-use differentiate::{derive_notes, Resolution};
+use differentiate::derive_notes;
 use scan::{check_values, interval_of, pieces, scan, Columns};
 use sources::{plan_sources, Sources};
 use std::collections::HashMap;
@@ -154,6 +155,12 @@ struct Step {
     /// The exact central difference of order `2·half` (coarse sampling, no noise), not the
     /// least-squares cubic's slope (`differentiate::stencil`).
     exact: bool,
+    /// An acceleration as the second derivative of the displacement `from` (the exact
+    /// second central difference, where the sampling is coarse and the displacement shows no
+    /// noise: differencing the derived velocity again would square the stencil's loss at
+    /// the band edge), with the derived velocity's column, whose central difference stands
+    /// in near a record's ends. `None`: the first derivative of `from`.
+    second: Option<usize>,
 }
 
 /// A record id as a map key (text ids are numbered by [`Labels`]).
@@ -214,7 +221,7 @@ impl Measured {
         let stencils: Vec<Vec<f64>> = self
             .derive
             .iter()
-            .map(|s| differentiate::stencil(s.half, s.exact))
+            .map(|s| differentiate::stencil(s.half, s.exact, s.second.is_some()))
             .collect();
         let mut handed = 0u64;
         for (source, plan) in &self.plans {
@@ -358,22 +365,35 @@ impl Measured {
 }
 
 /// Row `s` of a record's ring of rows gets column `step.to` as the derivative of
-/// `step.from` by `stencil` (`differentiate::weights` of `step.half`), or the central
-/// difference where the stencil would reach past the record's ends (one-sided at the ends;
-/// `len` its rows).
+/// `step.from` by `stencil` (`differentiate::stencil` of the step), or the central
+/// difference (of the derived velocity, for a second derivative) where the stencil would
+/// reach past the record's ends (one-sided at the ends; `len` its rows).
 #[allow(clippy::too_many_arguments)]
 fn difference(rows: &mut [f64], ring: usize, w: usize, h: f64, step: Step, stencil: &[f64], s: usize, len: usize) {
     let at = |q: usize, k: usize| (q % ring) * w + k;
     if s >= step.half && s + step.half < len {
-        let mut v = 0.0;
-        for (k, wk) in stencil.iter().enumerate() {
-            v += wk * (rows[at(s + k + 1, step.from)] - rows[at(s - k - 1, step.from)]);
-        }
-        rows[at(s, step.to)] = v / h;
+        let x = |q: usize| rows[at(q, step.from)];
+        rows[at(s, step.to)] = match step.second {
+            Some(_) => {
+                let mut a = stencil[0] * x(s);
+                for (k, wk) in stencil[1..].iter().enumerate() {
+                    a += wk * (x(s + k + 1) + x(s - k - 1));
+                }
+                a / (h * h)
+            }
+            None => {
+                let mut v = 0.0;
+                for (k, wk) in stencil.iter().enumerate() {
+                    v += wk * (x(s + k + 1) - x(s - k - 1));
+                }
+                v / h
+            }
+        };
         return;
     }
+    let from = step.second.unwrap_or(step.from);
     let (a, b) = (s.saturating_sub(1), (s + 1).min(len - 1));
-    rows[at(s, step.to)] = (rows[at(b, step.from)] - rows[at(a, step.from)]) / ((b - a) as f64 * h);
+    rows[at(s, step.to)] = (rows[at(b, from)] - rows[at(a, from)]) / ((b - a) as f64 * h);
 }
 
 /// Map the sources onto `model`'s quantities by its `[data]`: scale, split into records
@@ -440,17 +460,23 @@ pub fn measured_with(
     if d.derive {
         let mut lag = vec![0usize; width];
         for i in 0..m.masses() {
-            for (from, to) in [(layout.x(i), layout.v(i)), (layout.v(i), layout.a(i))] {
+            let (x, v, a) = (layout.x(i), layout.v(i), layout.a(i));
+            // An acceleration from a displacement alone: its second derivative, until the
+            // stencils are chosen (`choose_stencils`).
+            let from_x = !present[v] && !present[a] && present[x];
+            for (from, to) in [(x, v), (v, a)] {
                 if present[to] || !present[from] {
                     continue;
                 }
                 lag[to] = lag[from] + 1;
+                let second = (from_x && to == a).then_some(v);
                 derive.push(Step {
-                    from,
+                    from: if second.is_some() { x } else { from },
                     to,
                     lag: lag[to],
                     half: 1,
                     exact: false,
+                    second,
                 });
                 present[to] = true;
             }
@@ -497,12 +523,12 @@ pub fn measured_with(
         .zip(&crossings)
         .map(|(&(k, _), &c)| (k, (c > 0).then(|| 2.0 * rows / c as f64)))
         .collect();
-    let look = data.look(&mapped, &masses, &periods)?;
+    let mut look = data.look(&mapped, &masses, &periods)?;
     if crate::interrupt::requested() {
         return Err(err(&data.files[0], "stopped: an interrupt was requested"));
     }
     data.motion_frequency = look.motion_frequency;
-    data.choose_stencils(&look, width);
+    data.choose_stencils(&mut look, width);
     for (k, (step, r)) in data.derive.iter().zip(&look.derived).enumerate() {
         let noisy_source = data
             .differenced
@@ -763,136 +789,6 @@ const PROVISIONAL_DRIFT: f64 = 2000.0;
 
 /// Periods of the slowest motion the drift window spans when the data choose it.
 const DRIFT_PERIODS: f64 = 10.0;
-
-/// What a first pass over the samples tells about them.
-struct Look {
-    motion_frequency: f64,
-    /// Per derived column, how well the differences resolve the column it comes from (in
-    /// the first record).
-    derived: Vec<Resolution>,
-    /// Per derived column that is a velocity from a displacement: the displacement's noise
-    /// and the differences chosen against it.
-    differencing: Vec<Option<differentiate::Differencing>>,
-    /// ((from, to), how `to` relates to the rate of change of `from`) for the units check.
-    derivatives: Vec<((usize, usize), Option<Derivative>)>,
-}
-
-impl Measured {
-    /// In one pass: the motion's frequency, how well the derived columns are resolved, and
-    /// how each mapped column relates to the rate of change of each other one of its mass
-    /// (`units`; a cross-spectrum per pair, both ways round, in Welch segments of about 32
-    /// periods of the first column's motion, so that the derivative's spectrum is
-    /// resolved, at most half the longest record).
-    fn look(
-        &self,
-        mapped: &[(usize, String)],
-        masses: &[(usize, usize, usize)],
-        periods: &[(usize, Option<f64>)],
-    ) -> Result<Look, DataError> {
-        let h = self.sample_interval;
-        let welch_for = |n: usize| Welch::new((n / 4).next_power_of_two().clamp(16, 4096), h, 1);
-        // The longest record (the last of equally long ones), each mass's velocity (else
-        // displacement).
-        let longest = (0..self.lengths.len())
-            .max_by_key(|&j| self.lengths[j])
-            .expect("a record") as u32;
-        let motion: Vec<usize> = masses
-            .iter()
-            .filter_map(|&(x, v, _)| [v, x].into_iter().find(|&k| self.present[k]))
-            .collect();
-        let mut motion_welch: Vec<Welch> = motion
-            .iter()
-            .map(|_| welch_for(self.lengths[longest as usize]))
-            .collect();
-        let mut derived_welch: Vec<Welch> = self.derive.iter().map(|_| welch_for(self.lengths[0])).collect();
-        let mut autocovariances: Vec<Option<differentiate::Autocovariance>> = self
-            .derive
-            .iter()
-            .map(|s| {
-                masses
-                    .iter()
-                    .any(|&(x, v, _)| (s.from, s.to) == (x, v))
-                    .then(|| differentiate::Autocovariance::new(&self.lengths))
-            })
-            .collect();
-        let has = |k: usize| mapped.iter().any(|m| m.0 == k);
-        let most = self.lengths.iter().copied().max().unwrap_or(0);
-        let mut pairs: Vec<((usize, usize), CrossWelch)> = Vec::new();
-        for &(x, v, a) in masses {
-            for (f, d) in [(x, v), (v, x), (v, a), (a, v)] {
-                let period = periods.iter().find(|p| p.0 == f).and_then(|p| p.1);
-                if let (true, true, Some(period)) = (has(f), has(d), period) {
-                    let len = ((32.0 * period) as usize).clamp(16, (most / 2).max(16));
-                    pairs.push(((f, d), CrossWelch::new(len, h, self.lengths.len())));
-                }
-            }
-        }
-        self.for_each_sample(&mut |j, _, row| {
-            if j == longest {
-                for (w, &k) in motion_welch.iter_mut().zip(&motion) {
-                    w.push(0, row[k]);
-                }
-            }
-            if j == 0 {
-                for (w, s) in derived_welch.iter_mut().zip(&self.derive) {
-                    w.push(0, row[s.from]);
-                }
-            }
-            for (a, s) in autocovariances.iter_mut().zip(&self.derive) {
-                if let Some(a) = a {
-                    a.push(j as usize, row[s.from]);
-                }
-            }
-            for ((f, d), w) in pairs.iter_mut() {
-                w.push(j as usize, row[*f], row[*d]);
-            }
-        })?;
-        Ok(Look {
-            motion_frequency: motion_welch
-                .iter()
-                .map(|w| Resolution::of(w, h).wh / h)
-                .fold(f64::NAN, f64::max),
-            derived: derived_welch.iter().map(|w| Resolution::of(w, h)).collect(),
-            differencing: autocovariances
-                .iter()
-                .map(|a| a.as_ref().and_then(|a| a.differencing(h)))
-                .collect(),
-            derivatives: pairs.into_iter().map(|(p, w)| (p, w.derivative_gain())).collect(),
-        })
-    }
-}
-
-impl Measured {
-    /// Each derived column's differences: as wide as the displacement's noise asks
-    /// (`differentiate`), or, where the sampling is coarse and the source shows no noise,
-    /// the exact central difference of the order the source's spectrum asks for; and every
-    /// later derivative's lag after them.
-    fn choose_stencils(&mut self, look: &Look, width: usize) {
-        let mut lags = vec![0usize; width];
-        let mut noisy = vec![false; width];
-        for (k, step) in self.derive.iter_mut().enumerate() {
-            let detected = look.differencing[k].is_some_and(|d| d.detected());
-            if let (false, false, Some((half, _))) = (detected, noisy[step.from], look.derived[k].exact) {
-                step.half = half;
-                step.exact = true;
-            }
-            if let Some(mut d) = look.differencing[k] {
-                if !step.exact {
-                    step.half = d.half;
-                }
-                (d.half, d.exact) = (step.half, step.exact);
-                self.differenced.push(DifferencedNoise {
-                    displacement: step.from,
-                    velocity: step.to,
-                    found: d,
-                });
-            }
-            noisy[step.to] = detected || noisy[step.from];
-            lags[step.to] = lags[step.from] + step.half;
-            step.lag = lags[step.to];
-        }
-    }
-}
 
 #[cfg(test)]
 mod tests;

@@ -21,7 +21,8 @@
 //! - **agreement**, on measured data where the force regression ran beside a gated FPK
 //!   estimate: a coefficient of the FPK estimate differs from the regression's on the same
 //!   samples by more than [`AGREEMENT_SE`] combined standard errors and [`AGREEMENT_SHARE`]
-//!   of the regression's value. Both read the same model; the regression reads the measured
+//!   of the regression's value ([`AGREEMENT_SHARE_MEASURED_FORCE`] for an estimate that reads
+//!   the measured force itself). Both read the same model; the regression reads the measured
 //!   force sample by sample, the FPK estimate the stationary moments (with the force's
 //!   spectral model, or with the measured force as an input), so one of them does not
 //!   describe the data (most often the force is not the noise declared, and the density
@@ -55,6 +56,14 @@ pub const AGREEMENT_SE: f64 = 4.0;
 /// stiffness under a band edge at three times the mode, the regression's −10 % on the
 /// damping from derived accelerations at coarse sampling; docs/methods.md, "Checks").
 pub const AGREEMENT_SHARE: f64 = 0.15;
+
+/// The share for an estimate that reads the measured force itself (`weak-measured-force`):
+/// it and the regression read the same equation with the same force, the one through the
+/// state's moments, the other sample by sample, and on a right model they differ by far
+/// less than a spectral model's bias: on the Silverbox twin read as its record is (the
+/// displacement and the force only, differentiated at nine samples a period; 60 seeds)
+/// by at most 5.5 % (`k3`, 3.2 standard errors; docs/methods.md, "Checks").
+pub const AGREEMENT_SHARE_MEASURED_FORCE: f64 = 0.10;
 
 pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let columns = column_labels(id);
@@ -140,27 +149,30 @@ fn agreement(id: &mut Identification) {
     };
     let mut failed = Vec::new();
     for row in id.rows.iter().filter(|r| fpk_estimate(r)) {
-        let differences: Vec<String> =
-            row.parameters
-                .iter()
-                .filter_map(|p| {
-                    let q = regression.parameters.iter().find(|q| q.name == p.name)?;
-                    let (d, se) = (p.estimate - q.estimate, p.std_error.hypot(q.std_error));
-                    (se.is_finite() && d.abs() > AGREEMENT_SE * se && d.abs() > AGREEMENT_SHARE * q.estimate.abs())
-                        .then(|| {
-                            format!(
-                                "{} {:.5e} ± {:.2e} against {:.5e} ± {:.2e} ({:+.1} %, {:.1} standard errors)",
-                                p.name,
-                                p.estimate,
-                                p.std_error,
-                                q.estimate,
-                                q.std_error,
-                                100.0 * d / q.estimate.abs(),
-                                d.abs() / se
-                            )
-                        })
+        let share = match row.method {
+            ReportMethod::Estimator(m) if m.reads_measured_force() => AGREEMENT_SHARE_MEASURED_FORCE,
+            _ => AGREEMENT_SHARE,
+        };
+        let differences: Vec<String> = row
+            .parameters
+            .iter()
+            .filter_map(|p| {
+                let q = regression.parameters.iter().find(|q| q.name == p.name)?;
+                let (d, se) = (p.estimate - q.estimate, p.std_error.hypot(q.std_error));
+                (se.is_finite() && d.abs() > AGREEMENT_SE * se && d.abs() > share * q.estimate.abs()).then(|| {
+                    format!(
+                        "{} {:.5e} ± {:.2e} against {:.5e} ± {:.2e} ({:+.1} %, {:.1} standard errors)",
+                        p.name,
+                        p.estimate,
+                        p.std_error,
+                        q.estimate,
+                        q.std_error,
+                        100.0 * d / q.estimate.abs(),
+                        d.abs() / se
+                    )
                 })
-                .collect();
+            })
+            .collect();
         if !differences.is_empty() {
             failed.push(FailedCheck {
                 check: "agreement",
@@ -170,11 +182,12 @@ fn agreement(id: &mut Identification) {
                     differences.join("; "),
                     match row.method {
                         ReportMethod::Estimator(m) if m.reads_measured_force() => {
-                            "both read the same model and the measured force, the regression through the \
-                             acceleration differentiated from the samples, this estimate through the stationarity of \
-                             the state's moments, so one of them does not describe these data: an acceleration the \
-                             sampling or the sensors' noise bias, an offset in a measured column (`[data] \
-                             remove_mean`), or a term the model lacks"
+                            "both read the same equation with the same measured force, the regression sample by \
+                             sample through the acceleration, this estimate through the stationarity of the state's \
+                             moments, which on a right model agree within a few per cent (docs/methods.md, \
+                             \"Checks\"); so the model does not describe these data as both read them: a term or a \
+                             dynamics it lacks (which the two weigh differently), an offset in a measured column \
+                             (`[data] remove_mean`), or an acceleration the sampling or the sensors' noise bias"
                         }
                         _ => {
                             "both read the same model, the regression with the measured force, this estimate with \
