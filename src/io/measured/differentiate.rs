@@ -404,8 +404,13 @@ impl Resolution {
             }
         }
         let edge = edge * h;
-        let moment = |p: i32| -> f64 { sp.omega.iter().zip(&sp.density).map(|(&om, &s)| om.powi(p) * s).sum() };
-        let wh = (moment(2 * order) / moment(2 * order - 2)).sqrt() * h;
+        let below: f64 = sp
+            .omega
+            .iter()
+            .zip(&sp.density)
+            .map(|(&om, &s)| om.powi(2 * order - 2) * s)
+            .sum();
+        let wh = (total / below).sqrt() * h;
         let (mut both, mut rms_only, mut widest) = (None, None, None);
         if wh > DERIVE_LIMIT {
             for half in 2..=MOST_HALF {

@@ -123,13 +123,12 @@ impl Measured {
             derivatives: pairs.into_iter().map(|(p, w)| (p, w.derivative_gain())).collect(),
         })
     }
-}
 
-impl Measured {
     /// Each derived column's differences: as wide as the displacement's noise asks
     /// (`differentiate`), or, where the sampling is coarse and the source shows no noise,
-    /// the exact central difference of the order the source's spectrum asks for; and every
-    /// later derivative's lag after them.
+    /// the exact central difference of the order the source's spectrum asks for (for an
+    /// acceleration from a clean displacement, its exact second difference, where that
+    /// reaches the band edge); and every later derivative's lag after them.
     pub(super) fn choose_stencils(&mut self, look: &mut Look, width: usize) {
         let mut lags = vec![0usize; width];
         let mut noisy = vec![false; width];
