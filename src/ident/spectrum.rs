@@ -104,6 +104,14 @@ impl Welch {
         Welch::new(self.len, self.dt, trajectories)
     }
 
+    /// Room for `trajectories` (more than it was made for; never fewer).
+    pub fn grow(&mut self, trajectories: usize) {
+        let len = self.len;
+        if trajectories > self.buffers.len() {
+            self.buffers.resize_with(trajectories, || Vec::with_capacity(len));
+        }
+    }
+
     pub fn push(&mut self, trajectory: usize, x: f64) {
         if trajectory >= self.buffers.len() {
             return;

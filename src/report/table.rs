@@ -402,7 +402,13 @@ pub(crate) fn sensor_noise(n: &super::SensorNoiseReport) -> Table {
             format!(
                 "{:.2} %{}",
                 100.0 * c.std / c.signal_std,
-                if c.detected { "" } else { " (none detected)" }
+                if c.above_ceiling {
+                    " (above the spectrum's ceiling: not estimable)"
+                } else if c.detected {
+                    ""
+                } else {
+                    " (none detected)"
+                }
             ),
             c.simulated_std.map_or("—".to_string(), |v| format!("{v:.4e}")),
             if c.corrected_std > 0.0 {

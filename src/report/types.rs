@@ -309,8 +309,15 @@ pub struct ChannelNoiseReport {
     pub std_se: f64,
     /// The noise-free signal's standard deviation.
     pub signal_std: f64,
-    /// The estimate's variance is more than 3 standard errors above 0.
+    /// The estimate's variance is more than 3 standard errors above 0, and within what
+    /// the channel's spectrum can hold.
     pub detected: bool,
+    /// The most noise std the channel's spectrum can hold (white noise spreads evenly up to
+    /// Nyquist; `null` where the records are too short for a spectrum).
+    pub ceiling_std: Option<f64>,
+    /// The estimate exceeds that ceiling: what the lag expansion extrapolated is its
+    /// truncation (the signal reaches towards Nyquist), not noise.
+    pub above_ceiling: bool,
     /// The noise standard deviation taken out of the moments (0: none).
     pub corrected_std: f64,
     /// A simulation's sensors: the noise it was given (relative levels times the

@@ -139,7 +139,10 @@ pub(crate) fn correct(
                 .to_string(),
         );
     } else if handling == NoiseHandling::Estimate && !channels.is_empty() && !channels.iter().any(|c| c.detected()) {
-        notes.push("no channel shows noise beyond 3 standard errors: nothing taken out".to_string());
+        notes.push(
+            "no channel shows noise beyond 3 standard errors and within its spectrum's ceiling: nothing taken out"
+                .to_string(),
+        );
     } else if by_column.iter().any(|&v| v > 0.0) {
         notes.push(
             "not corrected: the model has terms without a polynomial form, whose moments the correction does not reach"
@@ -195,6 +198,21 @@ fn pair_rows(k: &mut Correction, floor: &NoiseFloor, channels: &[ChannelNoise], 
     let (by_column, rows) = (&mut k.by_column, &mut k.rows);
     for ch in channels {
         let c = column_of(floor, ch);
+        if let (true, Some(ceiling)) = (ch.above_ceiling(), ch.ceiling) {
+            k.notes.push(format!(
+                "{}: the lag expansion's noise, {:.4e} ({:.2} % of the signal's std), is more than its spectrum can \
+                 hold (white noise spreads evenly up to Nyquist: at most {:.4e}, {:.2} %): the signal has power \
+                 towards Nyquist, where the expansion over the first lags does not hold, so the estimate is the \
+                 expansion's truncation and the sensor's noise is at most that ceiling; nothing taken out (a sensor \
+                 known to be noisy can be given its level: `sensor_noise = \"given\"` with `[measurement]`; \
+                 docs/measurement.md)",
+                ch.column,
+                ch.std(),
+                100.0 * ch.std() / ch.signal_std,
+                ceiling.max(0.0).sqrt(),
+                100.0 * ceiling.max(0.0).sqrt() / ch.signal_std,
+            ));
+        }
         let used = match handling {
             // Only noise the data show: clean data are identified exactly as without the
             // estimate (a channel without noise would otherwise take out its sampling
@@ -212,6 +230,8 @@ fn pair_rows(k: &mut Correction, floor: &NoiseFloor, channels: &[ChannelNoise], 
             std_se: ch.variance_std_error / (2.0 * std.max(ch.variance_std_error.sqrt())),
             signal_std: ch.signal_std,
             detected: ch.detected(),
+            ceiling_std: ch.ceiling.map(|c| c.max(0.0).sqrt()),
+            above_ceiling: ch.above_ceiling(),
             corrected_std: used,
             simulated_std: (sensors.noisy() && s.data.is_none()).then(|| stated(ch, c)),
             at_limits: ch.at_limits,
@@ -245,6 +265,8 @@ fn differenced_rows(k: &mut Correction, differenced: &[DifferencedNoise], s: &Sc
                 std_se: scale * std_se,
                 signal_std: signal.max(0.0).sqrt(),
                 detected: f.detected(),
+                ceiling_std: None,
+                above_ceiling: false,
                 corrected_std: (by_column[column]).sqrt(),
                 simulated_std: None,
                 at_limits: 0,
@@ -336,6 +358,8 @@ fn integrated_rows(k: &mut Correction, integrated: &[IntegratedNoise], s: &Scena
                     std_se: e.std_error / (2.0 * std.max(e.std_error.sqrt())),
                     signal_std: (n.acceleration_std.powi(2) - e.variance.max(0.0)).max(0.0).sqrt(),
                     detected: e.detected(),
+                    ceiling_std: None,
+                    above_ceiling: false,
                     corrected_std: var.sqrt(),
                     simulated_std: None,
                     at_limits: 0,
