@@ -141,3 +141,88 @@ p_u = "p_u"
         assert_eq!(ea, eb, "{}", ma.method);
     }
 }
+
+/// A multisine's records are the jackknife's units (docs/methods.md, "Standard errors"):
+/// its stretches share a realisation's line phases, and its whole periods hold the
+/// equations exactly where parts of one do not. The Silverbox twin simulated (ten
+/// realisations of one period) takes its standard errors from 8 groups of whole records
+/// and says so; its export read as a measured table takes them from 32 batches of
+/// stretches, unless the model file says `[data] independent = "records"`; and a value
+/// that is neither is refused, naming the key.
+#[test]
+fn a_multisines_records_are_the_jackknifes_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let twin = std::fs::read_to_string("scenarios/silverbox_twin.toml").unwrap();
+    let s = Scenario::parse(&twin, "silverbox_twin.toml", "twin").unwrap();
+    let options = Options {
+        validate: false,
+        plots: false,
+        methods: vec![fpkbench::scenario::Method::Weak],
+        ..Options::default()
+    };
+    let batches = |r: &fpkbench::report::Report| -> (bool, bool) {
+        let json = serde_json::to_string(r).unwrap();
+        (
+            json.contains("jackknife over 8 batches"),
+            r.data_notes.iter().any(|n| n.contains("8 groups of whole records")),
+        )
+    };
+    let simulated = identify(&Input::simulation(s.clone()), &options).unwrap();
+    assert_eq!(batches(&simulated), (true, true), "{:?}", simulated.data_notes);
+    let log = dir.path().join("run.mcap");
+    common::fresh_log(&s, &log);
+    let file = dir.path().join("run.npy");
+    common::export(&log, "npy", &file);
+    let model_text = |independent: &str| {
+        format!(
+            r#"
+name = "twin-table"
+[[mass]]
+name = "m1"
+value = 1.0
+[[link]]
+ends = ["ground", "m1"]
+[[excitation]]
+name = "u"
+kind = "white"
+acts_on = ["m1"]
+[identify]
+methods = ["weak"]
+equivalent_white = ["u"]
+[identify.links.ground-m1]
+stiffness = [1, 2, 3]
+damping = [1]
+[data]
+time = "t"
+record = "trajectory"
+{independent}
+[data.columns]
+x_m1 = "x_m1"
+v_m1 = "v_m1"
+p_u = "p_u"
+"#
+        )
+    };
+    let read = |independent: &str| {
+        let model = Scenario::parse(&model_text(independent), "model.toml", "m").unwrap();
+        let table = read_table(&file, &[]).unwrap();
+        let m = measured(&model, vec![table.into()]).unwrap();
+        identify(&Input::tables(model, m), &options).unwrap()
+    };
+    let stretches = read("");
+    assert_eq!(batches(&stretches), (false, false), "{:?}", stretches.data_notes);
+    let records = read("independent = \"records\"");
+    assert_eq!(batches(&records), (true, true), "{:?}", records.data_notes);
+    // The estimates are the same; only their standard errors' units differ.
+    let estimates =
+        |r: &fpkbench::report::Report| -> Vec<f64> { r.methods[0].parameters.iter().map(|p| p.estimate).collect() };
+    assert_eq!(estimates(&stretches), estimates(&records));
+    assert_eq!(batches(&read("independent = \"stretches\"")), (false, false));
+    let e = Scenario::parse(&model_text("independent = \"blocks\""), "model.toml", "m")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("model.toml:") && e.contains("data.independent") && e.contains("\"records\""),
+        "{e}"
+    );
+}

@@ -80,7 +80,13 @@ pub(crate) fn assemble(
             total: identify_s,
             stages: Vec::new(),
         },
-        data_notes: input.measured().map(|m| m.notes.clone()).unwrap_or_default(),
+        data_notes: input
+            .measured()
+            .map(|m| m.notes.clone())
+            .unwrap_or_default()
+            .into_iter()
+            .chain(super::units::units(input).note)
+            .collect(),
         records,
         filters,
         white_levels: Vec::new(),

@@ -122,6 +122,19 @@ pub fn check_measured(input: &Input) -> Result<(), String> {
 pub(crate) fn identify_info(input: &Input, options: &Options, start: Instant) -> Result<Report, PipelineError> {
     let s = &input.info.scenario;
     s.check_separable().map_err(IdentError::Inseparable)?;
+    // Whole records as the jackknife's units where each is a realisation of a periodic
+    // excitation (`units`).
+    let with_units;
+    let options = match super::units::units(input).batches {
+        Some(b) if b != options.batches => {
+            with_units = Options {
+                batches: b,
+                ..options.clone()
+            };
+            &with_units
+        }
+        _ => options,
+    };
     if let Some(d) = &s.identify.disturbance {
         let mut d = d.clone();
         d.max_steps = options.max_steps.unwrap_or(d.max_steps);

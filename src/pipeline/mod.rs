@@ -25,6 +25,7 @@ mod source;
 mod spectra;
 mod stages;
 pub mod study;
+mod units;
 mod validation;
 
 pub use bias::{integrator_bias, BIAS_SHARE};

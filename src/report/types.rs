@@ -662,7 +662,9 @@ pub struct Report {
     /// Where the time went: simulate, identify, total, and each identification stage.
     pub timings_s: Timings,
     /// What reading measured data did that a user should know: derived quantities, and
-    /// warnings (lines starting `WARNING`) about sampling too coarse to differentiate.
+    /// warnings (lines starting `WARNING`) about sampling too coarse to differentiate; and,
+    /// measured or simulated, what the standard errors take as independent draws where
+    /// that is whole records (`pipeline::units`).
     pub data_notes: Vec<String>,
     /// Measured data: their records as they are (`None` for a simulation, whose records
     /// all have `record_length_s`).

@@ -649,6 +649,21 @@ pub struct DataMapping {
     pub delimiter: Option<u8>,
     /// A CSV file's numbers use a decimal comma (`decimal = ","`).
     pub decimal_comma: bool,
+    /// The jackknife's independent units (`[data] independent`): `None` chooses (whole
+    /// records where the records are found to be periods of a periodic excitation).
+    pub independent: Option<Independent>,
+}
+
+/// What the standard errors take as independent draws (`[data] independent`,
+/// docs/data.md "Independent records"; `pipeline::units`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Independent {
+    /// Stretches of the records (`"stretches"`): under stationary random excitation a
+    /// stretch much longer than the motion's correlation time is a draw of its own.
+    Stretches,
+    /// Whole records only (`"records"`): each record one realisation of a periodic
+    /// excitation (a multisine's blocks), whose stretches share its lines' phases.
+    Records,
 }
 
 /// What a table's acceleration at `t_k` is (`[data] acceleration_samples`, docs/data.md;

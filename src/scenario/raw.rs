@@ -65,6 +65,7 @@ pub(crate) struct RawData {
     pub(super) split_gaps: Option<Spanned<bool>>,
     pub(super) delimiter: Option<Spanned<String>>,
     pub(super) decimal: Option<Spanned<String>>,
+    pub(super) independent: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]

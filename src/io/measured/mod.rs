@@ -66,6 +66,10 @@ pub struct Measured {
     /// The table columns whose mean was taken out (`[data] remove_mean`), with that mean in
     /// the table's units: held-out data are read with the same offsets.
     pub removed_means: Vec<(String, f64)>,
+    /// The records were found to be periods of a periodic excitation (cut from records
+    /// that hold several end to end, or averaged where they repeat one realisation): each
+    /// is now one realisation, whose stretches are not independent draws.
+    pub periodic: bool,
     /// The highest RMS frequency of the measured motion (rad/s): over the masses, of each
     /// velocity's spectrum (else the displacement's) up to the Nyquist frequency, in the
     /// longest record. A re-simulation of the data's model steps finely enough for it.
@@ -407,6 +411,7 @@ pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, Data
     let (sources, cut) = period_cut::cut_periods(sources, d)?;
     let (sources, repeated) = periods::average_repeated(sources, d)?;
     let mut m = measured_with(model, sources, None)?;
+    m.periodic = cut.is_some() || repeated.is_some();
     m.notes.extend(cut.map(|c| c.note()));
     m.notes.extend(repeated.map(|r| r.note()));
     Ok(m)
@@ -492,6 +497,7 @@ pub fn measured_with(
         table_columns: mapped.clone(),
         notes,
         removed_means,
+        periodic: false,
         motion_frequency: f64::NAN,
         plans,
         derive,

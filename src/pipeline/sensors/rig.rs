@@ -106,6 +106,7 @@ pub(crate) fn through_sensors(input: &Input) -> Result<Option<Input>, PipelineEr
         split_gaps: false,
         delimiter: None,
         decimal_comma: false,
+        independent: None,
     });
     // The filters shaped the samples already; measured data are read as they come.
     let sensors = &mut m.simulation.sensors;

@@ -126,7 +126,9 @@ pub(crate) fn check_data(
         None => None,
     };
     let acceleration_samples = acceleration_samples(loc, d)?;
+    let independent = independent(loc, d)?;
     Ok(Some(DataMapping {
+        independent,
         drift_period,
         acceleration_samples,
         time: d.time.as_ref().map(|t| t.get_ref().clone()),
@@ -167,6 +169,25 @@ fn check_remove_mean(loc: &Locator, d: &RawData, columns: &[(String, String)]) -
         remove_mean.push(name.clone());
     }
     Ok(remove_mean)
+}
+
+/// `[data] independent`: `"records"` or `"stretches"` (unset: chosen from the data).
+fn independent(loc: &Locator, d: &RawData) -> Result<Option<Independent>, ScenarioError> {
+    let Some(v) = &d.independent else { return Ok(None) };
+    match v.get_ref().as_str() {
+        "records" => Ok(Some(Independent::Records)),
+        "stretches" => Ok(Some(Independent::Stretches)),
+        other => Err(loc.at(
+            v.span(),
+            "data.independent",
+            format!(
+                "{other:?}: \"records\" (each record its own realisation, e.g. a multisine's blocks: the standard \
+                 errors come from whole records) or \"stretches\" (stretches of the records are independent draws, \
+                 as under stationary random excitation); unset, fpkbench chooses (docs/data.md, \"Independent \
+                 records\")"
+            ),
+        )),
+    }
 }
 
 /// `[data] acceleration_samples`: `"instants"` (the default) or `"interval_means"`.
