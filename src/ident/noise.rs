@@ -482,18 +482,22 @@ mod tests {
     use super::super::poly::var;
     use super::*;
 
+    /// Uniform numbers in (0, 1) from a xorshift stream started at `state`.
+    fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        }
+    }
+
     /// A clipped channel whose limit jitters by ±10⁻⁴ of its standard deviation (no two
     /// clipped samples equal) is counted at its limits, as one that repeats its limit
     /// exactly is; the same record unclipped has one sample at each extreme.
     #[test]
     fn a_jittering_limit_is_counted_as_clipping() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform(0x9e37_79b9_7f4a_7c15);
         // An AR(2) oscillator's displacement and its difference, unit-scale.
         let (mut x, mut x1) = (0.0f64, 0.0f64);
         let rows: Vec<[f64; 2]> = (0..200_000)
@@ -537,13 +541,7 @@ mod tests {
     /// `edge`/3 to `edge`), 8 records of 8192 samples, with white noise of `noise` times each
     /// channel's std added: the channels' noise estimates.
     fn multisine_noise(edge: f64, noise: [f64; 2]) -> Vec<ChannelNoise> {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform(0x2545_f491_4f6c_dd1d);
         let mut gauss = move || (-2.0 * uniform().ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos();
         let (period, n) = (1024usize, 8192usize);
         let lines: Vec<f64> = (1..)

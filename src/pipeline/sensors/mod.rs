@@ -198,7 +198,7 @@ fn pair_rows(k: &mut Correction, floor: &NoiseFloor, channels: &[ChannelNoise], 
     let (by_column, rows) = (&mut k.by_column, &mut k.rows);
     for ch in channels {
         let c = column_of(floor, ch);
-        if let (true, Some(ceiling)) = (ch.above_ceiling(), ch.ceiling) {
+        if let (true, Some(ceiling), NoiseHandling::Estimate) = (ch.above_ceiling(), ch.ceiling, handling) {
             k.notes.push(format!(
                 "{}: the lag expansion's noise, {:.4e} ({:.2} % of the signal's std), is more than its spectrum can \
                  hold (white noise spreads evenly up to Nyquist: at most {:.4e}, {:.2} %): the signal has power \
