@@ -7,6 +7,33 @@ use fpkbench::Scenario;
 
 use crate::common;
 
+/// The model file of the Silverbox twin's table: one mass, one ground link with stiffness
+/// powers 1–3 and a linear damper, the force `u` read as its equivalent white noise, the
+/// `[identify]` `methods` line and the `[data]` section's body given.
+fn twin_model(methods: &str, data: &str) -> String {
+    format!(
+        r#"
+name = "twin-table"
+[[mass]]
+name = "m1"
+value = 1.0
+[[link]]
+ends = ["ground", "m1"]
+[[excitation]]
+name = "u"
+kind = "white"
+acts_on = ["m1"]
+[identify]
+{methods}
+equivalent_white = ["u"]
+[identify.links.ground-m1]
+stiffness = [1, 2, 3]
+damping = [1]
+[data]
+{data}"#
+    )
+}
+
 /// A multisine rig measured period by period, each period a record: the twin of
 /// scenarios/silverbox_twin.toml, two realisations of three periods, the displacement with
 /// sensor noise at 5 % of its spread (new in every period). The records of one realisation
@@ -81,32 +108,18 @@ fn periods_of_one_realisation_are_found_and_averaged() {
         ],
         record_labels: None,
     };
-    let model_text = r#"
-name = "twin-periods"
-[[mass]]
-name = "m1"
-value = 1.0
-[[link]]
-ends = ["ground", "m1"]
-[[excitation]]
-name = "u"
-kind = "white"
-acts_on = ["m1"]
-[identify]
-methods = ["weak", "force-regression"]
-equivalent_white = ["u"]
-[identify.links.ground-m1]
-stiffness = [1, 2, 3]
-damping = [1]
-[data]
+    let model_text = twin_model(
+        r#"methods = ["weak", "force-regression"]"#,
+        r#"
 time = "t"
 record = "record"
 derive = true
 [data.columns]
 x_m1 = "y"
 p_u = "p_u"
-"#;
-    let model = Scenario::parse(model_text, "model.toml", "m").unwrap();
+"#,
+    );
+    let model = Scenario::parse(&model_text, "model.toml", "m").unwrap();
     let found = measured(&model, vec![periods_table.into()]).unwrap();
     assert_eq!(found.lengths, vec![n, n], "two realisations of one period each");
     let note = found
@@ -174,25 +187,10 @@ fn a_multisines_records_are_the_jackknifes_units() {
     let file = dir.path().join("run.npy");
     common::export(&log, "npy", &file);
     let model_text = |independent: &str| {
-        format!(
-            r#"
-name = "twin-table"
-[[mass]]
-name = "m1"
-value = 1.0
-[[link]]
-ends = ["ground", "m1"]
-[[excitation]]
-name = "u"
-kind = "white"
-acts_on = ["m1"]
-[identify]
-methods = ["weak"]
-equivalent_white = ["u"]
-[identify.links.ground-m1]
-stiffness = [1, 2, 3]
-damping = [1]
-[data]
+        twin_model(
+            r#"methods = ["weak"]"#,
+            &format!(
+                r#"
 time = "t"
 record = "trajectory"
 {independent}
@@ -201,6 +199,7 @@ x_m1 = "x_m1"
 v_m1 = "v_m1"
 p_u = "p_u"
 "#
+            ),
         )
     };
     let read = |independent: &str| {
