@@ -19,8 +19,40 @@ pub struct Sample<'r> {
     pub row: &'r [f64],
 }
 
+/// A run of consecutive samples as a pass hands them over: each sample's record, time
+/// and batch, and the rows one after another (`width` columns each).
+#[derive(Debug, Clone, Copy)]
+pub struct Samples<'r> {
+    pub heads: &'r [(u32, f64, usize)],
+    pub rows: &'r [f64],
+    pub width: usize,
+}
+
+impl<'r> Samples<'r> {
+    /// Samples in the run.
+    pub fn len(&self) -> usize {
+        self.heads.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.heads.is_empty()
+    }
+    /// Sample `k`.
+    #[inline]
+    pub fn get(&self, k: usize) -> Sample<'r> {
+        let (trajectory, t, batch) = self.heads[k];
+        Sample {
+            trajectory,
+            t,
+            batch,
+            row: &self.rows[k * self.width..(k + 1) * self.width],
+        }
+    }
+}
+
 /// A computation over the samples of one pass: `push` for every sample, in the source's
-/// order (a trajectory's samples in time order), then `finish` once. `Send`: the pass
+/// order (a trajectory's samples in time order), then `finish` once. A pass hands the
+/// samples over in runs ([`Accumulator::push_all`]): one call per run, each accumulator's
+/// own loop over it. `Send`: the pass
 /// driver runs the accumulators of one pass on threads of their own, each over every
 /// sample in order.
 ///
@@ -33,6 +65,13 @@ pub struct Sample<'r> {
 pub trait Accumulator: Send {
     /// One sample.
     fn push(&mut self, sample: &Sample);
+    /// A run of samples, in order: by default each in turn; an accumulator that works
+    /// column by column takes the run whole.
+    fn push_all(&mut self, samples: &Samples) {
+        for k in 0..samples.len() {
+            self.push(&samples.get(k));
+        }
+    }
     /// The pass is over: flush what is buffered.
     fn finish(&mut self) {}
 }
@@ -40,6 +79,9 @@ pub trait Accumulator: Send {
 impl<A: Accumulator + ?Sized> Accumulator for Box<A> {
     fn push(&mut self, sample: &Sample) {
         (**self).push(sample)
+    }
+    fn push_all(&mut self, samples: &Samples) {
+        (**self).push_all(samples)
     }
     fn finish(&mut self) {
         (**self).finish()
@@ -50,6 +92,11 @@ impl<A: Accumulator> Accumulator for Option<A> {
     fn push(&mut self, sample: &Sample) {
         if let Some(a) = self {
             a.push(sample)
+        }
+    }
+    fn push_all(&mut self, samples: &Samples) {
+        if let Some(a) = self {
+            a.push_all(samples)
         }
     }
     fn finish(&mut self) {
@@ -63,6 +110,11 @@ impl<A: Accumulator> Accumulator for Vec<A> {
     fn push(&mut self, sample: &Sample) {
         for a in self.iter_mut() {
             a.push(sample)
+        }
+    }
+    fn push_all(&mut self, samples: &Samples) {
+        for a in self.iter_mut() {
+            a.push_all(samples)
         }
     }
     fn finish(&mut self) {

@@ -19,7 +19,7 @@
 
 use super::source::Input;
 use super::PipelineError;
-use crate::ident::accumulate::{Accumulator, Sample};
+use crate::ident::accumulate::{Accumulator, Samples};
 use crate::ident::data::Batching;
 use rayon::prelude::*;
 use std::sync::mpsc;
@@ -53,17 +53,13 @@ impl Block {
 
     /// Every accumulator over every sample of the block, the accumulators in parallel.
     fn hand_over(&mut self, accumulators: &mut [&mut dyn Accumulator]) {
-        let (heads, rows, width) = (&self.heads, &self.rows, self.width);
-        let feed = |a: &mut &mut dyn Accumulator| {
-            for (k, &(trajectory, t, batch)) in heads.iter().enumerate() {
-                a.push(&Sample {
-                    trajectory,
-                    t,
-                    batch,
-                    row: &rows[k * width..(k + 1) * width],
-                });
-            }
+        let samples = Samples {
+            heads: &self.heads,
+            rows: &self.rows,
+            width: self.width,
         };
+        // One call per block: each accumulator's own loop over it, no call per sample.
+        let feed = |a: &mut &mut dyn Accumulator| a.push_all(&samples);
         if accumulators.len() > 1 {
             // One task per accumulator: their costs differ tenfold, and the threads balance
             // them by taking the next when one is done.

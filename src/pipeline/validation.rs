@@ -2,7 +2,7 @@
 //! its std, kurtosis, marginal densities and spectra are compared with the data's.
 
 use super::grading::coefficients_of;
-use crate::ident::accumulate::{Accumulator, Sample};
+use crate::ident::accumulate::{Accumulator, Sample, Samples};
 use crate::ident::data::StationaryData;
 use crate::ident::spectrum::{Spectrum, Welch};
 use crate::ident::{spectrum, Problem, Unknown};
@@ -51,23 +51,58 @@ impl Marginals {
         }
     }
     pub(crate) fn push(&mut self, trajectory: usize, row: &[f64]) {
-        for (j, &c) in self.cols.iter().enumerate() {
-            let z = row[c];
-            self.s1[j] += z;
-            self.s2[j] += z * z;
-            self.s3[j] += z * z * z;
-            self.s4[j] += z * z * z * z;
-            self.hist[j].push(z);
-            self.welch[j].push(trajectory, z);
-            let g = &mut self.groups[(trajectory % STD_GROUPS) * self.cols.len() + j];
-            g[0] += 1.0;
-            g[1] += z;
-            g[2] += z * z;
-            g[3] += z * z * z;
-            g[4] += z * z * z * z;
+        for j in 0..self.cols.len() {
+            self.push_values(j, &[trajectory as u32], &[row[self.cols[j]]]);
         }
         self.n += 1.0;
     }
+
+    /// Variable `j`'s values `z` of samples of the trajectories `trajectories`, in the
+    /// samples' order; the caller counts the samples once for all variables
+    /// ([`Marginals::count`]). One variable over a run of samples keeps its sums in
+    /// registers: the same sums, in the same order, as sample by sample.
+    fn push_values(&mut self, j: usize, trajectories: &[u32], z: &[f64]) {
+        let d = self.cols.len();
+        let (mut s1, mut s2, mut s3, mut s4) = (self.s1[j], self.s2[j], self.s3[j], self.s4[j]);
+        let (hist, welch) = (&mut self.hist[j], &mut self.welch[j]);
+        for (&trajectory, &z) in trajectories.iter().zip(z) {
+            let (z2, z3) = (z * z, z * z * z);
+            let z4 = z3 * z;
+            s1 += z;
+            s2 += z2;
+            s3 += z3;
+            s4 += z4;
+            hist.push(z);
+            welch.push(trajectory as usize, z);
+            let g = &mut self.groups[(trajectory as usize % STD_GROUPS) * d + j];
+            g[0] += 1.0;
+            g[1] += z;
+            g[2] += z2;
+            g[3] += z3;
+            g[4] += z4;
+        }
+        (self.s1[j], self.s2[j], self.s3[j], self.s4[j]) = (s1, s2, s3, s4);
+    }
+
+    /// Count `samples` pushed variable by variable.
+    fn count(&mut self, samples: usize) {
+        self.n += samples as f64;
+    }
+
+    /// A simulated batch (instants of every trajectory, column-major), variable by
+    /// variable.
+    fn push_batch(&mut self, b: &SampleBatch) {
+        let order: Vec<u32> = (0..b.trajectories as u32).collect();
+        for k in 0..b.instants() {
+            let instant = b.instant(k);
+            for j in 0..self.cols.len() {
+                let c = self.cols[j];
+                self.push_values(j, &order, &instant[c * b.trajectories..(c + 1) * b.trajectories]);
+            }
+        }
+        self.count(b.len());
+    }
+
     /// Empty accumulators like these (the same histogram ranges and spectral segments) for
     /// `trajectories`.
     pub(crate) fn fresh(&self, trajectories: usize) -> Marginals {
@@ -127,7 +162,7 @@ fn kurtosis(m: f64, m2: f64, m3: f64, m4: f64) -> f64 {
 
 impl SampleSink for Marginals {
     fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        b.for_each_sample(|j, _, row| self.push(j as usize, row));
+        self.push_batch(&b);
         Ok(())
     }
 }
@@ -195,6 +230,9 @@ pub(crate) struct Distributions {
     /// Per state variable: name, unit, data histogram, model histogram.
     names: Vec<(String, String)>,
     model_marg: Option<Marginals>,
+    /// Scratch of [`Accumulator::push_all`]: a run's trajectories and one variable's values.
+    trajectories: Vec<u32>,
+    values: Vec<f64>,
 }
 
 impl Distributions {
@@ -231,6 +269,8 @@ impl Distributions {
             marg: Marginals::new(problem.columns.clone(), state_hist, vec![welch; problem.columns.len()]),
             names,
             model_marg: None,
+            trajectories: Vec::new(),
+            values: Vec::new(),
         }
     }
 
@@ -528,6 +568,35 @@ pub(crate) fn validate(
 impl Accumulator for Distributions {
     fn push(&mut self, s: &Sample) {
         Distributions::push(self, s.trajectory as usize, s.row)
+    }
+
+    /// Variable by variable over the run (its values gathered first): the same sums as
+    /// sample by sample, a third of the time.
+    fn push_all(&mut self, samples: &Samples) {
+        let n = samples.len();
+        let mut trajectories = std::mem::take(&mut self.trajectories);
+        let mut z = std::mem::take(&mut self.values);
+        trajectories.clear();
+        trajectories.extend(samples.heads.iter().map(|h| h.0));
+        z.resize(2 * n, 0.0);
+        let (u, w) = z.split_at_mut(n);
+        for (l, h) in self.link_hist.iter_mut().enumerate() {
+            for k in 0..n {
+                (u[k], w[k]) = self.model.link_motion(l, samples.get(k).row);
+            }
+            u.iter().for_each(|&u| h.0.push(u));
+            w.iter().for_each(|&w| h.1.push(w));
+        }
+        for j in 0..self.marg.cols.len() {
+            let c = self.marg.cols[j];
+            for (k, x) in u.iter_mut().enumerate() {
+                *x = samples.rows[k * samples.width + c];
+            }
+            self.marg.push_values(j, &trajectories, u);
+        }
+        self.marg.count(n);
+        self.trajectories = trajectories;
+        self.values = z;
     }
 }
 
