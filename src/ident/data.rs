@@ -402,6 +402,33 @@ impl StationaryData {
             .collect()
     }
 
+    /// Per jackknife replicate (in [`StationaryData::leave_one_out`]'s order), the
+    /// non-empty fine batches it is made of: what its own equation weighting is estimated
+    /// from (`crate::ident::estimate::identify_weak`).
+    pub fn leave_one_out_fine(&self) -> Vec<Vec<&RawMoments>> {
+        let per = self.per_coarse();
+        let kept: Vec<usize> = (0..self.batch_count())
+            .filter(|&b| {
+                self.fine[b * per..((b + 1) * per).min(self.fine.len())]
+                    .iter()
+                    .any(|f| f.count > 0)
+            })
+            .collect();
+        if kept.len() < 2 {
+            return Vec::new();
+        }
+        kept.iter()
+            .map(|&out| {
+                self.fine
+                    .iter()
+                    .enumerate()
+                    .filter(|&(i, f)| f.count > 0 && i / per != out)
+                    .map(|(_, f)| f)
+                    .collect()
+            })
+            .collect()
+    }
+
     /// Whether a jackknife replicate carries its own sensor-noise correction
     /// ([`StationaryData::leave_one_out`]); without, each is the plain sum of the batches
     /// but one.

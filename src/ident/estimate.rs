@@ -188,7 +188,17 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
     let pc = map.apply(&total);
     let replicates: Vec<Pieces> = data.leave_one_out().iter().map(|b| map.apply(b)).collect();
     let (weight, fine) = efficient_weight(problem, data, &map, &pc, &typical);
-    let replicates = solve_replicates(problem, "weak", replicates, &typical, weight.as_ref())?;
+    let work = replicates.len() as f64 * (pc.rows as f64).powi(2) * (fine + pc.rows) as f64;
+    let affordable = work <= REWEIGHING_WORK;
+    let reweighed = match weight.is_some() && affordable {
+        true => reweighed_replicates(problem, &map, replicates.clone(), &data.leave_one_out_fine(), &typical),
+        false => None,
+    };
+    let weighting_per_replicate = reweighed.is_some();
+    let replicates = match reweighed {
+        Some(r) => r?,
+        None => solve_replicates(problem, "weak", replicates, &typical, weight.as_ref())?,
+    };
     let mut facts = vec![
         (
             "test functions".into(),
@@ -214,7 +224,24 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
         }),
         (
             "standard errors".into(),
-            format!("delete-one jackknife over {} batches", replicates.len()),
+            match (&weight, weighting_per_replicate, affordable) {
+                (Some(_), true, _) => format!(
+                    "delete-one jackknife over {} batches, each with its own weighting",
+                    replicates.len()
+                ),
+                (Some(_), false, false) => format!(
+                    "delete-one jackknife over {} batches, the whole record's weighting in each ({} equations: \
+                     too many to weight every replicate anew)",
+                    replicates.len(),
+                    pc.rows
+                ),
+                (Some(_), false, true) => format!(
+                    "delete-one jackknife over {} batches, the whole record's weighting in each (a replicate's \
+                     batches are too few for a weighting of its own)",
+                    replicates.len()
+                ),
+                (None, _, _) => format!("delete-one jackknife over {} batches", replicates.len()),
+            },
         ),
     ];
     facts.push((
@@ -238,9 +265,7 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
 /// [`weak::weighting`]) from the spread of the fine batches' residuals at the unweighted
 /// estimate of `pc`, the whole record's pieces through `map`; with the number of fine
 /// batches it used. Two-step: the covariance at the unweighted estimate (iterating it
-/// changed nothing measurable on silentblock). Each batch's moments go straight to its
-/// residual through one sparse map, in parallel: a thousand equations' pieces for
-/// thousands of batches would not fit in memory.
+/// changed nothing measurable on silentblock).
 pub(crate) fn efficient_weight(
     problem: &Problem,
     data: &data::StationaryData,
@@ -249,6 +274,19 @@ pub(crate) fn efficient_weight(
     typical: &[f64],
 ) -> (Option<DMatrix<f64>>, usize) {
     let fine: Vec<&moments::RawMoments> = data.fine.iter().filter(|b| b.count > 0).collect();
+    (weight_from(problem, &fine, map, pc, typical), fine.len())
+}
+
+/// [`efficient_weight`] from the batches `fine` and their sum's pieces `pc`. Each batch's
+/// moments go straight to its residual through one sparse map, in parallel: a thousand
+/// equations' pieces for thousands of batches would not fit in memory.
+fn weight_from(
+    problem: &Problem,
+    fine: &[&moments::RawMoments],
+    map: &weak::PiecesMap,
+    pc: &Pieces,
+    typical: &[f64],
+) -> Option<DMatrix<f64>> {
     let counts: Vec<u64> = fine.iter().map(|b| b.count).collect();
     let (first, _) = problem.solve(pc, typical, None);
     let rmap = map.residual_map(problem, first.as_slice());
@@ -258,7 +296,43 @@ pub(crate) fn efficient_weight(
         .zip(fine.par_iter())
         .for_each(|(out, b)| rmap.apply_into(b, out));
     let residuals = DMatrix::from_vec(rows, fine.len(), flat);
-    (weak::weighting(residuals, &counts), fine.len())
+    weak::weighting(residuals, &counts)
+}
+
+/// Work (multiply–adds) for re-estimating the weighting in every jackknife replicate
+/// beyond which it is held at the whole record's: per replicate a covariance of `rows`
+/// equations over the fine batches and its Cholesky root. duffing2dof (69 equations,
+/// 1024 batches, 32 replicates) needs 1.6·10⁸; frame4's three thousand equations would
+/// need about 10¹³.
+pub const REWEIGHING_WORK: f64 = 2e9;
+
+/// The jackknife replicates of the two-step weak form, each the whole estimator on the
+/// record without its batch (`pieces` and `fine`, from [`data::StationaryData::leave_one_out`]
+/// and [`data::StationaryData::leave_one_out_fine`]): its own unweighted estimate, its own
+/// weighting from its own batches, its weighted estimate. Holding the whole record's
+/// weighting in every replicate leaves out how much the estimate moves with the weighting:
+/// with whole records as the units, the damping's standard error came out a fifth to a half
+/// of its spread over seeds (docs/results.md, "Standard errors from whole records").
+/// `None` where a replicate has too few batches for a weighting of its own.
+fn reweighed_replicates(
+    problem: &Problem,
+    map: &weak::PiecesMap,
+    pieces: Vec<Pieces>,
+    fine: &[Vec<&moments::RawMoments>],
+    typical: &[f64],
+) -> Option<Result<Vec<Vec<f64>>, IdentError>> {
+    let out: Vec<Option<Result<Vec<f64>, IdentError>>> = pieces
+        .into_par_iter()
+        .zip(fine.par_iter())
+        .map(|(pc, fine)| {
+            if let Err(e) = pc.check_finite("weak") {
+                return Some(Err(e));
+            }
+            let weight = weight_from(problem, fine, map, &pc, typical)?;
+            Some(Ok(problem.solve_values(&pc, typical, Some(&weight))))
+        })
+        .collect();
+    out.into_iter().collect()
 }
 
 /// The strong-form estimate (the paper's procedure) from a filled density grid; with
@@ -406,4 +480,79 @@ pub fn identify_kernel(
     ];
     facts.sort();
     estimate(problem, "strong", &pc, &replicates, typical, facts, None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ident::Specification;
+    use crate::model::Model;
+    use crate::scenario::Scenario;
+
+    /// A jackknife replicate of the two-step weak form is the whole estimator on the
+    /// record without its batch: its own unweighted estimate, its own weighting, its own
+    /// weighted estimate — the estimate of the record with that batch's samples left out,
+    /// but for the test functions' natural scales, which a replicate keeps from the whole
+    /// record (they enter through the first step only: at most 10⁻⁴ standard errors here).
+    /// And it is not the replicate with the whole record's weighting held.
+    #[test]
+    fn a_replicate_is_the_two_step_estimate_without_its_batch() {
+        let path = format!("{}/scenarios/duffing2dof.toml", env!("CARGO_MANIFEST_DIR"));
+        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
+        (s.simulation.record_length, s.simulation.trajectories) = (2500.0, 32);
+        let mut samples = crate::sim::Collect::default();
+        crate::sim::simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+        let spec = Specification::from_scenario(&s);
+        let p = Problem::from_spec(&spec, &spec.given_filters()).unwrap();
+        let filled = |keep: &dyn Fn(usize) -> bool| {
+            let mut data = data::StationaryData::new(&p, weak::moment_degree(&p), 2500.0, 32, 8);
+            let batching = data.batching();
+            for b in &samples.batches {
+                b.for_each_sample(|j, t, row| {
+                    if keep(batching.batch_of(j, t)) {
+                        data.push(j, t, row)
+                    }
+                });
+            }
+            data.finish();
+            data
+        };
+        let data = filled(&|_| true);
+        let total = data.total();
+        let typical = p.typical(&total);
+        let map = weak::PiecesMap::new(&p, &total);
+        let pieces: Vec<Pieces> = data.leave_one_out().iter().map(|b| map.apply(b)).collect();
+        assert_eq!(pieces.len(), 8);
+        let own = reweighed_replicates(&p, &map, pieces.clone(), &data.leave_one_out_fine(), &typical)
+            .expect("every replicate has batches enough")
+            .unwrap();
+        let (weight, _) = efficient_weight(&p, &data, &map, &map.apply(&total), &typical);
+        let held = solve_replicates(&p, "weak", pieces, &typical, weight.as_ref()).unwrap();
+        let whole = identify_weak(&p, &data).unwrap();
+        assert!(whole
+            .facts
+            .iter()
+            .any(|(k, v)| k == "standard errors" && v.ends_with("each with its own weighting")));
+        let (mut moved, mut off) = (0.0f64, 0.0f64);
+        for out in [0, 5] {
+            let without = identify_weak(&p, &filled(&|b| b != out)).unwrap();
+            for k in 0..p.unknowns.len() {
+                let se = whole.std_error[k];
+                let (a, b) = (own[out][k], without.values[k]);
+                off = off.max((a - b).abs() / se);
+                assert!(
+                    (a - b).abs() <= 1e-3 * se,
+                    "{} without batch {out}: {a} against {b}",
+                    p.names[k]
+                );
+                moved = moved.max((own[out][k] - held[out][k]).abs() / se);
+            }
+        }
+        assert!(off < 1e-3, "{off}");
+        // The weighting's own share of a replicate: up to 0.19 standard errors here.
+        assert!(
+            moved > 0.05,
+            "the replicates moved by {moved} standard errors with their weighting"
+        );
+    }
 }
