@@ -212,6 +212,11 @@ p_u = "p_u"
     assert_eq!(batches(&stretches), (false, false), "{:?}", stretches.data_notes);
     let records = read("independent = \"records\"");
     assert_eq!(batches(&records), (true, true), "{:?}", records.data_notes);
+    // Over the groups of records the force's level, read from the same groups, is taken
+    // out of each replicate with its records; over stretches it is held.
+    let own_level =
+        |r: &fpkbench::report::Report| serde_json::to_string(r).unwrap().contains("and its own force level");
+    assert!(own_level(&records) && !own_level(&stretches));
     // The estimates are the same; only their standard errors' units differ.
     let estimates =
         |r: &fpkbench::report::Report| -> Vec<f64> { r.methods[0].parameters.iter().map(|p| p.estimate).collect() };

@@ -147,6 +147,11 @@ pub struct Context<'a> {
     pub typical: &'a [f64],
     /// Whether an unknown filter corner makes the drift bilinear.
     pub bilinear: bool,
+    /// Forces read as white at a level measured from their spectrum: per force, its noise
+    /// source in `problem.white` and its level in each jackknife replicate of `data` (the
+    /// level without that replicate's records), for the weak form's replicates to read the
+    /// force as they read the moments. Empty: the level is held.
+    pub level_replicates: &'a [(usize, Vec<f64>)],
 }
 
 /// One identification method: an [`Accumulator`] filled from the samples of the second
@@ -251,6 +256,7 @@ mod tests {
             data: &data,
             typical: &typical,
             bilinear: false,
+            level_replicates: &[],
         };
         for &m in Method::REGISTERED {
             let mut estimator = m.estimator(&setup);

@@ -21,7 +21,7 @@ impl Estimator for WeakForm {
         if cx.bilinear {
             ident::identify_weak_bilinear(cx.problem, cx.data)
         } else {
-            ident::identify_weak(cx.problem, cx.data)
+            ident::identify_weak_with_levels(cx.problem, cx.data, cx.level_replicates)
         }
     }
 }

@@ -175,6 +175,21 @@ pub fn estimate(
 
 /// The weak-form estimate from streamed data.
 pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<Estimate, IdentError> {
+    identify_weak_with_levels(problem, data, &[])
+}
+
+/// [`identify_weak`] with forces whose level was measured from the same records:
+/// `levels` gives, per such force, its noise source in `problem.white` and its level in
+/// each jackknife replicate of `data` (without that replicate's records), and each
+/// replicate reads the force at its own level as it reads its own moments. A level held
+/// from all the records leaves its scatter out of the standard errors: the damping moves
+/// with the level's square (docs/results.md, "Standard errors from whole records").
+/// Levels that do not come per replicate are held.
+pub fn identify_weak_with_levels(
+    problem: &Problem,
+    data: &data::StationaryData,
+    levels: &[(usize, Vec<f64>)],
+) -> Result<Estimate, IdentError> {
     let total = data.total();
     if total.count < 10 * problem.unknowns.len() as u64 {
         return Err(IdentError::TooLittleData(format!(
@@ -186,12 +201,23 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
     let typical = problem.typical(&total);
     let map = weak::PiecesMap::new(problem, &total);
     let pc = map.apply(&total);
-    let replicates: Vec<Pieces> = data.leave_one_out().iter().map(|b| map.apply(b)).collect();
+    let left_out = data.leave_one_out();
+    let own = at_own_levels(problem, &total, levels, left_out.len());
+    let replicates: Vec<Pieces> = left_out
+        .iter()
+        .enumerate()
+        .map(|(b, m)| own.get(b).map_or(&map, |o| &o.1).apply(m))
+        .collect();
     let (weight, fine) = efficient_weight(problem, data, &map, &pc, &typical);
     let work = replicates.len() as f64 * (pc.rows as f64).powi(2) * (fine + pc.rows) as f64;
     let affordable = work <= REWEIGHING_WORK;
     let reweighed = match weight.is_some() && affordable {
-        true => reweighed_replicates(problem, &map, replicates.clone(), &data.leave_one_out_fine(), &typical),
+        true => reweighed_replicates(
+            (problem, &map, &own),
+            replicates.clone(),
+            &data.leave_one_out_fine(),
+            &typical,
+        ),
         false => None,
     };
     let weighting_per_replicate = reweighed.is_some();
@@ -224,24 +250,12 @@ pub fn identify_weak(problem: &Problem, data: &data::StationaryData) -> Result<E
         }),
         (
             "standard errors".into(),
-            match (&weight, weighting_per_replicate, affordable) {
-                (Some(_), true, _) => format!(
-                    "delete-one jackknife over {} batches, each with its own weighting",
-                    replicates.len()
-                ),
-                (Some(_), false, false) => format!(
-                    "delete-one jackknife over {} batches, the whole record's weighting in each ({} equations: \
-                     too many to weight every replicate anew)",
-                    replicates.len(),
-                    pc.rows
-                ),
-                (Some(_), false, true) => format!(
-                    "delete-one jackknife over {} batches, the whole record's weighting in each (a replicate's \
-                     batches are too few for a weighting of its own)",
-                    replicates.len()
-                ),
-                (None, _, _) => format!("delete-one jackknife over {} batches", replicates.len()),
-            },
+            standard_errors_fact(
+                replicates.len(),
+                (&weight, weighting_per_replicate, affordable),
+                pc.rows,
+                !own.is_empty(),
+            ),
         ),
     ];
     facts.push((
@@ -299,6 +313,34 @@ fn weight_from(
     weak::weighting(residuals, &counts)
 }
 
+/// The weak form's "standard errors" fact: `replicates` of the jackknife, whether each
+/// weighted its equations anew (and if not, why), whether each read the forces at its own
+/// level.
+fn standard_errors_fact(
+    replicates: usize,
+    (weight, per_replicate, affordable): (&Option<DMatrix<f64>>, bool, bool),
+    rows: usize,
+    own_levels: bool,
+) -> String {
+    let weighting = match (weight, per_replicate, affordable) {
+        (Some(_), true, _) => ", each with its own weighting".to_string(),
+        (Some(_), false, false) => format!(
+            ", the whole record's weighting in each ({rows} equations: too many to weight every replicate anew)"
+        ),
+        (Some(_), false, true) => {
+            ", the whole record's weighting in each (a replicate's batches are too few for a weighting of its own)"
+                .to_string()
+        }
+        (None, _, _) => String::new(),
+    };
+    let level = match (own_levels, weighting.is_empty()) {
+        (false, _) => "",
+        (true, false) => " and its own force level",
+        (true, true) => ", each with its own force level",
+    };
+    format!("delete-one jackknife over {replicates} batches{weighting}{level}")
+}
+
 /// Work (multiply–adds) for re-estimating the weighting in every jackknife replicate
 /// beyond which it is held at the whole record's: per replicate a covariance of `rows`
 /// equations over the fine batches and its Cholesky root. duffing2dof (69 equations,
@@ -315,8 +357,7 @@ pub const REWEIGHING_WORK: f64 = 2e9;
 /// of its spread over seeds (docs/results.md, "Standard errors from whole records").
 /// `None` where a replicate has too few batches for a weighting of its own.
 fn reweighed_replicates(
-    problem: &Problem,
-    map: &weak::PiecesMap,
+    (problem, map, own): (&Problem, &weak::PiecesMap, &[(Problem, weak::PiecesMap)]),
     pieces: Vec<Pieces>,
     fine: &[Vec<&moments::RawMoments>],
     typical: &[f64],
@@ -324,15 +365,47 @@ fn reweighed_replicates(
     let out: Vec<Option<Result<Vec<f64>, IdentError>>> = pieces
         .into_par_iter()
         .zip(fine.par_iter())
-        .map(|(pc, fine)| {
+        .enumerate()
+        .map(|(b, (pc, fine))| {
             if let Err(e) = pc.check_finite("weak") {
                 return Some(Err(e));
             }
+            let (problem, map) = own.get(b).map_or((problem, map), |(p, m)| (p, m));
             let weight = weight_from(problem, fine, map, &pc, typical)?;
             Some(Ok(problem.solve_values(&pc, typical, Some(&weight))))
         })
         .collect();
     out.into_iter().collect()
+}
+
+/// Per jackknife replicate (`count` of them), `problem` with the forces of `levels` at
+/// that replicate's level, and its pieces map over the whole record's moments `total` (the
+/// test functions' scales stay the whole record's); empty where `levels` is, or does not
+/// give a level for every replicate.
+fn at_own_levels(
+    problem: &Problem,
+    total: &moments::RawMoments,
+    levels: &[(usize, Vec<f64>)],
+    count: usize,
+) -> Vec<(Problem, weak::PiecesMap)> {
+    if levels.is_empty()
+        || levels
+            .iter()
+            .any(|(source, l)| l.len() != count || *source >= problem.white.len())
+    {
+        return Vec::new();
+    }
+    (0..count)
+        .into_par_iter()
+        .map(|b| {
+            let mut p = problem.clone();
+            for (source, l) in levels {
+                p.white[*source].1 = l[b];
+            }
+            let map = weak::PiecesMap::new(&p, total);
+            (p, map)
+        })
+        .collect()
 }
 
 /// The strong-form estimate (the paper's procedure) from a filled density grid; with
@@ -523,7 +596,7 @@ mod tests {
         let map = weak::PiecesMap::new(&p, &total);
         let pieces: Vec<Pieces> = data.leave_one_out().iter().map(|b| map.apply(b)).collect();
         assert_eq!(pieces.len(), 8);
-        let own = reweighed_replicates(&p, &map, pieces.clone(), &data.leave_one_out_fine(), &typical)
+        let own = reweighed_replicates((&p, &map, &[]), pieces.clone(), &data.leave_one_out_fine(), &typical)
             .expect("every replicate has batches enough")
             .unwrap();
         let (weight, _) = efficient_weight(&p, &data, &map, &map.apply(&total), &typical);
@@ -554,5 +627,83 @@ mod tests {
             moved > 0.05,
             "the replicates moved by {moved} standard errors with their weighting"
         );
+    }
+
+    /// A force read as white at a level measured from the same records: a replicate with
+    /// its own level is the two-step estimate without its batch at that level (to the same
+    /// 10⁻³ of a standard error), and the damping moves with the level's square.
+    #[test]
+    fn a_replicate_reads_the_force_at_its_own_level() {
+        let path = format!("{}/scenarios/duffing2dof.toml", env!("CARGO_MANIFEST_DIR"));
+        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
+        (s.simulation.record_length, s.simulation.trajectories) = (2500.0, 32);
+        let mut samples = crate::sim::Collect::default();
+        crate::sim::simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+        let spec = Specification::from_scenario(&s);
+        let p = Problem::from_spec(&spec, &spec.given_filters()).unwrap();
+        let filled = |keep: &dyn Fn(usize) -> bool| {
+            let mut data = data::StationaryData::new(&p, weak::moment_degree(&p), 2500.0, 32, 8);
+            let batching = data.batching();
+            for b in &samples.batches {
+                b.for_each_sample(|j, t, row| {
+                    if keep(batching.batch_of(j, t)) {
+                        data.push(j, t, row)
+                    }
+                });
+            }
+            data.finish();
+            data
+        };
+        let data = filled(&|_| true);
+        // The first force's level as if read without each batch: ±2 % about its own.
+        let levels = vec![(
+            0,
+            (0..8)
+                .map(|b| 1.0 + 0.02 * (b as f64 - 3.5) / 3.5)
+                .collect::<Vec<f64>>(),
+        )];
+        let whole = identify_weak_with_levels(&p, &data, &levels).unwrap();
+        assert!(whole
+            .facts
+            .iter()
+            .any(|(k, v)| k == "standard errors" && v.ends_with("and its own force level")));
+        let held = identify_weak(&p, &data).unwrap();
+        assert_eq!(
+            whole.values, held.values,
+            "the estimate itself reads the level from all the records"
+        );
+        let c1 = p.names.iter().position(|n| *n == "c1[ground-m1]").unwrap();
+        assert!(
+            whole.std_error[c1] > 1.5 * held.std_error[c1],
+            "{} against {}",
+            whole.std_error[c1],
+            held.std_error[c1]
+        );
+        let total = data.total();
+        let typical = p.typical(&total);
+        let own = at_own_levels(&p, &total, &levels, 8);
+        let map = weak::PiecesMap::new(&p, &total);
+        let pieces: Vec<Pieces> = data
+            .leave_one_out()
+            .iter()
+            .enumerate()
+            .map(|(b, m)| own[b].1.apply(m))
+            .collect();
+        let replicates = reweighed_replicates((&p, &map, &own), pieces, &data.leave_one_out_fine(), &typical)
+            .unwrap()
+            .unwrap();
+        for out in [0, 7] {
+            let mut at = p.clone();
+            at.white[0].1 = levels[0].1[out];
+            let without = identify_weak(&at, &filled(&|b| b != out)).unwrap();
+            for k in 0..p.unknowns.len() {
+                let (a, b) = (replicates[out][k], without.values[k]);
+                assert!(
+                    (a - b).abs() <= 1e-3 * whole.std_error[k],
+                    "{} without batch {out}: {a} against {b}",
+                    p.names[k]
+                );
+            }
+        }
     }
 }

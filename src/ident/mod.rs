@@ -47,8 +47,8 @@ pub mod weak;
 use crate::model::UnknownName;
 pub use bilinear::identify_weak_bilinear;
 pub use estimate::{
-    estimate, identify_kernel, identify_strong, identify_weak, jackknife, Estimate, INSEPARABLE_RATIO,
-    SPREAD_CHECK_RATIO, WEAK_RATIO,
+    estimate, identify_kernel, identify_strong, identify_weak, identify_weak_with_levels, jackknife, Estimate,
+    INSEPARABLE_RATIO, SPREAD_CHECK_RATIO, WEAK_RATIO,
 };
 pub use problem::{y, Atom, Filter, Layout, Pieces, Problem, Unknown};
 pub use spec::Specification;

@@ -39,7 +39,7 @@ pub(crate) fn choose(input: &Input) -> Result<Option<Input>, PipelineError> {
     input.for_each_sample(|trajectory, _, row| spectra.push(trajectory, row))?;
     let mut scenario = s.clone();
     let mut choices = Vec::new();
-    for ((e, _, white), force) in spectra.white_levels(s).into_iter().zip(spectra.white_force_spectra()) {
+    for ((e, _, white, _), force) in spectra.white_levels(s).into_iter().zip(spectra.white_force_spectra()) {
         let first_order = fit_ou(&force);
         let second_order = rational::fit_rational2(&force);
         let choice = judge(white, first_order, second_order);

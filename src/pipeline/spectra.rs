@@ -185,7 +185,11 @@ impl ForceSpectra {
     /// band level of the pooled spectra ([`spectrum::band_level`]), its standard error the
     /// delete-one jackknife over the parts. A force without a level (no segment, no power
     /// in the band) has none and is reported as not accepted.
-    pub(crate) fn white_levels(&self, s: &Scenario) -> Vec<(usize, Option<f64>, WhiteLevelReport)> {
+    ///
+    /// With each, its level without each part in turn (part `p`: the trajectories
+    /// `j ≡ p` mod the parts), where every part gives one: what a jackknife replicate over
+    /// the same parts reads the force's level as.
+    pub(crate) fn white_levels(&self, s: &Scenario) -> Vec<(usize, Option<f64>, WhiteLevelReport, Vec<f64>)> {
         self.white
             .iter()
             .map(|w| {
@@ -241,7 +245,16 @@ impl ForceSpectra {
                     segment_len: spectra.first().map_or(0, |(f, _)| f.segment_len),
                     accepted,
                 };
-                (w.excitation, level.filter(|_| accepted).map(|l| sigma_of(&l)), report)
+                let without = match reps.len() == spectra.len() {
+                    true => reps,
+                    false => Vec::new(),
+                };
+                (
+                    w.excitation,
+                    level.filter(|_| accepted).map(|l| sigma_of(&l)),
+                    report,
+                    without,
+                )
             })
             .collect()
     }

@@ -89,20 +89,6 @@ impl Marginals {
         self.n += samples as f64;
     }
 
-    /// A simulated batch (instants of every trajectory, column-major), variable by
-    /// variable.
-    fn push_batch(&mut self, b: &SampleBatch) {
-        let order: Vec<u32> = (0..b.trajectories as u32).collect();
-        for k in 0..b.instants() {
-            let instant = b.instant(k);
-            for j in 0..self.cols.len() {
-                let c = self.cols[j];
-                self.push_values(j, &order, &instant[c * b.trajectories..(c + 1) * b.trajectories]);
-            }
-        }
-        self.count(b.len());
-    }
-
     /// Empty accumulators like these (the same histogram ranges and spectral segments) for
     /// `trajectories`.
     pub(crate) fn fresh(&self, trajectories: usize) -> Marginals {
@@ -162,7 +148,7 @@ fn kurtosis(m: f64, m2: f64, m3: f64, m4: f64) -> f64 {
 
 impl SampleSink for Marginals {
     fn write(&mut self, b: SampleBatch) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        self.push_batch(&b);
+        b.for_each_sample(|j, _, row| self.push(j as usize, row));
         Ok(())
     }
 }

@@ -24,11 +24,12 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
     let s = &id.input.info.scenario;
     let (filters, reports, spectra) = id.forces.filters(s);
     let white = id.forces.white_levels(s);
-    let levels: Vec<(usize, f64)> = white.iter().filter_map(|&(e, sigma, _)| Some((e, sigma?))).collect();
+    let levels: Vec<(usize, f64)> = white.iter().filter_map(|&(e, sigma, _, _)| Some((e, sigma?))).collect();
+    let level_replicates = jackknife_levels(id, &white);
     let chosen = &id.input.force_models;
     let white_reports: Vec<WhiteLevelReport> = white
         .into_iter()
-        .map(|(_, _, r)| WhiteLevelReport {
+        .map(|(_, _, r, _)| WhiteLevelReport {
             true_sigma: force_choice::true_sigma(chosen, &r.excitation).unwrap_or(r.true_sigma),
             ..r
         })
@@ -67,12 +68,38 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         reports,
         spectra,
         levels,
+        level_replicates,
         white_reports,
         problem,
         typical,
         rejected,
     });
     Ok(())
+}
+
+/// The levels of the forces read as white in each jackknife replicate, as
+/// [`crate::estimators::Context::level_replicates`] takes them: where the jackknife's
+/// units are the 8 groups of records (`trajectory mod 8`, `super::super::units`) and the
+/// levels' parts are the same groups, replicate `b` reads each force's level without group
+/// `b`, as it reads the moments; otherwise none (the level from all the records is held in
+/// every replicate, and its scatter is not in the standard errors).
+#[allow(clippy::type_complexity)]
+fn jackknife_levels(
+    id: &Identification,
+    white: &[(usize, Option<f64>, WhiteLevelReport, Vec<f64>)],
+) -> Vec<(usize, Vec<f64>)> {
+    use crate::ident::data::TRAJECTORY_GROUPS;
+    let model = &id.spec.model;
+    let aligned = id.data.batch_count() == TRAJECTORY_GROUPS && id.data.batches().iter().all(|b| b.count > 0);
+    white
+        .iter()
+        .filter(|(_, sigma, _, without)| aligned && sigma.is_some() && without.len() == TRAJECTORY_GROUPS)
+        .map(|(e, _, _, without)| {
+            // The problem's noise sources are the measured excitations, in order.
+            let source = model.excitations[..*e].iter().filter(|x| x.measured).count();
+            (source, without.clone())
+        })
+        .collect()
 }
 
 /// `spec` with the white forces of `levels` at their measured level.

@@ -87,6 +87,8 @@ pub(crate) struct Fitted {
     )>,
     /// The forces read as their equivalent white noise, at their measured level `σ`.
     pub levels: Vec<(usize, f64)>,
+    /// Their levels in each jackknife replicate (`excitation::jackknife_levels`).
+    pub level_replicates: Vec<(usize, Vec<f64>)>,
     pub white_reports: Vec<crate::report::WhiteLevelReport>,
     /// The problem with the fitted (or known) filters and the measured levels.
     pub problem: Problem,

@@ -34,6 +34,7 @@ pub(crate) fn run(id: &mut Identification) -> Result<(), PipelineError> {
         data: &id.data,
         typical: &fitted.typical,
         bilinear,
+        level_replicates: &fitted.level_replicates,
     };
     let (mut rows, estimates) = estimator_rows(
         &mut id.estimators,
