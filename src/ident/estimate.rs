@@ -562,6 +562,32 @@ mod tests {
     use crate::model::Model;
     use crate::scenario::Scenario;
 
+    /// duffing2dof at 32 × 2500 s, its problem and its samples.
+    fn duffing2dof() -> (Problem, crate::sim::Collect) {
+        let path = format!("{}/scenarios/duffing2dof.toml", env!("CARGO_MANIFEST_DIR"));
+        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
+        (s.simulation.record_length, s.simulation.trajectories) = (2500.0, 32);
+        let mut samples = crate::sim::Collect::default();
+        crate::sim::simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
+        let spec = Specification::from_scenario(&s);
+        (Problem::from_spec(&spec, &spec.given_filters()).unwrap(), samples)
+    }
+
+    /// The moments of `samples` in 8 jackknife batches, of the batches `keep` keeps only.
+    fn moments_of(p: &Problem, samples: &crate::sim::Collect, keep: &dyn Fn(usize) -> bool) -> data::StationaryData {
+        let mut data = data::StationaryData::new(p, weak::moment_degree(p), 2500.0, 32, 8);
+        let batching = data.batching();
+        for b in &samples.batches {
+            b.for_each_sample(|j, t, row| {
+                if keep(batching.batch_of(j, t)) {
+                    data.push(j, t, row)
+                }
+            });
+        }
+        data.finish();
+        data
+    }
+
     /// A jackknife replicate of the two-step weak form is the whole estimator on the
     /// record without its batch: its own unweighted estimate, its own weighting, its own
     /// weighted estimate — the estimate of the record with that batch's samples left out,
@@ -570,26 +596,8 @@ mod tests {
     /// And it is not the replicate with the whole record's weighting held.
     #[test]
     fn a_replicate_is_the_two_step_estimate_without_its_batch() {
-        let path = format!("{}/scenarios/duffing2dof.toml", env!("CARGO_MANIFEST_DIR"));
-        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
-        (s.simulation.record_length, s.simulation.trajectories) = (2500.0, 32);
-        let mut samples = crate::sim::Collect::default();
-        crate::sim::simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
-        let spec = Specification::from_scenario(&s);
-        let p = Problem::from_spec(&spec, &spec.given_filters()).unwrap();
-        let filled = |keep: &dyn Fn(usize) -> bool| {
-            let mut data = data::StationaryData::new(&p, weak::moment_degree(&p), 2500.0, 32, 8);
-            let batching = data.batching();
-            for b in &samples.batches {
-                b.for_each_sample(|j, t, row| {
-                    if keep(batching.batch_of(j, t)) {
-                        data.push(j, t, row)
-                    }
-                });
-            }
-            data.finish();
-            data
-        };
+        let (p, samples) = duffing2dof();
+        let filled = |keep: &dyn Fn(usize) -> bool| moments_of(&p, &samples, keep);
         let data = filled(&|_| true);
         let total = data.total();
         let typical = p.typical(&total);
@@ -634,26 +642,8 @@ mod tests {
     /// 10⁻³ of a standard error), and the damping moves with the level's square.
     #[test]
     fn a_replicate_reads_the_force_at_its_own_level() {
-        let path = format!("{}/scenarios/duffing2dof.toml", env!("CARGO_MANIFEST_DIR"));
-        let mut s = Scenario::parse(&std::fs::read_to_string(&path).unwrap(), &path, "t").unwrap();
-        (s.simulation.record_length, s.simulation.trajectories) = (2500.0, 32);
-        let mut samples = crate::sim::Collect::default();
-        crate::sim::simulate(&Model::new(&s), &s.simulation, &mut samples, &|_| {}).unwrap();
-        let spec = Specification::from_scenario(&s);
-        let p = Problem::from_spec(&spec, &spec.given_filters()).unwrap();
-        let filled = |keep: &dyn Fn(usize) -> bool| {
-            let mut data = data::StationaryData::new(&p, weak::moment_degree(&p), 2500.0, 32, 8);
-            let batching = data.batching();
-            for b in &samples.batches {
-                b.for_each_sample(|j, t, row| {
-                    if keep(batching.batch_of(j, t)) {
-                        data.push(j, t, row)
-                    }
-                });
-            }
-            data.finish();
-            data
-        };
+        let (p, samples) = duffing2dof();
+        let filled = |keep: &dyn Fn(usize) -> bool| moments_of(&p, &samples, keep);
         let data = filled(&|_| true);
         // The first force's level as if read without each batch: ±2 % about its own.
         let levels = vec![(
