@@ -407,12 +407,10 @@ impl StationaryData {
     /// from (`crate::ident::estimate::identify_weak`).
     pub fn leave_one_out_fine(&self) -> Vec<Vec<&RawMoments>> {
         let per = self.per_coarse();
-        let kept: Vec<usize> = (0..self.batch_count())
-            .filter(|&b| {
-                self.fine[b * per..((b + 1) * per).min(self.fine.len())]
-                    .iter()
-                    .any(|f| f.count > 0)
-            })
+        // The coarse batches `leave_one_out` keeps: those holding samples.
+        let kept: Vec<usize> = (self.fine.chunks(per).enumerate())
+            .filter(|(_, c)| c.iter().any(|f| f.count > 0))
+            .map(|(b, _)| b)
             .collect();
         if kept.len() < 2 {
             return Vec::new();
