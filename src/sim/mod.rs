@@ -400,21 +400,24 @@ fn run_filtered_group<const D: usize>(
     let (act, sl) = (g.active, f.state_len());
     let at = |k: usize, c: usize, j: usize| w.fast[(k * cols + c) * act + j];
     for c in 0..cols {
-        for j in 0..act {
-            match channels[c] {
-                sensors::Channel::Sensor => {
-                    let state = &mut w.state[(c * act + j) * sl..(c * act + j + 1) * sl];
-                    let samples = (0..b * r).map(|k| at(k, c, j));
-                    f.run(state, w.started, samples, |k, y| out[k * cols + c][j] = y);
-                }
-                // A clean state the rig does not measure: unfiltered.
-                sensors::Channel::Instant => {
-                    for k in 0..b {
+        match channels[c] {
+            sensors::Channel::Sensor => {
+                // The group's lanes side by side, their states `[section][2][lane]`.
+                let state = &mut w.state[c * act * sl..(c + 1) * act * sl];
+                let fast = (&w.fast[c * act..], cols * act, b * r, act);
+                f.run_lanes(state, w.started, fast, |k, y| out[k * cols + c].copy_from_slice(y));
+            }
+            // A clean state the rig does not measure: unfiltered.
+            sensors::Channel::Instant => {
+                for k in 0..b {
+                    for j in 0..act {
                         out[k * cols + c][j] = at(k * r + r - 1, c, j);
                     }
                 }
-                sensors::Channel::Mean => {
-                    for k in 0..b {
+            }
+            sensors::Channel::Mean => {
+                for k in 0..b {
+                    for j in 0..act {
                         out[k * cols + c][j] = (0..r).map(|q| at(k * r + q, c, j)).sum::<f64>() / r as f64;
                     }
                 }
@@ -425,8 +428,9 @@ fn run_filtered_group<const D: usize>(
     Ok(())
 }
 
-/// One group's sensor filters: per column and lane the filter's state (set from the
-/// first fast sample), and the block's fast samples, `instants × columns × lanes`.
+/// One group's sensor filters: per column the lanes' filter states (`[section][2][lane]`,
+/// set from the first fast sample), and the block's fast samples, `instants × columns ×
+/// lanes`.
 struct Filtering {
     state: Vec<f64>,
     started: bool,
