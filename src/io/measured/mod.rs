@@ -5,11 +5,11 @@
 //! outlier), finds the records (files, or the record column, in the order of their ids)
 //! and the time base (even steps, gaps), keeping per record only its length, its sums and
 //! the places where its time step changes. Every later pass reads the rows again (a CSV
-//! file from disk) in the file's order — a logger's interleaved records stay interleaved,
-//! each sample handed over with its record and its time in the record — and derives the
-//! missing velocities and accelerations through a window of four rows per record, or
-//! integrates velocities and displacements from accelerations through a window of the
-//! drift removal's length (`integrate`). The memory of each method is in docs/data.md
+//! file from disk) in the file's order, a block at a time, and hands each block's rows on
+//! record by record (`reading`), each sample with its record and its time in the record;
+//! it derives the missing velocities and accelerations through a window of four rows per
+//! record, or integrates velocities and displacements from accelerations through a window
+//! of the drift removal's length (`integrate`). The memory of each method is in docs/data.md
 //! ("Memory").
 
 pub mod differentiate;
@@ -17,6 +17,7 @@ mod integrate;
 mod look;
 pub mod period_cut;
 pub mod periods;
+mod reading;
 mod scan;
 mod sources;
 
@@ -210,148 +211,12 @@ impl Measured {
 
     /// Call `f(record, t, row)` for every sample: `t` its time from the record's start
     /// (the first sample at one interval), `row` its values in the log's layout (NaN where
-    /// the data hold nothing). The order is the files' and, within a file, its rows' (each
-    /// record's samples in time order); a stop requested meanwhile (`crate::interrupt`)
-    /// ends the pass early. The number of samples handed over.
+    /// the data hold nothing). The order is the files' and, within a file, its rows' read
+    /// in blocks, each block's rows record by record (each record's samples in time order:
+    /// module `reading`); a stop requested meanwhile (`crate::interrupt`) ends the pass
+    /// early. The number of samples handed over.
     pub fn for_each_sample(&self, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, DataError> {
-        let (w, h) = (self.width, self.sample_interval);
-        let lag = self.derive.iter().map(|s| s.lag).max().unwrap_or(0);
-        // Rows kept per record: back to the oldest one a lagged difference, or the
-        // integration's displacement, reads.
-        let ring = match &self.integrate {
-            Some(i) => i.margin() + 1,
-            None => self.derive.iter().map(|s| s.lag + s.half).max().unwrap_or(0).max(lag) + 1,
-        };
-        let stencils: Vec<Vec<f64>> = self
-            .derive
-            .iter()
-            .map(|s| differentiate::stencil(s.half, s.exact, s.second.is_some()))
-            .collect();
-        let mut handed = 0u64;
-        for (source, plan) in &self.plans {
-            let slots = plan.pieces.len();
-            let mut chains: Vec<Vec<integrate::Chain>> = match &self.integrate {
-                Some(i) => vec![vec![integrate::Chain::new(h, i.half, i.samples); i.masses.len()]; slots],
-                None => Vec::new(),
-            };
-            // Per slot: rows so far, the current piece and the rows before it.
-            let mut seen = vec![0usize; slots];
-            let mut piece = vec![(0usize, 0usize); slots];
-            let mut rings = vec![f64::NAN; slots * ring * w];
-            let mut changed = None;
-            let mut stopped = false;
-            let dense = sources::dense_slots(&plan.slots);
-            source.for_each_row(&plan.wanted, &mut Labels::default(), &mut |r, v| {
-                if r % crate::interrupt::LOOK_EVERY == 0 && crate::interrupt::requested() {
-                    stopped = true;
-                    return Ok(false);
-                }
-                let slot = plan
-                    .record_at
-                    .map_or(Some(0), |k| sources::slot_of(dense.as_deref(), &plan.slots, v[k]));
-                let Some(slot) = slot else {
-                    changed = Some(r);
-                    return Ok(false);
-                };
-                let (first, lens) = &plan.pieces[slot];
-                let (p, before) = &mut piece[slot];
-                if seen[slot] - *before == lens[*p] {
-                    *before += lens[*p];
-                    *p += 1;
-                    if *p == lens.len() {
-                        changed = Some(r);
-                        return Ok(false);
-                    }
-                }
-                let (pos, len) = (seen[slot] - *before, lens[*p]);
-                seen[slot] += 1;
-                let rows = &mut rings[slot * ring * w..(slot + 1) * ring * w];
-                let at = pos % ring;
-                let row = &mut rows[at * w..(at + 1) * w];
-                row.fill(f64::NAN);
-                for (&(k, scale, offset), x) in plan.mapped.iter().zip(v) {
-                    row[k] = (x - offset) * scale;
-                }
-                let trajectory = first + *p as u32;
-                if let Some(i) = &self.integrate {
-                    let chains = &mut chains[slot];
-                    let m = i.margin();
-                    for (chain, &(x, v, a)) in chains.iter_mut().zip(&i.masses) {
-                        if pos == 0 {
-                            chain.reset();
-                        }
-                        let (vv, xx) = chain.push(rows[at * w + a]);
-                        if let Some(vv) = vv {
-                            rows[((pos - m / 2) % ring) * w + v] = vv;
-                        }
-                        if let Some(xx) = xx {
-                            rows[((pos - m) % ring) * w + x] = xx;
-                        }
-                    }
-                    // Row `pos − m`, its velocity and displacement ready, once it is `m`
-                    // rows from the record's start; its time counted from the first such.
-                    if pos >= 2 * m {
-                        let s = pos - m;
-                        f(
-                            trajectory,
-                            (s - m + 1) as f64 * h,
-                            &rows[(s % ring) * w..(s % ring + 1) * w],
-                        );
-                        handed += 1;
-                    }
-                    return Ok(true);
-                }
-                let mut emit = |s: usize, rows: &[f64]| {
-                    f(
-                        trajectory,
-                        (s + 1) as f64 * h,
-                        &rows[(s % ring) * w..(s % ring + 1) * w],
-                    );
-                    handed += 1;
-                };
-                if self.derive.is_empty() {
-                    emit(pos, rows);
-                    return Ok(true);
-                }
-                for (s, stencil) in self.derive.iter().zip(&stencils) {
-                    if pos >= s.lag {
-                        difference(rows, ring, w, h, *s, stencil, pos - s.lag, len);
-                    }
-                }
-                if pos + 1 < len {
-                    if pos >= lag {
-                        emit(pos - lag, rows);
-                    }
-                    return Ok(true);
-                }
-                // The record's (or piece's) last row: the lagged differences one-sided.
-                for (s, stencil) in self.derive.iter().zip(&stencils) {
-                    for q in (pos + 1).saturating_sub(s.lag)..=pos {
-                        difference(rows, ring, w, h, *s, stencil, q, len);
-                    }
-                }
-                for q in pos.saturating_sub(lag)..=pos {
-                    emit(q, rows);
-                }
-                Ok(true)
-            })?;
-            if stopped {
-                return Ok(handed);
-            }
-            let complete = (0..slots).all(|s| seen[s] == plan.pieces[s].1.iter().sum::<usize>());
-            if let Some(r) = changed.or((!complete).then_some(usize::MAX)) {
-                let at = if r == usize::MAX {
-                    "rows are missing".to_string()
-                } else {
-                    format!("row {} is new", r + 1)
-                };
-                return Err(err(
-                    source.path(),
-                    format!("the file changed while it was read ({at} since its first reading): read it again"),
-                ));
-            }
-        }
-        Ok(handed)
+        reading::for_each_sample(self, f)
     }
 
     /// One record's samples: its times and its rows (row-major, [`Measured::width`]
