@@ -16,11 +16,14 @@ use crate::io::table::{err, Labels, Source};
 /// 64 interleaved records give each record 256 rows in a row.
 const ROWS_AHEAD: usize = 16_384;
 
+/// Rows of one record integrated at a time ([`SourcePass::integrated_rows`]).
+const CHUNK: usize = 64;
+
 /// The reading's settings shared by every source of a pass.
 struct Shape<'a> {
     data: &'a Measured,
     /// Rows kept per record: back to the oldest one a lagged difference, or the
-    /// integration's displacement, reads.
+    /// integration's displacement, reads (and the integration's chunk).
     ring: usize,
     /// The largest lag of a derived column.
     lag: usize,
@@ -85,12 +88,19 @@ impl Ahead {
             self.counts[slot] += 1;
         }
         let mut changed = None;
-        for &i in &self.order[..n] {
-            let (r, slot) = self.rows[i];
-            if !pass.row(slot, &self.values[i * self.width..(i + 1) * self.width], f) {
-                changed = Some(r);
+        let mut k = 0;
+        while k < n {
+            let slot = self.rows[self.order[k]].1;
+            let end = k + self.order[k..n]
+                .iter()
+                .position(|&i| self.rows[i].1 != slot)
+                .unwrap_or(n - k);
+            let run = &self.order[k..end];
+            if let Some(q) = pass.rows(slot, run, (&self.values, self.width), f) {
+                changed = Some(self.rows[run[q]].0);
                 break;
             }
+            k = end;
         }
         self.values.clear();
         self.rows.clear();
@@ -124,8 +134,89 @@ impl<'a> SourcePass<'a> {
         (0..self.seen.len()).all(|s| self.seen[s] == self.plan.pieces[s].1.iter().sum::<usize>())
     }
 
-    /// Take the next row `v` of slot `slot`, handing on every sample it completes; false
-    /// if the slot's pieces are already complete.
+    /// Take slot `slot`'s next rows, `run` (indices into `values`, `width` each), handing
+    /// on every sample they complete; `Some(q)`: `run[q]` is past the slot's last piece.
+    fn rows(
+        &mut self,
+        slot: usize,
+        run: &[usize],
+        (values, width): (&[f64], usize),
+        f: &mut dyn FnMut(u32, f64, &[f64]),
+    ) -> Option<usize> {
+        if self.shape.data.integrate.is_some() {
+            return self.integrated_rows(slot, run, (values, width), f);
+        }
+        run.iter().position(|&i| !self.row(slot, &values[i * width..(i + 1) * width], f))
+    }
+
+    /// [`SourcePass::rows`] where velocities and displacements are integrated from
+    /// accelerations: up to [`CHUNK`] rows at a time, each chain stepped over all of them
+    /// before the next (its running sums the only dependence from row to row, so the rows'
+    /// steps overlap in the CPU), then their samples handed on. The ring holds the chunk
+    /// beside the drift windows' margin; the samples and their order are those of stepping
+    /// row by row.
+    fn integrated_rows(
+        &mut self,
+        slot: usize,
+        run: &[usize],
+        (values, width): (&[f64], usize),
+        f: &mut dyn FnMut(u32, f64, &[f64]),
+    ) -> Option<usize> {
+        let Shape { data, ring, .. } = *self.shape;
+        let i = data.integrate.as_ref().expect("integrated");
+        let (w, h, m) = (data.width, data.sample_interval, i.margin());
+        let mut k = 0;
+        while k < run.len() {
+            let (first, lens) = &self.plan.pieces[slot];
+            let (p, before) = &mut self.piece[slot];
+            if self.seen[slot] - *before == lens[*p] {
+                *before += lens[*p];
+                *p += 1;
+                if *p == lens.len() {
+                    return Some(k);
+                }
+            }
+            let pos0 = self.seen[slot] - *before;
+            let take = (run.len() - k).min(lens[*p] - pos0).min(CHUNK);
+            let trajectory = first + *p as u32;
+            let rows = &mut self.rings[slot * ring * w..(slot + 1) * ring * w];
+            for (pos, &r) in (pos0..).zip(&run[k..k + take]) {
+                let at = pos % ring;
+                let row = &mut rows[at * w..(at + 1) * w];
+                row.fill(f64::NAN);
+                for (&(c, scale, offset), x) in self.plan.mapped.iter().zip(&values[r * width..(r + 1) * width]) {
+                    row[c] = (x - offset) * scale;
+                }
+            }
+            for (chain, &(x, v, a)) in self.chains[slot].iter_mut().zip(&i.masses) {
+                for pos in pos0..pos0 + take {
+                    if pos == 0 {
+                        chain.reset();
+                    }
+                    let (vv, xx) = chain.push(rows[(pos % ring) * w + a]);
+                    if let Some(vv) = vv {
+                        rows[((pos - m / 2) % ring) * w + v] = vv;
+                    }
+                    if let Some(xx) = xx {
+                        rows[((pos - m) % ring) * w + x] = xx;
+                    }
+                }
+            }
+            // Row `pos − m`, its velocity and displacement ready, once it is `m` rows from
+            // the record's start; its time counted from the first such.
+            for s in (pos0.max(2 * m)..pos0 + take).map(|pos| pos - m) {
+                f(trajectory, (s - m + 1) as f64 * h, &rows[(s % ring) * w..(s % ring + 1) * w]);
+                self.handed += 1;
+            }
+            self.seen[slot] += take;
+            k += take;
+        }
+        None
+    }
+
+    /// Take the next row `v` of slot `slot` (its motion derived by differences, or
+    /// measured), handing on every sample it completes; false if the slot's pieces are
+    /// already complete.
     fn row(&mut self, slot: usize, v: &[f64], f: &mut dyn FnMut(u32, f64, &[f64])) -> bool {
         let Shape { data, ring, lag, .. } = *self.shape;
         let (w, h) = (data.width, data.sample_interval);
@@ -148,29 +239,6 @@ impl<'a> SourcePass<'a> {
             row[k] = (x - offset) * scale;
         }
         let trajectory = first + *p as u32;
-        if let Some(i) = &data.integrate {
-            let m = i.margin();
-            for (chain, &(x, v, a)) in self.chains[slot].iter_mut().zip(&i.masses) {
-                if pos == 0 {
-                    chain.reset();
-                }
-                let (vv, xx) = chain.push(rows[at * w + a]);
-                if let Some(vv) = vv {
-                    rows[((pos - m / 2) % ring) * w + v] = vv;
-                }
-                if let Some(xx) = xx {
-                    rows[((pos - m) % ring) * w + x] = xx;
-                }
-            }
-            // Row `pos − m`, its velocity and displacement ready, once it is `m` rows
-            // from the record's start; its time counted from the first such.
-            if pos >= 2 * m {
-                let s = pos - m;
-                f(trajectory, (s - m + 1) as f64 * h, &rows[(s % ring) * w..(s % ring + 1) * w]);
-                self.handed += 1;
-            }
-            return true;
-        }
         let handed = &mut self.handed;
         let mut emit = |s: usize, rows: &[f64]| {
             f(trajectory, (s + 1) as f64 * h, &rows[(s % ring) * w..(s % ring + 1) * w]);
@@ -208,7 +276,7 @@ impl<'a> SourcePass<'a> {
 pub(super) fn for_each_sample(data: &Measured, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, DataError> {
     let lag = data.derive.iter().map(|s: &Step| s.lag).max().unwrap_or(0);
     let ring = match &data.integrate {
-        Some(i) => i.margin() + 1,
+        Some(i) => i.margin() + CHUNK,
         None => data.derive.iter().map(|s| s.lag + s.half).max().unwrap_or(0).max(lag) + 1,
     };
     let stencils = data
