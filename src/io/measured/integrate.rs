@@ -143,6 +143,7 @@ impl Chain {
 
     /// Push the acceleration of sample `n`: the velocity of sample `n − 2·half` and the
     /// displacement of sample `n − 4·half`, once they are ready.
+    #[inline]
     pub(super) fn push(&mut self, a: f64) -> (Option<f64>, Option<f64>) {
         self.v_raw += match self.samples {
             AccelerationSamples::Instants => self.a_last.map_or(0.0, |p| 0.5 * self.h * (p + a)),
