@@ -146,7 +146,8 @@ impl<'a> SourcePass<'a> {
         if self.shape.data.integrate.is_some() {
             return self.integrated_rows(slot, run, (values, width), f);
         }
-        run.iter().position(|&i| !self.row(slot, &values[i * width..(i + 1) * width], f))
+        run.iter()
+            .position(|&i| !self.row(slot, &values[i * width..(i + 1) * width], f))
     }
 
     /// [`SourcePass::rows`] where velocities and displacements are integrated from
@@ -205,7 +206,11 @@ impl<'a> SourcePass<'a> {
             // Row `pos − m`, its velocity and displacement ready, once it is `m` rows from
             // the record's start; its time counted from the first such.
             for s in (pos0.max(2 * m)..pos0 + take).map(|pos| pos - m) {
-                f(trajectory, (s - m + 1) as f64 * h, &rows[(s % ring) * w..(s % ring + 1) * w]);
+                f(
+                    trajectory,
+                    (s - m + 1) as f64 * h,
+                    &rows[(s % ring) * w..(s % ring + 1) * w],
+                );
                 self.handed += 1;
             }
             self.seen[slot] += take;
@@ -241,7 +246,11 @@ impl<'a> SourcePass<'a> {
         let trajectory = first + *p as u32;
         let handed = &mut self.handed;
         let mut emit = |s: usize, rows: &[f64]| {
-            f(trajectory, (s + 1) as f64 * h, &rows[(s % ring) * w..(s % ring + 1) * w]);
+            f(
+                trajectory,
+                (s + 1) as f64 * h,
+                &rows[(s % ring) * w..(s % ring + 1) * w],
+            );
             *handed += 1;
         };
         if data.derive.is_empty() {
