@@ -129,6 +129,21 @@ impl<'a> SourcePass<'a> {
         }
     }
 
+    /// Where slot `slot`'s next row goes: its place in its piece, the piece's length and
+    /// its trajectory (the next piece's once one is complete); `None` past the last piece.
+    fn place(&mut self, slot: usize) -> Option<(usize, usize, u32)> {
+        let (first, lens) = &self.plan.pieces[slot];
+        let (p, before) = &mut self.piece[slot];
+        if self.seen[slot] - *before == lens[*p] {
+            *before += lens[*p];
+            *p += 1;
+            if *p == lens.len() {
+                return None;
+            }
+        }
+        Some((self.seen[slot] - *before, lens[*p], first + *p as u32))
+    }
+
     /// Whether every slot got the rows the scan found.
     fn complete(&self) -> bool {
         (0..self.seen.len()).all(|s| self.seen[s] == self.plan.pieces[s].1.iter().sum::<usize>())
@@ -168,26 +183,15 @@ impl<'a> SourcePass<'a> {
         let (w, h, m) = (data.width, data.sample_interval, i.margin());
         let mut k = 0;
         while k < run.len() {
-            let (first, lens) = &self.plan.pieces[slot];
-            let (p, before) = &mut self.piece[slot];
-            if self.seen[slot] - *before == lens[*p] {
-                *before += lens[*p];
-                *p += 1;
-                if *p == lens.len() {
-                    return Some(k);
-                }
-            }
-            let pos0 = self.seen[slot] - *before;
-            let take = (run.len() - k).min(lens[*p] - pos0).min(CHUNK);
-            let trajectory = first + *p as u32;
+            let Some((pos0, len, trajectory)) = self.place(slot) else {
+                return Some(k);
+            };
+            let take = (run.len() - k).min(len - pos0).min(CHUNK);
             let rows = &mut self.rings[slot * ring * w..(slot + 1) * ring * w];
             for (pos, &r) in (pos0..).zip(&run[k..k + take]) {
                 let at = pos % ring;
-                let row = &mut rows[at * w..(at + 1) * w];
-                row.fill(f64::NAN);
-                for (&(c, scale, offset), x) in self.plan.mapped.iter().zip(&values[r * width..(r + 1) * width]) {
-                    row[c] = (x - offset) * scale;
-                }
+                self.plan
+                    .fill(&mut rows[at * w..(at + 1) * w], &values[r * width..(r + 1) * width]);
             }
             for (chain, &(x, v, a)) in self.chains[slot].iter_mut().zip(&i.masses) {
                 for pos in pos0..pos0 + take {
@@ -225,25 +229,13 @@ impl<'a> SourcePass<'a> {
     fn row(&mut self, slot: usize, v: &[f64], f: &mut dyn FnMut(u32, f64, &[f64])) -> bool {
         let Shape { data, ring, lag, .. } = *self.shape;
         let (w, h) = (data.width, data.sample_interval);
-        let (first, lens) = &self.plan.pieces[slot];
-        let (p, before) = &mut self.piece[slot];
-        if self.seen[slot] - *before == lens[*p] {
-            *before += lens[*p];
-            *p += 1;
-            if *p == lens.len() {
-                return false;
-            }
-        }
-        let (pos, len) = (self.seen[slot] - *before, lens[*p]);
+        let Some((pos, len, trajectory)) = self.place(slot) else {
+            return false;
+        };
         self.seen[slot] += 1;
         let rows = &mut self.rings[slot * ring * w..(slot + 1) * ring * w];
         let at = pos % ring;
-        let row = &mut rows[at * w..(at + 1) * w];
-        row.fill(f64::NAN);
-        for (&(k, scale, offset), x) in self.plan.mapped.iter().zip(v) {
-            row[k] = (x - offset) * scale;
-        }
-        let trajectory = first + *p as u32;
+        self.plan.fill(&mut rows[at * w..(at + 1) * w], v);
         let handed = &mut self.handed;
         let mut emit = |s: usize, rows: &[f64]| {
             f(
@@ -278,6 +270,17 @@ impl<'a> SourcePass<'a> {
             emit(q, rows);
         }
         true
+    }
+}
+
+impl Plan {
+    /// A row of the layout from a table row `v` (the wanted columns): each mapped value
+    /// offset and scaled, NaN where the data hold nothing.
+    fn fill(&self, row: &mut [f64], v: &[f64]) {
+        row.fill(f64::NAN);
+        for (&(k, scale, offset), x) in self.mapped.iter().zip(v) {
+            row[k] = (x - offset) * scale;
+        }
     }
 }
 
