@@ -29,12 +29,14 @@ impl Measured {
     /// how each mapped column relates to the rate of change of each other one of its mass
     /// (`units`; a cross-spectrum per pair, both ways round, in Welch segments of about 32
     /// periods of the first column's motion, so that the derivative's spectrum is
-    /// resolved, at most half the longest record).
+    /// resolved, at most half the longest record). Every sample of the pass is also handed
+    /// to `also` (the integration's gathering shares the pass).
     pub(super) fn look(
         &self,
         mapped: &[(usize, String)],
         masses: &[(usize, usize, usize)],
         periods: &[(usize, Option<f64>)],
+        also: &mut dyn FnMut(u32, f64, &[f64]),
     ) -> Result<Look, DataError> {
         let h = self.sample_interval;
         let welch_for = |n: usize| Welch::new((n / 4).next_power_of_two().clamp(16, 4096), h, 1);
@@ -79,7 +81,8 @@ impl Measured {
                 }
             }
         }
-        self.for_each_sample(&mut |j, _, row| {
+        self.for_each_sample(&mut |j, t, row| {
+            also(j, t, row);
             if j == longest {
                 for (w, &k) in motion_welch.iter_mut().zip(&motion) {
                     w.push(0, row[k]);

@@ -370,6 +370,7 @@ pub fn measured_with(
         integrated_noise: Vec::new(),
         differenced: Vec::new(),
     };
+    let mut integration = None;
     if !integrated.is_empty() {
         if let Some(step) = data.derive.first() {
             return Err(err(
@@ -382,7 +383,7 @@ pub fn measured_with(
                 ),
             ));
         }
-        data.integrate_from_accelerations(integrated, d, &raw_lengths, &names)?;
+        integration = Some(data.integrate_from_accelerations(integrated, d, &raw_lengths)?);
     }
     let masses: Vec<_> = (0..m.masses())
         .map(|i| (layout.x(i), layout.v(i), layout.a(i)))
@@ -394,9 +395,17 @@ pub fn measured_with(
         .zip(&crossings)
         .map(|(&(k, _), &c)| (k, (c > 0).then(|| 2.0 * rows / c as f64)))
         .collect();
-    let mut look = data.look(&mapped, &masses, &periods)?;
+    // The integration's gathering rides on the look's pass over the samples.
+    let mut look = data.look(&mapped, &masses, &periods, &mut |j, t, row| {
+        if let Some(g) = integration.as_mut() {
+            g.push(j, t, row);
+        }
+    })?;
     if crate::interrupt::requested() {
         return Err(err(&data.files[0], "stopped: an interrupt was requested"));
+    }
+    if let Some(g) = integration {
+        data.integration_noted(g, &names);
     }
     data.motion_frequency = look.motion_frequency;
     data.choose_stencils(&mut look, width);
@@ -464,14 +473,14 @@ impl Measured {
     /// `[data] drift_period` or, without it, from the data (a first integration with a window of
     /// [`PROVISIONAL_DRIFT`] sample intervals gives each mass's `σ_v/σ_x`, its motion's
     /// frequency; the window then spans [`DRIFT_PERIODS`] periods of the slowest), and the
-    /// records' lengths shortened by the window at both ends.
+    /// records' lengths shortened by the window at both ends; what the integration's pass
+    /// is to gather ([`IntegrationGather`]).
     fn integrate_from_accelerations(
         &mut self,
         masses: Vec<(usize, usize, usize)>,
         d: &DataMapping,
         raw_lengths: &[usize],
-        names: &[String],
-    ) -> Result<(), DataError> {
+    ) -> Result<IntegrationGather, DataError> {
         let (h, samples) = (self.sample_interval, d.acceleration_samples);
         let set = |data: &mut Measured, half: usize| -> Result<(), DataError> {
             let i = Integration {
@@ -511,44 +520,15 @@ impl Measured {
         };
         let half = integrate::half_for(period, h);
         set(self, half)?;
-        // Each acceleration's std, for noise levels relative to it; each integrated
-        // displacement's variance and spectrum in the jackknife's parts, for what the drift
-        // removal took and for the accelerometer's noise; each velocity's variance, for
-        // the motion's frequency.
-        let mut sums = vec![[0.0f64; 6]; masses.len()];
-        let mut n = 0.0;
-        let shortest = self.lengths.iter().copied().min().unwrap_or(0);
-        let records = self.lengths.len();
-        let stretch = if records >= integrate::NOISE_PARTS {
-            shortest
-        } else {
-            shortest / integrate::NOISE_PARTS
-        };
-        let segment = ((8 * (2 * half + 1)).next_power_of_two())
-            .min((stretch / 2).next_power_of_two() / 2)
-            .max(16);
-        let mut welch = vec![vec![Welch::new(segment, h, records); integrate::NOISE_PARTS]; masses.len()];
-        let lengths = self.lengths.clone();
-        let mut second = vec![integrate::SecondDifferences::new(records); masses.len()];
-        self.for_each_sample(&mut |j, t, row| {
-            let (j, len) = (j as usize, lengths[j as usize]);
-            let part = integrate::noise_part(records, j, (t / h).round() as usize, len);
-            for (k, &(x, v, a)) in masses.iter().enumerate() {
-                for (q, c) in [a, x, v].into_iter().enumerate() {
-                    sums[k][2 * q] += row[c];
-                    sums[k][2 * q + 1] += row[c] * row[c];
-                }
-                welch[k][part].push(j, row[x]);
-                second[k].push(j, row[a]);
-            }
-            n += 1.0;
-        })?;
-        let pass = IntegrationPass {
-            sums,
-            n,
-            spectra: welch.iter().map(|w| w.iter().map(|p| p.spectrum()).collect()).collect(),
-            second,
-        };
+        Ok(IntegrationGather::new(self, masses, (half, samples), (period, how)))
+    }
+
+    /// The integration's notes and each integrated column's noise, from what its pass
+    /// gathered.
+    fn integration_noted(&mut self, g: IntegrationGather, names: &[String]) {
+        let (h, half, samples, period) = (self.sample_interval, g.half, g.samples, g.period);
+        let masses = g.masses.clone();
+        let pass = g.finish();
         let lost: Vec<String> = masses
             .iter()
             .enumerate()
@@ -561,11 +541,12 @@ impl Measured {
         let list: Vec<String> = masses.iter().map(|&(_, _, a)| names[a].clone()).collect();
         self.notes.push(format!(
             "velocity and displacement integrated from {} ({}), their drift taken out by a centred \
-             triangular mean over {:.1} s ({how}; zero phase, corner about {:.3} rad/s); the first and last {:.1} s \
+             triangular mean over {:.1} s ({}; zero phase, corner about {:.3} rad/s); the first and last {:.1} s \
              of every record are not used (docs/data.md)",
             list.join(", "),
             samples.rule(),
             (4 * half + 1) as f64 * h,
+            pass.how,
             2.0 * std::f64::consts::PI / period,
             (4 * half) as f64 * h
         ));
@@ -586,7 +567,83 @@ impl Measured {
                 lost.join(", ")
             ));
         }
-        Ok(())
+    }
+}
+
+/// The integration's gathering over the samples, run in the look's pass
+/// ([`Measured::look`]): per integrated mass, each acceleration's std, for noise levels
+/// relative to it; each integrated displacement's variance and spectrum in the jackknife's
+/// parts, for what the drift removal took and for the accelerometer's noise; each
+/// velocity's variance, for the motion's frequency.
+struct IntegrationGather {
+    masses: Vec<(usize, usize, usize)>,
+    half: usize,
+    samples: integrate::AccelerationSamples,
+    period: f64,
+    how: String,
+    h: f64,
+    lengths: Vec<usize>,
+    sums: Vec<[f64; 6]>,
+    n: f64,
+    welch: Vec<Vec<Welch>>,
+    second: Vec<integrate::SecondDifferences>,
+}
+
+impl IntegrationGather {
+    fn new(
+        data: &Measured,
+        masses: Vec<(usize, usize, usize)>,
+        (half, samples): (usize, integrate::AccelerationSamples),
+        (period, how): (f64, String),
+    ) -> IntegrationGather {
+        let h = data.sample_interval;
+        let shortest = data.lengths.iter().copied().min().unwrap_or(0);
+        let records = data.lengths.len();
+        let stretch = if records >= integrate::NOISE_PARTS {
+            shortest
+        } else {
+            shortest / integrate::NOISE_PARTS
+        };
+        let segment = ((8 * (2 * half + 1)).next_power_of_two())
+            .min((stretch / 2).next_power_of_two() / 2)
+            .max(16);
+        IntegrationGather {
+            sums: vec![[0.0f64; 6]; masses.len()],
+            n: 0.0,
+            welch: vec![vec![Welch::new(segment, h, records); integrate::NOISE_PARTS]; masses.len()],
+            second: vec![integrate::SecondDifferences::new(records); masses.len()],
+            masses,
+            half,
+            samples,
+            period,
+            how,
+            h,
+            lengths: data.lengths.clone(),
+        }
+    }
+
+    fn push(&mut self, j: u32, t: f64, row: &[f64]) {
+        let (j, len, records) = (j as usize, self.lengths[j as usize], self.lengths.len());
+        let part = integrate::noise_part(records, j, (t / self.h).round() as usize, len);
+        for (k, &(x, v, a)) in self.masses.iter().enumerate() {
+            for (q, c) in [a, x, v].into_iter().enumerate() {
+                self.sums[k][2 * q] += row[c];
+                self.sums[k][2 * q + 1] += row[c] * row[c];
+            }
+            self.welch[k][part].push(j, row[x]);
+            self.second[k].push(j, row[a]);
+        }
+        self.n += 1.0;
+    }
+
+    fn finish(self) -> IntegrationPass {
+        IntegrationPass {
+            sums: self.sums,
+            n: self.n,
+            spectra: self.welch.iter().map(|w| w.iter().map(|p| p.spectrum()).collect()).collect(),
+            second: self.second,
+            how: self.how,
+        }
     }
 }
 
@@ -640,6 +697,8 @@ impl Measured {
 /// its displacement's spectra in the jackknife's parts and its accelerations' second
 /// differences.
 struct IntegrationPass {
+    /// How the drift window was chosen, for the note.
+    how: String,
     sums: Vec<[f64; 6]>,
     n: f64,
     spectra: Vec<Vec<crate::ident::spectrum::Spectrum>>,
