@@ -119,6 +119,9 @@ pub fn cut_periods(sources: Vec<Source>, d: &DataMapping) -> Result<(Vec<Source>
     // First each record's force, its first HEAD samples: enough to find a period, and
     // memory that does not grow with a table that has none.
     let mut heads: Vec<(usize, u64, Vec<f64>, usize)> = Vec::new();
+    // (source, record key) → its entry in `heads` (a logger's interleaved records change
+    // record at every row).
+    let mut index: std::collections::HashMap<(usize, u64), usize> = std::collections::HashMap::new();
     for (s, source) in sources.iter().enumerate() {
         let (Ok(rec), Ok(force)) = (
             source.column(record, "the record column"),
@@ -131,13 +134,10 @@ pub fn cut_periods(sources: Vec<Source>, d: &DataMapping) -> Result<(Vec<Source>
             let key = (v[1] + 0.0).to_bits();
             let at = match last != usize::MAX && heads[last].0 == s && heads[last].1 == key {
                 true => last,
-                false => match heads.iter().position(|h| h.0 == s && h.1 == key) {
-                    Some(k) => k,
-                    None => {
-                        heads.push((s, key, Vec::new(), 0));
-                        heads.len() - 1
-                    }
-                },
+                false => *index.entry((s, key)).or_insert_with(|| {
+                    heads.push((s, key, Vec::new(), 0));
+                    heads.len() - 1
+                }),
             };
             last = at;
             if heads[at].2.len() < HEAD {

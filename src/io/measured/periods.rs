@@ -98,25 +98,24 @@ fn records(sources: &[Source], d: &DataMapping, column: &str) -> Result<Vec<Reco
             None => None,
         };
         let wanted: Vec<usize> = [Some(compared), record].into_iter().flatten().collect();
-        let first = out.len();
+        // A record key → its entry in `out` (a logger's interleaved records change record
+        // at every row).
+        let mut index = std::collections::HashMap::new();
         let mut last = usize::MAX;
         source.for_each_row(&wanted, &mut Labels::default(), &mut |_, v| {
             let key = v.get(1).map_or(0, |&id| (id + 0.0).to_bits());
             let at = if last != usize::MAX && out[last].key == key {
                 last
             } else {
-                match out[first..].iter().position(|r| r.key == key) {
-                    Some(k) => first + k,
-                    None => {
-                        out.push(Record {
-                            source: s,
-                            key,
-                            head: Vec::new(),
-                            rows: 0,
-                        });
-                        out.len() - 1
-                    }
-                }
+                *index.entry(key).or_insert_with(|| {
+                    out.push(Record {
+                        source: s,
+                        key,
+                        head: Vec::new(),
+                        rows: 0,
+                    });
+                    out.len() - 1
+                })
             };
             last = at;
             let r = &mut out[at];
