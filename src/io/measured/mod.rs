@@ -265,6 +265,38 @@ fn difference(rows: &mut [f64], ring: usize, w: usize, h: f64, step: Step, stenc
     rows[at(s, step.to)] = (rows[at(b, from)] - rows[at(a, from)]) / ((b - a) as f64 * h);
 }
 
+/// The columns a mass's measured motion lacks, each a central difference of the one before
+/// it (velocity from displacement, acceleration from velocity, or from a displacement
+/// alone its second derivative until the stencils are chosen); `present` marks them.
+fn difference_steps(m: &crate::model::Model, present: &mut [bool]) -> Vec<Step> {
+    let layout = m.columns();
+    let mut derive = Vec::new();
+    let mut lag = vec![0usize; present.len()];
+    for i in 0..m.masses() {
+        let (x, v, a) = (layout.x(i), layout.v(i), layout.a(i));
+        // An acceleration from a displacement alone: its second derivative, until the
+        // stencils are chosen (`choose_stencils`).
+        let from_x = !present[v] && !present[a] && present[x];
+        for (from, to) in [(x, v), (v, a)] {
+            if present[to] || !present[from] {
+                continue;
+            }
+            lag[to] = lag[from] + 1;
+            let second = (from_x && to == a).then_some(v);
+            derive.push(Step {
+                from: if second.is_some() { x } else { from },
+                to,
+                lag: lag[to],
+                half: 1,
+                exact: false,
+                second,
+            });
+            present[to] = true;
+        }
+    }
+    derive
+}
+
 /// Map the sources onto `model`'s quantities by its `[data]`: scale, split into records
 /// (files, or the record column), check the time base and every value, derive what the
 /// model file asks to, and check the units of the mapped columns against each other.
@@ -317,7 +349,6 @@ pub fn measured_with(
     for &(k, _) in &mapped {
         present[k] = true;
     }
-    let mut derive = Vec::new();
     // A mass measured by its acceleration alone: velocity and displacement integrated.
     let integrated: Vec<(usize, usize, usize)> = (0..m.masses())
         .map(|i| (layout.x(i), layout.v(i), layout.a(i)))
@@ -327,31 +358,10 @@ pub fn measured_with(
         present[x] = true;
         present[v] = true;
     }
-    if d.derive {
-        let mut lag = vec![0usize; width];
-        for i in 0..m.masses() {
-            let (x, v, a) = (layout.x(i), layout.v(i), layout.a(i));
-            // An acceleration from a displacement alone: its second derivative, until the
-            // stencils are chosen (`choose_stencils`).
-            let from_x = !present[v] && !present[a] && present[x];
-            for (from, to) in [(x, v), (v, a)] {
-                if present[to] || !present[from] {
-                    continue;
-                }
-                lag[to] = lag[from] + 1;
-                let second = (from_x && to == a).then_some(v);
-                derive.push(Step {
-                    from: if second.is_some() { x } else { from },
-                    to,
-                    lag: lag[to],
-                    half: 1,
-                    exact: false,
-                    second,
-                });
-                present[to] = true;
-            }
-        }
-    }
+    let derive = match d.derive {
+        true => difference_steps(&m, &mut present),
+        false => Vec::new(),
+    };
     let raw_lengths = lengths.clone();
     let mut data = Measured {
         files: plans.iter().map(|p| p.0.path().to_path_buf()).collect(),
@@ -640,7 +650,11 @@ impl IntegrationGather {
         IntegrationPass {
             sums: self.sums,
             n: self.n,
-            spectra: self.welch.iter().map(|w| w.iter().map(|p| p.spectrum()).collect()).collect(),
+            spectra: self
+                .welch
+                .iter()
+                .map(|w| w.iter().map(|p| p.spectrum()).collect())
+                .collect(),
             second: self.second,
             how: self.how,
         }
