@@ -87,21 +87,20 @@ impl Ahead {
             self.order[self.counts[slot]] = i;
             self.counts[slot] += 1;
         }
-        let mut changed = None;
-        let mut k = 0;
-        while k < n {
-            let slot = self.rows[self.order[k]].1;
-            let end = k + self.order[k..n]
-                .iter()
-                .position(|&i| self.rows[i].1 != slot)
-                .unwrap_or(n - k);
-            let run = &self.order[k..end];
+        // Now `counts[slot]` is where the slot's rows end in `order`.
+        let (mut changed, mut start) = (None, 0);
+        for slot in 0..self.counts.len() - 1 {
+            let run = &self.order[start..self.counts[slot]];
+            start = self.counts[slot];
+            if run.is_empty() {
+                continue;
+            }
             if let Some(q) = pass.rows(slot, run, (&self.values, self.width), f) {
                 changed = Some(self.rows[run[q]].0);
                 break;
             }
-            k = end;
         }
+        debug_assert!(changed.is_some() || start == n);
         self.values.clear();
         self.rows.clear();
         changed
