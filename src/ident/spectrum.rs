@@ -113,18 +113,29 @@ impl Welch {
     }
 
     pub fn push(&mut self, trajectory: usize, x: f64) {
+        self.push_run(trajectory, &[x]);
+    }
+
+    /// Successive values `xs` of one trajectory: the same segments as pushing them one by
+    /// one, copied into the segment buffer a stretch at a time.
+    pub fn push_run(&mut self, trajectory: usize, mut xs: &[f64]) {
         if trajectory >= self.buffers.len() {
             return;
         }
-        self.buffers[trajectory].push(x);
-        if self.buffers[trajectory].len() == self.len {
-            let seg = std::mem::take(&mut self.buffers[trajectory]);
-            self.segment(&seg);
-            // 50 % overlap: keep the second half (in the same buffer, no allocation).
-            let mut seg = seg;
-            seg.copy_within(self.len / 2.., 0);
-            seg.truncate(self.len / 2);
-            self.buffers[trajectory] = seg;
+        while !xs.is_empty() {
+            let buffer = &mut self.buffers[trajectory];
+            let take = (self.len - buffer.len()).min(xs.len());
+            buffer.extend_from_slice(&xs[..take]);
+            xs = &xs[take..];
+            if buffer.len() == self.len {
+                let seg = std::mem::take(buffer);
+                self.segment(&seg);
+                // 50 % overlap: keep the second half (in the same buffer, no allocation).
+                let mut seg = seg;
+                seg.copy_within(self.len / 2.., 0);
+                seg.truncate(self.len / 2);
+                self.buffers[trajectory] = seg;
+            }
         }
     }
 

@@ -60,26 +60,35 @@ impl Marginals {
     /// Variable `j`'s values `z` of samples of the trajectories `trajectories`, in the
     /// samples' order; the caller counts the samples once for all variables
     /// ([`Marginals::count`]). One variable over a run of samples keeps its sums in
-    /// registers: the same sums, in the same order, as sample by sample.
+    /// registers, and its trajectory group's over each stretch of one trajectory: the same
+    /// sums, in the same order, as sample by sample.
     fn push_values(&mut self, j: usize, trajectories: &[u32], z: &[f64]) {
         let d = self.cols.len();
         let (mut s1, mut s2, mut s3, mut s4) = (self.s1[j], self.s2[j], self.s3[j], self.s4[j]);
         let (hist, welch) = (&mut self.hist[j], &mut self.welch[j]);
-        for (&trajectory, &z) in trajectories.iter().zip(z) {
-            let (z2, z3) = (z * z, z * z * z);
-            let z4 = z3 * z;
-            s1 += z;
-            s2 += z2;
-            s3 += z3;
-            s4 += z4;
-            hist.push(z);
-            welch.push(trajectory as usize, z);
+        let mut start = 0;
+        while start < z.len() {
+            let trajectory = trajectories[start];
+            let end = start + trajectories[start..].iter().take_while(|&&t| t == trajectory).count();
             let g = &mut self.groups[(trajectory as usize % STD_GROUPS) * d + j];
-            g[0] += 1.0;
-            g[1] += z;
-            g[2] += z2;
-            g[3] += z3;
-            g[4] += z4;
+            let [mut g0, mut g1, mut g2, mut g3, mut g4] = *g;
+            for &z in &z[start..end] {
+                let (z2, z3) = (z * z, z * z * z);
+                let z4 = z3 * z;
+                s1 += z;
+                s2 += z2;
+                s3 += z3;
+                s4 += z4;
+                hist.push(z);
+                g0 += 1.0;
+                g1 += z;
+                g2 += z2;
+                g3 += z3;
+                g4 += z4;
+            }
+            *g = [g0, g1, g2, g3, g4];
+            welch.push_run(trajectory as usize, &z[start..end]);
+            start = end;
         }
         (self.s1[j], self.s2[j], self.s3[j], self.s4[j]) = (s1, s2, s3, s4);
     }

@@ -305,10 +305,23 @@ fn difference_steps(m: &crate::model::Model, present: &mut [bool]) -> Vec<Step> 
 /// say so.
 pub fn measured(model: &Scenario, sources: Vec<Source>) -> Result<Measured, DataError> {
     let d = model.data.as_ref().expect("a model file");
-    let (sources, cut) = period_cut::cut_periods(sources, d)?;
-    let (sources, repeated) = periods::average_repeated(sources, d)?;
-    let mut m = measured_with(model, sources, None)?;
-    m.periodic = cut.is_some() || repeated.is_some();
+    // The scan that checks every value also keeps each record's first values for the
+    // searches: one pass over the tables for the three, unless a search finds periods
+    // (new tables, in memory, scanned again).
+    let names = crate::model::Model::new(model).column_names();
+    let compared = periods::compared_head(d);
+    let mut scans = Vec::new();
+    for source in &sources {
+        let c = Columns::of(source, d, &names)?;
+        let head = compared.and_then(|(column, n)| Some((d.columns.iter().position(|(_, c)| c == column)?, n)));
+        scans.push(scan(source, &c, d, head)?);
+    }
+    let heads = periods::heads_of(&mut scans);
+    let (sources, cut) = period_cut::cut_periods(sources, d, Some(&heads))?;
+    let (sources, repeated) = periods::average_repeated(sources, d, cut.is_none().then_some(heads))?;
+    let unchanged = cut.is_none() && repeated.is_none();
+    let mut m = measured_from(model, sources, None, unchanged.then_some(scans))?;
+    m.periodic = !unchanged;
     m.notes.extend(cut.map(|c| c.note()));
     m.notes.extend(repeated.map(|r| r.note()));
     Ok(m)
@@ -320,6 +333,16 @@ pub fn measured_with(
     model: &Scenario,
     sources: Vec<Source>,
     means: Option<&[(String, f64)]>,
+) -> Result<Measured, DataError> {
+    measured_from(model, sources, means, None)
+}
+
+/// [`measured_with`] from the sources' scans where they were made before.
+fn measured_from(
+    model: &Scenario,
+    sources: Vec<Source>,
+    means: Option<&[(String, f64)]>,
+    scanned: Option<Vec<scan::Scanned>>,
 ) -> Result<Measured, DataError> {
     let d: &DataMapping = model.data.as_ref().expect("a model file");
     let m = crate::model::Model::new(model);
@@ -333,7 +356,7 @@ pub fn measured_with(
         lengths,
         crossings,
         removed_means,
-    } = plan_sources(sources, d, &names, means)?;
+    } = plan_sources(sources, d, &names, means, scanned)?;
     let Some(sample_interval) = interval.filter(|_| !lengths.is_empty()) else {
         return Err(err(
             plans.first().map_or(std::path::Path::new("<data>"), |p| p.0.path()),

@@ -11,7 +11,7 @@
 //! well over a few of its own periods, a shaker's signal does not unless it is periodic.
 //! Tables without a record column are left as they are (the cut pieces need one).
 
-use super::periods::{compared_force, LEAST_COMPARED};
+use super::periods::{compared_force, Record, LEAST_COMPARED};
 use super::{DataError, Labels, Source};
 use crate::io::table::Table;
 use crate::scenario::DataMapping;
@@ -25,7 +25,7 @@ pub const REPEATS: f64 = 0.9;
 const DECORRELATES: f64 = 0.5;
 
 /// A record's first samples of the force looked at for a period.
-const HEAD: usize = 1 << 16;
+pub(super) const HEAD: usize = 1 << 16;
 
 /// Bytes of a table held in memory to cut it, at most (8 per value).
 const BUDGET: usize = 1 << 30;
@@ -111,51 +111,31 @@ pub fn period_of(x: &[f64]) -> Option<(usize, f64)> {
 }
 
 /// Cut every record of `sources` that repeats one period end to end into its periods (see
-/// the module); the sources as they were when none does.
-pub fn cut_periods(sources: Vec<Source>, d: &DataMapping) -> Result<(Vec<Source>, Option<Cut>), DataError> {
-    let (Some(column), Some(record)) = (compared_force(d), d.record.as_deref()) else {
+/// the module); the sources as they were when none does. `heads`: the sources' records as
+/// `periods::heads` read them (each record's first [`HEAD`] values of the force).
+pub(super) fn cut_periods(
+    sources: Vec<Source>,
+    d: &DataMapping,
+    heads: Option<&[Record]>,
+) -> Result<(Vec<Source>, Option<Cut>), DataError> {
+    let (Some(column), Some(record), Some(heads)) = (compared_force(d), d.record.as_deref(), heads) else {
         return Ok((sources, None));
     };
-    // First each record's force, its first HEAD samples: enough to find a period, and
-    // memory that does not grow with a table that has none.
-    let mut heads: Vec<(usize, u64, Vec<f64>, usize)> = Vec::new();
-    // (source, record key) → its entry in `heads` (a logger's interleaved records change
-    // record at every row).
-    let mut index: std::collections::HashMap<(usize, u64), usize> = std::collections::HashMap::new();
-    for (s, source) in sources.iter().enumerate() {
-        let (Ok(rec), Ok(force)) = (
-            source.column(record, "the record column"),
-            source.column(column, "the compared column"),
-        ) else {
-            return Ok((sources, None));
-        };
-        let mut last = usize::MAX;
-        source.for_each_row(&[force, rec], &mut Labels::default(), &mut |_, v| {
-            let key = (v[1] + 0.0).to_bits();
-            let at = match last != usize::MAX && heads[last].0 == s && heads[last].1 == key {
-                true => last,
-                false => *index.entry((s, key)).or_insert_with(|| {
-                    heads.push((s, key, Vec::new(), 0));
-                    heads.len() - 1
-                }),
-            };
-            last = at;
-            if heads[at].2.len() < HEAD {
-                heads[at].2.push(v[0]);
-            }
-            heads[at].3 += 1;
-            Ok(true)
-        })?;
-    }
     let found: Vec<Option<(usize, f64)>> = heads
         .iter()
-        .map(|(_, _, x, _)| x.iter().all(|v| v.is_finite()).then(|| period_of(x)).flatten())
+        .map(|r| {
+            r.head
+                .iter()
+                .all(|v| v.is_finite())
+                .then(|| period_of(&r.head))
+                .flatten()
+        })
         .collect();
     let Some(&(period, _)) = found.iter().flatten().next() else {
         return Ok((sources, None));
     };
     let cut: Vec<usize> = (0..heads.len())
-        .filter(|&j| found[j].is_some_and(|(p, _)| p == period) && heads[j].3 / period >= 2)
+        .filter(|&j| found[j].is_some_and(|(p, _)| p == period) && heads[j].rows / period >= 2)
         .collect();
     if cut.is_empty() {
         return Ok((sources, None));
@@ -192,7 +172,7 @@ pub fn cut_periods(sources: Vec<Source>, d: &DataMapping) -> Result<(Vec<Source>
         ));
     }
     // Each record's rows, in the order the heads found them.
-    let mut records: Vec<(usize, u64, Vec<usize>)> = heads.iter().map(|(s, k, _, _)| (*s, *k, Vec::new())).collect();
+    let mut records: Vec<(usize, u64, Vec<usize>)> = heads.iter().map(|r| (r.source, r.key, Vec::new())).collect();
     for (s, (_, keys)) in tables.iter().enumerate() {
         for (row, &k) in keys.iter().enumerate() {
             if let Some(r) = records.iter_mut().find(|(t, key, _)| *t == s && *key == k) {
@@ -316,7 +296,9 @@ mod tests {
             columns: vec![("p_u".into(), "u".into())],
             ..Default::default()
         };
-        let (sources, cut) = cut_periods(vec![Source::Memory(table)], &d).unwrap();
+        let sources = vec![Source::Memory(table)];
+        let heads = super::super::periods::records(&sources, &d, "u", HEAD).unwrap();
+        let (sources, cut) = cut_periods(sources, &d, Some(&heads)).unwrap();
         let cut = cut.expect("cut");
         assert_eq!(cut.period, 400);
         assert_eq!(cut.records, vec![(1, 4, 50), (2, 4, 50)]);

@@ -80,16 +80,46 @@ impl Repeated {
 
 /// One record of a table, as read: its key, its rows' first values of the compared column
 /// and its length.
-struct Record {
-    source: usize,
-    key: u64,
-    head: Vec<f64>,
-    rows: usize,
+pub(super) struct Record {
+    pub(super) source: usize,
+    pub(super) key: u64,
+    pub(super) head: Vec<f64>,
+    pub(super) rows: usize,
+}
+
+/// What the searches compare: the compared table column and how many of each record's
+/// first values they look at — the search for periods end to end within a record
+/// (`super::period_cut`, which needs a measured force and a record column) looks further
+/// than this module's. `None` with nothing to compare.
+pub(super) fn compared_head(d: &DataMapping) -> Option<(&str, usize)> {
+    let cut_reads = compared_force(d).is_some() && d.record.is_some();
+    compared_column(d).map(|c| (c, if cut_reads { super::period_cut::HEAD } else { COMPARED }))
+}
+
+/// The records of the sources' scans (each made keeping [`compared_head`]'s values), in
+/// the order the tables hold them: the same as reading them anew.
+pub(super) fn heads_of(scans: &mut [super::scan::Scanned]) -> Vec<Record> {
+    let mut out = Vec::new();
+    for (source, scan) in scans.iter_mut().enumerate() {
+        out.extend(scan.records.iter_mut().map(|r| Record {
+            source,
+            key: super::key(r.id),
+            head: std::mem::take(&mut r.head),
+            rows: r.rows,
+        }));
+    }
+    out
 }
 
 /// The records of every source in the order the tables hold them (a record's rows need
-/// not be contiguous in its table); `column` the compared table column.
-fn records(sources: &[Source], d: &DataMapping, column: &str) -> Result<Vec<Record>, DataError> {
+/// not be contiguous in its table); `column` the compared table column, `head` the values
+/// kept of each.
+pub(super) fn records(
+    sources: &[Source],
+    d: &DataMapping,
+    column: &str,
+    head: usize,
+) -> Result<Vec<Record>, DataError> {
     let mut out: Vec<Record> = Vec::new();
     for (s, source) in sources.iter().enumerate() {
         let compared = source.column(column, "the compared column")?;
@@ -119,7 +149,7 @@ fn records(sources: &[Source], d: &DataMapping, column: &str) -> Result<Vec<Reco
             };
             last = at;
             let r = &mut out[at];
-            if r.head.len() < COMPARED {
+            if r.head.len() < head {
                 r.head.push(v[0]);
             }
             r.rows += 1;
@@ -162,15 +192,23 @@ pub(super) fn compared_force(d: &DataMapping) -> Option<&str> {
 
 /// Find records that repeat one realisation; when there are, return the tables of their
 /// averaged periods (one in-memory table per realisation, a record left alone where it
-/// repeats nothing) and what was done, else the sources as they were.
-pub fn average_repeated(sources: Vec<Source>, d: &DataMapping) -> Result<(Vec<Source>, Option<Repeated>), DataError> {
+/// repeats nothing) and what was done, else the sources as they were. `heads`: the
+/// sources' records as [`heads`] read them, else they are read here.
+pub(super) fn average_repeated(
+    sources: Vec<Source>,
+    d: &DataMapping,
+    heads: Option<Vec<Record>>,
+) -> Result<(Vec<Source>, Option<Repeated>), DataError> {
     let Some(column) = compared_column(d) else {
         return Ok((sources, None));
     };
     // Errors of the tables are the reading's to report (`super::measured`), with their rows.
-    let Ok(recs) = records(&sources, d, column) else {
+    let Some(mut recs) = heads.or_else(|| records(&sources, d, column, COMPARED).ok()) else {
         return Ok((sources, None));
     };
+    for r in &mut recs {
+        r.head.truncate(COMPARED);
+    }
     if recs.len() < 2 || recs.iter().any(|r| r.head.iter().any(|x| !x.is_finite())) {
         return Ok((sources, None));
     }
@@ -370,7 +408,7 @@ pub(super) mod tests {
             (6.0, period(&b, 16)),
             (7.0, noise(3, 900)),
         ];
-        let (sources, found) = average_repeated(vec![table(&recs)], &mapping()).unwrap();
+        let (sources, found) = average_repeated(vec![table(&recs)], &mapping(), None).unwrap();
         let found = found.expect("periodic records");
         assert_eq!(found.groups, vec![vec![1, 3, 5], vec![2, 4, 6]]);
         assert_eq!((found.records, found.realisations), (7, 3));
@@ -390,7 +428,7 @@ pub(super) mod tests {
     #[test]
     fn independent_realisations_are_left_alone() {
         let recs: Vec<(f64, Vec<f64>)> = (0..10).map(|r| (r as f64, noise(100 + r, 2000))).collect();
-        let (sources, found) = average_repeated(vec![table(&recs)], &mapping()).unwrap();
+        let (sources, found) = average_repeated(vec![table(&recs)], &mapping(), None).unwrap();
         assert!(found.is_none());
         assert!(matches!(&sources[0], Source::Memory(t) if t.rows() == 20_000));
     }

@@ -187,33 +187,42 @@ impl<'a> SourcePass<'a> {
             };
             let take = (run.len() - k).min(len - pos0).min(CHUNK);
             let rows = &mut self.rings[slot * ring * w..(slot + 1) * ring * w];
-            for (pos, &r) in (pos0..).zip(&run[k..k + take]) {
-                let at = pos % ring;
+            // Ring places advance by one and wrap: no division per row (the ring is the
+            // margin plus a chunk, not a power of two).
+            let next = |at: usize| if at + 1 == ring { 0 } else { at + 1 };
+            let mut at = pos0 % ring;
+            for &r in &run[k..k + take] {
                 self.plan
                     .fill(&mut rows[at * w..(at + 1) * w], &values[r * width..(r + 1) * width]);
+                at = next(at);
             }
             for (chain, &(x, v, a)) in self.chains[slot].iter_mut().zip(&i.masses) {
-                for pos in pos0..pos0 + take {
-                    if pos == 0 {
-                        chain.reset();
-                    }
-                    let (vv, xx) = chain.push(rows[(pos % ring) * w + a]);
+                if pos0 == 0 {
+                    chain.reset();
+                }
+                // The places of row `pos`, of its velocity's row `pos − m/2` and of its
+                // displacement's `pos − m` (wrapped; not written until `pos` reaches them).
+                let mut at = pos0 % ring;
+                let mut at_v = (pos0 + ring - (m / 2) % ring) % ring;
+                let mut at_x = (pos0 + ring - m % ring) % ring;
+                for _ in 0..take {
+                    let (vv, xx) = chain.push(rows[at * w + a]);
                     if let Some(vv) = vv {
-                        rows[((pos - m / 2) % ring) * w + v] = vv;
+                        rows[at_v * w + v] = vv;
                     }
                     if let Some(xx) = xx {
-                        rows[((pos - m) % ring) * w + x] = xx;
+                        rows[at_x * w + x] = xx;
                     }
+                    (at, at_v, at_x) = (next(at), next(at_v), next(at_x));
                 }
             }
             // Row `pos − m`, its velocity and displacement ready, once it is `m` rows from
             // the record's start; its time counted from the first such.
-            for s in (pos0.max(2 * m)..pos0 + take).map(|pos| pos - m) {
-                f(
-                    trajectory,
-                    (s - m + 1) as f64 * h,
-                    &rows[(s % ring) * w..(s % ring + 1) * w],
-                );
+            let first = pos0.max(2 * m);
+            let mut at = (first + ring - m % ring) % ring;
+            for s in (first..pos0 + take).map(|pos| pos - m) {
+                f(trajectory, (s - m + 1) as f64 * h, &rows[at * w..(at + 1) * w]);
+                at = next(at);
                 self.handed += 1;
             }
             self.seen[slot] += take;

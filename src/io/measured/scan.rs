@@ -16,6 +16,9 @@ const STEP_CHANGES: usize = 1 << 20;
 /// grows): exact below this many rows, within a fraction of a percent above.
 const QUARTILE_SAMPLE: usize = 1 << 19;
 
+/// Record ids below this, whole, find their slot by a table instead of the map.
+const DENSE_IDS: usize = 1 << 16;
+
 /// A mapped column's checks over the scan: constant, extremes, a sample for its quartiles.
 #[derive(Debug, Clone)]
 pub(super) struct ColumnScan {
@@ -52,7 +55,8 @@ impl ColumnScan {
         if x > self.high.0 {
             self.high = (x, r);
         }
-        if r.is_multiple_of(self.stride) {
+        // The stride is a power of two: a mask, not a division per value.
+        if r & (self.stride - 1) == 0 {
             self.sample.push(x);
             if self.sample.len() == QUARTILE_SAMPLE {
                 let mut k = 0;
@@ -101,6 +105,9 @@ pub(super) struct RecordScan {
     pub(super) first_time: f64,
     pub(super) last_time: f64,
     pub(super) runs: Vec<Run>,
+    /// Its first values of the column the searches for periodic records compare (as many
+    /// as the scan was asked to keep).
+    pub(super) head: Vec<f64>,
 }
 
 /// What a scan of one source found.
@@ -200,8 +207,14 @@ impl Columns {
     }
 }
 
-/// Read `source` once: every value checked, its records and their time steps.
-pub(super) fn scan(source: &Source, c: &Columns, d: &DataMapping) -> Result<Scanned, DataError> {
+/// Read `source` once: every value checked, its records and their time steps; with
+/// `head = (j, n)`, each record's first `n` values of mapped column `j` kept.
+pub(super) fn scan(
+    source: &Source,
+    c: &Columns,
+    d: &DataMapping,
+    head: Option<(usize, usize)>,
+) -> Result<Scanned, DataError> {
     let m = c.mapped.len();
     let mut s = Scanned {
         columns: vec![ColumnScan::new(); m],
@@ -214,6 +227,7 @@ pub(super) fn scan(source: &Source, c: &Columns, d: &DataMapping) -> Result<Scan
     let mut changes = 0usize;
     let mut stop = None;
     let mut labels = Labels::default();
+    let mut dense: Vec<usize> = Vec::new();
     source.for_each_row(&c.wanted, &mut labels, &mut |r, v| {
         if r % crate::interrupt::LOOK_EVERY == 0 && crate::interrupt::requested() {
             stop = Some(Stop::Interrupted);
@@ -231,19 +245,38 @@ pub(super) fn scan(source: &Source, c: &Columns, d: &DataMapping) -> Result<Scan
             col.push(r, x);
         }
         let id = c.record_at.map_or(0.0, |k| v[k]);
-        let slot = *s.slots.entry(key(id)).or_insert_with(|| {
-            s.records.push(RecordScan {
-                id,
-                rows: 0,
-                sums: vec![0.0; m],
-                side: vec![0.0; m],
-                first_time: f64::NAN,
-                last_time: f64::NAN,
-                runs: Vec::new(),
-            });
-            s.records.len() - 1
-        });
+        // Small whole ids (a logger's trajectories, a table's record numbers) by a table,
+        // others by the map: a logger's interleaved records change slot at every row.
+        let small = (id >= 0.0 && id < DENSE_IDS as f64 && id.fract() == 0.0).then_some(id as usize);
+        let slot = match small.map(|i| dense.get(i).copied().unwrap_or(usize::MAX)) {
+            Some(slot) if slot != usize::MAX => slot,
+            _ => {
+                let slot = *s.slots.entry(key(id)).or_insert_with(|| {
+                    s.records.push(RecordScan {
+                        id,
+                        rows: 0,
+                        sums: vec![0.0; m],
+                        side: vec![0.0; m],
+                        first_time: f64::NAN,
+                        last_time: f64::NAN,
+                        runs: Vec::new(),
+                        head: Vec::new(),
+                    });
+                    s.records.len() - 1
+                });
+                if let Some(i) = small {
+                    if dense.len() <= i {
+                        dense.resize(i + 1, usize::MAX);
+                    }
+                    dense[i] = slot;
+                }
+                slot
+            }
+        };
         let rec = &mut s.records[slot];
+        if let Some((j, _)) = head.filter(|&(_, n)| rec.head.len() < n) {
+            rec.head.push(v[j]);
+        }
         for (j, x) in v[..m].iter().enumerate() {
             rec.sums[j] += x;
             let side = (x - rec.sums[j] / (rec.rows + 1) as f64).signum();

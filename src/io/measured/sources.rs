@@ -3,6 +3,7 @@
 //! (its records in order, split into pieces at time gaps where the mapping asks), and how a
 //! row's record id finds its record's slot on every later pass.
 
+use super::scan::Scanned;
 use super::{check_values, err, interval_of, pieces, scan, Columns, DataError, Plan, Source};
 use crate::scenario::DataMapping;
 use std::collections::HashMap;
@@ -24,13 +25,16 @@ pub(super) struct Sources {
 /// Scan every source (`scan`, `check_values`) and plan its reading: its records in
 /// order, split into pieces at time gaps where the mapping asks; the columns of
 /// `[data] remove_mean` offset by their mean over every source, or by `means` where given
-/// (held-out data read with the identification's offsets).
+/// (held-out data read with the identification's offsets). `scanned`: the sources'
+/// scans where they were made before (one per source, in order).
 pub(super) fn plan_sources(
     sources: Vec<Source>,
     d: &DataMapping,
     names: &[String],
     means: Option<&[(String, f64)]>,
+    scanned: Option<Vec<Scanned>>,
 ) -> Result<Sources, DataError> {
+    let mut scanned = scanned.map(Vec::into_iter);
     let mut interval: Option<f64> = d.sample_interval;
     let mut notes = Vec::new();
     let mut plans = Vec::new();
@@ -40,7 +44,10 @@ pub(super) fn plan_sources(
     let mut sums = vec![(0.0f64, 0usize); d.columns.len()];
     for source in sources {
         let c = Columns::of(&source, d, names)?;
-        let s = scan(&source, &c, d)?;
+        let s = match scanned.as_mut().and_then(Iterator::next) {
+            Some(s) => s,
+            None => scan(&source, &c, d, None)?,
+        };
         check_values(&source, &c, &s)?;
         for (total, n) in crossings.iter_mut().zip(&s.crossings) {
             *total += n;

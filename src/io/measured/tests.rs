@@ -143,3 +143,45 @@ fn an_acceleration_from_a_band_limited_displacement_is_its_second_difference() {
         }
     }
 }
+
+/// The scan keeps each record's first values of the compared column as a pass of their own
+/// reads them (what the searches for periodic records look at): the same records in the
+/// same order, with the same first values and lengths, on interleaved records of unequal
+/// length.
+#[test]
+fn the_scans_heads_are_the_records_read_anew() {
+    let model = crate::Scenario::parse(include_str!("../../../models/sdof_duffing.toml"), "m.toml", "m").unwrap();
+    let d = model.data.as_ref().unwrap();
+    let mut rows: Vec<[f64; 4]> = Vec::new();
+    for s in 0..5000 {
+        for (r, n) in [(7.0, 5000), (3.0, 4200), (5.0, 300)] {
+            if s < n {
+                let x = (0.37 * s as f64 + r).sin();
+                rows.push([r, s as f64 * 0.1, x, 0.5 * x]);
+            }
+        }
+    }
+    let table = Table {
+        path: "t".into(),
+        names: ["trajectory", "t", "x_m1", "v_m1"].map(String::from).to_vec(),
+        columns: (0..4).map(|c| rows.iter().map(|r| r[c]).collect()).collect(),
+        record_labels: None,
+    };
+    let sources = vec![Source::from(table)];
+    let (column, n) = periods::compared_head(d).unwrap();
+    assert_eq!(n, 4096, "no force: the heads this module compares");
+    let j = d.columns.iter().position(|(_, c)| c == column).unwrap();
+    let names = crate::model::Model::new(&model).column_names();
+    let c = Columns::of(&sources[0], d, &names).unwrap();
+    let mut scans = vec![scan(&sources[0], &c, d, Some((j, n))).unwrap()];
+    let heads = periods::heads_of(&mut scans);
+    let anew = periods::records(&sources, d, column, n).unwrap();
+    let summary = |r: &[periods::Record]| -> Vec<(usize, u64, Vec<f64>, usize)> {
+        r.iter().map(|r| (r.source, r.key, r.head.clone(), r.rows)).collect()
+    };
+    assert_eq!(summary(&heads), summary(&anew));
+    assert_eq!(
+        heads.iter().map(|r| (r.head.len(), r.rows)).collect::<Vec<_>>(),
+        [(4096, 5000), (4096, 4200), (300, 300)]
+    );
+}
