@@ -113,7 +113,13 @@ impl Welch {
     }
 
     pub fn push(&mut self, trajectory: usize, x: f64) {
-        self.push_run(trajectory, &[x]);
+        if trajectory >= self.buffers.len() {
+            return;
+        }
+        self.buffers[trajectory].push(x);
+        if self.buffers[trajectory].len() == self.len {
+            self.segment_and_overlap(trajectory);
+        }
     }
 
     /// Successive values `xs` of one trajectory: the same segments as pushing them one by
@@ -128,15 +134,19 @@ impl Welch {
             buffer.extend_from_slice(&xs[..take]);
             xs = &xs[take..];
             if buffer.len() == self.len {
-                let seg = std::mem::take(buffer);
-                self.segment(&seg);
-                // 50 % overlap: keep the second half (in the same buffer, no allocation).
-                let mut seg = seg;
-                seg.copy_within(self.len / 2.., 0);
-                seg.truncate(self.len / 2);
-                self.buffers[trajectory] = seg;
+                self.segment_and_overlap(trajectory);
             }
         }
+    }
+
+    /// The full buffer of `trajectory` taken as a segment; its second half kept as the next
+    /// one's first (50 % overlap, in the same buffer: no allocation).
+    fn segment_and_overlap(&mut self, trajectory: usize) {
+        let mut seg = std::mem::take(&mut self.buffers[trajectory]);
+        self.segment(&seg);
+        seg.copy_within(self.len / 2.., 0);
+        seg.truncate(self.len / 2);
+        self.buffers[trajectory] = seg;
     }
 
     fn segment(&mut self, seg: &[f64]) {
@@ -608,6 +618,33 @@ pub fn band_level(force: &Spectrum, response: &Spectrum) -> Option<BandLevel> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Values pushed in runs of one trajectory (runs that end mid-segment, span several
+    /// segments, and alternate between trajectories) give the spectrum of pushing them one
+    /// by one, bit for bit.
+    #[test]
+    fn runs_give_the_spectrum_of_single_values() {
+        let x = |t: usize, k: usize| ((0.37 + 0.11 * t as f64) * k as f64).sin() + 1e-3 * (k % 7) as f64;
+        let (mut one, mut runs) = (Welch::new(64, 0.1, 3), Welch::new(64, 0.1, 3));
+        let mut next = [0usize; 3];
+        for (step, len) in [5usize, 64, 1, 200, 31, 33, 0, 96]
+            .into_iter()
+            .cycle()
+            .take(60)
+            .enumerate()
+        {
+            let t = step % 3;
+            let xs: Vec<f64> = (next[t]..next[t] + len).map(|k| x(t, k)).collect();
+            next[t] += len;
+            xs.iter().for_each(|&v| one.push(t, v));
+            runs.push_run(t, &xs);
+        }
+        runs.push_run(3, &[1.0, 2.0]);
+        let (a, b) = (one.spectrum(), runs.spectrum());
+        assert!(a.density.iter().any(|&d| d > 0.0));
+        assert_eq!(a.density, b.density);
+        assert_eq!(one.segments, runs.segments);
+    }
 
     /// A two-tone signal and its exact rate of change, sampled every 0.05 s.
     fn fit(pair: impl Fn(f64) -> (f64, f64)) -> Derivative {

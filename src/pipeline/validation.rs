@@ -626,4 +626,53 @@ mod tests {
         let exact = 2.0 / (2.0 * n as f64).sqrt();
         assert!((mean_se / exact - 1.0).abs() < 0.2, "{mean_se} against {exact}");
     }
+
+    /// Values pushed variable by variable over blocks whose trajectories change within the
+    /// block (runs of one trajectory kept in registers) give the sums, groups, histogram and
+    /// spectrum of pushing them sample by sample, bit for bit.
+    #[test]
+    fn runs_of_a_block_give_the_sums_of_single_samples() {
+        let fresh = || {
+            Marginals::new(
+                vec![1, 0],
+                vec![Histogram::new(-3.0, 3.0, 30), Histogram::new(-3.0, 3.0, 30)],
+                vec![Welch::new(32, 0.1, 40), Welch::new(32, 0.1, 40)],
+            )
+        };
+        let (mut one, mut runs) = (fresh(), fresh());
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+        for block in 0..20u32 {
+            // Stretches of 1 to 150 samples of trajectories 0..40, in blocks of 4096 rows.
+            let mut trajectories = Vec::new();
+            while trajectories.len() < 4096 {
+                let t = (block * 7 + trajectories.len() as u32 / 97) % 40;
+                let len = 1 + (trajectories.len() * 31 + block as usize) % 150;
+                trajectories.extend(std::iter::repeat_n(t, len));
+            }
+            trajectories.truncate(4096);
+            let rows: Vec<[f64; 2]> = trajectories
+                .iter()
+                .map(|_| [StandardNormal.sample(&mut rng), StandardNormal.sample(&mut rng)])
+                .collect();
+            for (t, r) in trajectories.iter().zip(&rows) {
+                one.push(*t as usize, r);
+            }
+            for j in 0..2 {
+                let z: Vec<f64> = rows.iter().map(|r| r[runs.cols[j]]).collect();
+                runs.push_values(j, &trajectories, &z);
+            }
+            runs.count(rows.len());
+        }
+        assert_eq!(
+            (one.s1.clone(), one.s2.clone(), one.s3.clone(), one.s4.clone()),
+            (runs.s1, runs.s2, runs.s3, runs.s4)
+        );
+        assert_eq!((one.n, one.groups), (runs.n, runs.groups));
+        for j in 0..2 {
+            assert_eq!(one.hist[j].counts, runs.hist[j].counts);
+            let (a, b) = (one.welch[j].spectrum(), runs.welch[j].spectrum());
+            assert!(a.segments > 100);
+            assert_eq!(a.density, b.density);
+        }
+    }
 }
