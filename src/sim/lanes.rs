@@ -569,6 +569,9 @@ impl Group {
     }
 
     /// First lane (if any) whose state is non-finite or beyond [`DIVERGENCE_LIMIT`].
+    /// Inlined into the caller's vector build: a rig's sensor filters sample (and check)
+    /// at every step or two.
+    #[inline(always)]
     pub(super) fn diverged_lane(&self) -> Option<usize> {
         // Whole lanes first (vector compares, no branch per value; a NaN fails `<`):
         // padding lanes count here, so a flagged group is searched lane by lane over its
