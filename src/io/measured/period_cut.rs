@@ -112,7 +112,8 @@ pub fn period_of(x: &[f64]) -> Option<(usize, f64)> {
 
 /// Cut every record of `sources` that repeats one period end to end into its periods (see
 /// the module); the sources as they were when none does. `heads`: the sources' records as
-/// `periods::heads` read them (each record's first [`HEAD`] values of the force).
+/// their scan kept them (`periods::heads_of`: each record's first [`HEAD`] values of the
+/// force).
 pub(super) fn cut_periods(
     sources: Vec<Source>,
     d: &DataMapping,

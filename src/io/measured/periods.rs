@@ -193,7 +193,7 @@ pub(super) fn compared_force(d: &DataMapping) -> Option<&str> {
 /// Find records that repeat one realisation; when there are, return the tables of their
 /// averaged periods (one in-memory table per realisation, a record left alone where it
 /// repeats nothing) and what was done, else the sources as they were. `heads`: the
-/// sources' records as [`heads`] read them, else they are read here.
+/// sources' records as their scan kept them ([`heads_of`]), else they are read here.
 pub(super) fn average_repeated(
     sources: Vec<Source>,
     d: &DataMapping,
