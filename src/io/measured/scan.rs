@@ -133,6 +133,37 @@ pub(super) enum Stop {
 }
 
 impl Scanned {
+    /// Record id `id`'s slot, a new record (of `m` mapped columns) for a new id. Small
+    /// whole ids (a logger's trajectories, a table's record numbers) are found by the table
+    /// `dense`, others by the map: a logger's interleaved records change slot at every row.
+    fn slot_of(&mut self, id: f64, dense: &mut Vec<usize>, m: usize) -> usize {
+        let small = (id >= 0.0 && id < DENSE_IDS as f64 && id.fract() == 0.0).then_some(id as usize);
+        if let Some(&slot) = small.and_then(|i| dense.get(i)).filter(|&&slot| slot != usize::MAX) {
+            return slot;
+        }
+        let records = &mut self.records;
+        let slot = *self.slots.entry(key(id)).or_insert_with(|| {
+            records.push(RecordScan {
+                id,
+                rows: 0,
+                sums: vec![0.0; m],
+                side: vec![0.0; m],
+                first_time: f64::NAN,
+                last_time: f64::NAN,
+                runs: Vec::new(),
+                head: Vec::new(),
+            });
+            records.len() - 1
+        });
+        if let Some(i) = small {
+            if dense.len() <= i {
+                dense.resize(i + 1, usize::MAX);
+            }
+            dense[i] = slot;
+        }
+        slot
+    }
+
     /// How a record is named in a message (`record 3, ` or `record "S0", `; nothing when
     /// the table is one record).
     fn in_record(&self, slot: usize, d: &DataMapping) -> String {
@@ -245,34 +276,7 @@ pub(super) fn scan(
             col.push(r, x);
         }
         let id = c.record_at.map_or(0.0, |k| v[k]);
-        // Small whole ids (a logger's trajectories, a table's record numbers) by a table,
-        // others by the map: a logger's interleaved records change slot at every row.
-        let small = (id >= 0.0 && id < DENSE_IDS as f64 && id.fract() == 0.0).then_some(id as usize);
-        let slot = match small.map(|i| dense.get(i).copied().unwrap_or(usize::MAX)) {
-            Some(slot) if slot != usize::MAX => slot,
-            _ => {
-                let slot = *s.slots.entry(key(id)).or_insert_with(|| {
-                    s.records.push(RecordScan {
-                        id,
-                        rows: 0,
-                        sums: vec![0.0; m],
-                        side: vec![0.0; m],
-                        first_time: f64::NAN,
-                        last_time: f64::NAN,
-                        runs: Vec::new(),
-                        head: Vec::new(),
-                    });
-                    s.records.len() - 1
-                });
-                if let Some(i) = small {
-                    if dense.len() <= i {
-                        dense.resize(i + 1, usize::MAX);
-                    }
-                    dense[i] = slot;
-                }
-                slot
-            }
-        };
+        let slot = s.slot_of(id, &mut dense, m);
         let rec = &mut s.records[slot];
         if let Some((j, _)) = head.filter(|&(_, n)| rec.head.len() < n) {
             rec.head.push(v[j]);
