@@ -16,8 +16,9 @@ const STEP_CHANGES: usize = 1 << 20;
 /// grows): exact below this many rows, within a fraction of a percent above.
 const QUARTILE_SAMPLE: usize = 1 << 19;
 
-/// Record ids below this, whole, find their slot by a table instead of the map.
-const DENSE_IDS: usize = 1 << 16;
+/// Record ids below this, whole, find their slot by a table instead of the map (here and
+/// in the later passes, `super::sources::dense_slots`).
+pub(super) const DENSE_IDS: usize = 1 << 16;
 
 /// A mapped column's checks over the scan: constant, extremes, a sample for its quartiles.
 #[derive(Debug, Clone)]

@@ -3,7 +3,7 @@
 //! (its records in order, split into pieces at time gaps where the mapping asks), and how a
 //! row's record id finds its record's slot on every later pass.
 
-use super::scan::Scanned;
+use super::scan::{Scanned, DENSE_IDS};
 use super::{check_values, err, interval_of, pieces, scan, Columns, DataError, Plan, Source};
 use crate::scenario::DataMapping;
 use std::collections::HashMap;
@@ -129,11 +129,10 @@ pub(super) fn plan_sources(
 /// as a table indexed by the id: a pass looks every row's id up, and a hash per row cost
 /// more than the row's own work.
 pub(super) fn dense_slots(slots: &HashMap<u64, usize>) -> Option<Vec<usize>> {
-    const LARGEST: f64 = 65_536.0;
     let ids: Vec<(f64, usize)> = slots.iter().map(|(&k, &s)| (f64::from_bits(k), s)).collect();
     if !ids
         .iter()
-        .all(|&(id, _)| (0.0..LARGEST).contains(&id) && id.fract() == 0.0)
+        .all(|&(id, _)| (0.0..DENSE_IDS as f64).contains(&id) && id.fract() == 0.0)
     {
         return None;
     }
