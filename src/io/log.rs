@@ -738,13 +738,20 @@ fn apply_run_facts(s: &mut Scenario, run: &BTreeMap<String, String>) -> Result<(
 /// before it, all intact. A file that ends early gives [`LogError::Truncated`] after
 /// delivering every sample that could be read — or, when the caller asked for it with
 /// [`LogInfo::accept_truncated`], the count of those samples.
-pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Result<u64, LogError> {
+pub fn read_samples(info: &LogInfo, f: impl FnMut(u32, f64, &[f64])) -> Result<u64, LogError> {
+    let all: Vec<usize> = (0..info.columns.len()).collect();
+    read_columns(info, &all, f)
+}
+
+/// [`read_samples`] of some columns: `values` holds the log's columns `columns` (indices
+/// into [`LogInfo::columns`]), in that order; the others are not decoded.
+pub fn read_columns(info: &LogInfo, columns: &[usize], mut f: impl FnMut(u32, f64, &[f64])) -> Result<u64, LogError> {
     let label = info.path.display().to_string();
     let cols = info.columns.len();
     let trajectories = info.scenario.simulation.trajectories;
     let size = message_len(cols, trajectories);
     let stride = 8 + 8 * trajectories;
-    let mut values = vec![0.0; cols];
+    let mut values = vec![0.0; columns.len()];
     let mut instant = 0u64;
     let mut ours: Vec<u16> = Vec::new();
     let mut bad: Option<String> = None;
@@ -767,7 +774,7 @@ pub fn read_samples(info: &LogInfo, mut f: impl FnMut(u32, f64, &[f64])) -> Resu
                 let f64_at = |at: usize| f64::from_le_bytes(data[at..at + 8].try_into().unwrap());
                 let t = f64_at(4);
                 for j in 0..trajectories {
-                    for (c, v) in values.iter_mut().enumerate() {
+                    for (v, &c) in values.iter_mut().zip(columns) {
                         *v = f64_at(20 + c * stride + 8 * j);
                     }
                     f(j as u32, t, &values);

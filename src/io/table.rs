@@ -15,7 +15,11 @@ pub use super::measured::{
 };
 use crate::scenario::DataMapping;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{mpsc, Arc};
+
+/// Rows a file is decoded ahead of the pass that reads them, per block
+/// ([`Source::for_each_row_ahead`]): 8192 rows of a few columns stay within the cache.
+const AHEAD_ROWS: usize = 8192;
 
 /// An error in measured data: the file, and where the message names them, the column and
 /// the row (1-based, counting the table's rows, not the file's lines) it is about, for a
@@ -96,15 +100,22 @@ impl LogColumns {
     fn for_each_row(&self, wanted: &[usize], f: &mut RowFn) -> Result<(), DataError> {
         let mut values = vec![0.0; wanted.len()];
         let (mut row, mut stop) = (0, None);
-        super::log::read_samples(&self.info, |trajectory, t, r| {
+        // Only the log's columns wanted are decoded; `r` holds them in `logged`'s order.
+        let logged: Vec<usize> = wanted
+            .iter()
+            .filter(|&&k| k >= 2)
+            .map(|&k| self.columns[k - 2])
+            .collect();
+        super::log::read_columns(&self.info, &logged, |trajectory, t, r| {
             if stop.is_some() {
                 return;
             }
+            let mut r = r.iter();
             for (v, &k) in values.iter_mut().zip(wanted) {
                 *v = match k {
                     0 => trajectory as f64,
                     1 => t,
-                    c => r[self.columns[c - 2]],
+                    _ => *r.next().expect("a wanted column"),
                 };
             }
             match f(row, &values) {
@@ -164,6 +175,71 @@ impl Source {
                 Ok(())
             }
         }
+    }
+
+    /// [`Source::for_each_row`] with a file decoded on a thread of its own, [`AHEAD_ROWS`]
+    /// rows at a time, while `f` works on the rows before on the calling thread: parsing a
+    /// CSV file or decoding a log overlaps the checks, the integration and the sums of the
+    /// passes that look at measured data before the identification's own (whose pass driver
+    /// has a read-ahead of its own: `pipeline::pass`; a third thread there only competes
+    /// with the accumulators for two cores). `f` sees the same rows in the same order, and an
+    /// error of the file comes after every row before it, as when read in turn.
+    pub(crate) fn for_each_row_ahead(
+        &self,
+        wanted: &[usize],
+        labels: &mut Labels,
+        f: &mut RowFn,
+    ) -> Result<(), DataError> {
+        if matches!(self, Source::Memory(_)) || wanted.is_empty() {
+            return self.for_each_row(wanted, labels, f);
+        }
+        // Blocks in flight: one being decoded, one waiting, one being read by `f`.
+        const IN_FLIGHT: usize = 3;
+        let width = wanted.len();
+        let (full_tx, full_rx) = mpsc::sync_channel::<Result<Vec<f64>, DataError>>(IN_FLIGHT);
+        let (empty_tx, empty_rx) = mpsc::channel::<Vec<f64>>();
+        for _ in 0..IN_FLIGHT {
+            empty_tx
+                .send(Vec::with_capacity(AHEAD_ROWS * width))
+                .expect("the receiver is here");
+        }
+        std::thread::scope(|scope| {
+            scope.spawn(move || {
+                let mut block = empty_rx.recv().expect("a block to start with");
+                // A failed send: `f` stopped the pass (or panicked), so the decoding stops.
+                let mut gone = false;
+                let read = self.for_each_row(wanted, labels, &mut |_, v| {
+                    block.extend_from_slice(v);
+                    if block.len() == AHEAD_ROWS * width {
+                        let next = empty_rx.recv().unwrap_or_default();
+                        gone = full_tx.send(Ok(std::mem::replace(&mut block, next))).is_err();
+                    }
+                    Ok(!gone)
+                });
+                if !gone && !block.is_empty() {
+                    gone = full_tx.send(Ok(block)).is_err();
+                }
+                if let (false, Err(e)) = (gone, read) {
+                    let _ = full_tx.send(Err(e));
+                }
+            });
+            // Owned here, so that returning early drops them: the decoding thread then
+            // sees its sends fail and stops, and the scope can end.
+            let (full_rx, empty_tx) = (full_rx, empty_tx);
+            let mut row = 0;
+            for block in full_rx.iter() {
+                let mut block = block?;
+                for v in block.chunks_exact(width) {
+                    if !f(row, v)? {
+                        return Ok(());
+                    }
+                    row += 1;
+                }
+                block.clear();
+                let _ = empty_tx.send(block);
+            }
+            Ok(())
+        })
     }
 
     /// The index of the column named `name`, or an error listing the columns there are.
@@ -482,4 +558,80 @@ fn read_npy(path: &Path, b: &[u8], npy_columns: &[String]) -> Result<Table, Data
         columns,
         record_labels: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A CSV file of `rows` rows (text record ids, a time, a value) with a value that is
+    /// not a number at row `bad_at`, and the rows it hands over read in turn and read
+    /// ahead: `(row, values)` until `stop_at` (`f` returns false there), then the result and
+    /// the labels.
+    #[allow(clippy::type_complexity)]
+    fn both_ways(
+        rows: usize,
+        bad_at: usize,
+        stop_at: usize,
+    ) -> [(Vec<(usize, Vec<f64>)>, Result<(), String>, Vec<String>); 2] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        let mut text = String::from("run,time,x\n");
+        for r in 0..rows {
+            let x = if r == bad_at {
+                "oops".to_string()
+            } else {
+                format!("{}", (r as f64 * 0.37).sin())
+            };
+            text += &format!("{},{},{x}\n", ["b", "a", "c"][r % 3], r / 3);
+        }
+        std::fs::write(&path, text).unwrap();
+        let o = CsvOptions {
+            record: Some("run"),
+            time: Some("time"),
+            ..Default::default()
+        };
+        let source = Source::Csv(CsvFile::open(&path, &o).unwrap());
+        [false, true].map(|ahead| {
+            let (mut seen, mut labels) = (Vec::new(), Labels::default());
+            let mut f = |r: usize, v: &[f64]| {
+                seen.push((r, v.to_vec()));
+                Ok(r != stop_at)
+            };
+            let res = match ahead {
+                false => source.for_each_row(&[2, 0, 1], &mut labels, &mut f),
+                true => source.for_each_row_ahead(&[2, 0, 1], &mut labels, &mut f),
+            };
+            (seen, res.map_err(|e| e.to_string()), labels.names)
+        })
+    }
+
+    /// A file read ahead on a thread of its own hands over the same rows in the same order
+    /// as read in turn, over several blocks and a part-filled last one: a bad value's error
+    /// comes after every row before it, a stop ends the pass at once (the decoding thread
+    /// then stops too), and text record ids get the same numbers.
+    #[test]
+    fn a_file_read_ahead_gives_the_rows_read_in_turn() {
+        let n = 2 * AHEAD_ROWS + 1234;
+        // Every row; a bad value in the last block; a stop in the second block.
+        for (bad_at, stop_at) in [
+            (usize::MAX, usize::MAX),
+            (n - 5, usize::MAX),
+            (AHEAD_ROWS + 7, usize::MAX),
+            (n, 9000),
+        ] {
+            let [turn, ahead] = both_ways(n, bad_at, stop_at);
+            assert_eq!(turn, ahead, "bad value at {bad_at}, stop at {stop_at}");
+            let handed = turn.0.len();
+            match (bad_at < n, stop_at < n) {
+                (true, _) => {
+                    assert_eq!(handed, bad_at);
+                    assert!(turn.1.as_ref().unwrap_err().contains("\"oops\" is not a number"));
+                }
+                (false, true) => assert_eq!(handed, stop_at + 1),
+                (false, false) => assert_eq!(handed, n),
+            }
+            assert_eq!(turn.2, ["b", "a", "c"]);
+        }
+    }
 }

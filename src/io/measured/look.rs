@@ -81,7 +81,7 @@ impl Measured {
                 }
             }
         }
-        self.for_each_sample(&mut |j, t, row| {
+        self.for_each_sample_ahead(&mut |j, t, row| {
             also(j, t, row);
             if j == longest {
                 for (w, &k) in motion_welch.iter_mut().zip(&motion) {

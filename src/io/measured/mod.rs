@@ -216,7 +216,14 @@ impl Measured {
     /// module `reading`); a stop requested meanwhile (`crate::interrupt`) ends the pass
     /// early. The number of samples handed over.
     pub fn for_each_sample(&self, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, DataError> {
-        reading::for_each_sample(self, f)
+        reading::for_each_sample(self, f, false)
+    }
+
+    /// [`Measured::for_each_sample`] with each file decoded on a thread of its own
+    /// ([`Source::for_each_row_ahead`]), for the passes that look at the data before the
+    /// identification's own: the same samples in the same order.
+    fn for_each_sample_ahead(&self, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, DataError> {
+        reading::for_each_sample(self, f, true)
     }
 
     /// One record's samples: its times and its rows (row-major, [`Measured::width`]
@@ -476,7 +483,7 @@ impl Measured {
     /// in one pass.
     fn slowest_motion(&self, masses: &[(usize, usize, usize)]) -> Result<f64, DataError> {
         let mut sums = vec![[0.0f64; 4]; masses.len()];
-        self.for_each_sample(&mut |_, _, row| {
+        self.for_each_sample_ahead(&mut |_, _, row| {
             for (s, &(x, v, _)) in sums.iter_mut().zip(masses) {
                 s[0] += row[x];
                 s[1] += row[x] * row[x];

@@ -151,7 +151,7 @@ pub(super) fn cut_periods(
         let mut keys = Vec::new();
         let wanted: Vec<usize> = (0..width).collect();
         let mut labels = Labels::default();
-        source.for_each_row(&wanted, &mut labels, &mut |_, v| {
+        source.for_each_row_ahead(&wanted, &mut labels, &mut |_, v| {
             for (c, x) in v.iter().enumerate() {
                 columns[c].push(*x);
             }

@@ -132,7 +132,7 @@ pub(super) fn records(
         // at every row).
         let mut index = std::collections::HashMap::new();
         let mut last = usize::MAX;
-        source.for_each_row(&wanted, &mut Labels::default(), &mut |_, v| {
+        source.for_each_row_ahead(&wanted, &mut Labels::default(), &mut |_, v| {
             let key = v.get(1).map_or(0, |&id| (id + 0.0).to_bits());
             let at = if last != usize::MAX && out[last].key == key {
                 last
@@ -320,7 +320,7 @@ fn averaged(
         let wanted: Vec<usize> = (0..width).collect();
         let mut labels = Labels::default();
         let mine = recs.iter().filter(|r| r.source == s).count();
-        source.for_each_row(&wanted, &mut labels, &mut |_, v| {
+        source.for_each_row_ahead(&wanted, &mut labels, &mut |_, v| {
             let key = record.map_or(0, |k| (v[k] + 0.0).to_bits());
             let j = base
                 + recs[base..base + mine]

@@ -292,8 +292,13 @@ impl Plan {
     }
 }
 
-/// [`Measured::for_each_sample`]'s pass.
-pub(super) fn for_each_sample(data: &Measured, f: &mut dyn FnMut(u32, f64, &[f64])) -> Result<u64, DataError> {
+/// [`Measured::for_each_sample`]'s pass; `ahead`: each file decoded on a thread of its own
+/// ([`Source::for_each_row_ahead`]).
+pub(super) fn for_each_sample(
+    data: &Measured,
+    f: &mut dyn FnMut(u32, f64, &[f64]),
+    ahead: bool,
+) -> Result<u64, DataError> {
     let lag = data.derive.iter().map(|s: &Step| s.lag).max().unwrap_or(0);
     let ring = match &data.integrate {
         Some(i) => i.margin() + CHUNK,
@@ -312,7 +317,7 @@ pub(super) fn for_each_sample(data: &Measured, f: &mut dyn FnMut(u32, f64, &[f64
     };
     let mut handed = 0u64;
     for (source, plan) in &data.plans {
-        let (stopped, changed, pass) = read_source(&shape, source, plan, f)?;
+        let (stopped, changed, pass) = read_source(&shape, (source, ahead), plan, f)?;
         handed += pass.handed;
         if stopped {
             return Ok(handed);
@@ -336,7 +341,7 @@ pub(super) fn for_each_sample(data: &Measured, f: &mut dyn FnMut(u32, f64, &[f64
 /// new (the file changed since the scan), and the pass.
 fn read_source<'a>(
     shape: &'a Shape<'a>,
-    source: &Source,
+    (source, decoded_ahead): (&Source, bool),
     plan: &'a Plan,
     f: &mut dyn FnMut(u32, f64, &[f64]),
 ) -> Result<(bool, Option<usize>, SourcePass<'a>), DataError> {
@@ -344,8 +349,8 @@ fn read_source<'a>(
     let mut ahead = Ahead::new(plan.wanted.len(), plan.pieces.len());
     let (mut changed, mut stopped) = (None, false);
     let dense = sources::dense_slots(&plan.slots);
-    source.for_each_row(&plan.wanted, &mut Labels::default(), &mut |r, v| {
-        if r % crate::interrupt::LOOK_EVERY == 0 && crate::interrupt::requested() {
+    let mut read = |r: usize, v: &[f64]| {
+        if r.is_multiple_of(crate::interrupt::LOOK_EVERY) && crate::interrupt::requested() {
             stopped = true;
             return Ok(false);
         }
@@ -361,7 +366,12 @@ fn read_source<'a>(
             changed = ahead.flush(&mut pass, f);
         }
         Ok(changed.is_none())
-    })?;
+    };
+    let mut labels = Labels::default();
+    match decoded_ahead {
+        true => source.for_each_row_ahead(&plan.wanted, &mut labels, &mut read)?,
+        false => source.for_each_row(&plan.wanted, &mut labels, &mut read)?,
+    }
     if !stopped && changed.is_none() {
         changed = ahead.flush(&mut pass, f);
     }

@@ -260,7 +260,7 @@ pub(super) fn scan(
     let mut stop = None;
     let mut labels = Labels::default();
     let mut dense: Vec<usize> = Vec::new();
-    source.for_each_row(&c.wanted, &mut labels, &mut |r, v| {
+    source.for_each_row_ahead(&c.wanted, &mut labels, &mut |r, v| {
         if r % crate::interrupt::LOOK_EVERY == 0 && crate::interrupt::requested() {
             stop = Some(Stop::Interrupted);
             return Ok(false);
@@ -421,7 +421,7 @@ pub(super) fn check_values(source: &Source, c: &Columns, s: &Scanned) -> Result<
             continue;
         }
         let (mut first, mut count) = (None, 0usize);
-        source.for_each_row(&[c.wanted[j]], &mut Labels::default(), &mut |r, v| {
+        source.for_each_row_ahead(&[c.wanted[j]], &mut Labels::default(), &mut |r, v| {
             if distance(v[0]) > OUTLIER {
                 first.get_or_insert((r, v[0]));
                 count += 1;
