@@ -613,7 +613,8 @@ mod tests {
     #[test]
     fn a_file_read_ahead_gives_the_rows_read_in_turn() {
         let n = 2 * AHEAD_ROWS + 1234;
-        // Every row; a bad value in the last block; a stop in the second block.
+        // Every row; a bad value in the last block; one in the second block; a stop in the
+        // second block.
         for (bad_at, stop_at) in [
             (usize::MAX, usize::MAX),
             (n - 5, usize::MAX),
