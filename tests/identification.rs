@@ -591,9 +591,9 @@ fn kernel_strong_form_with_jackknife_groups_equals_the_form_without() {
     grouped.finish();
     single.finish();
     // The grouped lattice has its jackknife replicates, the single one none.
-    let replicates = grouped.pieces(&p).1.len();
+    let replicates = grouped.pieces(&p, |_| ()).1.len();
     assert!(replicates >= 8, "{replicates}");
-    assert!(single.pieces(&p).1.is_empty());
+    assert!(single.pieces(&p, |_| ()).1.is_empty());
     let typical = p.typical(&mom);
     let g = fpkbench::ident::identify_kernel(&p, &grouped, &typical).unwrap();
     let o = fpkbench::ident::identify_kernel(&p, &single, &typical).unwrap();

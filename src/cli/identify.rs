@@ -192,7 +192,9 @@ pub fn finish(report: &Report, args: &IdentifyArgs, staged: Option<(FolderLock, 
             (lock, staging)
         }
     };
+    let writing = std::time::Instant::now();
     report::write_all(report, staging.path())?;
+    let writing = writing.elapsed().as_secs_f64();
     // A run's staged log moves in with the report; `identify` never removes a log.
     let files = staging.commit(&report::files())?;
     if args.json {
@@ -225,7 +227,14 @@ pub fn finish(report: &Report, args: &IdentifyArgs, staged: Option<(FolderLock, 
         );
     }
     if args.verbose {
-        eprint!("{}", stage_times(report));
+        // The files are written after report.json's timings are taken: their time is
+        // printed here only.
+        eprintln!(
+            "{}  {:<18} {:>8.3} s (report files and figures, after the identification)",
+            stage_times(report),
+            "writing",
+            writing
+        );
     }
     for c in &report.failed_checks {
         eprintln!("check failed: {} ({}): {}", c.check, c.method, c.message);

@@ -425,17 +425,17 @@ pub fn identify_strong(
     }
     // Standard errors: the jackknife over the weak form's batches (the grid without each).
     let method = if marginals { "strong-marginals" } else { "strong" };
-    let replicates: Vec<Vec<f64>> = {
-        let grids: Vec<strong_histogram::DensityGrid> = grid.leave_one_out().collect();
-        grids
-            .par_iter()
-            .map(|g| {
-                let pieces = g.pieces_with(problem, marginals, Some(&stencils)).0;
-                pieces.check_finite(method)?;
-                Ok(problem.solve_values(&pieces, typical, None))
-            })
-            .collect::<Result<_, IdentError>>()?
-    };
+    // Each replicate's grid is made where it is solved: one per thread at a time, not all
+    // of them held together (32 of duffing2dof's were 41 MB).
+    let replicates: Vec<Vec<f64>> = grid
+        .replicate_batches()
+        .par_iter()
+        .map(|&b| {
+            let pieces = grid.without_batch(b).pieces_with(problem, marginals, Some(&stencils)).0;
+            pieces.check_finite(method)?;
+            Ok(problem.solve_values(&pieces, typical, None))
+        })
+        .collect::<Result<_, IdentError>>()?;
     let cells = grid.counts.len();
     let per_unknown = usable as f64 / problem.unknowns.len() as f64;
     let mut warnings = Vec::new();
@@ -508,8 +508,15 @@ pub fn identify_kernel(
     lattice: &strong_kernel::FluxLattice,
     typical: &[f64],
 ) -> Result<Estimate, IdentError> {
-    let (pc, replicates, rows) = lattice.pieces(problem);
-    if rows < 2 * problem.unknowns.len() {
+    let enough = |rows: usize| rows >= 2 * problem.unknowns.len();
+    // Every replicate has the record's rows: with too few, none is solved (refused below).
+    let (pc, replicates, rows) = lattice.pieces(problem, |b| {
+        enough(b.rows).then(|| {
+            b.check_finite("strong")?;
+            Ok(problem.solve_values(&b, typical, None))
+        })
+    });
+    if !enough(rows) {
         return Err(IdentError::TooLittleData(format!(
             "only {rows} lattice nodes hold {} effective samples under their kernel, for {} unknowns; use more samples, \
              a wider --smoothing or the weak form",
@@ -517,7 +524,10 @@ pub fn identify_kernel(
             problem.unknowns.len()
         )));
     }
-    let replicates = solve_replicates(problem, "strong", replicates, typical, None)?;
+    let replicates = replicates
+        .into_iter()
+        .flatten()
+        .collect::<Result<Vec<_>, IdentError>>()?;
     let o = lattice.options;
     let mut facts = vec![
         (

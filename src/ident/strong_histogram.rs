@@ -236,35 +236,44 @@ impl DensityGrid {
     }
 
     /// The jackknife's replicates: per non-empty batch, the grid of all samples but that
-    /// batch's (none without per-batch counts).
+    /// batch's (none without per-batch counts). One at a time: see
+    /// [`DensityGrid::replicate_batches`] and [`DensityGrid::without_batch`] to make them in
+    /// parallel.
     pub fn leave_one_out(&self) -> impl Iterator<Item = DensityGrid> + '_ {
+        self.replicate_batches().into_iter().map(|b| self.without_batch(b))
+    }
+
+    /// The batches the jackknife leaves out in turn: every non-empty one (none without
+    /// per-batch counts).
+    pub fn replicate_batches(&self) -> Vec<usize> {
         assert!(self.pending.is_empty(), "DensityGrid::finish after the last push_in");
-        let bc = self.batches.as_ref();
-        let n = bc.map_or(0, |b| b.total.len());
-        (0..n)
-            .filter(move |&b| bc.is_some_and(|bc| bc.total[b] > 0))
-            .map(move |b| {
-                let bc = bc.expect("filtered");
-                let mut g = self.clone_without_batches();
-                g.counts = if self.joint {
-                    self.counts
-                        .iter()
-                        .zip(&bc.counts[b])
-                        .map(|(c, k)| c - *k as f64)
-                        .collect()
-                } else {
-                    vec![0.0; self.counts.len()]
-                };
-                g.marginals = self
-                    .marginals
-                    .iter()
-                    .zip(&bc.marginals[b])
-                    .map(|(m, k)| m.iter().zip(k).map(|(a, b)| a - b).collect())
-                    .collect();
-                g.inside = self.inside - bc.inside[b];
-                g.total = self.total - bc.total[b];
-                g
-            })
+        self.batches.as_ref().map_or(Vec::new(), |bc| {
+            (0..bc.total.len()).filter(|&b| bc.total[b] > 0).collect()
+        })
+    }
+
+    /// The grid of all samples but batch `b`'s (one of [`DensityGrid::replicate_batches`]).
+    pub fn without_batch(&self, b: usize) -> DensityGrid {
+        let bc = self.batches.as_ref().expect("a grid with per-batch counts");
+        let mut g = self.clone_without_batches();
+        g.counts = if self.joint {
+            self.counts
+                .iter()
+                .zip(&bc.counts[b])
+                .map(|(c, k)| c - *k as f64)
+                .collect()
+        } else {
+            vec![0.0; self.counts.len()]
+        };
+        g.marginals = self
+            .marginals
+            .iter()
+            .zip(&bc.marginals[b])
+            .map(|(m, k)| m.iter().zip(k).map(|(a, b)| a - b).collect())
+            .collect();
+        g.inside = self.inside - bc.inside[b];
+        g.total = self.total - bc.total[b];
+        g
     }
 
     /// A copy of the geometry and totals, without counts and per-batch counts.

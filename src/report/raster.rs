@@ -47,14 +47,16 @@ pub fn png(svg: &str) -> Result<Vec<u8>, String> {
     );
     // Opaque (drawn on white): RGB with adaptive filters, a quarter of the RGBA file. The
     // rows go to the encoder one at a time, so no RGB copy of the whole image is held
-    // beside the pixmap (a 4-mass model's characteristics: 54 MB of 127).
+    // beside the pixmap (a 4-mass model's characteristics: 54 MB of 127). Fast deflate:
+    // on the default run's three figures it writes them in 0.30–0.35 s instead of
+    // 0.49–0.52 s, for files 1.5× as large (1.29 MB against 0.85 MB).
     let mut out = Vec::new();
     {
         let fail = |e: &dyn std::fmt::Display| format!("PNG encoding: {e}");
         let mut enc = png::Encoder::new(&mut out, w, h);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
-        enc.set_compression(png::Compression::Default);
+        enc.set_compression(png::Compression::Fast);
         enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
         let mut writer = enc.write_header().map_err(|e| fail(&e))?;
         let mut stream = writer.stream_writer_with_size(1 << 18).map_err(|e| fail(&e))?;
