@@ -81,7 +81,8 @@ impl Welch {
             dt,
             window,
             wsum2,
-            buffers: vec![Vec::with_capacity(len); trajectories],
+            // Each its own capacity (`vec![v; n]` clones, and a clone keeps none).
+            buffers: (0..trajectories).map(|_| Vec::with_capacity(len)).collect(),
             acc: vec![0.0; len / 2 + 1],
             segments: 0,
             input: fft.make_input_vec(),
@@ -119,6 +120,15 @@ impl Welch {
         self.buffers[trajectory].push(x);
         if self.buffers[trajectory].len() == self.len {
             self.segment_and_overlap(trajectory);
+        }
+    }
+
+    /// Values `xs` of the trajectories `trajectories` (one each) in the order given: what
+    /// samples interleaved across trajectories (a log's: one instant of every trajectory,
+    /// then the next) are pushed by, with no search for runs that are one sample long.
+    pub fn push_each(&mut self, trajectories: &[u32], xs: &[f64]) {
+        for (&t, &x) in trajectories.iter().zip(xs) {
+            self.push(t as usize, x);
         }
     }
 

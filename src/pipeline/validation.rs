@@ -59,20 +59,35 @@ impl Marginals {
 
     /// Variable `j`'s values `z` of samples of the trajectories `trajectories`, in the
     /// samples' order; the caller counts the samples once for all variables
-    /// ([`Marginals::count`]). One variable over a run of samples keeps its sums in
-    /// registers, and its trajectory group's over each stretch of one trajectory: the same
-    /// sums, in the same order, as sample by sample.
+    /// ([`Marginals::count`]). Samples interleaved across trajectories (a log's, a
+    /// simulation's: one instant of every trajectory, then the next) are taken one by one;
+    /// records one after another, a run of one trajectory at a time, its trajectory group's
+    /// sums and its spectrum's values kept together. Either way the same sums, in the same
+    /// order, as sample by sample.
     fn push_values(&mut self, j: usize, trajectories: &[u32], z: &[f64]) {
         let d = self.cols.len();
         let (mut s1, mut s2, mut s3, mut s4) = (self.s1[j], self.s2[j], self.s3[j], self.s4[j]);
         let (hist, welch) = (&mut self.hist[j], &mut self.welch[j]);
+        let interleaved = trajectories.len() > 1 && trajectories[1] != trajectories[0];
         let mut start = 0;
         while start < z.len() {
-            let trajectory = trajectories[start];
-            let end = start + trajectories[start..].iter().take_while(|&&t| t == trajectory).count();
-            let g = &mut self.groups[(trajectory as usize % STD_GROUPS) * d + j];
-            let [mut g0, mut g1, mut g2, mut g3, mut g4] = *g;
-            for &z in &z[start..end] {
+            let end = match interleaved {
+                true => z.len(),
+                false => {
+                    let first = trajectories[start];
+                    start + trajectories[start..].iter().take_while(|&&t| t == first).count()
+                }
+            };
+            let (ts, zs) = (&trajectories[start..end], &z[start..end]);
+            let mut at = (ts[0] as usize % STD_GROUPS) * d + j;
+            let [mut g0, mut g1, mut g2, mut g3, mut g4] = self.groups[at];
+            for (&t, &z) in ts.iter().zip(zs) {
+                let group = (t as usize % STD_GROUPS) * d + j;
+                if group != at {
+                    self.groups[at] = [g0, g1, g2, g3, g4];
+                    at = group;
+                    [g0, g1, g2, g3, g4] = self.groups[at];
+                }
                 let (z2, z3) = (z * z, z * z * z);
                 let z4 = z3 * z;
                 s1 += z;
@@ -86,8 +101,11 @@ impl Marginals {
                 g3 += z3;
                 g4 += z4;
             }
-            *g = [g0, g1, g2, g3, g4];
-            welch.push_run(trajectory as usize, &z[start..end]);
+            self.groups[at] = [g0, g1, g2, g3, g4];
+            match interleaved {
+                true => welch.push_each(ts, zs),
+                false => welch.push_run(ts[0] as usize, zs),
+            }
             start = end;
         }
         (self.s1[j], self.s2[j], self.s3[j], self.s4[j]) = (s1, s2, s3, s4);
@@ -628,8 +646,9 @@ mod tests {
     }
 
     /// Values pushed variable by variable over blocks whose trajectories change within the
-    /// block (runs of one trajectory kept in registers) give the sums, groups, histogram and
-    /// spectrum of pushing them sample by sample, bit for bit.
+    /// block (runs of one trajectory kept in registers), and over blocks interleaved across
+    /// the trajectories (one instant of each in turn, as a log holds them), give the sums,
+    /// groups, histogram and spectrum of pushing them sample by sample, bit for bit.
     #[test]
     fn runs_of_a_block_give_the_sums_of_single_samples() {
         let fresh = || {
@@ -641,8 +660,9 @@ mod tests {
         };
         let (mut one, mut runs) = (fresh(), fresh());
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
-        for block in 0..20u32 {
-            // Stretches of 1 to 150 samples of trajectories 0..40, in blocks of 4096 rows.
+        for block in 0..40u32 {
+            // Stretches of 1 to 150 samples of trajectories 0..40, in blocks of 4096 rows;
+            // every other block interleaved, trajectory after trajectory.
             let mut trajectories = Vec::new();
             while trajectories.len() < 4096 {
                 let t = (block * 7 + trajectories.len() as u32 / 97) % 40;
@@ -650,6 +670,9 @@ mod tests {
                 trajectories.extend(std::iter::repeat_n(t, len));
             }
             trajectories.truncate(4096);
+            if block % 2 == 1 {
+                trajectories = (0..4096).map(|k| k % 40).collect();
+            }
             let rows: Vec<[f64; 2]> = trajectories
                 .iter()
                 .map(|_| [StandardNormal.sample(&mut rng), StandardNormal.sample(&mut rng)])
