@@ -59,56 +59,52 @@ impl Marginals {
 
     /// Variable `j`'s values `z` of samples of the trajectories `trajectories`, in the
     /// samples' order; the caller counts the samples once for all variables
-    /// ([`Marginals::count`]). Samples interleaved across trajectories (a log's, a
-    /// simulation's: one instant of every trajectory, then the next) are taken one by one;
-    /// records one after another, a run of one trajectory at a time, its trajectory group's
-    /// sums and its spectrum's values kept together. Either way the same sums, in the same
-    /// order, as sample by sample.
+    /// ([`Marginals::count`]). The sums are kept in registers, a trajectory group's until
+    /// the next sample is of another group; the spectrum takes samples interleaved across
+    /// trajectories (a log's, a simulation's: one instant of every trajectory, then the
+    /// next) one by one, and records one after another a run of one trajectory at a time.
+    /// Either way the same sums, in the same order, as sample by sample.
     fn push_values(&mut self, j: usize, trajectories: &[u32], z: &[f64]) {
+        let Some(&first) = trajectories.first() else {
+            return;
+        };
         let d = self.cols.len();
         let (mut s1, mut s2, mut s3, mut s4) = (self.s1[j], self.s2[j], self.s3[j], self.s4[j]);
-        let (hist, welch) = (&mut self.hist[j], &mut self.welch[j]);
-        let interleaved = trajectories.len() > 1 && trajectories[1] != trajectories[0];
-        let mut start = 0;
-        while start < z.len() {
-            let end = match interleaved {
-                true => z.len(),
-                false => {
-                    let first = trajectories[start];
-                    start + trajectories[start..].iter().take_while(|&&t| t == first).count()
-                }
-            };
-            let (ts, zs) = (&trajectories[start..end], &z[start..end]);
-            let mut at = (ts[0] as usize % STD_GROUPS) * d + j;
-            let [mut g0, mut g1, mut g2, mut g3, mut g4] = self.groups[at];
-            for (&t, &z) in ts.iter().zip(zs) {
-                let group = (t as usize % STD_GROUPS) * d + j;
-                if group != at {
-                    self.groups[at] = [g0, g1, g2, g3, g4];
-                    at = group;
-                    [g0, g1, g2, g3, g4] = self.groups[at];
-                }
-                let (z2, z3) = (z * z, z * z * z);
-                let z4 = z3 * z;
-                s1 += z;
-                s2 += z2;
-                s3 += z3;
-                s4 += z4;
-                hist.push(z);
-                g0 += 1.0;
-                g1 += z;
-                g2 += z2;
-                g3 += z3;
-                g4 += z4;
+        let hist = &mut self.hist[j];
+        let mut at = (first as usize % STD_GROUPS) * d + j;
+        let [mut g0, mut g1, mut g2, mut g3, mut g4] = self.groups[at];
+        for (&t, &z) in trajectories.iter().zip(z) {
+            let group = (t as usize % STD_GROUPS) * d + j;
+            if group != at {
+                self.groups[at] = [g0, g1, g2, g3, g4];
+                at = group;
+                [g0, g1, g2, g3, g4] = self.groups[at];
             }
-            self.groups[at] = [g0, g1, g2, g3, g4];
-            match interleaved {
-                true => welch.push_each(ts, zs),
-                false => welch.push_run(ts[0] as usize, zs),
-            }
-            start = end;
+            let (z2, z3) = (z * z, z * z * z);
+            let z4 = z3 * z;
+            s1 += z;
+            s2 += z2;
+            s3 += z3;
+            s4 += z4;
+            hist.push(z);
+            g0 += 1.0;
+            g1 += z;
+            g2 += z2;
+            g3 += z3;
+            g4 += z4;
         }
+        self.groups[at] = [g0, g1, g2, g3, g4];
         (self.s1[j], self.s2[j], self.s3[j], self.s4[j]) = (s1, s2, s3, s4);
+        let welch = &mut self.welch[j];
+        if trajectories.get(1).is_some_and(|&t| t != first) {
+            welch.push_each(trajectories, z);
+        } else {
+            let mut start = 0;
+            for run in trajectories.chunk_by(|a, b| a == b) {
+                welch.push_run(run[0] as usize, &z[start..start + run.len()]);
+                start += run.len();
+            }
+        }
     }
 
     /// Count `samples` pushed variable by variable.
