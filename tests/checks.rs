@@ -1,8 +1,10 @@
 //! Checks of the method's own premises (docs/methods.md, "Checks"): a measured force whose
 //! spectrum rejects the first-order filter (3.20) refuses every method that needs it and
 //! leaves the force regression standing; an Ornstein–Uhlenbeck force of the same rig is not
-//! rejected. The tables are made here, by a small integrator of the test's own, as a lab's
-//! would be: nothing of fpkbench's simulator is in them.
+//! rejected. The tables are made by a small integrator of the tests' own, as a lab's would
+//! be: nothing of fpkbench's simulator is in them (`tables`).
+
+mod tables;
 
 use fpkbench::io::table::{measured, read_for};
 use fpkbench::pipeline::{identify, Input, Options};
@@ -10,12 +12,7 @@ use fpkbench::report::{MethodOutcome, Outcome, Report};
 use fpkbench::scenario::{Method, ReportMethod};
 use fpkbench::Scenario;
 use std::fmt::Write;
-
-/// A linear oscillator, m = 1, k1 = (2π·5 Hz)², c1 = 2·0.05·ω (5 % damping).
-const K1: f64 = 100.0 * std::f64::consts::PI * std::f64::consts::PI;
-const C1: f64 = std::f64::consts::PI;
-const STEP: f64 = 5e-4;
-const SAMPLE: f64 = 5e-3;
+use tables::*;
 
 const MODEL: &str = r#"
 name = "rig"
@@ -44,74 +41,6 @@ v_m1 = "v"
 a_m1 = "a"
 p_shaker = "p"
 "#;
-
-/// SplitMix64's uniform numbers in [0, 1).
-struct Uniform(u64);
-
-impl Uniform {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.next().max(1e-300), self.next());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
-
-/// The oscillator driven by `force(step)`, semi-implicit Euler at STEP, `records` records
-/// of `length` s after a 20 s transient, sampled every SAMPLE: a CSV of record, t, x, v,
-/// a (from the equation of motion at the sample) and p.
-fn rig_table(records: usize, length: f64, force: impl FnMut(usize) -> f64) -> String {
-    hardening_rig_table(records, length, 0.0, false, force)
-}
-
-/// [`rig_table`] with a hardening spring `K1 x + k3 x³`. With `verlet`, stepped by velocity
-/// Verlet (the damping implicit in the second kick), so that the sampled velocity is the
-/// displacement's rate of change to `O((ωh)²)`, as a right model's data are; else by the
-/// semi-implicit step, which moves the displacement by the new velocity, so the sampled
-/// velocity lags that rate by a step (a tenth of a sample): a sensor's lag the model lacks.
-fn hardening_rig_table(
-    records: usize,
-    length: f64,
-    k3: f64,
-    verlet: bool,
-    mut force: impl FnMut(usize) -> f64,
-) -> String {
-    let mut csv = String::from("record,t,x,v,a,p\n");
-    let per_sample = (SAMPLE / STEP).round() as usize;
-    let (transient, samples) = ((20.0 / STEP) as usize, (length / SAMPLE) as usize);
-    let spring = |x: f64| K1 * x + k3 * x * x * x;
-    for r in 0..records {
-        let base = r * (transient + samples * per_sample);
-        let (mut x, mut v) = (0.0, 0.0);
-        let mut p = if verlet { force(base) } else { 0.0 };
-        for n in 0..transient + samples * per_sample {
-            if !verlet {
-                p = force(base + n);
-            }
-            if n >= transient && (n - transient) % per_sample == 0 {
-                let t = (n - transient) as f64 * STEP;
-                let a = p - C1 * v - spring(x);
-                writeln!(csv, "{r},{t},{x:e},{v:e},{a:e},{p:e}").unwrap();
-            }
-            if verlet {
-                let half = v + 0.5 * STEP * (p - C1 * v - spring(x));
-                x += STEP * half;
-                p = force(base + n + 1);
-                v = (half + 0.5 * STEP * (p - spring(x))) / (1.0 + 0.5 * STEP * C1);
-            } else {
-                v += STEP * (p - C1 * v - spring(x));
-                x += STEP * v;
-            }
-        }
-    }
-    csv
-}
 
 fn identify_table(csv: &str) -> Report {
     identify_with(csv, MODEL)
@@ -156,32 +85,6 @@ fn assert_rig(m: &fpkbench::report::MethodReport, k1_tol: f64, c1_tol: f64) {
     assert!((c1 / C1 - 1.0).abs() < c1_tol, "{}: c1 = {c1}", m.method);
 }
 
-/// The rig under a random-phase multisine of `lines` lines `f0` Hz apart, flat in
-/// amplitude, a new realisation per record (8 records of 60 s).
-fn multisine_table(lines: usize, f0: f64, seed: u64) -> String {
-    rig_table(8, 60.0, multisine(lines, f0, seed))
-}
-
-/// The force of [`multisine_table`] at each step.
-fn multisine(lines: usize, f0: f64, seed: u64) -> impl FnMut(usize) -> f64 {
-    let mut u = Uniform(seed);
-    let mut phases = Vec::new();
-    let mut record = usize::MAX;
-    let per_record = ((20.0 + 60.0) / STEP) as usize;
-    let amplitude = 4.0 * (200.0 / lines as f64).sqrt();
-    move |n| {
-        if n / per_record != record {
-            record = n / per_record;
-            phases = (0..lines).map(|_| 2.0 * std::f64::consts::PI * u.next()).collect();
-        }
-        let t = (n % per_record) as f64 * STEP;
-        (0..lines)
-            .map(|k| (2.0 * std::f64::consts::PI * f0 * (k + 1) as f64 * t + phases[k]).cos())
-            .sum::<f64>()
-            * amplitude
-    }
-}
-
 #[test]
 fn a_multisine_force_read_as_first_order_is_refused_and_the_force_regression_stands() {
     // A random-phase multisine flat from 0.1 to 20 Hz (four times the mode), a new
@@ -223,20 +126,6 @@ fn an_ornstein_uhlenbeck_force_of_the_same_rig_is_not_rejected() {
     assert!((f.fitted_b / b - 1.0).abs() < 0.2, "B = {}", f.fitted_b);
     // With its force modelled right, the weak form agrees with the force regression.
     assert!(r.failed_checks.is_empty(), "{:?}", r.failed_checks);
-}
-
-/// The rig under an Ornstein–Uhlenbeck force, `dP = −B P dt + A dW` exact in each step,
-/// A = 200, B = 20 1/s (near the mode's 31 rad/s).
-fn ou_table() -> String {
-    let (a, b) = (200.0, 20.0);
-    let phi: f64 = (-b * STEP).exp();
-    let sd = a * ((1.0 - phi * phi) / (2.0 * b)).sqrt();
-    let mut u = Uniform(11);
-    let mut p = 0.0;
-    rig_table(8, 60.0, |_| {
-        p = phi * p + sd * u.normal();
-        p
-    })
 }
 
 #[test]
@@ -835,20 +724,6 @@ fn chosen_model() -> String {
     MODEL
         .replace("kind = \"filtered\"\nA = 1.0\nB = 1.0\n", "kind = \"white\"\n")
         .replace("[identify]\n", "[identify]\nchoose_force_model = [\"shaker\"]\n")
-}
-
-/// The rig under a Kanai–Tajimi force: white noise of intensity 6.6 through a ground of
-/// Ω = 20 rad/s and ζ = 0.3 (`ÿ + 2ζΩẏ + Ω²y = −w`, the force `2ζΩẏ + Ω²y`), semi-implicit
-/// Euler at the rig's step; its density peaks below the mode and falls as ω⁻² above.
-fn kanai_tajimi_table() -> String {
-    let (omega, zeta, sigma) = (20.0, 0.3, 6.6);
-    let mut u = Uniform(13);
-    let (mut y, mut dy) = (0.0, 0.0);
-    rig_table(8, 60.0, |_| {
-        dy += -STEP * (2.0 * zeta * omega * dy + omega * omega * y) - sigma * STEP.sqrt() * u.normal();
-        y += STEP * dy;
-        2.0 * zeta * omega * dy + omega * omega * y
-    })
 }
 
 #[test]
