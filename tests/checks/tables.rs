@@ -106,6 +106,10 @@ pub(super) fn multisine(lines: usize, f0: f64, seed: u64) -> impl FnMut(usize) -
     let mut record = usize::MAX;
     let per_record = ((20.0 + 60.0) / STEP) as usize;
     let steps = (1.0 / (f0 * STEP)).round() as usize;
+    assert!(
+        (steps as f64 * f0 * STEP - 1.0).abs() < 1e-9,
+        "a period of {f0} Hz is not whole steps"
+    );
     let amplitude = 4.0 * (200.0 / lines as f64).sqrt();
     move |n| {
         if n / per_record != record {
