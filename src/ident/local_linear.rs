@@ -614,14 +614,15 @@ fn mat_vec(w: &[f64], v: &[f64], out: &mut [f64]) {
 }
 
 /// `C = A B` for row-major `n × n` matrices.
+#[inline(always)]
 fn mat_mul(a: &[f64], b: &[f64], c: &mut [f64], n: usize) {
-    c.fill(0.0);
-    for i in 0..n {
-        for k in 0..n {
-            let aik = a[i * n + k];
+    let (a, b, c) = (&a[..n * n], &b[..n * n], &mut c[..n * n]);
+    for (ci, ai) in c.chunks_exact_mut(n).zip(a.chunks_exact(n)) {
+        ci.fill(0.0);
+        for (&aik, bk) in ai.iter().zip(b.chunks_exact(n)) {
             if aik != 0.0 {
-                for j in 0..n {
-                    c[i * n + j] += aik * b[k * n + j];
+                for (x, y) in ci.iter_mut().zip(bk) {
+                    *x += aik * y;
                 }
             }
         }
@@ -630,10 +631,26 @@ fn mat_mul(a: &[f64], b: &[f64], c: &mut [f64], n: usize) {
 
 /// `exp(z)` of a row-major `n × n` matrix into `e` (`a` and `t`: `n × n` scratch):
 /// scaling and squaring with a degree-12 Taylor polynomial (after scaling the norm is at
-/// most ½; truncation below 10⁻¹³).
+/// most ½; truncation below 10⁻¹³). The sizes the local linearisation meets (a state of
+/// two to six variables and the augmented matrix's two more rows) get loops of known
+/// length, which the compiler unrolls; the arithmetic is the same for every size.
 fn expm_into(z: &[f64], n: usize, a: &mut [f64], e: &mut [f64], t: &mut [f64]) {
-    let norm = (0..n)
-        .map(|i| (0..n).map(|j| z[i * n + j].abs()).sum::<f64>())
+    match n {
+        4 => expm_sized(z, 4, a, e, t),
+        5 => expm_sized(z, 5, a, e, t),
+        6 => expm_sized(z, 6, a, e, t),
+        7 => expm_sized(z, 7, a, e, t),
+        8 => expm_sized(z, 8, a, e, t),
+        _ => expm_sized(z, n, a, e, t),
+    }
+}
+
+#[inline(always)]
+fn expm_sized(z: &[f64], n: usize, a: &mut [f64], e: &mut [f64], t: &mut [f64]) {
+    let (z, a, e, t) = (&z[..n * n], &mut a[..n * n], &mut e[..n * n], &mut t[..n * n]);
+    let norm = z
+        .chunks_exact(n)
+        .map(|row| row.iter().map(|x| x.abs()).sum::<f64>())
         .fold(0.0f64, f64::max);
     let s = if norm > 0.5 {
         (norm / 0.5).log2().ceil() as i32
@@ -651,8 +668,11 @@ fn expm_into(z: &[f64], n: usize, a: &mut [f64], e: &mut [f64], t: &mut [f64]) {
     }
     for k in (1..=12).rev() {
         mat_mul(a, e, t, n);
-        for (i, x) in t.iter().enumerate() {
-            e[i] = x / k as f64 + if i % (n + 1) == 0 { 1.0 } else { 0.0 };
+        let k = k as f64;
+        for (i, (row, x)) in e.chunks_exact_mut(n).zip(t.chunks_exact(n)).enumerate() {
+            for (j, (y, x)) in row.iter_mut().zip(x).enumerate() {
+                *y = x / k + if i == j { 1.0 } else { 0.0 };
+            }
         }
     }
     for _ in 0..s {
@@ -696,5 +716,38 @@ mod tests {
         let (mut a, mut e, mut tt, mut col) = (vec![0.0; 4], vec![0.0; 4], vec![0.0; 8], vec![0.0; 1]);
         expm_last_column(&z, 2, &mut a, &mut e, &mut tt, &mut col);
         assert!((col[0] - f * (1.0 - (-k * h).exp()) / k).abs() < 1e-12);
+    }
+
+    /// Every size, those with loops of known length (4–8) and the others: `exp(cI + tN)`
+    /// with `N` the shift (ones above the diagonal) is `e^c t^(j−i)/(j−i)!` above and on
+    /// the diagonal, 0 below; the norm (|c| + t = 2.2) needs three squarings.
+    #[test]
+    fn the_matrix_exponential_of_a_shifted_jordan_block_at_every_size() {
+        let (c, t) = (-0.7, 1.5);
+        for n in 2..=10 {
+            let mut m = DMatrix::zeros(n, n);
+            for i in 0..n {
+                m[(i, i)] = c;
+                if i + 1 < n {
+                    m[(i, i + 1)] = t;
+                }
+            }
+            let e = expm(&m);
+            for i in 0..n {
+                for j in 0..n {
+                    let exact = if j < i {
+                        0.0
+                    } else {
+                        let p = (j - i) as i32;
+                        c.exp() * t.powi(p) / (1..=p).map(f64::from).product::<f64>()
+                    };
+                    assert!(
+                        (e[(i, j)] - exact).abs() < 1e-13,
+                        "n {n}: ({i}, {j}) {} vs {exact}",
+                        e[(i, j)]
+                    );
+                }
+            }
+        }
     }
 }
