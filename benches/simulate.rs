@@ -331,9 +331,10 @@ impl Generation {
             n as f64 / t_runs
         );
         println!(
-            "raw normals, lanes side by side  {:>9.3e} /s per core = {:.2}x in runs (the simulator's generator)",
+            "raw normals, lanes side by side  {:>9.3e} /s per core = {:.2}x in runs (the simulator's generator, {})",
             n as f64 / t_side,
-            t_runs / t_side
+            t_runs / t_side,
+            LaneNormals::instructions()
         );
         println!(
             "random-number bound             {:>10.3e} steps/s per core ({normals_per_step} normals per step)",
