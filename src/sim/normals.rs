@@ -190,14 +190,7 @@ pub(crate) fn fill(rng: &mut [Xoshiro; LANES], rows: usize, out: &mut [f64]) {
     "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
 ))]
 fn fill_lanes(rng: &mut [Xoshiro; LANES], rows: usize, out: &mut [f64], layers: &[[f64; 2]; 256]) {
-    // The states as four arrays over the lanes (struct of arrays), so a step is vector
-    // arithmetic across lanes.
-    let mut s: [[u64; LANES]; 4] = [[0; LANES]; 4];
-    for (j, r) in rng.iter().enumerate() {
-        for w in 0..4 {
-            s[w][j] = r.s[w];
-        }
-    }
+    let mut s: [[u64; LANES]; 4] = by_word(rng);
     let out = &mut out[..rows * LANES];
     let mut edge = [0.0f64; LANES];
     for row in out.chunks_exact_mut(LANES) {
@@ -227,7 +220,26 @@ fn fill_lanes(rng: &mut [Xoshiro; LANES], rows: usize, out: &mut [f64], layers: 
             slow_path(&mut s, slow, row);
         }
     }
-    for (j, r) in rng.iter_mut().enumerate() {
+    set_by_word(rng, &s);
+}
+
+/// The states of `rng`'s first `N` generators as four arrays over them, one per state word
+/// (struct of arrays, so a step is vector arithmetic across lanes).
+#[inline(always)]
+fn by_word<const N: usize>(rng: &[Xoshiro]) -> [[u64; N]; 4] {
+    let mut s = [[0; N]; 4];
+    for (j, r) in rng[..N].iter().enumerate() {
+        for w in 0..4 {
+            s[w][j] = r.s[w];
+        }
+    }
+    s
+}
+
+/// [`by_word`] undone: `s`'s states back into `rng`'s first `N` generators.
+#[inline(always)]
+fn set_by_word<const N: usize>(rng: &mut [Xoshiro], s: &[[u64; N]; 4]) {
+    for (j, r) in rng[..N].iter_mut().enumerate() {
         for w in 0..4 {
             r.s[w] = s[w][j];
         }
@@ -241,7 +253,7 @@ fn fill_lanes(rng: &mut [Xoshiro; LANES], rows: usize, out: &mut [f64], layers: 
 /// per lane.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{slow_path, Xoshiro, CHUNK, LANES};
+    use super::{by_word, set_by_word, slow_path, Xoshiro, CHUNK, LANES};
     use std::arch::x86_64::*;
 
     /// Four lanes' generator states, one vector per state word.
@@ -298,16 +310,9 @@ mod avx2 {
     ) {
         let out = &mut out[..rows * LANES];
         for h0 in (0..LANES).step_by(CHUNK) {
-            let load = |w: usize, from: usize| {
-                _mm256_set_epi64x(
-                    rng[from + 3].s[w] as i64,
-                    rng[from + 2].s[w] as i64,
-                    rng[from + 1].s[w] as i64,
-                    rng[from].s[w] as i64,
-                )
-            };
-            let mut lo: State = std::array::from_fn(|w| load(w, h0));
-            let mut hi: State = std::array::from_fn(|w| load(w, h0 + 4));
+            let mut s: [[u64; CHUNK]; 4] = by_word(&rng[h0..]);
+            let mut lo: State = std::array::from_fn(|w| _mm256_loadu_si256(s[w].as_ptr().cast()));
+            let mut hi: State = std::array::from_fn(|w| _mm256_loadu_si256(s[w][4..].as_ptr().cast()));
             for row in out.chunks_exact_mut(LANES) {
                 let row: &mut [f64; CHUNK] = (&mut row[h0..h0 + CHUNK]).try_into().expect("a chunk");
                 let (x0, m0) = draw(step(&mut lo), layers);
@@ -316,7 +321,6 @@ mod avx2 {
                 _mm256_storeu_pd(row.as_mut_ptr().add(4), x1);
                 let slow = (m0 | m1 << 4) as u32;
                 if slow != 0 {
-                    let mut s = [[0u64; CHUNK]; 4];
                     for w in 0..4 {
                         _mm256_storeu_si256(s[w].as_mut_ptr().cast(), lo[w]);
                         _mm256_storeu_si256(s[w][4..].as_mut_ptr().cast(), hi[w]);
@@ -328,16 +332,11 @@ mod avx2 {
                     }
                 }
             }
-            let mut s = [[0u64; CHUNK]; 4];
             for w in 0..4 {
                 _mm256_storeu_si256(s[w].as_mut_ptr().cast(), lo[w]);
                 _mm256_storeu_si256(s[w][4..].as_mut_ptr().cast(), hi[w]);
             }
-            for (j, r) in rng[h0..h0 + CHUNK].iter_mut().enumerate() {
-                for w in 0..4 {
-                    r.s[w] = s[w][j];
-                }
-            }
+            set_by_word(&mut rng[h0..], &s);
         }
     }
 }
@@ -348,7 +347,7 @@ mod avx2 {
 /// (two registers per state word, for two independent chains of steps).
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use super::{slow_path, Xoshiro, LANES};
+    use super::{by_word, set_by_word, slow_path, Xoshiro, LANES};
     use std::arch::x86_64::*;
 
     /// Lanes stepped together through all the rows.
@@ -402,12 +401,7 @@ mod avx512 {
         let table = layers.as_ptr().cast::<f64>();
         let out = &mut out[..rows * LANES];
         for h0 in (0..LANES).step_by(CHUNK) {
-            let mut s = [[0u64; CHUNK]; 4];
-            for (j, r) in rng[h0..h0 + CHUNK].iter().enumerate() {
-                for w in 0..4 {
-                    s[w][j] = r.s[w];
-                }
-            }
+            let mut s: [[u64; CHUNK]; 4] = by_word(&rng[h0..]);
             let mut lo: State = std::array::from_fn(|w| _mm512_loadu_si512(s[w].as_ptr().cast()));
             let mut hi: State = std::array::from_fn(|w| _mm512_loadu_si512(s[w][8..].as_ptr().cast()));
             for row in out.chunks_exact_mut(LANES) {
@@ -433,11 +427,7 @@ mod avx512 {
                 _mm512_storeu_si512(s[w].as_mut_ptr().cast(), lo[w]);
                 _mm512_storeu_si512(s[w][8..].as_mut_ptr().cast(), hi[w]);
             }
-            for (j, r) in rng[h0..h0 + CHUNK].iter_mut().enumerate() {
-                for w in 0..4 {
-                    r.s[w] = s[w][j];
-                }
-            }
+            set_by_word(&mut rng[h0..], &s);
         }
     }
 }
