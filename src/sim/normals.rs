@@ -148,15 +148,13 @@ impl LaneNormals {
     /// The instructions this CPU's draws are written in (chosen at run time): "AVX-512",
     /// "AVX2" or "portable".
     pub fn instructions() -> &'static str {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            return "AVX-512";
+        match Path::of_this_cpu() {
+            #[cfg(target_arch = "x86_64")]
+            Path::Avx512 => "AVX-512",
+            #[cfg(target_arch = "x86_64")]
+            Path::Avx2 => "AVX2",
+            Path::Portable => "portable",
         }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            return "AVX2";
-        }
-        "portable"
     }
 
     /// `out.len() / LANES` normals per lane into `out[r · LANES + j]` (row `r`, lane `j`):
@@ -170,19 +168,38 @@ impl LaneNormals {
 /// Draws `rows` normals per lane into `out[r · LANES + j]` (row `r`, lane `j`), lane `j`
 /// from `rng[j]` in row order: the numbers `StandardNormal.sample(&mut rng[j])` would give.
 pub(crate) fn fill(rng: &mut [Xoshiro; LANES], rows: usize, out: &mut [f64]) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU has AVX-512F (checked just above).
-        unsafe { avx512::fill_lanes(rng, rows, out, &LAYERS) };
-        return;
+    match Path::of_this_cpu() {
+        // SAFETY: `of_this_cpu` chose it because the CPU has AVX-512F.
+        #[cfg(target_arch = "x86_64")]
+        Path::Avx512 => unsafe { avx512::fill_lanes(rng, rows, out, &LAYERS) },
+        // SAFETY: `of_this_cpu` chose it because the CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Path::Avx2 => unsafe { avx2::fill_lanes(rng, rows, out, &LAYERS) },
+        Path::Portable => fill_lanes(rng, rows, out, &LAYERS),
     }
+}
+
+/// Which of [`fill_lanes`]'s versions draws: the widest the CPU runs.
+enum Path {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        unsafe { avx2::fill_lanes(rng, rows, out, &LAYERS) };
-        return;
+    Avx512,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    Portable,
+}
+
+impl Path {
+    fn of_this_cpu() -> Path {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            return Path::Avx512;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return Path::Avx2;
+        }
+        Path::Portable
     }
-    fill_lanes(rng, rows, out, &LAYERS);
 }
 
 #[multiversion(targets(
