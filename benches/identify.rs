@@ -1,8 +1,9 @@
 //! Identification throughput on duffing2dof samples held in memory: weak-form moment
 //! accumulation (4-D samples per second per core, 9 unknowns, target ≥ 3e7), the strong
-//! form's 20⁴ grid (seconds per 1e7 samples, target ≤ 0.3) and the kernel lattice's flux
-//! spreading; the drift's parts (what the pair regressions and the kernel strong form
-//! evaluate per sample) one state at a time against 64 states at once, as a ratio; and
+//! form's 20⁴ grid (seconds per 1e7 samples, target ≤ 0.3), the kernel lattice's flux
+//! spreading and the kernel form's estimate with its jackknife replicates; the drift's
+//! parts (what the pair regressions and the kernel strong form evaluate per sample) one
+//! state at a time against 64 states at once, as a ratio; and
 //! structure selection among 30 candidates (powers 1..5 on every stiffness and damping)
 //! against the weak form's estimate of the 30-term candidate model from the same moments
 //! (target: selection ≤ 2× that estimate, docs/selection.md); and the Fisher information of
@@ -129,6 +130,7 @@ fn main() {
 /// The criterion benches.
 fn benches(f: &Fixture, one: &rayon::ThreadPool) {
     let Fixture {
+        s,
         p,
         rows,
         full_rows,
@@ -179,6 +181,31 @@ fn benches(f: &Fixture, one: &rayon::ThreadPool) {
             black_box(l.inside)
         })
     });
+    // The kernel strong form's estimate from its filled lattice with jackknife groups (32
+    // batches): the residual's pieces filtered from the record's lattice and from each
+    // group's replicate, each replicate solved (independent of the sample count).
+    let (lattice, typical) = {
+        let mut data = StationaryData::new(
+            p,
+            weak::moment_degree(p),
+            s.simulation.record_length,
+            s.simulation.trajectories,
+            32,
+        );
+        let batching = data.batching();
+        let mut l = FluxLattice::new(p, &mean, &std, KernelOptions::auto(4, n as u64), 32, &arenas).unwrap();
+        for (tr, tt, r) in full_rows.iter() {
+            data.push(*tr, *tt, r);
+            l.push_in(batching.batch_of(*tr, *tt), r);
+        }
+        data.finish();
+        l.finish();
+        (l, p.typical(&data.total()))
+    };
+    g.bench_function(
+        "strong: the kernel form's estimate with its jackknife replicates",
+        |b| b.iter(|| black_box(fpkbench::ident::identify_kernel(p, &lattice, &typical).unwrap().values[0])),
+    );
     // The drift's parts: known forces, then every unit force per mass.
     let parts = || f.parts();
     let width = parts().len();

@@ -63,6 +63,19 @@ impl FineLayout {
 /// for the mean square of a characteristic of degree up to 6 under their observed density.
 pub const OBSERVED_POWERS: usize = 13;
 
+/// `x.ceil() as usize` without the library call (the baseline x86-64 target has no
+/// rounding instruction, and every sample's batch asks for it): the same value for every
+/// `x`, NaN and negatives giving 0, beyond `usize::MAX` saturating.
+#[inline]
+fn ceil_index(x: f64) -> usize {
+    let i = x as usize;
+    if (i as f64) < x {
+        i.saturating_add(1)
+    } else {
+        i
+    }
+}
+
 /// The links' relative motion as observed: per link `[u_min, u_max, w_min, w_max]`, and the
 /// sums of `u^k` and `w^k` (`k = 0 …` [`OBSERVED_POWERS`]` − 1`), from which the mean square
 /// of a polynomial characteristic under the observed density is exact.
@@ -86,7 +99,7 @@ impl Batching {
     #[inline]
     fn fine_batch(&self, trajectory: u32, t: f64) -> usize {
         let FineLayout { subgroups, windows } = self.layout;
-        let w = ((t / self.record_length * windows as f64).ceil() as usize).clamp(1, windows) - 1;
+        let w = ceil_index(t / self.record_length * windows as f64).clamp(1, windows) - 1;
         let j = trajectory as usize;
         let (g, s) = (j % TRAJECTORY_GROUPS, (j / TRAJECTORY_GROUPS) % subgroups);
         (g * windows + w) * subgroups + s
@@ -534,5 +547,40 @@ impl super::accumulate::Accumulator for StationaryData {
     }
     fn finish(&mut self) {
         StationaryData::finish(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ceil_index;
+
+    #[test]
+    fn ceil_index_is_the_library_ceiling_cast_for_every_kind_of_value() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            -0.5,
+            -1.0,
+            -7.25,
+            0.5,
+            1.0,
+            1.0 + f64::EPSILON,
+            1.0 - f64::EPSILON / 2.0,
+            127.999_999_999,
+            128.0,
+            4503599627370495.5,
+            9007199254740993.0,
+            1e300,
+            f64::MIN_POSITIVE,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        // A sample's window position `t / T · windows` over a record, as the batching forms it.
+        let (record, windows) = (5000.0, 128usize);
+        xs.extend((0..=50_000).map(|k| k as f64 * 0.1 / record * windows as f64));
+        for x in xs {
+            assert_eq!(ceil_index(x), x.ceil() as usize, "x = {x:e}");
+        }
     }
 }
