@@ -121,6 +121,13 @@ impl Method {
         matches!(self, Method::ForceRegression | Method::WeakMeasuredForce)
     }
 
+    /// Whether its estimator reads the samples in the passes after the first: every one
+    /// does but the weak form's, which reads the first pass's moments (an identification
+    /// by the weak form alone keeps no samples for later passes).
+    pub fn reads_samples(self) -> bool {
+        self != Method::Weak
+    }
+
     /// Every name, for messages: `weak, strong, …`.
     pub fn names() -> String {
         Method::REGISTERED

@@ -723,3 +723,53 @@ fn an_identification_gives_the_same_numbers_whatever_the_thread_count() {
     assert_eq!(one, numbers(Some(3)));
     assert_eq!(one, numbers(None));
 }
+
+/// A simulation in memory identified by the weak form alone, with neither validation nor
+/// figures, is read once: nothing after the first pass reads the samples (the weak form
+/// takes the first pass's moments, the Fisher information of a settled structure is
+/// gathered there too), so none are kept for a replay. With the strong form beside it the
+/// samples are kept and replayed; the weak form's estimates, standard errors and
+/// Cramér–Rao bounds are the same bits either way.
+#[test]
+fn the_weak_form_alone_reads_a_simulation_once_and_keeps_no_samples() {
+    use fpkbench::ident::Arenas;
+    use fpkbench::pipeline::{identify, Input, Options};
+    use fpkbench::scenario::{Method, ReportMethod};
+    use std::sync::Arc;
+    let s = crate::common::small_scenario(400.0, 8);
+    let run = |methods: Vec<Method>| {
+        let arenas = Arc::new(Arenas::default());
+        let options = Options {
+            methods,
+            validate: false,
+            plots: false,
+            arenas: arenas.clone(),
+            ..Options::default()
+        };
+        let input = Input::simulation_in(s.clone(), arenas.clone());
+        let r = identify(&input, &options).unwrap();
+        let read = input.samples_read();
+        drop(input);
+        let weak = r
+            .methods
+            .iter()
+            .find(|m| m.method == ReportMethod::Estimator(Method::Weak))
+            .expect("a weak row");
+        assert!(weak.outcome.is_estimated(), "{:?}", weak.outcome);
+        let bits: Vec<u64> = (weak.parameters.iter())
+            .flat_map(|p| [p.estimate, p.std_error, p.cramer_rao_std.expect("a bound")])
+            .map(f64::to_bits)
+            .collect();
+        (r.samples, read, arenas.samples.tables(), bits)
+    };
+    let (n, read, kept, alone) = run(vec![Method::Weak]);
+    assert!(n > 10_000, "{n} samples");
+    assert_eq!((read, kept), (n, 0), "the weak form alone: samples read, tables kept");
+    let (n2, read, kept, beside) = run(vec![Method::Weak, Method::Strong]);
+    assert_eq!(n2, n);
+    assert!(
+        read >= 2 * n && kept == 1,
+        "with the strong form: {read} samples read, {kept} tables kept"
+    );
+    assert_eq!(alone, beside);
+}

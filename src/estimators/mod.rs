@@ -171,6 +171,9 @@ pub(crate) fn refused(e: IdentError) -> Box<dyn Estimator> {
     struct Refused(IdentError);
     impl Accumulator for Refused {
         fn push(&mut self, _: &Sample) {}
+        fn reads_samples(&self) -> bool {
+            false
+        }
     }
     impl Estimator for Refused {
         fn estimate(&self, _: &Context) -> Result<Estimate, IdentError> {
@@ -273,7 +276,11 @@ mod tests {
             estimator.finish();
             let result = estimator.estimate(&cx);
             match m.terms() {
-                Terms::Any => assert!(result.is_ok(), "{m}: {result:?}"),
+                Terms::Any => {
+                    assert!(result.is_ok(), "{m}: {result:?}");
+                    // What the plan counts on to keep no samples for a later pass.
+                    assert_eq!(estimator.reads_samples(), m.reads_samples(), "{m}");
+                }
                 Terms::Polynomial => match result {
                     Err(IdentError::NotApplicable(why)) => {
                         assert!(

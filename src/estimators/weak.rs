@@ -12,8 +12,12 @@ pub(super) fn build(_: &Setup) -> Box<dyn Estimator> {
     Box::new(WeakForm)
 }
 
+/// It reads the first pass's moments, never the samples themselves.
 impl Accumulator for WeakForm {
     fn push(&mut self, _: &Sample) {}
+    fn reads_samples(&self) -> bool {
+        false
+    }
 }
 
 impl Estimator for WeakForm {

@@ -74,6 +74,12 @@ pub trait Accumulator: Send {
     }
     /// The pass is over: flush what is buffered.
     fn finish(&mut self) {}
+    /// Whether `push` does anything with a sample: a pass none of whose accumulators
+    /// reads the samples does not read them (`crate::pipeline::pass::run`), and a
+    /// simulation whose later passes would read nothing keeps no samples for them.
+    fn reads_samples(&self) -> bool {
+        true
+    }
 }
 
 impl<A: Accumulator + ?Sized> Accumulator for Box<A> {
@@ -85,6 +91,9 @@ impl<A: Accumulator + ?Sized> Accumulator for Box<A> {
     }
     fn finish(&mut self) {
         (**self).finish()
+    }
+    fn reads_samples(&self) -> bool {
+        (**self).reads_samples()
     }
 }
 
@@ -104,6 +113,9 @@ impl<A: Accumulator> Accumulator for Option<A> {
             a.finish()
         }
     }
+    fn reads_samples(&self) -> bool {
+        self.as_ref().is_some_and(|a| a.reads_samples())
+    }
 }
 
 impl<A: Accumulator> Accumulator for Vec<A> {
@@ -122,6 +134,41 @@ impl<A: Accumulator> Accumulator for Vec<A> {
             a.finish()
         }
     }
+    fn reads_samples(&self) -> bool {
+        self.iter().any(|a| a.reads_samples())
+    }
+}
+
+/// `dst.copy_from_slice(src)` for the few values of one sample: up to eight are copied as
+/// an array of known length (moves the compiler inlines), not by a call to `memcpy` per
+/// sample, which cost more than the copy.
+#[inline(always)]
+pub fn copy_row(dst: &mut [f64], src: &[f64]) {
+    #[inline(always)]
+    fn fixed<const N: usize>(dst: &mut [f64], src: &[f64]) {
+        let d: &mut [f64; N] = dst.try_into().expect("rows of one length");
+        let s: &[f64; N] = src.try_into().expect("rows of one length");
+        *d = *s;
+    }
+    match src.len() {
+        1 => fixed::<1>(dst, src),
+        2 => fixed::<2>(dst, src),
+        3 => fixed::<3>(dst, src),
+        4 => fixed::<4>(dst, src),
+        5 => fixed::<5>(dst, src),
+        6 => fixed::<6>(dst, src),
+        7 => fixed::<7>(dst, src),
+        8 => fixed::<8>(dst, src),
+        _ => dst.copy_from_slice(src),
+    }
+}
+
+/// `v.extend_from_slice(row)` by [`copy_row`].
+#[inline(always)]
+pub fn append_row(v: &mut Vec<f64>, row: &[f64]) {
+    let at = v.len();
+    v.resize(at + row.len(), 0.0);
+    copy_row(&mut v[at..], row);
 }
 
 /// A closure as an accumulator: what feeds another accumulator a row of its own (a

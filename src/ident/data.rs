@@ -317,6 +317,37 @@ impl StationaryData {
     /// Add one sample (`row`: the log's columns) of `trajectory` taken at time `t` after
     /// burn-in.
     pub fn push(&mut self, trajectory: u32, t: f64, row: &[f64]) {
+        self.push_values(trajectory, t, row);
+        for l in 0..self.link_ranges.len() {
+            let (u, w) = self.model.link_motion(l, row);
+            let [u_lo, u_hi, w_lo, w_hi] = &mut self.link_ranges[l];
+            let [u_sums, w_sums] = &mut self.link_powers[l];
+            observe(u_lo, u_hi, u_sums, std::iter::once(u));
+            observe(w_lo, w_hi, w_sums, std::iter::once(w));
+        }
+    }
+
+    /// A run of samples, as [`StationaryData::push`] of each in turn: the moments' values
+    /// sample by sample, then the links' ranges and power sums one link and argument at a
+    /// time over the run, their sums held in registers (the same additions in the same
+    /// order).
+    pub fn push_run(&mut self, samples: &super::accumulate::Samples) {
+        for k in 0..samples.len() {
+            let s = samples.get(k);
+            self.push_values(s.trajectory, s.t, s.row);
+        }
+        let model = &self.model;
+        let rows = || (0..samples.len()).map(|k| samples.get(k).row);
+        for (l, (range, [u_sums, w_sums])) in self.link_ranges.iter_mut().zip(&mut self.link_powers).enumerate() {
+            let [u_lo, u_hi, w_lo, w_hi] = range;
+            observe(u_lo, u_hi, u_sums, rows().map(|r| model.link_motion(l, r).0));
+            observe(w_lo, w_hi, w_sums, rows().map(|r| model.link_motion(l, r).1));
+        }
+    }
+
+    /// The sample's values for the moments (its columns, then its atoms) and its fine
+    /// batch, the buffer flushed when full.
+    fn push_values(&mut self, trajectory: u32, t: f64, row: &[f64]) {
         let b = self.fine_batch(trajectory, t);
         for &c in &self.columns {
             self.buffer.push(row[c]);
@@ -325,21 +356,6 @@ impl StationaryData {
             self.buffer.push(a.value(&self.model, row));
         }
         self.ids.push(b as u32);
-        for l in 0..self.link_ranges.len() {
-            let (u, w) = self.model.link_motion(l, row);
-            let r = &mut self.link_ranges[l];
-            r[0] = r[0].min(u);
-            r[1] = r[1].max(u);
-            r[2] = r[2].min(w);
-            r[3] = r[3].max(w);
-            for (z, sums) in [u, w].into_iter().zip(self.link_powers[l].iter_mut()) {
-                let mut zk = 1.0;
-                for s in sums.iter_mut() {
-                    *s += zk;
-                    zk *= z;
-                }
-            }
-        }
         if self.ids.len() >= BLOCK {
             self.finish();
         }
@@ -367,7 +383,7 @@ impl StationaryData {
         for (s, &b) in self.ids.iter().enumerate() {
             let at = start[b as usize];
             start[b as usize] += 1;
-            self.sorted[at * d..(at + 1) * d].copy_from_slice(&self.buffer[s * d..(s + 1) * d]);
+            super::accumulate::copy_row(&mut self.sorted[at * d..(at + 1) * d], &self.buffer[s * d..(s + 1) * d]);
             self.sorted_ids[at] = b;
         }
         RawMoments::add_batched(&mut self.fine, &self.sorted, &self.sorted_ids);
@@ -541,9 +557,65 @@ fn sum_of(group: &[RawMoments]) -> RawMoments {
     t
 }
 
+/// A link argument's observed range `[lo, hi]` and power sums `Σ z^k` over `zs`, in order:
+/// the sums read once, added to in registers, and written back. Each value's powers are
+/// the running products `1, z, z·z, …` and each sum takes the values in turn, as one
+/// value at a time would; [`OBSERVE_LANES`] values' products are formed side by side.
+#[inline]
+fn observe(lo: &mut f64, hi: &mut f64, sums: &mut [f64; OBSERVED_POWERS], zs: impl Iterator<Item = f64>) {
+    let (mut l, mut h, mut s) = (*lo, *hi, *sums);
+    let mut z = [0.0; OBSERVE_LANES];
+    let mut m = 0;
+    for x in zs {
+        z[m] = x;
+        m += 1;
+        if m == OBSERVE_LANES {
+            observe_lanes(&mut l, &mut h, &mut s, &z);
+            m = 0;
+        }
+    }
+    for &x in &z[..m] {
+        observe_lanes(&mut l, &mut h, &mut s, &[x]);
+    }
+    (*lo, *hi, *sums) = (l, h, s);
+}
+
+/// Values whose powers [`observe`] forms side by side.
+const OBSERVE_LANES: usize = 8;
+
+/// [`observe`] of the values `z`, in order: every value's powers formed first, side by
+/// side, then added to each sum value by value. The range takes a value below its low
+/// end or above its high end (a NaN never; as `f64::min` and `max` but for which zero of
+/// `±0` a tie keeps).
+#[inline(always)]
+fn observe_lanes<const N: usize>(lo: &mut f64, hi: &mut f64, sums: &mut [f64; OBSERVED_POWERS], z: &[f64; N]) {
+    for &x in z {
+        if x < *lo {
+            *lo = x;
+        }
+        if x > *hi {
+            *hi = x;
+        }
+    }
+    let mut p = [[1.0; N]; OBSERVED_POWERS];
+    for k in 1..OBSERVED_POWERS {
+        for i in 0..N {
+            p[k][i] = p[k - 1][i] * z[i];
+        }
+    }
+    for (s, pk) in sums.iter_mut().zip(&p) {
+        for &x in pk {
+            *s += x;
+        }
+    }
+}
+
 impl super::accumulate::Accumulator for StationaryData {
     fn push(&mut self, s: &super::accumulate::Sample) {
         StationaryData::push(self, s.trajectory, s.t, s.row)
+    }
+    fn push_all(&mut self, samples: &super::accumulate::Samples) {
+        self.push_run(samples)
     }
     fn finish(&mut self) {
         StationaryData::finish(self)
@@ -552,7 +624,47 @@ impl super::accumulate::Accumulator for StationaryData {
 
 #[cfg(test)]
 mod tests {
-    use super::ceil_index;
+    use super::{ceil_index, observe, OBSERVED_POWERS};
+
+    /// The link's range and power sums over a run, its values' powers formed eight side by
+    /// side, are those of one value at a time (the code before), bit for bit, for runs of
+    /// every length around the lanes' width.
+    #[test]
+    fn a_runs_power_sums_are_those_of_one_value_at_a_time() {
+        let mut state = 0x9e3779b97f4a7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 7.0
+        };
+        for n in [0, 1, 7, 8, 9, 16, 23, 100] {
+            let mut zs: Vec<f64> = (0..n).map(|_| next()).collect();
+            if n == 23 {
+                // A value that is not a number leaves the range alone and poisons the sums.
+                zs[11] = f64::NAN;
+            }
+            let start = [0.25; OBSERVED_POWERS];
+            let (mut lo, mut hi, mut sums) = (f64::INFINITY, f64::NEG_INFINITY, start);
+            observe(&mut lo, &mut hi, &mut sums, zs.iter().copied());
+            let (mut lo1, mut hi1, mut sums1) = (f64::INFINITY, f64::NEG_INFINITY, start);
+            for &z in &zs {
+                lo1 = lo1.min(z);
+                hi1 = hi1.max(z);
+                let mut zk = 1.0;
+                for s in sums1.iter_mut() {
+                    *s += zk;
+                    zk *= z;
+                }
+            }
+            assert_eq!(
+                (lo.to_bits(), hi.to_bits()),
+                (lo1.to_bits(), hi1.to_bits()),
+                "{n} values"
+            );
+            assert_eq!(sums.map(f64::to_bits), sums1.map(f64::to_bits), "{n} values");
+        }
+    }
 
     #[test]
     fn ceil_index_is_the_library_ceiling_cast_for_every_kind_of_value() {

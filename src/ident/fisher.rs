@@ -15,6 +15,7 @@
 
 use super::baseline::{applicable, dot, DriftParts};
 use super::Problem;
+use multiversion::multiversion;
 use nalgebra::DMatrix;
 
 /// Samples gathered before their parts are evaluated together.
@@ -120,16 +121,20 @@ impl FisherInformation {
             return;
         }
         let d = self.point.len();
-        for j in 0..d {
-            self.packed[j * lanes..(j + 1) * lanes].copy_from_slice(&self.block[j * BLOCK..j * BLOCK + lanes]);
-        }
+        // A full block is already `lanes` values per variable; a partial one is packed.
+        let states = match lanes == BLOCK {
+            true => &self.block[..],
+            false => {
+                for j in 0..d {
+                    self.packed[j * lanes..(j + 1) * lanes].copy_from_slice(&self.block[j * BLOCK..j * BLOCK + lanes]);
+                }
+                &self.packed[..d * lanes]
+            }
+        };
         let values = &mut self.values[..self.parts.parts.len() * lanes];
-        self.parts.parts.eval_block(&self.packed[..d * lanes], lanes, values);
+        self.parts.parts.eval_block(states, lanes, values);
         let r = self.problem.unknowns.len();
-        let lane = |k: usize| &values[k * lanes..(k + 1) * lanes];
-        for &(a, b, pa, pb, w) in &self.products {
-            self.sum[a * r + b] += w * dot(lane(pa), lane(pb));
-        }
+        add_products(&mut self.sum, r, &self.products, values, lanes);
         self.count += lanes as u64;
         self.lanes = 0;
     }
@@ -154,6 +159,26 @@ impl FisherInformation {
         let cov = info.cholesky()?.inverse();
         let sd: Vec<f64> = (0..r).map(|k| cov[(k, k)].sqrt()).collect();
         sd.iter().all(|v| v.is_finite()).then_some(sd)
+    }
+}
+
+/// `sum[a·r + b] += w · Σ_l part_pa[l] · part_pb[l]` for every product, the parts' values
+/// `lanes` apiece in `values`; compiled for the widest vector unit the CPU has (`dot`
+/// contracts nothing into a fused multiply–add: the same bits on every CPU).
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
+fn add_products(
+    sum: &mut [f64],
+    r: usize,
+    products: &[(usize, usize, usize, usize, f64)],
+    values: &[f64],
+    lanes: usize,
+) {
+    let lane = |k: usize| &values[k * lanes..(k + 1) * lanes];
+    for &(a, b, pa, pb, w) in products {
+        sum[a * r + b] += w * dot(lane(pa), lane(pb));
     }
 }
 

@@ -220,6 +220,11 @@ impl<T: Copy + Default> Spare<T> {
         }
     }
 
+    /// How many tables are kept.
+    pub fn tables(&self) -> usize {
+        self.pool.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+
     /// `len` zeros, in a table from [`Spare::empty`].
     pub fn zeroed(&self, len: usize) -> Vec<T> {
         let mut v = self.empty(len);

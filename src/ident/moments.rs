@@ -188,8 +188,10 @@ impl RawMoments {
     pub fn add_block(&mut self, rows: &[f64]) {
         let d = self.vars;
         let n = rows.len() / d;
-        let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> =
-            rows.par_chunks(CHUNK * d).map(|c| chunk_sums(self, c)).collect();
+        let parts: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = rows
+            .par_chunks(CHUNK * d)
+            .map_init(Vec::new, |scratch, c| chunk_sums(self, c, scratch))
+            .collect();
         for (k, (s, lo, hi)) in parts.iter().enumerate() {
             let samples = (n - k * CHUNK).min(CHUNK);
             self.absorb(s, lo, hi, samples as u64);
@@ -217,7 +219,9 @@ impl RawMoments {
         }
         let sums: Vec<_> = pieces
             .par_iter()
-            .map(|&(_, a, b)| chunk_sums(first, &rows[a * d..b * d]))
+            .map_init(Vec::new, |scratch, &(_, a, b)| {
+                chunk_sums(first, &rows[a * d..b * d], scratch)
+            })
             .collect();
         for (&(id, a, b), (s, lo, hi)) in pieces.iter().zip(sums) {
             batches[id].absorb(&s, &lo, &hi, (b - a) as u64);
@@ -294,7 +298,7 @@ impl RawMoments {
     "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
     "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
 ))]
-fn chunk_sums(moments: &RawMoments, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+fn chunk_sums(moments: &RawMoments, rows: &[f64], scratch: &mut Vec<f64>) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let d = moments.vars;
     let shape = &*moments.shape;
     let m = shape.monomials.len();
@@ -306,9 +310,15 @@ fn chunk_sums(moments: &RawMoments, rows: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f6
     // may be a few dozen samples).
     let n = rows.len() / d;
     let sb = n.clamp(1, BLOCK).next_multiple_of(CHUNK_LANES);
-    let mut vals = vec![0.0f64; shape.parents * sb];
+    // The monomials' and the variables' rows, every value written before it is read: in
+    // `scratch`, kept by the caller from one call to the next (zeroing them anew for every
+    // fine batch's run cost more than the run's sums).
+    let need = (shape.parents + d) * sb;
+    if scratch.len() < need {
+        scratch.resize(need, 0.0);
+    }
+    let (vals, y) = scratch[..need].split_at_mut(shape.parents * sb);
     let mut acc = vec![[0.0f64; CHUNK_LANES]; m];
-    let mut y = vec![0.0f64; d * sb];
     let mut start = 0;
     while start < n {
         let len = (n - start).min(sb);

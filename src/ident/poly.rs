@@ -5,6 +5,7 @@
 //! variables, exponents ≤ [`MAX_EXPONENT`]: a stiffness power 15 on a degree-16 test function
 //! needs 30); a polynomial is a sorted map from monomials to coefficients.
 
+use multiversion::multiversion;
 use std::collections::BTreeMap;
 
 /// Packed exponents, 5 bits per variable (variable `j` in bits `5j..5j+5`).
@@ -220,39 +221,51 @@ impl Compiled {
     /// state `l` goes to `out[i * lanes + l]`. Each step runs along the lanes, which the
     /// compiler vectorises (per sample, [`Compiled::eval`] is bound by its indexing).
     pub fn eval_block(&mut self, ys: &[f64], lanes: usize, out: &mut [f64]) {
-        let np = self.powers.len();
-        let need = (np + self.monomial_ends.len()) * lanes;
+        let need = (self.powers.len() + self.monomial_ends.len()) * lanes;
         if self.block_values.len() < need {
             self.block_values.resize(need, 0.0);
         }
-        let (pv, mv) = self.block_values[..need].split_at_mut(np * lanes);
-        for (v, &(j, p)) in pv.chunks_exact_mut(lanes).zip(&self.powers) {
-            for (v, &x) in v.iter_mut().zip(&ys[j * lanes..(j + 1) * lanes]) {
-                *v = powi(x, p);
+        let mut values = std::mem::take(&mut self.block_values);
+        eval_lanes(self, ys, lanes, &mut values[..need], out);
+        self.block_values = values;
+    }
+}
+
+/// [`Compiled::eval_block`]'s steps into `values` (the powers' lanes, then the
+/// monomials'), compiled for the widest vector unit the CPU has: the same operations in
+/// the same order on every CPU, so the same bits.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512cd+avx512dq+avx512vl+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+))]
+fn eval_lanes(c: &Compiled, ys: &[f64], lanes: usize, values: &mut [f64], out: &mut [f64]) {
+    let (pv, mv) = values.split_at_mut(c.powers.len() * lanes);
+    for (v, &(j, p)) in pv.chunks_exact_mut(lanes).zip(&c.powers) {
+        for (v, &x) in v.iter_mut().zip(&ys[j * lanes..(j + 1) * lanes]) {
+            *v = powi(x, p);
+        }
+    }
+    let mut from = 0;
+    for (v, &end) in mv.chunks_exact_mut(lanes).zip(&c.monomial_ends) {
+        // `Iterator::product` of the factors: 1 times each in turn.
+        v.fill(1.0);
+        for &f in &c.factors[from..end] {
+            for (v, &x) in v.iter_mut().zip(&pv[f * lanes..(f + 1) * lanes]) {
+                *v *= x;
             }
         }
-        let mut from = 0;
-        for (v, &end) in mv.chunks_exact_mut(lanes).zip(&self.monomial_ends) {
-            // `Iterator::product` of the factors: 1 times each in turn.
-            v.fill(1.0);
-            for &f in &self.factors[from..end] {
-                for (v, &x) in v.iter_mut().zip(&pv[f * lanes..(f + 1) * lanes]) {
-                    *v *= x;
-                }
+        from = end;
+    }
+    let mut from = 0;
+    for (o, &end) in out.chunks_exact_mut(lanes).zip(&c.poly_ends) {
+        // `Iterator::sum` of the terms: from −0, each in turn.
+        o.fill(-0.0);
+        for &(coefficient, k) in &c.terms[from..end] {
+            for (o, &m) in o.iter_mut().zip(&mv[k * lanes..(k + 1) * lanes]) {
+                *o += coefficient * m;
             }
-            from = end;
         }
-        let mut from = 0;
-        for (o, &end) in out.chunks_exact_mut(lanes).zip(&self.poly_ends) {
-            // `Iterator::sum` of the terms: from −0, each in turn.
-            o.fill(-0.0);
-            for &(c, k) in &self.terms[from..end] {
-                for (o, &m) in o.iter_mut().zip(&mv[k * lanes..(k + 1) * lanes]) {
-                    *o += c * m;
-                }
-            }
-            from = end;
-        }
+        from = end;
     }
 }
 

@@ -19,7 +19,7 @@
 
 use super::source::Input;
 use super::PipelineError;
-use crate::ident::accumulate::{Accumulator, Samples};
+use crate::ident::accumulate::{append_row, Accumulator, Samples};
 use crate::ident::data::Batching;
 use rayon::prelude::*;
 use std::sync::mpsc;
@@ -47,7 +47,7 @@ impl Block {
         }
         debug_assert_eq!(row.len(), self.width, "rows of one width");
         self.heads.push((trajectory, t, batching.batch_of(trajectory, t)));
-        self.rows.extend_from_slice(row);
+        append_row(&mut self.rows, row);
         self.heads.len() == BLOCK
     }
 
@@ -72,14 +72,32 @@ impl Block {
     }
 }
 
-/// One pass over `input`: every sample to each of `accumulators`, then `finish` on each;
-/// the number of samples read.
+/// One pass over `input`: every sample to each of `accumulators` that reads samples
+/// ([`Accumulator::reads_samples`]), then `finish` on each; the number of samples read
+/// (none when no accumulator reads them: the source is not read).
 pub(crate) fn run(
     input: &Input,
     batching: Batching,
     accumulators: &mut [&mut dyn Accumulator],
 ) -> Result<u64, PipelineError> {
-    let n = match rayon::current_thread_index() {
+    let mut readers: Vec<&mut dyn Accumulator> = accumulators
+        .iter_mut()
+        .filter(|a| a.reads_samples())
+        .map(|a| -> &mut dyn Accumulator { &mut **a })
+        .collect();
+    let n = if readers.is_empty() {
+        0
+    } else {
+        feed(input, batching, &mut readers)?
+    };
+    drop(readers);
+    accumulators.par_iter_mut().for_each(|a| a.finish());
+    Ok(n)
+}
+
+/// Every sample of `input` to each of `accumulators`, in blocks; the number read.
+fn feed(input: &Input, batching: Batching, accumulators: &mut [&mut dyn Accumulator]) -> Result<u64, PipelineError> {
+    Ok(match rayon::current_thread_index() {
         None => read_ahead(input, batching, accumulators)?,
         // On the pool (a study's item), a worker must not wait for a reader that may need
         // the pool itself (a simulated source simulates on it): read and hand over in turn.
@@ -93,9 +111,7 @@ pub(crate) fn run(
             block.hand_over(accumulators);
             n
         }
-    };
-    accumulators.par_iter_mut().for_each(|a| a.finish());
-    Ok(n)
+    })
 }
 
 /// [`run`]'s reading and handing over, the accumulators a block behind the reading on a

@@ -9,7 +9,7 @@ use crate::ident::Arenas;
 use crate::io::log::{read_samples, LogInfo};
 use crate::io::table::Measured;
 use crate::scenario::Scenario;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 
 /// A stream of stationary samples, read as often as the identification needs.
@@ -33,6 +33,11 @@ pub trait SampleSource: Send + Sync {
         let s = &info.scenario.simulation;
         (s.trajectories as u64).saturating_mul(s.samples_per_trajectory() as u64)
     }
+
+    /// No pass after the next is expected to read the samples: a source that keeps them
+    /// for later passes (a simulation in memory) keeps none in its next read. A pass may
+    /// still come; the source then makes its samples anew.
+    fn no_later_pass(&self) {}
 }
 
 /// A log file's samples (`io::log::read_samples`: damage found, a truncated log refused
@@ -69,9 +74,14 @@ impl SampleSource for Tables {
 /// The run of a scenario that is not written anywhere: the first pass keeps the samples
 /// in memory when they fit in [`Simulation::BUDGET`] and later passes replay them;
 /// otherwise every pass runs the simulation again (deterministic by its seed, whatever
-/// the thread count), so memory stays bounded either way.
+/// the thread count), so memory stays bounded either way. An identification whose later
+/// passes read no samples (the weak form alone, no validation or figures) says so first
+/// ([`SampleSource::no_later_pass`]), and nothing is kept.
 pub struct Simulation {
     kept: OnceLock<Vec<f64>>,
+    /// Whether the next read keeps the samples for later ones (unless told otherwise by
+    /// [`SampleSource::no_later_pass`], which holds for that one read).
+    keep: AtomicBool,
     /// How the simulator steps ([`crate::sim::Stepping::Refined`] for the half-step pair
     /// of an integrator-bias estimate).
     stepping: crate::sim::Stepping,
@@ -90,6 +100,7 @@ impl Simulation {
     pub fn new(arenas: Arc<Arenas>) -> Simulation {
         Simulation {
             kept: OnceLock::new(),
+            keep: AtomicBool::new(true),
             stepping: crate::sim::Stepping::Fastest,
             arenas,
         }
@@ -114,7 +125,8 @@ impl SampleSource for Simulation {
             return Ok((kept.len() / width) as u64);
         }
         let bytes = self.expected_samples(info).saturating_mul(8 * width as u64);
-        let keep = bytes <= Simulation::BUDGET;
+        // The hint is for this read: a later identification of the same input keeps again.
+        let keep = self.keep.swap(true, Ordering::Relaxed) && bytes <= Simulation::BUDGET;
         let mut kept = if keep {
             self.arenas.samples.empty(bytes as usize / 8)
         } else {
@@ -127,7 +139,7 @@ impl SampleSource for Simulation {
             if keep {
                 kept.push(j as f64);
                 kept.push(t);
-                kept.extend_from_slice(row);
+                crate::ident::accumulate::append_row(&mut kept, row);
             }
             f(j, t, row)
         });
@@ -136,6 +148,10 @@ impl SampleSource for Simulation {
             let _ = self.kept.set(kept);
         }
         Ok(n)
+    }
+
+    fn no_later_pass(&self) {
+        self.keep.store(false, Ordering::Relaxed);
     }
 }
 
@@ -161,6 +177,10 @@ impl SampleSource for AsWritten {
 
     fn expected_samples(&self, _: &LogInfo) -> u64 {
         self.source.expected_samples(&self.info)
+    }
+
+    fn no_later_pass(&self) {
+        self.source.no_later_pass()
     }
 }
 
@@ -291,5 +311,11 @@ impl Input {
     /// How many samples the source holds, or was to hold.
     pub fn expected_samples(&self) -> u64 {
         self.source.expected_samples(&self.info)
+    }
+
+    /// No pass after the next is expected to read the samples
+    /// ([`SampleSource::no_later_pass`]).
+    pub fn no_later_pass(&self) {
+        self.source.no_later_pass()
     }
 }

@@ -350,4 +350,8 @@ impl Accumulator for ForceSpectra {
             self.push_lag(s.trajectory, s.row)
         }
     }
+    /// Only where there is a force to fit or to read as white.
+    fn reads_samples(&self) -> bool {
+        !self.columns.is_empty() || !self.white.is_empty()
+    }
 }

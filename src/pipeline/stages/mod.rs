@@ -6,11 +6,11 @@
 //! | stage | reads | writes |
 //! |---|---|---|
 //! | plan ([`plan`]) | the scenario, the options | the specification, the structure, every first-pass accumulator |
-//! | first pass ([`first_pass`]) | the samples | moments, ranges, noise floor, the forces' lag sums, the profile's moments |
+//! | first pass ([`first_pass`]) | the samples | moments, ranges, noise floor, the forces' lag sums, the profile's moments, the Fisher information of a settled structure |
 //! | profile ([`profile`]) | the profile's moments | the chosen position's specification and moments |
 //! | sensor correction ([`sensors`]) | the noise floor, the moments | corrected moments, the sensor-noise report |
 //! | selection ([`selection`]) | the candidate model's moments | the selected specification |
-//! | second pass ([`second_pass`]) | the samples | every estimator's accumulators, Fisher information, distributions, force spectra |
+//! | second pass ([`second_pass`]) | the samples (unless nothing in it reads them) | every estimator's accumulators, the Fisher information of a profiled or selected structure, distributions, force spectra |
 //! | excitation fit ([`excitation`]) | the force spectra | the filters, the complete problem |
 //! | later passes ([`later_passes`]) | the samples, the filters | the accumulators that need the filters |
 //! | rows and grading ([`rows`]) | every accumulator | one report row per method and comparison |
@@ -155,6 +155,10 @@ pub(crate) struct Identification<'a> {
     pub total: Option<RawMoments>,
     pub estimators: Vec<(Method, Box<dyn Estimator>)>,
     pub dist: Option<Distributions>,
+    /// Whether the plan's structure is the one identified (no profile or selection stage
+    /// replaces it): the Fisher information is then gathered in the first pass.
+    pub settled: bool,
+    /// The Fisher information, where its bound applies (`second_pass::fisher`).
     pub fisher: Option<FisherInformation>,
     /// The masses the measured forces imply (measured data, every force measured).
     pub force_scale: Option<super::force_scale::ForceScale>,

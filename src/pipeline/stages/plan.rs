@@ -2,7 +2,8 @@
 //! the specification and its problem over placeholder filters, and every accumulator of
 //! the first pass — the weak form's moments (with those of the declared and comparison
 //! models that share its atoms), the naive white-noise row's, the comparison models' and
-//! the profile positions' own, the force spectra's lag sums and the sensor-noise floor.
+//! the profile positions' own, the force spectra's lag sums, the sensor-noise floor and,
+//! where the structure is settled before the samples are read, the Fisher information.
 
 use super::super::grading::Grader;
 use super::super::identify::{accumulated, placeholder_filters, selection};
@@ -99,6 +100,9 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
             )
         });
     let forces = ForceSpectra::new(s, &filtered);
+    // The structure identified is known now unless a profile or a selection chooses it.
+    let settled = select.is_none() && profile_candidates.is_none();
+    let fisher = settled.then(|| super::second_pass::fisher(s, &structure)).flatten();
     let floor = super::super::sensors::noise_floor(input, &structure, data.batch_count());
     Ok(Identification {
         input,
@@ -127,7 +131,8 @@ pub(crate) fn run<'a>(input: &'a Input, options: &'a Options) -> Result<Identifi
         total: None,
         estimators: Vec::new(),
         dist: None,
-        fisher: None,
+        settled,
+        fisher,
         force_scale: None,
         fitted: None,
         rows: Vec::new(),
